@@ -1,0 +1,22 @@
+/* SPDX-License-Identifier: MIT */
+/* Write a file under a temporary name and rename it into place, so a reader never sees half a file. */
+#ifndef SUNPROBE_COMMON_ATOMIC_FILE_H
+#define SUNPROBE_COMMON_ATOMIC_FILE_H
+
+#include <stdio.h>
+
+typedef struct sp_atomic_file {
+    FILE *file;      /* write here */
+    char *final_path;
+    char *temp_path;
+} sp_atomic_file;
+
+/* Opens "<path>.tmp.<pid>" beside path. */
+int sp_atomic_file_open(sp_atomic_file *af, const char *path);
+/*
+ * status 0: flush, fsync and rename into place; otherwise (or if any of those
+ * fail) remove the temporary. Returns status, or the first error of finishing.
+ */
+int sp_atomic_file_finish(sp_atomic_file *af, int status);
+
+#endif

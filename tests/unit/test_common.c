@@ -1,0 +1,123 @@
+/* SPDX-License-Identifier: MIT */
+/* common/: CRC-32C vectors, JSON round trips and malformed input, frame pools, quaternion extremes. */
+#include <errno.h>
+#include <math.h>
+#include <string.h>
+
+#include "check.h"
+#include "common/crc32c.h"
+#include "common/json.h"
+#include "sunprobe/sp_frame.h"
+#include "sunprobe/sp_math.h"
+
+static void test_crc32c(void)
+{
+    CHECK_EQ_INT(sp_crc32c(0, "123456789", 9), 0xE3069283u);
+    CHECK_EQ_INT(sp_crc32c_sw(0, "123456789", 9), 0xE3069283u);
+    uint8_t buf[1027];
+    for (size_t i = 0; i < sizeof(buf); i++)
+        buf[i] = (uint8_t)(i * 131 + 7);
+    for (size_t n = 0; n < sizeof(buf); n += 37) {
+        CHECK_EQ_INT(sp_crc32c(0, buf + 1, n), sp_crc32c_sw(0, buf + 1, n));
+        /* incremental equals one-shot */
+        uint32_t a = sp_crc32c(sp_crc32c(0, buf, n / 2), buf + n / 2, n - n / 2);
+        CHECK_EQ_INT(a, sp_crc32c(0, buf, n));
+    }
+}
+
+static void test_json(void)
+{
+    const char *text = "{\"a\": [1, 2.5, -3e2], \"s\": \"x\\n\\u00e9\\ud83d\\ude00\", \"t\": true, \"n\": null, "
+                       "\"o\": {\"k\": \"v\"}}";
+    sp_json *j = NULL;
+    char err[128];
+    CHECK_EQ_INT(sp_json_parse(text, strlen(text), &j, err, sizeof(err)), 0);
+    double v[3] = { 0 };
+    CHECK_EQ_INT(sp_json_numbers(sp_json_get(j, "a"), v, 3), 3);
+    CHECK_NEAR(v[2], -300.0, 0);
+    CHECK(strcmp(sp_json_string(sp_json_get(j, "s"), ""), "x\n\xc3\xa9\xf0\x9f\x98\x80") == 0);
+    CHECK_NEAR(sp_json_number(sp_json_get(j, "t"), 0), 1, 0);
+    CHECK(sp_json_get(j, "n")->type == SP_JSON_NULL);
+    CHECK(strcmp(sp_json_string(sp_json_get(sp_json_get(j, "o"), "k"), ""), "v") == 0);
+    CHECK(sp_json_get(j, "missing") == NULL);
+    sp_json_free(j);
+
+    static const char *bad[] = { "", "{", "[1,]", "{\"a\" 1}", "\"abc", "tru", "1 2", "{\"a\":1,}", "\"\\x\"",
+                                 "[\"\x01\"]" };
+    for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
+        j = NULL;
+        CHECK_MSG(sp_json_parse(bad[i], strlen(bad[i]), &j, err, sizeof(err)) == SP_ECORRUPT, "input %zu", i);
+        CHECK(j == NULL);
+    }
+    /* deep nesting is refused, not a stack overflow */
+    char deep[4001];
+    memset(deep, '[', 4000);
+    deep[4000] = 0;
+    CHECK(sp_json_parse(deep, 4000, &j, err, sizeof(err)) == SP_ECORRUPT);
+
+    sp_strbuf b = { 0 };
+    sp_strbuf_json_string(&b, "q\"\\\x01");
+    sp_strbuf_append(&b, ",", 1);
+    sp_strbuf_json_number(&b, NAN);
+    CHECK(strcmp(b.data, "\"q\\\"\\\\\\u0001\",null") == 0);
+    sp_strbuf_free(&b);
+}
+
+static void test_frame_pool(void)
+{
+    sp_frame_pool *pool = NULL;
+    CHECK_EQ_INT(sp_frame_pool_open(&pool, 0, 10), -EINVAL);
+    CHECK_EQ_INT(sp_frame_pool_open(&pool, 2, 64), 0);
+    sp_frame *a = NULL, *b = NULL, *c = NULL;
+    CHECK_EQ_INT(sp_frame_pool_get(pool, &a), 0);
+    CHECK_EQ_INT(sp_frame_pool_get(pool, &b), 0);
+    CHECK_EQ_INT(sp_frame_pool_get(pool, &c), -EAGAIN);
+    CHECK(isnan(a->exposure_us));
+    sp_frame *a2 = sp_frame_ref(a);
+    sp_frame_unref(&a);
+    CHECK(a == NULL);
+    CHECK_EQ_INT(sp_frame_pool_free_count(pool), 0);
+    sp_frame_unref(&a2);
+    CHECK_EQ_INT(sp_frame_pool_free_count(pool), 1);
+    sp_frame_pool_close(&pool); /* b still out: pool stays alive until it returns */
+    b->data[63] = 1;
+    sp_frame_unref(&b);
+
+    CHECK_EQ_INT(sp_pixfmt_image_size(SP_PIXFMT_NV12, 4, 3, 4), 4 * 5);
+    CHECK_EQ_INT(sp_pixfmt_image_size(SP_PIXFMT_YUYV, 3, 2, 6), 0); /* stride below 2*4 */
+    CHECK_EQ_INT(sp_pixfmt_image_size(SP_PIXFMT_MJPEG, 3, 2, 6), 0);
+    CHECK(sp_pixfmt_from_name("yuyv") == SP_PIXFMT_YUYV);
+}
+
+static void test_quat(void)
+{
+    sp_quat q = sp_quat_from_rotvec((sp_vec3){ 0, 0, 0 });
+    CHECK_NEAR(q.w, 1, 0);
+    q = sp_quat_from_rotvec((sp_vec3){ 1e-300, 0, 0 });
+    CHECK(isfinite(q.x) && isfinite(q.w));
+    q = sp_quat_from_rotvec((sp_vec3){ NAN, 0, 0 });
+    CHECK_NEAR(q.w, 1, 0);
+    sp_quat a = sp_quat_from_axis_angle((sp_vec3){ 0, 0, 1 }, 0.3);
+    sp_quat b = sp_quat_from_axis_angle((sp_vec3){ 0, 0, 1 }, 0.3 + 1e-9);
+    CHECK_NEAR(sp_quat_angle_between(a, b), 1e-9, 1e-12);
+    sp_quat m = sp_quat_slerp(a, b, 0.5);
+    CHECK(isfinite(m.w) && isfinite(m.z));
+    sp_quat c = sp_quat_from_axis_angle((sp_vec3){ 1, 2, 3 }, 3.1);
+    double mat[9];
+    sp_quat_to_matrix(c, mat);
+    CHECK_NEAR(sp_quat_angle_between(c, sp_quat_from_matrix(mat)), 0, 1e-9);
+    sp_vec3 rv = sp_quat_to_rotvec(c);
+    CHECK_NEAR(sp_vec3_norm(rv), 3.1, 1e-9);
+    sp_quat half = sp_quat_slerp(sp_quat_identity(), c, 0.5);
+    CHECK_NEAR(sp_quat_angle_between(sp_quat_identity(), half), 1.55, 1e-9);
+    CHECK_NEAR(sp_vec3_norm((sp_vec3){ 1e300, 1e300, 1e300 }), sqrt(3.0) * 1e300, 1e288);
+}
+
+int main(void)
+{
+    test_crc32c();
+    test_json();
+    test_frame_pool();
+    test_quat();
+    return check_exit();
+}

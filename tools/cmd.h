@@ -1,0 +1,35 @@
+/* SPDX-License-Identifier: MIT */
+/* The sunprobe command line: one subcommand per file, shared exit codes and helpers. */
+#ifndef SUNPROBE_TOOLS_CMD_H
+#define SUNPROBE_TOOLS_CMD_H
+
+/* Exit codes, documented in README.md and `sunprobe --help`. */
+enum sp_exit {
+    SP_EXIT_OK = 0,
+    SP_EXIT_USAGE = 1,     /* bad command line */
+    SP_EXIT_BAD_INPUT = 2, /* input file corrupt, unreadable as the expected kind, or unusable */
+    SP_EXIT_IO = 3,        /* device or file-system error (missing device, disk full, permissions) */
+    SP_EXIT_DISABLED = 4,  /* needs an optional feature this build left out */
+    SP_EXIT_INTERNAL = 70, /* a bug: please report */
+};
+
+typedef struct sp_command {
+    const char *name;
+    const char *summary;
+    int (*run)(int argc, char **argv);
+} sp_command;
+
+/* Maps a library error code to the exit code a user sees. */
+int sp_exit_for_error(int err);
+/* Prints "sunprobe CMD: what: error message" to stderr and returns the exit code for err. */
+int sp_cmd_fail(const char *cmd, int err, const char *what);
+
+int sp_cmd_info(int argc, char **argv);
+int sp_cmd_verify(int argc, char **argv);
+int sp_cmd_recover(int argc, char **argv);
+int sp_cmd_replay(int argc, char **argv);
+int sp_cmd_import(int argc, char **argv);
+int sp_cmd_export_video(int argc, char **argv);
+int sp_cmd_synth(int argc, char **argv);
+
+#endif

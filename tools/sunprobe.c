@@ -1,0 +1,81 @@
+/* SPDX-License-Identifier: MIT */
+/* Entry point: dispatches `sunprobe COMMAND ...` to one subcommand. */
+#include <errno.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "cmd.h"
+#include "sunprobe/sp_common.h"
+
+static const sp_command commands[] = {
+    { "info", "summarise a capture: devices, durations, frame/IMU counts, gaps, corrupt chunks", sp_cmd_info },
+    { "verify", "check every chunk checksum of a capture", sp_cmd_verify },
+    { "recover", "cut a torn or corrupt tail off a capture, in place or into a copy", sp_cmd_recover },
+    { "replay", "stream a capture through a pipeline stage, as fast as possible or in real time", sp_cmd_replay },
+    { "import", "image sequence or video (+ IMU CSV + metadata JSON) to a capture", sp_cmd_import },
+    { "export-video", "capture frames to PNG files or a video file", sp_cmd_export_video },
+    { "synth", "generate a synthetic capture with ground truth", sp_cmd_synth },
+};
+#define N_COMMANDS (sizeof(commands) / sizeof(commands[0]))
+
+int sp_exit_for_error(int err)
+{
+    switch (err) {
+    case 0:
+        return SP_EXIT_OK;
+    case -EINVAL:
+        return SP_EXIT_USAGE;
+    case SP_ECORRUPT:
+    case SP_EVERSION:
+    case SP_EFORMAT:
+    case SP_ETRUNCATED:
+    case SP_EUNSUPPORTED:
+    case SP_ENODATA:
+    case SP_EOS:
+        return SP_EXIT_BAD_INPUT;
+    case SP_EDISABLED:
+        return SP_EXIT_DISABLED;
+    default:
+        return err < 0 && err > -4096 ? SP_EXIT_IO : SP_EXIT_INTERNAL;
+    }
+}
+
+int sp_cmd_fail(const char *cmd, int err, const char *what)
+{
+    fprintf(stderr, "sunprobe %s: %s: %s\n", cmd, what, sp_strerror(err));
+    int code = sp_exit_for_error(err);
+    return code == SP_EXIT_OK ? SP_EXIT_INTERNAL : code;
+}
+
+static void usage(FILE *out)
+{
+    fprintf(out, "usage: sunprobe COMMAND [OPTIONS] ...\n"
+                 "       sunprobe COMMAND --help\n\ncommands:\n");
+    for (size_t i = 0; i < N_COMMANDS; i++)
+        fprintf(out, "  %-14s %s\n", commands[i].name, commands[i].summary);
+    fprintf(out, "\nexit codes: 0 ok, 1 usage, 2 bad input, 3 device or I/O error,\n"
+                 "            4 optional feature not built, 70 internal error\n"
+                 "environment: SP_LOG=error|warn|info|debug sets the log level\n");
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        usage(stderr);
+        return SP_EXIT_USAGE;
+    }
+    if (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h") || !strcmp(argv[1], "help")) {
+        usage(stdout);
+        return SP_EXIT_OK;
+    }
+    if (!strcmp(argv[1], "--version")) {
+        printf("sunprobe %s\n", sp_version());
+        return SP_EXIT_OK;
+    }
+    for (size_t i = 0; i < N_COMMANDS; i++)
+        if (!strcmp(argv[1], commands[i].name))
+            return commands[i].run(argc - 1, argv + 1);
+    fprintf(stderr, "sunprobe: unknown command '%s'\n", argv[1]);
+    usage(stderr);
+    return SP_EXIT_USAGE;
+}
