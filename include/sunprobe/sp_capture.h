@@ -33,6 +33,7 @@ enum sp_chunk_type {
 /* Side-data kinds. */
 enum sp_side_kind {
     SP_SIDE_LANDMARKS_2D = 1, /* float x,y pairs in pixels, Multi-PIE order for 68 points */
+    SP_SIDE_TRUE_ORIENTATION = 2, /* ground truth of synthetic captures: camera-to-world quaternion w,x,y,z */
 };
 
 /* ---- writer ---- */
@@ -113,6 +114,8 @@ SP_API int sp_capture_reader_next(sp_capture_reader *r, sp_chunk *chunk);
 SP_API uint64_t sp_capture_reader_corrupt_count(const sp_capture_reader *r);
 /* Offset of the first corrupt chunk skipped, UINT64_MAX when none. */
 SP_API uint64_t sp_capture_reader_first_corrupt_offset(const sp_capture_reader *r);
+/* 1 once the reader has reached the END chunk: the writer closed the file cleanly. */
+SP_API int sp_capture_reader_saw_end(const sp_capture_reader *r);
 /* Repositions at the last indexed chunk at or before timestamp_ns (start of file if none). */
 SP_API int sp_capture_reader_seek(sp_capture_reader *r, int64_t timestamp_ns);
 /* Repositions at a chunk offset previously reported by sp_capture_reader_next. */

@@ -7,6 +7,7 @@
 #include "check.h"
 #include "common/crc32c.h"
 #include "common/json.h"
+#include "common/report.h"
 #include "sunprobe/sp_frame.h"
 #include "sunprobe/sp_math.h"
 
@@ -113,11 +114,55 @@ static void test_quat(void)
     CHECK_NEAR(sp_vec3_norm((sp_vec3){ 1e300, 1e300, 1e300 }), sqrt(3.0) * 1e300, 1e288);
 }
 
+static void test_report(void)
+{
+    char dir[] = "/tmp/sp-report-XXXXXX";
+    CHECK(mkdtemp(dir) != NULL);
+    char prefix[64], path[80];
+    snprintf(prefix, sizeof(prefix), "%s/loss", dir);
+    const char *names[] = { "loss", "psnr <dB>" };
+    sp_report *r = NULL;
+    CHECK_EQ_INT(sp_report_open(&r, prefix, "fit & test", names, 2, 1), 0);
+    for (int i = 0; i < 5; i++) {
+        double v[2] = { 1.0 / (i + 1), i == 2 ? (double)NAN : 20.0 + i };
+        CHECK_EQ_INT(sp_report_add(r, 0.5 * i, v), 0);
+    }
+    double bad[2] = { -1.0, INFINITY }; /* not plottable on a log axis: skipped, not a crash */
+    CHECK_EQ_INT(sp_report_add(r, 3.0, bad), 0);
+    CHECK_EQ_INT(sp_report_close(&r), 0);
+    CHECK(r == NULL);
+    snprintf(path, sizeof(path), "%s.csv", prefix);
+    FILE *f = fopen(path, "r");
+    char line[256] = "";
+    int rows = 0, empty_cell = 0;
+    while (f && fgets(line, sizeof(line), f)) {
+        rows++;
+        if (rows == 4)
+            empty_cell = strcmp(line, "1.0000,0.333333333,\n") == 0;
+    }
+    if (f)
+        fclose(f);
+    CHECK_EQ_INT(rows, 7);
+    CHECK(empty_cell);
+    snprintf(path, sizeof(path), "%s.svg", prefix);
+    f = fopen(path, "r");
+    size_t n = f ? fread(line, 1, sizeof(line) - 1, f) : 0;
+    line[n] = 0;
+    if (f)
+        fclose(f);
+    CHECK(strstr(line, "<svg") != NULL && strstr(line, "fit &amp; test") != NULL);
+    snprintf(path, sizeof(path), "rm -rf %s", dir);
+    CHECK(system(path) == 0);
+    /* bad arguments are refused */
+    CHECK_EQ_INT(sp_report_open(&r, prefix, "x", names, 0, 0), -EINVAL);
+}
+
 int main(void)
 {
     test_crc32c();
     test_json();
     test_frame_pool();
     test_quat();
+    test_report();
     return check_exit();
 }

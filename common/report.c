@@ -1,0 +1,224 @@
+/* SPDX-License-Identifier: MIT */
+#include "report.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "atomic_file.h"
+
+struct sp_report {
+    FILE *csv;
+    char *svg_path, *title;
+    char *names[SP_REPORT_MAX_SERIES];
+    size_t n_series;
+    int log_scale;
+    double *x, *v; /* kept for the plot: one row per add, grows geometrically */
+    size_t n_rows, cap;
+    int error;
+};
+
+int sp_report_open(sp_report **out, const char *prefix, const char *title, const char *const *names,
+                   size_t n_series, int log_scale)
+{
+    if (!out || !prefix || !names || n_series == 0 || n_series > SP_REPORT_MAX_SERIES)
+        return -EINVAL;
+    sp_report *r = calloc(1, sizeof(*r));
+    if (!r)
+        return -ENOMEM;
+    size_t n = strlen(prefix) + 8;
+    char *csv_path = malloc(n);
+    r->svg_path = malloc(n);
+    r->title = strdup(title ? title : "");
+    int ret = csv_path && r->svg_path && r->title ? 0 : -ENOMEM;
+    for (size_t i = 0; !ret && i < n_series; i++)
+        if (!(r->names[i] = strdup(names[i])))
+            ret = -ENOMEM;
+    r->n_series = n_series;
+    r->log_scale = log_scale;
+    if (!ret) {
+        snprintf(csv_path, n, "%s.csv", prefix);
+        snprintf(r->svg_path, n, "%s.svg", prefix);
+        r->csv = fopen(csv_path, "w");
+        if (!r->csv)
+            ret = -errno;
+    }
+    free(csv_path);
+    if (ret) {
+        sp_report_close(&r);
+        return ret;
+    }
+    fprintf(r->csv, "seconds");
+    for (size_t i = 0; i < n_series; i++)
+        fprintf(r->csv, ",%s", names[i]);
+    fputc('\n', r->csv);
+    fflush(r->csv);
+    *out = r;
+    return 0;
+}
+
+int sp_report_add(sp_report *r, double seconds, const double *values)
+{
+    if (!r || !values)
+        return -EINVAL;
+    if (r->n_rows == r->cap) {
+        size_t cap = r->cap ? r->cap * 2 : 64;
+        double *x = realloc(r->x, cap * sizeof(double));
+        if (x)
+            r->x = x;
+        double *v = x ? realloc(r->v, cap * r->n_series * sizeof(double)) : NULL;
+        if (!v)
+            return -ENOMEM;
+        r->v = v;
+        r->cap = cap;
+    }
+    r->x[r->n_rows] = seconds;
+    memcpy(r->v + r->n_rows * r->n_series, values, r->n_series * sizeof(double));
+    r->n_rows++;
+    fprintf(r->csv, "%.4f", seconds);
+    for (size_t i = 0; i < r->n_series; i++) {
+        if (isfinite(values[i]))
+            fprintf(r->csv, ",%.9g", values[i]);
+        else
+            fputc(',', r->csv);
+    }
+    fputc('\n', r->csv);
+    if (fflush(r->csv) != 0 && !r->error)
+        r->error = -EIO;
+    return r->error;
+}
+
+int sp_report_close(sp_report **rp)
+{
+    if (!rp || !*rp)
+        return 0;
+    sp_report *r = *rp;
+    int ret = r->error;
+    if (r->csv && fclose(r->csv) != 0 && !ret)
+        ret = -EIO;
+    if (r->csv && r->n_rows) {
+        int plot = sp_svg_plot_write(r->svg_path, r->title, "wall time (s)", r->x, r->v, r->n_rows,
+                                     (const char *const *)r->names, r->n_series, r->log_scale);
+        if (!ret)
+            ret = plot;
+    }
+    for (size_t i = 0; i < SP_REPORT_MAX_SERIES; i++)
+        free(r->names[i]);
+    free(r->svg_path);
+    free(r->title);
+    free(r->x);
+    free(r->v);
+    free(r);
+    *rp = NULL;
+    return ret;
+}
+
+/* ---- SVG ---- */
+
+#define W 720.0
+#define H 420.0
+#define LEFT 70.0
+#define RIGHT 170.0
+#define TOP 40.0
+#define BOTTOM 50.0
+
+static const char *const palette[SP_REPORT_MAX_SERIES] = {
+    "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b",
+    "#e377c2", "#7f7f7f", "#bcbd22", "#17becf", "#000000", "#aec7e8",
+};
+
+static int usable(double v, int log_scale)
+{
+    return isfinite(v) && (!log_scale || v > 0);
+}
+
+static double ymap(double v, int log_scale)
+{
+    return log_scale ? log10(v) : v;
+}
+
+static void xml_text(FILE *f, const char *s)
+{
+    for (; *s; s++) {
+        if (*s == '<')
+            fputs("&lt;", f);
+        else if (*s == '>')
+            fputs("&gt;", f);
+        else if (*s == '&')
+            fputs("&amp;", f);
+        else
+            fputc(*s, f);
+    }
+}
+
+static void draw_axes(FILE *f, double x0, double x1, double y0, double y1, int log_scale, const char *x_label)
+{
+    double pw = W - LEFT - RIGHT, ph = H - TOP - BOTTOM;
+    fprintf(f, "<rect x='%.1f' y='%.1f' width='%.1f' height='%.1f' fill='none' stroke='#444'/>\n", LEFT, TOP, pw, ph);
+    for (int i = 0; i <= 4; i++) {
+        double fx = LEFT + pw * i / 4.0, fy = TOP + ph * (1.0 - i / 4.0);
+        double xv = x0 + (x1 - x0) * i / 4.0, yv = y0 + (y1 - y0) * i / 4.0;
+        fprintf(f, "<line x1='%.1f' y1='%.1f' x2='%.1f' y2='%.1f' stroke='#ddd'/>\n", LEFT, fy, LEFT + pw, fy);
+        fprintf(f, "<text x='%.1f' y='%.1f' font-size='11' text-anchor='middle'>%.3g</text>\n", fx, TOP + ph + 16, xv);
+        fprintf(f, "<text x='%.1f' y='%.1f' font-size='11' text-anchor='end'>%.3g</text>\n", LEFT - 6, fy + 4,
+                log_scale ? pow(10.0, yv) : yv);
+    }
+    fprintf(f, "<text x='%.1f' y='%.1f' font-size='12' text-anchor='middle'>", LEFT + pw / 2, H - 12);
+    xml_text(f, x_label);
+    fputs("</text>\n", f);
+}
+
+int sp_svg_plot_write(const char *path, const char *title, const char *x_label, const double *x,
+                      const double *values, size_t n_rows, const char *const *names, size_t n_series, int log_scale)
+{
+    if (!path || !x || !values || !names || n_series > SP_REPORT_MAX_SERIES)
+        return -EINVAL;
+    double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
+    for (size_t r = 0; r < n_rows; r++) {
+        x0 = fmin(x0, x[r]);
+        x1 = fmax(x1, x[r]);
+        for (size_t s = 0; s < n_series; s++) {
+            double v = values[r * n_series + s];
+            if (usable(v, log_scale)) {
+                y0 = fmin(y0, ymap(v, log_scale));
+                y1 = fmax(y1, ymap(v, log_scale));
+            }
+        }
+    }
+    if (!(x1 > x0))
+        x1 = x0 + 1.0;
+    if (!isfinite(y0))
+        y0 = 0, y1 = 1;
+    if (!(y1 > y0)) /* flat series: give it a visible band */
+        y0 -= 0.5, y1 += 0.5;
+    sp_atomic_file af;
+    int ret = sp_atomic_file_open(&af, path);
+    if (ret)
+        return ret;
+    FILE *f = af.file;
+    fprintf(f, "<svg xmlns='http://www.w3.org/2000/svg' width='%.0f' height='%.0f' font-family='sans-serif'>\n"
+               "<rect width='100%%' height='100%%' fill='white'/>\n<text x='%.1f' y='24' font-size='14'>", W, H, LEFT);
+    xml_text(f, title ? title : "");
+    fputs("</text>\n", f);
+    draw_axes(f, x0, x1, y0, y1, log_scale, x_label ? x_label : "");
+    double pw = W - LEFT - RIGHT, ph = H - TOP - BOTTOM;
+    for (size_t s = 0; s < n_series; s++) {
+        fprintf(f, "<polyline fill='none' stroke='%s' stroke-width='1.5' points='", palette[s]);
+        for (size_t r = 0; r < n_rows; r++) {
+            double v = values[r * n_series + s];
+            if (!usable(v, log_scale))
+                continue;
+            fprintf(f, "%.1f,%.1f ", LEFT + pw * (x[r] - x0) / (x1 - x0),
+                    TOP + ph * (1.0 - (ymap(v, log_scale) - y0) / (y1 - y0)));
+        }
+        fprintf(f, "'/>\n<rect x='%.1f' y='%.1f' width='12' height='3' fill='%s'/>"
+                   "<text x='%.1f' y='%.1f' font-size='11'>", W - RIGHT + 12, TOP + 10 + 18.0 * s, palette[s],
+                W - RIGHT + 30, TOP + 15 + 18.0 * s);
+        xml_text(f, names[s]);
+        fputs("</text>\n", f);
+    }
+    fputs("</svg>\n", f);
+    return sp_atomic_file_finish(&af, ferror(f) ? -EIO : 0);
+}

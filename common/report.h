@@ -1,0 +1,32 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Error-against-run-time reports: every long computation appends rows of
+ * (wall seconds, metric values...) here; the CSV is written as rows arrive (so
+ * an interrupted run keeps its history) and an SVG plot is drawn at the end.
+ */
+#ifndef SUNPROBE_COMMON_REPORT_H
+#define SUNPROBE_COMMON_REPORT_H
+
+#include <stddef.h>
+
+#define SP_REPORT_MAX_SERIES 12
+
+typedef struct sp_report sp_report;
+
+/*
+ * Opens PREFIX.csv for writing; the SVG goes to PREFIX.svg at close. `names`
+ * are the metric column names (borrowed for the call), `log_scale` draws the y
+ * axis logarithmically (non-positive values are skipped in the plot).
+ */
+int sp_report_open(sp_report **out, const char *prefix, const char *title, const char *const *names,
+                   size_t n_series, int log_scale);
+/* Appends one row; NaN marks a value not measured at this time (empty CSV cell, gap in the plot). */
+int sp_report_add(sp_report *r, double seconds, const double *values);
+/* Writes the SVG, closes the CSV; *r becomes NULL. Returns the first write error, if any. */
+int sp_report_close(sp_report **r);
+
+/* Draws an SVG line plot of n_rows x n_series values against x; used by sp_report and benchmarks. */
+int sp_svg_plot_write(const char *path, const char *title, const char *x_label, const double *x,
+                      const double *values, size_t n_rows, const char *const *names, size_t n_series, int log_scale);
+
+#endif

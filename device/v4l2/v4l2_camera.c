@@ -1,0 +1,574 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * V4L2 camera backend: plain ioctls on /dev/videoN. Enumerates capture nodes,
+ * their formats, sizes and rates; negotiates a format; streams through a small
+ * ring of mmap buffers. Each dequeued buffer is copied into a pooled sp_frame and
+ * handed straight back to the driver, so a slow consumer costs pooled frames
+ * (counted drops), never the device's ring.
+ */
+#include "device/backends.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <inttypes.h>
+#include <math.h>
+#include <poll.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/ioctl.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <linux/videodev2.h>
+
+#include "common/clock.h"
+#include "device/v4l2/v4l2_formats.h"
+
+#define MAX_BUFFERS 32
+#define MAX_NODES 64
+
+typedef struct v4l2_ctx {
+    int fd;
+    char path[64];
+    struct {
+        void *start;
+        size_t length;
+    } bufs[MAX_BUFFERS];
+    unsigned n_bufs;
+    sp_frame_pool *pool;
+    enum sp_pixfmt format;
+    uint32_t width, height, stride, sizeimage;
+    int has_exposure, gain_cid; /* controls read per frame (0 = absent) */
+    int warned_clock;
+    int streaming;
+    uint64_t seq_high, last_seq, frames, dropped;
+    uint32_t prev_seq32;
+} v4l2_ctx;
+
+static int xioctl(int fd, unsigned long req, void *arg)
+{
+    int r;
+    do
+        r = ioctl(fd, req, arg);
+    while (r < 0 && errno == EINTR);
+    return r < 0 ? -errno : 0;
+}
+
+static uint32_t caps_of(const struct v4l2_capability *cap)
+{
+    return (cap->capabilities & V4L2_CAP_DEVICE_CAPS) ? cap->device_caps : cap->capabilities;
+}
+
+static int is_capture_node(int fd, struct v4l2_capability *cap)
+{
+    memset(cap, 0, sizeof(*cap));
+    if (xioctl(fd, VIDIOC_QUERYCAP, cap) < 0)
+        return 0;
+    uint32_t c = caps_of(cap);
+    return (c & V4L2_CAP_VIDEO_CAPTURE) && (c & V4L2_CAP_STREAMING);
+}
+
+static int cmp_node(const void *a, const void *b)
+{
+    int x = *(const int *)a, y = *(const int *)b;
+    return (x > y) - (x < y);
+}
+
+/* Numbers N of /dev/videoN, sorted. */
+static size_t list_nodes(int *nodes, size_t max)
+{
+    DIR *d = opendir("/dev");
+    if (!d)
+        return 0;
+    size_t n = 0;
+    struct dirent *e;
+    while ((e = readdir(d)) && n < max) {
+        int num;
+        char tail;
+        if (sscanf(e->d_name, "video%d%c", &num, &tail) == 1 && num >= 0)
+            nodes[n++] = num;
+    }
+    closedir(d);
+    qsort(nodes, n, sizeof(int), cmp_node);
+    return n;
+}
+
+static void fill_desc(sp_camera_desc *d, const char *path, const struct v4l2_capability *cap)
+{
+    memset(d, 0, sizeof(*d));
+    sp_dev_copy_string(d->backend, sizeof(d->backend), "v4l2");
+    sp_dev_copy_string(d->id, sizeof(d->id), path);
+    sp_dev_copy_string(d->name, sizeof(d->name), (const char *)cap->card);
+    sp_dev_copy_string(d->driver, sizeof(d->driver), (const char *)cap->driver);
+}
+
+static int v4l2_enumerate(sp_camera_desc *out, size_t max, size_t *count)
+{
+    int nodes[MAX_NODES];
+    size_t n_nodes = list_nodes(nodes, MAX_NODES), n = 0;
+    for (size_t i = 0; i < n_nodes; i++) {
+        char path[64];
+        snprintf(path, sizeof(path), "/dev/video%d", nodes[i]);
+        int fd = open(path, O_RDWR | O_NONBLOCK | O_CLOEXEC);
+        if (fd < 0)
+            continue;
+        struct v4l2_capability cap;
+        if (is_capture_node(fd, &cap)) {
+            if (n < max)
+                fill_desc(&out[n], path, &cap);
+            n++;
+        }
+        close(fd);
+    }
+    *count = n;
+    return 0;
+}
+
+/* Fastest rate the driver lists for a format and size, 0 when it lists none. */
+static double max_fps_of(int fd, uint32_t fourcc, uint32_t w, uint32_t h)
+{
+    double best = 0;
+    struct v4l2_frmivalenum iv = { .pixel_format = fourcc, .width = w, .height = h };
+    for (iv.index = 0; xioctl(fd, VIDIOC_ENUM_FRAMEINTERVALS, &iv) == 0; iv.index++) {
+        const struct v4l2_fract *f = iv.type == V4L2_FRMIVAL_TYPE_DISCRETE ? &iv.discrete : &iv.stepwise.min;
+        if (f->numerator > 0 && f->denominator > 0)
+            best = fmax(best, (double)f->denominator / f->numerator);
+        if (iv.type != V4L2_FRMIVAL_TYPE_DISCRETE)
+            break;
+    }
+    return best;
+}
+
+static void add_mode(int fd, uint32_t fourcc, enum sp_pixfmt fmt, uint32_t w, uint32_t h, sp_camera_mode *out,
+                     size_t max, size_t *n)
+{
+    if (*n < max)
+        out[*n] = (sp_camera_mode){ fmt, w, h, max_fps_of(fd, fourcc, w, h) };
+    (*n)++;
+}
+
+static void sizes_of(int fd, uint32_t fourcc, enum sp_pixfmt fmt, sp_camera_mode *out, size_t max, size_t *n)
+{
+    struct v4l2_frmsizeenum fs = { .pixel_format = fourcc };
+    for (fs.index = 0; xioctl(fd, VIDIOC_ENUM_FRAMESIZES, &fs) == 0; fs.index++) {
+        if (fs.type == V4L2_FRMSIZE_TYPE_DISCRETE) {
+            add_mode(fd, fourcc, fmt, fs.discrete.width, fs.discrete.height, out, max, n);
+            continue;
+        }
+        /* stepwise or continuous: the two ends say what the range is */
+        add_mode(fd, fourcc, fmt, fs.stepwise.min_width, fs.stepwise.min_height, out, max, n);
+        add_mode(fd, fourcc, fmt, fs.stepwise.max_width, fs.stepwise.max_height, out, max, n);
+        break;
+    }
+}
+
+static int v4l2_modes(const char *id, sp_camera_mode *out, size_t max, size_t *count)
+{
+    int fd = open(id, O_RDWR | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0)
+        return -errno;
+    size_t n = 0;
+    struct v4l2_fmtdesc fd_desc = { .type = V4L2_BUF_TYPE_VIDEO_CAPTURE };
+    for (fd_desc.index = 0; xioctl(fd, VIDIOC_ENUM_FMT, &fd_desc) == 0; fd_desc.index++) {
+        enum sp_pixfmt fmt = sp_v4l2_to_pixfmt(fd_desc.pixelformat);
+        if (fmt != SP_PIXFMT_NONE)
+            sizes_of(fd, fd_desc.pixelformat, fmt, out, max, &n);
+    }
+    close(fd);
+    *count = n;
+    return 0;
+}
+
+static int v4l2_claims(const char *device)
+{
+    if (device && !strncmp(device, "/dev/", 5))
+        return 1;
+    sp_camera_desc d[16];
+    size_t n = 0;
+    v4l2_enumerate(d, 16, &n);
+    if (!device)
+        return n > 0; /* the first camera is a V4L2 one when any exists */
+    for (size_t i = 0; i < n && i < 16; i++)
+        if (!strcmp(d[i].name, device))
+            return 1;
+    return 0;
+}
+
+/* Maps the device string (path, card name, NULL = first) to a node path. */
+static int resolve_path(const char *device, char *path, size_t size)
+{
+    if (device && !strncmp(device, "/dev/", 5)) {
+        sp_dev_copy_string(path, size, device);
+        return 0;
+    }
+    sp_camera_desc d[16];
+    size_t n = 0;
+    v4l2_enumerate(d, 16, &n);
+    for (size_t i = 0; i < n && i < 16; i++)
+        if (!device || !strcmp(d[i].name, device)) {
+            sp_dev_copy_string(path, size, d[i].id);
+            return 0;
+        }
+    return -ENODEV;
+}
+
+static int supports_fourcc(int fd, uint32_t fourcc)
+{
+    struct v4l2_fmtdesc d = { .type = V4L2_BUF_TYPE_VIDEO_CAPTURE };
+    for (d.index = 0; xioctl(fd, VIDIOC_ENUM_FMT, &d) == 0; d.index++)
+        if (d.pixelformat == fourcc)
+            return 1;
+    return 0;
+}
+
+/* The fourcc to ask for: the requested format, else the first of the preference list the device has. */
+static int choose_fourcc(int fd, enum sp_pixfmt want, uint32_t *fourcc)
+{
+    static const enum sp_pixfmt prefs[] = { SP_PIXFMT_YUYV, SP_PIXFMT_NV12, SP_PIXFMT_MJPEG, SP_PIXFMT_RGB24,
+                                            SP_PIXFMT_GRAY8 };
+    for (size_t i = 0; i < sizeof(prefs) / sizeof(prefs[0]); i++) {
+        if (want != SP_PIXFMT_NONE && prefs[i] != want)
+            continue;
+        uint32_t cands[2];
+        size_t nc = sp_v4l2_from_pixfmt(prefs[i], cands, 2);
+        for (size_t k = 0; k < nc; k++)
+            if (supports_fourcc(fd, cands[k])) {
+                *fourcc = cands[k];
+                return 0;
+            }
+    }
+    sp_log(SP_LOG_ERROR, "v4l2", "device offers no %s format", want ? sp_pixfmt_name(want) : "usable");
+    return SP_EUNSUPPORTED;
+}
+
+static int negotiate_format(v4l2_ctx *c, const sp_camera_settings *s)
+{
+    uint32_t fourcc = 0;
+    int err = choose_fourcc(c->fd, s->format, &fourcc);
+    if (err < 0)
+        return err;
+    struct v4l2_format f = { .type = V4L2_BUF_TYPE_VIDEO_CAPTURE };
+    f.fmt.pix.pixelformat = fourcc;
+    f.fmt.pix.width = s->width ? s->width : 640;
+    f.fmt.pix.height = s->height ? s->height : 480;
+    f.fmt.pix.field = V4L2_FIELD_NONE;
+    if ((err = xioctl(c->fd, VIDIOC_S_FMT, &f)) < 0)
+        return err;
+    c->format = sp_v4l2_to_pixfmt(f.fmt.pix.pixelformat);
+    if (c->format == SP_PIXFMT_NONE || (s->format && c->format != s->format)) {
+        sp_log(SP_LOG_ERROR, "v4l2", "driver answered with an unusable format %.4s", (const char *)&f.fmt.pix.pixelformat);
+        return SP_EUNSUPPORTED;
+    }
+    c->width = f.fmt.pix.width;
+    c->height = f.fmt.pix.height;
+    c->stride = c->format == SP_PIXFMT_MJPEG ? 0 : f.fmt.pix.bytesperline;
+    c->sizeimage = f.fmt.pix.sizeimage;
+    if (c->format != SP_PIXFMT_MJPEG) {
+        if (c->stride < sp_pixfmt_min_stride(c->format, c->width))
+            c->stride = sp_pixfmt_min_stride(c->format, c->width);
+        size_t need = sp_pixfmt_image_size(c->format, c->width, c->height, c->stride);
+        if (need == 0 || need > UINT32_MAX)
+            return SP_EUNSUPPORTED;
+        if (c->sizeimage < need)
+            c->sizeimage = (uint32_t)need;
+    }
+    if (c->sizeimage == 0)
+        return SP_EUNSUPPORTED;
+    if (s->width && (c->width != s->width || c->height != s->height))
+        sp_log(SP_LOG_WARN, "v4l2", "asked for %ux%u, the driver gave %ux%u", s->width, s->height, c->width,
+               c->height);
+    return 0;
+}
+
+/* Sets the frame rate when asked and reads back the rate in force (0 when the driver does not say). */
+static double negotiate_rate(v4l2_ctx *c, double fps)
+{
+    struct v4l2_streamparm p = { .type = V4L2_BUF_TYPE_VIDEO_CAPTURE };
+    if (fps > 0) {
+        p.parm.capture.timeperframe.numerator = 1000;
+        p.parm.capture.timeperframe.denominator = (uint32_t)lround(fps * 1000.0);
+        if (xioctl(c->fd, VIDIOC_S_PARM, &p) < 0)
+            sp_log(SP_LOG_WARN, "v4l2", "%s: cannot set %.3g fps", c->path, fps);
+    }
+    memset(&p, 0, sizeof(p));
+    p.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    if (xioctl(c->fd, VIDIOC_G_PARM, &p) < 0 || !(p.parm.capture.capability & V4L2_CAP_TIMEPERFRAME))
+        return 0;
+    const struct v4l2_fract *t = &p.parm.capture.timeperframe;
+    return t->numerator && t->denominator ? (double)t->denominator / t->numerator : 0;
+}
+
+static int has_control(int fd, uint32_t id)
+{
+    struct v4l2_queryctrl q = { .id = id };
+    return xioctl(fd, VIDIOC_QUERYCTRL, &q) == 0 && !(q.flags & V4L2_CTRL_FLAG_DISABLED);
+}
+
+static int set_control(int fd, uint32_t id, int32_t value)
+{
+    struct v4l2_control ctl = { .id = id, .value = value };
+    return xioctl(fd, VIDIOC_S_CTRL, &ctl);
+}
+
+/* Switches every automatic exposure, gain and white-balance loop present to manual; 1 when all did. */
+static int lock_exposure(v4l2_ctx *c)
+{
+    static const struct {
+        uint32_t id;
+        int32_t value;
+        const char *what;
+    } autos[] = {
+        { V4L2_CID_EXPOSURE_AUTO, V4L2_EXPOSURE_MANUAL, "auto exposure" },
+        { V4L2_CID_AUTOGAIN, 0, "auto gain" },
+        { V4L2_CID_AUTO_WHITE_BALANCE, 0, "auto white balance" },
+    };
+    int ok = 1;
+    for (size_t i = 0; i < sizeof(autos) / sizeof(autos[0]); i++) {
+        if (!has_control(c->fd, autos[i].id))
+            continue;
+        int err = set_control(c->fd, autos[i].id, autos[i].value);
+        if (err < 0) {
+            sp_log(SP_LOG_WARN, "v4l2", "%s: cannot lock %s: %s", c->path, autos[i].what, sp_strerror(err));
+            ok = 0;
+        } else {
+            sp_log(SP_LOG_INFO, "v4l2", "%s: %s locked", c->path, autos[i].what);
+        }
+    }
+    return ok;
+}
+
+static int setup_buffers(v4l2_ctx *c, unsigned count)
+{
+    struct v4l2_requestbuffers rb = { .count = count, .type = V4L2_BUF_TYPE_VIDEO_CAPTURE,
+                                      .memory = V4L2_MEMORY_MMAP };
+    int err = xioctl(c->fd, VIDIOC_REQBUFS, &rb);
+    if (err < 0)
+        return err;
+    if (rb.count < 2 || rb.count > MAX_BUFFERS)
+        return -ENOMEM;
+    for (unsigned i = 0; i < rb.count; i++) {
+        struct v4l2_buffer b = { .type = V4L2_BUF_TYPE_VIDEO_CAPTURE, .memory = V4L2_MEMORY_MMAP, .index = i };
+        if ((err = xioctl(c->fd, VIDIOC_QUERYBUF, &b)) < 0)
+            return err;
+        void *p = mmap(NULL, b.length, PROT_READ | PROT_WRITE, MAP_SHARED, c->fd, b.m.offset);
+        if (p == MAP_FAILED)
+            return -errno;
+        c->bufs[i].start = p;
+        c->bufs[i].length = b.length;
+        c->n_bufs = i + 1;
+    }
+    return 0;
+}
+
+static void v4l2_close(void *ctx)
+{
+    v4l2_ctx *c = ctx;
+    if (!c)
+        return;
+    for (unsigned i = 0; i < c->n_bufs; i++)
+        munmap(c->bufs[i].start, c->bufs[i].length);
+    if (c->fd >= 0) {
+        struct v4l2_requestbuffers rb = { .count = 0, .type = V4L2_BUF_TYPE_VIDEO_CAPTURE,
+                                          .memory = V4L2_MEMORY_MMAP };
+        (void)xioctl(c->fd, VIDIOC_REQBUFS, &rb);
+        close(c->fd);
+    }
+    sp_frame_pool_close(&c->pool);
+    free(c);
+}
+
+static void fill_info(v4l2_ctx *c, sp_camera_info *info, double fps, int locked)
+{
+    struct v4l2_capability cap;
+    memset(info, 0, sizeof(*info));
+    if (is_capture_node(c->fd, &cap))
+        fill_desc(&info->desc, c->path, &cap);
+    info->format = c->format;
+    info->width = c->width;
+    info->height = c->height;
+    info->stride = c->stride;
+    info->fps = fps;
+    info->exposure_locked = locked;
+    info->monotonic_timestamps = 1; /* until a buffer says otherwise (then stamped at dequeue) */
+}
+
+static int v4l2_open(void **out, const sp_camera_settings *s, sp_camera_info *info)
+{
+    v4l2_ctx *c = calloc(1, sizeof(*c));
+    if (!c)
+        return -ENOMEM;
+    c->fd = -1;
+    struct v4l2_capability cap;
+    int err = resolve_path(s->device, c->path, sizeof(c->path));
+    if (err == 0) {
+        c->fd = open(c->path, O_RDWR | O_NONBLOCK | O_CLOEXEC);
+        err = c->fd < 0 ? -errno : 0;
+    }
+    if (err == 0 && !is_capture_node(c->fd, &cap)) {
+        sp_log(SP_LOG_ERROR, "v4l2", "%s is not a streaming video capture device", c->path);
+        err = -ENODEV;
+    }
+    if (err == 0)
+        err = negotiate_format(c, s);
+    double fps = err == 0 ? negotiate_rate(c, s->fps) : 0;
+    int locked = err == 0 && s->lock_exposure ? lock_exposure(c) : 0;
+    if (err == 0)
+        err = setup_buffers(c, s->buffers);
+    if (err == 0)
+        err = sp_frame_pool_open(&c->pool, s->pool_frames, c->sizeimage);
+    if (err < 0) {
+        sp_log(SP_LOG_ERROR, "v4l2", "%s: %s", c->path[0] ? c->path : "(no device)", sp_strerror(err));
+        v4l2_close(c);
+        return err;
+    }
+    c->has_exposure = has_control(c->fd, V4L2_CID_EXPOSURE_ABSOLUTE);
+    c->gain_cid = has_control(c->fd, V4L2_CID_ANALOGUE_GAIN) ? V4L2_CID_ANALOGUE_GAIN
+                  : has_control(c->fd, V4L2_CID_GAIN)         ? V4L2_CID_GAIN
+                                                             : 0;
+    fill_info(c, info, fps, locked);
+    *out = c;
+    return 0;
+}
+
+static int queue_buffer(v4l2_ctx *c, unsigned index)
+{
+    struct v4l2_buffer b = { .type = V4L2_BUF_TYPE_VIDEO_CAPTURE, .memory = V4L2_MEMORY_MMAP, .index = index };
+    return xioctl(c->fd, VIDIOC_QBUF, &b);
+}
+
+static int v4l2_start(void *ctx)
+{
+    v4l2_ctx *c = ctx;
+    for (unsigned i = 0; i < c->n_bufs; i++) {
+        int err = queue_buffer(c, i);
+        if (err < 0)
+            return err;
+    }
+    int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    int err = xioctl(c->fd, VIDIOC_STREAMON, &type);
+    if (err == 0) {
+        c->streaming = 1;
+        c->frames = 0;
+    }
+    return err;
+}
+
+static int v4l2_stop(void *ctx)
+{
+    v4l2_ctx *c = ctx;
+    if (!c->streaming)
+        return 0;
+    c->streaming = 0;
+    int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    int err = xioctl(c->fd, VIDIOC_STREAMOFF, &type);
+    return err == -ENODEV ? 0 : err; /* a vanished device is stopped already */
+}
+
+static float read_control(int fd, uint32_t id, float unit)
+{
+    struct v4l2_control ctl = { .id = id };
+    return xioctl(fd, VIDIOC_G_CTRL, &ctl) == 0 ? (float)ctl.value * unit : NAN;
+}
+
+/* The 32-bit driver sequence extended to 64 bits; gaps are frames the driver lost. */
+static uint64_t track_sequence(v4l2_ctx *c, uint32_t seq32)
+{
+    if (c->frames > 0 && seq32 < c->prev_seq32)
+        c->seq_high += UINT64_C(1) << 32;
+    c->prev_seq32 = seq32;
+    uint64_t seq = c->seq_high | seq32;
+    if (c->frames > 0 && seq > c->last_seq + 1)
+        c->dropped += seq - c->last_seq - 1;
+    c->last_seq = seq;
+    c->frames++;
+    return seq;
+}
+
+static int64_t buffer_time(v4l2_ctx *c, const struct v4l2_buffer *b)
+{
+    if ((b->flags & V4L2_BUF_FLAG_TIMESTAMP_MASK) == V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC)
+        return (int64_t)b->timestamp.tv_sec * 1000000000 + (int64_t)b->timestamp.tv_usec * 1000;
+    if (!c->warned_clock) {
+        sp_log(SP_LOG_WARN, "v4l2", "%s: buffers carry no monotonic timestamp; stamping at dequeue", c->path);
+        c->warned_clock = 1;
+    }
+    return sp_clock_monotonic_ns();
+}
+
+/* Copies a dequeued buffer into a pooled frame; -EAGAIN (counted) when the buffer is unusable or the pool is empty. */
+static int copy_out(v4l2_ctx *c, const struct v4l2_buffer *b, sp_frame **out)
+{
+    uint64_t seq = track_sequence(c, b->sequence);
+    size_t used = b->bytesused ? b->bytesused : c->sizeimage;
+    size_t need = c->format == SP_PIXFMT_MJPEG ? 1 : sp_pixfmt_image_size(c->format, c->width, c->height, c->stride);
+    if ((b->flags & V4L2_BUF_FLAG_ERROR) || used < need || used > c->bufs[b->index].length) {
+        c->dropped++;
+        return -EAGAIN;
+    }
+    sp_frame *f = NULL;
+    if (sp_frame_pool_get(c->pool, &f) < 0) {
+        c->dropped++;
+        return -EAGAIN;
+    }
+    size_t n = c->format == SP_PIXFMT_MJPEG ? used : need;
+    if (n > f->capacity)
+        n = f->capacity;
+    memcpy(f->data, c->bufs[b->index].start, n);
+    f->bytes_used = n;
+    f->format = c->format;
+    f->width = c->width;
+    f->height = c->height;
+    f->stride = c->stride;
+    f->sequence = seq;
+    f->timestamp_ns = buffer_time(c, b);
+    /* V4L2_CID_EXPOSURE_ABSOLUTE counts 100 us units */
+    f->exposure_us = c->has_exposure ? read_control(c->fd, V4L2_CID_EXPOSURE_ABSOLUTE, 100.0f) : NAN;
+    f->gain = c->gain_cid ? read_control(c->fd, (uint32_t)c->gain_cid, 1.0f) : NAN;
+    *out = f;
+    return 0;
+}
+
+static int v4l2_next(void *ctx, int timeout_ms, sp_frame **out)
+{
+    v4l2_ctx *c = ctx;
+    struct pollfd p = { .fd = c->fd, .events = POLLIN };
+    int r = poll(&p, 1, timeout_ms);
+    if (r < 0)
+        return errno == EINTR ? -EAGAIN : -errno;
+    if (r == 0)
+        return -EAGAIN;
+    /* on POLLERR the dequeue below tells why (ENODEV when the device went away) */
+    struct v4l2_buffer b = { .type = V4L2_BUF_TYPE_VIDEO_CAPTURE, .memory = V4L2_MEMORY_MMAP };
+    int err = xioctl(c->fd, VIDIOC_DQBUF, &b);
+    if (err == -EAGAIN && (p.revents & (POLLERR | POLLHUP)))
+        return -ENODEV;
+    if (err < 0)
+        return err == -EPIPE || err == -ENXIO ? -ENODEV : err;
+    if (b.index >= c->n_bufs)
+        return -EIO;
+    err = copy_out(c, &b, out);
+    int qerr = queue_buffer(c, b.index);
+    if (qerr < 0 && qerr != -ENODEV)
+        sp_log(SP_LOG_WARN, "v4l2", "%s: requeue failed: %s", c->path, sp_strerror(qerr));
+    return err;
+}
+
+static uint64_t v4l2_dropped(void *ctx)
+{
+    return ((v4l2_ctx *)ctx)->dropped;
+}
+
+const sp_camera_ops sp_camera_v4l2_ops = {
+    .name = "v4l2",
+    .enumerate = v4l2_enumerate,
+    .modes = v4l2_modes,
+    .claims = v4l2_claims,
+    .open = v4l2_open,
+    .start = v4l2_start,
+    .next = v4l2_next,
+    .stop = v4l2_stop,
+    .close = v4l2_close,
+    .dropped = v4l2_dropped,
+};

@@ -1,0 +1,127 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Picks the face model a run uses: the ICT model when its data folder exists
+ * (imported once, then read from a cache file keyed by the settings and the
+ * neutral mesh's size and time), else the built-in generic head.
+ */
+#include "sunprobe/sp_face_model.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "face_internal.h"
+
+void sp_face_load_default_settings(sp_face_load_settings *settings)
+{
+    if (!settings)
+        return;
+    memset(settings, 0, sizeof(*settings));
+    settings->target_triangles = 10000;
+    settings->use_cache = 1;
+}
+
+static int neutral_stat(const char *dir, struct stat *st)
+{
+    char path[4096];
+    int n = snprintf(path, sizeof(path), "%s/generic_neutral_mesh.obj", dir);
+    return n > 0 && (size_t)n < sizeof(path) && stat(path, st) == 0 && S_ISREG(st->st_mode);
+}
+
+static int make_dirs(const char *dir)
+{
+    char tmp[4096];
+    int n = snprintf(tmp, sizeof(tmp), "%s", dir);
+    if (n <= 0 || (size_t)n >= sizeof(tmp))
+        return -ENAMETOOLONG;
+    for (char *p = tmp + 1; *p; p++)
+        if (*p == '/') {
+            *p = 0;
+            if (mkdir(tmp, 0755) != 0 && errno != EEXIST)
+                return -errno;
+            *p = '/';
+        }
+    return mkdir(tmp, 0755) != 0 && errno != EEXIST ? -errno : 0;
+}
+
+/* $XDG_CACHE_HOME/sunprobe or ~/.cache/sunprobe, created if needed; 0 and the file path, or an error. */
+static int default_cache_path(char *buf, size_t n, uint32_t target)
+{
+    const char *xdg = getenv("XDG_CACHE_HOME"), *home = getenv("HOME");
+    char dir[4096];
+    int w;
+    if (xdg && xdg[0] == '/')
+        w = snprintf(dir, sizeof(dir), "%s/sunprobe", xdg);
+    else if (home && home[0])
+        w = snprintf(dir, sizeof(dir), "%s/.cache/sunprobe", home);
+    else
+        return -ENOENT;
+    if (w <= 0 || (size_t)w >= sizeof(dir))
+        return -ENAMETOOLONG;
+    int err = make_dirs(dir);
+    if (err)
+        return err;
+    w = snprintf(buf, n, "%s/face-ict-%u.spface", dir, target);
+    return w > 0 && (size_t)w < n ? 0 : -ENAMETOOLONG;
+}
+
+static int load_ict(sp_face_model *model, const sp_face_load_settings *s, const char *dir, const struct stat *st)
+{
+    char key[sizeof(model->source)], cache[4096];
+    snprintf(key, sizeof(key), "ict-facekit v1 target=%u neutral=%lld-%lld", s->target_triangles,
+             (long long)st->st_size, (long long)st->st_mtime);
+    int have_cache = 0;
+    if (s->use_cache) {
+        int n = s->cache_path ? snprintf(cache, sizeof(cache), "%s", s->cache_path) : 0;
+        have_cache = s->cache_path ? n > 0 && (size_t)n < sizeof(cache)
+                                   : default_cache_path(cache, sizeof(cache), s->target_triangles) == 0;
+    }
+    if (have_cache && sp_face_model_read(model, cache) == 0) {
+        if (strcmp(model->source, key) == 0) {
+            sp_log(SP_LOG_INFO, FACE_LOG, "face model: ICT (cached %s)", cache);
+            return 0;
+        }
+        sp_face_model_free(model); /* stale: other settings or a changed data folder */
+    }
+    sp_face_ict_settings is;
+    sp_face_ict_default_settings(&is);
+    is.dir = dir;
+    is.target_triangles = s->target_triangles;
+    int err = sp_face_model_import_ict(model, &is);
+    if (err)
+        return err;
+    memcpy(model->source, key, sizeof(key));
+    sp_log(SP_LOG_INFO, FACE_LOG, "face model: ICT from %s (%u triangles)", dir, model->mesh.n_triangles);
+    if (have_cache) {
+        int werr = sp_face_model_write(model, cache);
+        if (werr)
+            sp_log(SP_LOG_WARN, FACE_LOG, "could not cache the face model in %s: %s", cache, sp_strerror(werr));
+    }
+    return 0;
+}
+
+int sp_face_model_load(sp_face_model *model, const sp_face_load_settings *settings)
+{
+    sp_face_load_settings s;
+    if (!model)
+        return -EINVAL;
+    memset(model, 0, sizeof(*model));
+    if (settings)
+        s = *settings;
+    else
+        sp_face_load_default_settings(&s);
+    const char *dir = s.ict_dir ? s.ict_dir : sp_face_ict_dir();
+    struct stat st;
+    if (neutral_stat(dir, &st))
+        return load_ict(model, &s, dir, &st);
+    sp_log(SP_LOG_INFO, FACE_LOG,
+           "face model: built-in generic head (no ICT data in %s; tools/fetch-ict-facekit.sh downloads it)", dir);
+    return sp_face_model_generic(model);
+}
+
+int sp_face_model_load_default(sp_face_model *model)
+{
+    return sp_face_model_load(model, NULL);
+}

@@ -1,0 +1,244 @@
+/* SPDX-License-Identifier: MIT */
+#include "pipeline/render/adjoint.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "pipeline/render/render_internal.h"
+#include "pipeline/render/tonemap.h"
+#include "pipeline/render/vec3.h"
+
+/* Local adjoints of one sample's surface quantities. */
+typedef struct sample_grad {
+    double a[3], n[3], p[3], v[3];
+} sample_grad;
+
+static void specular_backward(const shade_ctx *ctx, const shade_rec *rec, double gs, double *g_nl, double *g_I,
+                              double *g_V, sample_grad *sg, shade_acc *acc)
+{
+    int cl = rec->cluster;
+    double ks = ctx->ks[cl], s = ctx->s[cl], I = ctx->sun_I;
+    double f = (s + 2.0) / (2.0 * SHADE_PI), P = rec->bl.P, nl = rec->nl, V = rec->V;
+    acc->g_ks[cl] += gs * f * P * nl * I * V;
+    if (!ctx->s_clamped[cl])
+        acc->g_s[cl] += gs * ks * P * nl * I * V * (1.0 / (2.0 * SHADE_PI) + f * log(rec->bl.nh));
+    double k = gs * ks * f;
+    *g_nl += k * P * I * V;
+    *g_I += k * P * nl * V;
+    *g_V += k * P * nl * I;
+    if (rec->bl.nh_clamped)
+        return;
+    /* d(nh^s)/d(nh) = s nh^(s-1) = s P / nh, nh >= SHADE_NH_MIN here */
+    double g_nh = k * nl * I * V * s * P / rec->bl.nh;
+    v3_axpy(g_nh, rec->bl.h, sg->n);
+    double g_h[3], g_hs[3] = {0, 0, 0};
+    v3_scale(rec->n, g_nh, g_h);
+    v3_normalize_backward(rec->bl.h, rec->bl.hlen, g_h, g_hs);
+    v3_axpy(1.0, g_hs, acc->g_l);
+    v3_axpy(1.0, g_hs, sg->v);
+}
+
+static void sun_backward(const shade_ctx *ctx, const shade_rec *rec, const double gc[3], sample_grad *sg,
+                         shade_acc *acc)
+{
+    if (!(rec->nl > 0.0)) /* max(n.l, 0) is flat here: nothing depends on the sun */
+        return;
+    double I = ctx->sun_I, nl = rec->nl, V = rec->V;
+    double sd = 0.0;
+    for (int c = 0; c < 3; c++) {
+        sg->a[c] += gc[c] * I * nl * V / SHADE_PI;
+        sd += gc[c] * rec->a[c] / SHADE_PI;
+    }
+    double g_nl = sd * I * V, g_V = sd * I * nl, g_I = sd * nl * V;
+    if (rec->spec_on)
+        specular_backward(ctx, rec, gc[0] + gc[1] + gc[2], &g_nl, &g_I, &g_V, sg, acc);
+    v3_axpy(g_nl, ctx->sun_l, sg->n);
+    v3_axpy(g_nl, rec->n, acc->g_l);
+    acc->g_I += g_I;
+    v3_axpy(g_V, rec->shadow.dVdp, sg->p);
+}
+
+/* Interpolation (p, m, uv) and the perspective barycentrics back to vertices and the ray. */
+static void bary_backward(const shade_ctx *ctx, const shade_rec *rec, const sample_grad *sg, const double g_uv[2],
+                          shade_acc *acc)
+{
+    const render_geom *g = ctx->geo;
+    const sp_mesh *mesh = ctx->sc->mesh;
+    double g_m[3] = {0, 0, 0}, g_lam[3], dot = 0.0;
+    v3_normalize_backward(rec->n, rec->mlen, sg->n, g_m);
+    for (int i = 0; i < 3; i++) {
+        size_t v = rec->vi[i];
+        const float *uv = mesh->uvs + (size_t)rec->ui[i] * 2;
+        g_lam[i] = v3_dot(sg->p, g->pd + v * 3) + v3_dot(g_m, g->nd + v * 3) + g_uv[0] * (double)uv[0] +
+                   g_uv[1] * (double)uv[1];
+        v3_axpy(rec->lam[i], sg->p, acc->g_pd + v * 3);
+        v3_axpy(rec->lam[i], g_m, acc->g_nd + v * 3);
+        dot += rec->lam[i] * g_lam[i];
+    }
+    double gw[3];
+    for (int j = 0; j < 3; j++)
+        gw[j] = (g_lam[j] - dot) / rec->wsum;
+    /* w0 = [d, B, C], w1 = [d, C, A], w2 = [d, A, B] */
+    const double *A = g->xc + (size_t)rec->vi[0] * 3, *B = g->xc + (size_t)rec->vi[1] * 3,
+                 *C = g->xc + (size_t)rec->vi[2] * 3, *d = rec->d;
+    double t[3];
+    double *gA = acc->g_xc + (size_t)rec->vi[0] * 3, *gB = acc->g_xc + (size_t)rec->vi[1] * 3,
+           *gC = acc->g_xc + (size_t)rec->vi[2] * 3;
+    v3_cross(d, C, t), v3_axpy(gw[1], t, gA);
+    v3_cross(B, d, t), v3_axpy(gw[2], t, gA);
+    v3_cross(C, d, t), v3_axpy(gw[0], t, gB);
+    v3_cross(d, A, t), v3_axpy(gw[2], t, gB);
+    v3_cross(d, B, t), v3_axpy(gw[0], t, gC);
+    v3_cross(A, d, t), v3_axpy(gw[1], t, gC);
+    double gd[3] = {0, 0, 0};
+    v3_cross(B, C, t), v3_axpy(gw[0], t, gd);
+    v3_cross(C, A, t), v3_axpy(gw[1], t, gd);
+    v3_cross(A, B, t), v3_axpy(gw[2], t, gd);
+    /* d = ((u - cx) / fx, (v - cy) / fy, 1) */
+    const raster_camera *cam = ctx->cam;
+    acc->g_fx -= gd[0] * d[0] / cam->fx;
+    acc->g_cx -= gd[0] / cam->fx;
+    acc->g_fy -= gd[1] * d[1] / cam->fy;
+    acc->g_cy -= gd[1] / cam->fy;
+}
+
+void shade_backward(const shade_ctx *ctx, const shade_rec *rec, const double gc[3], shade_acc *acc)
+{
+    sample_grad sg;
+    memset(&sg, 0, sizeof(sg));
+    double gE[3], dEdn[3][3], E[3];
+    for (int c = 0; c < 3; c++) {
+        sg.a[c] += gc[c] * rec->E[c] / SHADE_PI;
+        gE[c] = gc[c] * rec->a[c] / SHADE_PI;
+    }
+    env_irradiance_backward_L(rec->n, rec->E, gE, acc->gL);
+    env_irradiance(&ctx->sh, rec->n, E, dEdn);
+    for (int c = 0; c < 3; c++)
+        v3_axpy(gE[c], dEdn[c], sg.n);
+    sun_backward(ctx, rec, gc, &sg, acc);
+    /* v = normalize(eye - p) */
+    double g_ev[3] = {0, 0, 0};
+    v3_normalize_backward(rec->v, rec->evlen, sg.v, g_ev);
+    v3_axpy(-1.0, g_ev, sg.p);
+    v3_axpy(1.0, g_ev, acc->g_eye);
+    const sp_render_texture *at = &ctx->sc->albedo;
+    if (acc->g_albedo)
+        tex_splat(&rec->alb, acc->g_albedo, 3, sg.a);
+    double du[3], dv[3], g_uv[2];
+    tex_sample_duv(&rec->alb, at->data, 3, du, dv);
+    g_uv[0] = v3_dot(sg.a, du);
+    g_uv[1] = v3_dot(sg.a, dv);
+    bary_backward(ctx, rec, &sg, g_uv, acc);
+}
+
+/* dL/d(per-sample linear radiance) for pixel i: tone map and exposure; adds to the exposure gradient. */
+static int pixel_adjoint(const sp_renderer *r, const sp_render_scene *sc, const float *dL, size_t i, double gc[3],
+                         double *g_exposure)
+{
+    double e = sc->exposure, any = 0.0;
+    double inv_s2 = 1.0 / (double)(r->set.supersample * r->set.supersample);
+    for (int c = 0; c < 3; c++) {
+        double rad = (double)r->radiance[i * 3 + (size_t)c], deriv;
+        tonemap_eval(e * rad, &deriv);
+        double gx = (double)dL[i * 3 + (size_t)c] * deriv;
+        *g_exposure += gx * rad;
+        gc[c] = gx * e * inv_s2;
+        any += fabs(gc[c]);
+    }
+    return any > 0.0;
+}
+
+static void samples_backward(sp_renderer *r, const shade_ctx *ctx, const float *dL, shade_acc *acc,
+                             double *g_exposure)
+{
+    int S = r->set.supersample;
+    for (int py = 0; py < r->set.height; py++) {
+        for (int px = 0; px < r->set.width; px++) {
+            size_t i = (size_t)py * (size_t)r->set.width + (size_t)px;
+            double gc[3];
+            if (!pixel_adjoint(r, ctx->sc, dL, i, gc, g_exposure))
+                continue;
+            for (int j = 0; j < S; j++)
+                for (int k = 0; k < S; k++) {
+                    int sx = px * S + k, sy = py * S + j;
+                    int32_t tri = r->tri_id[(size_t)sy * (size_t)r->sw + (size_t)sx];
+                    shade_rec rec;
+                    if (tri < 0 || !shade_geometry(ctx, sx, sy, tri, &rec))
+                        continue;
+                    shade_ambient(ctx, &rec);
+                    shade_sun(ctx, &rec, ctx->sun_l, ctx->sun_I, ctx->sm);
+                    shade_backward(ctx, &rec, gc, acc);
+                }
+        }
+    }
+}
+
+/* Camera-space adjoints -> displaced world positions and the pose; the eye's adjoint -> the pose. */
+static void camera_backward(sp_renderer *r, const sp_render_scene *sc, const shade_acc *acc, sp_render_grads *gr)
+{
+    render_geom *g = &r->geo;
+    const double *R = sc->camera.R, *t = sc->camera.t;
+    for (uint32_t v = 0; v < sc->mesh->n_vertices; v++) {
+        const double *gx = g->g_xc + (size_t)v * 3, *pd = g->pd + (size_t)v * 3;
+        double tmp[3];
+        m3_tmul(R, gx, tmp);
+        v3_axpy(1.0, tmp, g->g_pd + (size_t)v * 3);
+        for (int i = 0; i < 3; i++) {
+            gr->camera_t[i] += gx[i];
+            for (int k = 0; k < 3; k++)
+                gr->camera_R[i * 3 + k] += gx[i] * pd[k];
+        }
+    }
+    /* eye = -R^T t */
+    double rg[3];
+    m3_mul(R, acc->g_eye, rg);
+    for (int i = 0; i < 3; i++) {
+        gr->camera_t[i] -= rg[i];
+        for (int k = 0; k < 3; k++)
+            gr->camera_R[i * 3 + k] -= t[i] * acc->g_eye[k];
+    }
+    gr->fx += acc->g_fx;
+    gr->fy += acc->g_fy;
+    gr->cx += acc->g_cx;
+    gr->cy += acc->g_cy;
+}
+
+static void scalars_backward(const shade_ctx *ctx, const shade_acc *acc, sp_render_grads *gr)
+{
+    for (int c = 0; c < SP_RENDER_CLUSTERS; c++) {
+        gr->ks[c] += acc->g_ks[c];
+        gr->shininess[c] += acc->g_s[c];
+    }
+    v3_normalize_backward(ctx->sun_l, ctx->sun_len, acc->g_l, gr->sun_dir);
+    gr->sun_intensity += acc->g_I;
+}
+
+int render_backward_pass(sp_renderer *r, const sp_render_scene *sc, const float *dL, sp_render_grads *gr)
+{
+    render_geom *g = &r->geo;
+    size_t nv3 = (size_t)sc->mesh->n_vertices * 3;
+    memset(g->g_pd, 0, nv3 * sizeof(double));
+    memset(g->g_nd, 0, nv3 * sizeof(double));
+    memset(g->g_xc, 0, nv3 * sizeof(double));
+    shade_ctx ctx = r->ctx;
+    ctx.sc = sc;
+    ctx.geo = g;
+    ctx.cam = &r->cam;
+    ctx.sm = sc->shadow_mode == SP_RENDER_SHADOW_OFF ? NULL : &r->sm;
+    shade_acc acc;
+    memset(&acc, 0, sizeof(acc));
+    acc.g_albedo = gr->albedo;
+    acc.g_pd = g->g_pd;
+    acc.g_nd = g->g_nd;
+    acc.g_xc = g->g_xc;
+    double g_exposure = 0.0;
+    samples_backward(r, &ctx, dL, &acc, &g_exposure);
+    gr->exposure += g_exposure;
+    camera_backward(r, sc, &acc, gr);
+    if (gr->positions || gr->displacement)
+        geom_backward(g, sc->mesh, &sc->displacement, gr->positions, sc->displacement.data ? gr->displacement : NULL);
+    if (gr->env)
+        env_project_backward(r->env_basis, acc.gL, gr->env);
+    scalars_backward(&ctx, &acc, gr);
+    return 0;
+}

@@ -1,0 +1,28 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Reverse-mode derivative of one shaded sample: from dL/d(linear radiance of
+ * the sample) back to albedo texels, SH coefficients, material, sun, camera
+ * and per-vertex accumulators (displaced positions, normals, camera-space
+ * positions). Visibility switches (which triangle, which shadow texel) are
+ * held fixed: see RENDERER.md.
+ */
+#ifndef SUNPROBE_RENDER_ADJOINT_H
+#define SUNPROBE_RENDER_ADJOINT_H
+
+#include "pipeline/render/shading.h"
+
+typedef struct shade_acc {
+    double *g_albedo;              /* 3 per texel, NULL to skip */
+    double *g_pd, *g_nd, *g_xc;    /* 3 per vertex */
+    double gL[3][ENV_SH_N];        /* SH radiance coefficients */
+    double g_ks[SP_RENDER_CLUSTERS], g_s[SP_RENDER_CLUSTERS];
+    double g_l[3];                 /* unit sun direction */
+    double g_I;                    /* sun irradiance */
+    double g_eye[3];               /* camera centre */
+    double g_fx, g_fy, g_cx, g_cy;
+} shade_acc;
+
+/* Adds the sample's contribution given gc = dL/d(rec's linear RGB). */
+void shade_backward(const shade_ctx *ctx, const shade_rec *rec, const double gc[3], shade_acc *acc);
+
+#endif

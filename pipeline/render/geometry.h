@@ -1,0 +1,49 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Mesh geometry for the renderer: per-vertex displacement along the coarse
+ * normal, area-weighted vertex normals of the displaced mesh, camera-space
+ * positions, and the adjoint of all of it back to world positions and
+ * displacement texels. Buffers are sized by capacity and reused every frame.
+ */
+#ifndef SUNPROBE_RENDER_GEOMETRY_H
+#define SUNPROBE_RENDER_GEOMETRY_H
+
+#include <stdint.h>
+
+#include "sunprobe/sp_mesh.h"
+#include "sunprobe/sp_render.h"
+
+typedef struct render_geom {
+    uint32_t cap_v, cap_t;
+    int32_t *copy_head;   /* per vertex: first distinct UV copy (index into copy_*), -1 none */
+    int32_t *copy_next;   /* per corner slot: next copy of the same vertex */
+    uint32_t *copy_uv;    /* per corner slot: the UV index of this copy */
+    uint32_t *copy_count; /* per vertex: number of distinct UV copies */
+    double *p0;  /* 3 per vertex: input positions */
+    double *h;   /* displacement per vertex, metres */
+    double *m0, *n0; /* coarse normal sums (sum of face cross products) and unit normals */
+    double *pd;  /* displaced positions */
+    double *md, *nd; /* displaced normal sums and unit normals */
+    double *xc;  /* displaced positions in camera space */
+    /* adjoint accumulators, same layout */
+    double *g_pd, *g_nd, *g_xc, *g_n0, *g_h;
+    double *g_m; /* scratch: adjoint of a normal sum */
+} render_geom;
+
+/* Grows the buffers to hold the mesh; 0 or -ENOMEM (buffers then freed, capacity 0). */
+int geom_reserve(render_geom *g, uint32_t n_vertices, uint32_t n_triangles);
+void geom_free(render_geom *g);
+
+/* Displacement (disp->data may be NULL), normals, then camera space with R, t. */
+void geom_forward(render_geom *g, const sp_mesh *mesh, const sp_render_texture *disp, const double R[9],
+                  const double t[3]);
+
+/*
+ * Adjoint: from g_pd and g_nd (displaced positions and unit normals, filled
+ * by the shading adjoint) adds dL/d(world positions) to g_positions (3 per
+ * vertex, may be NULL) and dL/d(texels) to g_disp (may be NULL).
+ */
+void geom_backward(render_geom *g, const sp_mesh *mesh, const sp_render_texture *disp, double *g_positions,
+                   double *g_disp);
+
+#endif

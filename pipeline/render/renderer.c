@@ -1,0 +1,501 @@
+/* SPDX-License-Identifier: MIT */
+/* Public entry points of the renderer: lifecycle, validation, the forward pass and the L2 loss helper. */
+#include "sunprobe/sp_render.h"
+
+#include <errno.h>
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "pipeline/render/render_internal.h"
+#include "pipeline/render/tonemap.h"
+#include "pipeline/render/vec3.h"
+
+#define MODULE "render"
+#define PASS_BASE 1
+#define PASS_SUN 2
+#define MAX_TEXTURE_SIDE 32768
+
+void sp_renderer_default_settings(sp_renderer_settings *s)
+{
+    if (!s)
+        return;
+    memset(s, 0, sizeof(*s));
+    s->width = 224;
+    s->height = 224;
+    s->supersample = 1;
+    s->shadow_size = 512;
+    s->max_sun_samples = 16;
+    s->cull_backfaces = 1;
+    s->near_plane = 0.01;
+    s->far_plane = 1e4;
+    s->max_vertices = 16384;
+    s->max_triangles = 32768;
+}
+
+void sp_render_scene_defaults(sp_render_scene *sc)
+{
+    if (!sc)
+        return;
+    memset(sc, 0, sizeof(*sc));
+    sc->camera.fx = sc->camera.fy = 200.0;
+    sc->camera.cx = sc->camera.cy = 111.5;
+    sc->camera.R[0] = sc->camera.R[4] = sc->camera.R[8] = 1.0;
+    for (int c = 0; c < SP_RENDER_CLUSTERS; c++)
+        sc->shininess[c] = 16.0;
+    sc->sun_dir[2] = 1.0;
+    sc->sun_samples = 1;
+    sc->exposure = 1.0;
+    sc->shadow_k = 800.0;
+    sc->shadow_bias = 1.0015;
+    sc->shadow_depth_offset = 10.0;
+    sc->shadow_mode = SP_RENDER_SHADOW_RENDER;
+}
+
+void sp_renderer_close(sp_renderer **pr)
+{
+    if (!pr || !*pr)
+        return;
+    sp_renderer *r = *pr;
+    float **f[] = {&r->image, &r->radiance, &r->diffuse, &r->specular, &r->ambient, &r->fill,
+                   &r->visibility, &r->normal, &r->albedo, &r->coverage, &r->bary, &r->depth};
+    for (size_t i = 0; i < sizeof(f) / sizeof(f[0]); i++)
+        free(*f[i]);
+    free(r->tri_id);
+    free(r->shadow_texel);
+    free(r->env_basis);
+    geom_free(&r->geo);
+    shadow_map_free(&r->sm);
+    free(r);
+    *pr = NULL;
+}
+
+static int bad(const char *what)
+{
+    sp_log(SP_LOG_ERROR, MODULE, "invalid %s", what);
+    return -EINVAL;
+}
+
+static int validate_settings(const sp_renderer_settings *s)
+{
+    if (s->width < 1 || s->width > 16384 || s->height < 1 || s->height > 16384)
+        return bad("settings width/height (1..16384)");
+    if (s->supersample < 1 || s->supersample > 8)
+        return bad("settings supersample (1..8)");
+    if (s->shadow_size < 16 || s->shadow_size > 8192)
+        return bad("settings shadow_size (16..8192)");
+    if (s->max_sun_samples < 1 || s->max_sun_samples > 4096)
+        return bad("settings max_sun_samples (1..4096)");
+    if (!(s->near_plane > 0.0) || !(s->far_plane > s->near_plane) || !isfinite(s->far_plane))
+        return bad("settings near/far planes (0 < near < far, finite)");
+    return 0;
+}
+
+static int alloc_buffers(sp_renderer *r)
+{
+    r->npix = (size_t)r->set.width * (size_t)r->set.height;
+    r->nsamp = (size_t)r->sw * (size_t)r->sh;
+    int ok = 1;
+    float **rgb[] = {&r->image, &r->radiance, &r->diffuse, &r->specular, &r->ambient, &r->fill, &r->normal,
+                     &r->albedo};
+    for (size_t i = 0; i < sizeof(rgb) / sizeof(rgb[0]); i++)
+        ok &= (*rgb[i] = calloc(r->npix * 3, sizeof(float))) != NULL;
+    ok &= (r->visibility = calloc(r->npix, sizeof(float))) != NULL;
+    ok &= (r->coverage = calloc(r->npix, sizeof(float))) != NULL;
+    ok &= (r->bary = calloc(r->nsamp * 3, sizeof(float))) != NULL;
+    ok &= (r->depth = calloc(r->nsamp, sizeof(float))) != NULL;
+    ok &= (r->tri_id = calloc(r->nsamp, sizeof(int32_t))) != NULL;
+    ok &= (r->shadow_texel = calloc(r->nsamp, sizeof(int32_t))) != NULL;
+    ok &= (r->env_basis = calloc((size_t)ENV_TEXELS * ENV_SH_N, sizeof(double))) != NULL;
+    return ok ? 0 : -ENOMEM;
+}
+
+int sp_renderer_open(sp_renderer **out, const sp_renderer_settings *s)
+{
+    if (!out || !s)
+        return -EINVAL;
+    *out = NULL;
+    int err = validate_settings(s);
+    if (err)
+        return err;
+    sp_renderer *r = calloc(1, sizeof(*r));
+    if (!r)
+        return -ENOMEM;
+    r->set = *s;
+    r->sw = s->width * s->supersample;
+    r->sh = s->height * s->supersample;
+    err = alloc_buffers(r);
+    if (!err)
+        err = shadow_map_init(&r->sm, s->shadow_size);
+    if (!err)
+        err = geom_reserve(&r->geo, s->max_vertices, s->max_triangles);
+    if (!err)
+        err = shadow_map_reserve(&r->sm, s->max_vertices);
+    if (err) {
+        sp_renderer_close(&r);
+        return err;
+    }
+    env_basis_init(r->env_basis);
+    *out = r;
+    return 0;
+}
+
+static int finite_n(const double *v, int n)
+{
+    for (int i = 0; i < n; i++)
+        if (!isfinite(v[i]))
+            return 0;
+    return 1;
+}
+
+static int texture_ok(int w, int h, const void *data)
+{
+    return data && w >= 1 && h >= 1 && w <= MAX_TEXTURE_SIDE && h <= MAX_TEXTURE_SIDE;
+}
+
+static int validate_camera(const sp_render_camera *c)
+{
+    if (!finite_n(&c->fx, 4) || !(c->fx > 0.0) || !(c->fy > 0.0))
+        return bad("camera intrinsics (finite, fx and fy > 0)");
+    if (!finite_n(c->R, 9) || !finite_n(c->t, 3))
+        return bad("camera pose (finite R and t)");
+    return 0;
+}
+
+static int validate_material(const sp_render_scene *sc)
+{
+    if (!texture_ok(sc->albedo.width, sc->albedo.height, sc->albedo.data))
+        return bad("albedo texture (data and size 1..32768 required)");
+    if (sc->displacement.data && !texture_ok(sc->displacement.width, sc->displacement.height, sc->displacement.data))
+        return bad("displacement texture size");
+    if (sc->clusters.data && !texture_ok(sc->clusters.width, sc->clusters.height, sc->clusters.data))
+        return bad("cluster map size");
+    for (int c = 0; c < SP_RENDER_CLUSTERS; c++)
+        if (!isfinite(sc->ks[c]) || sc->ks[c] < 0.0 || !isfinite(sc->shininess[c]))
+            return bad("ks (finite, >= 0) or shininess (finite)");
+    return 0;
+}
+
+static int validate_lighting(const sp_render_scene *sc)
+{
+    if (!finite_n(sc->sun_dir, 3) || !(v3_norm(sc->sun_dir) > 1e-12))
+        return bad("sun_dir (finite, non-zero)");
+    if (!isfinite(sc->sun_intensity) || sc->sun_intensity < 0.0)
+        return bad("sun_intensity (finite, >= 0)");
+    if (!(sc->sun_angular_radius >= 0.0 && sc->sun_angular_radius <= 0.5) || sc->sun_samples < 1)
+        return bad("area sun (angular radius 0..0.5 rad, samples >= 1)");
+    if (!isfinite(sc->exposure) || sc->exposure < 0.0 || !finite_n(sc->background, 3))
+        return bad("exposure (finite, >= 0) or background");
+    if (!isfinite(sc->shadow_k) || sc->shadow_k < 0.0 || !isfinite(sc->shadow_bias) || !(sc->shadow_bias > 0.0))
+        return bad("shadow_k (finite, >= 0) or shadow_bias (finite, > 0)");
+    if (!isfinite(sc->shadow_depth_offset) || !(sc->shadow_depth_offset > 1.0) ||
+        !finite_n(sc->shadow_center, 3) || !isfinite(sc->shadow_radius) || sc->shadow_radius < 0.0)
+        return bad("shadow frame (offset > 1, finite centre, radius >= 0)");
+    if (sc->shadow_mode < SP_RENDER_SHADOW_RENDER || sc->shadow_mode > SP_RENDER_SHADOW_OFF)
+        return bad("shadow_mode");
+    if (sc->n_lights < 0 || sc->n_lights > SP_RENDER_MAX_LIGHTS)
+        return bad("n_lights (0..SP_RENDER_MAX_LIGHTS)");
+    for (int j = 0; j < sc->n_lights; j++) {
+        const sp_render_light *l = &sc->lights[j];
+        if ((l->type != SP_RENDER_LIGHT_DIRECTIONAL && l->type != SP_RENDER_LIGHT_POINT) ||
+            !finite_n(l->vec, 3) || !finite_n(l->rgb, 3) || l->rgb[0] < 0.0 || l->rgb[1] < 0.0 ||
+            l->rgb[2] < 0.0)
+            return bad("fill light (type, finite vec, rgb >= 0)");
+    }
+    return 0;
+}
+
+static int validate_scene(const sp_render_scene *sc)
+{
+    if (!sc->mesh)
+        return bad("scene mesh (NULL)");
+    if (sp_mesh_validate(sc->mesh) != 0)
+        return bad("scene mesh (indices out of range or non-finite values)");
+    if (sc->mesh->n_triangles > (uint32_t)INT32_MAX)
+        return bad("scene mesh (too many triangles)");
+    int err = validate_camera(&sc->camera);
+    if (!err)
+        err = validate_material(sc);
+    if (!err)
+        err = validate_lighting(sc);
+    return err;
+}
+
+static int ensure_capacity(sp_renderer *r, const sp_mesh *mesh)
+{
+    if (mesh->n_vertices > r->geo.cap_v || mesh->n_triangles > r->geo.cap_t)
+        sp_log(SP_LOG_DEBUG, MODULE, "growing mesh buffers to %u vertices, %u triangles", mesh->n_vertices,
+               mesh->n_triangles);
+    int err = geom_reserve(&r->geo, mesh->n_vertices, mesh->n_triangles);
+    if (!err)
+        err = shadow_map_reserve(&r->sm, mesh->n_vertices);
+    if (err)
+        r->have_render = 0;
+    return err;
+}
+
+static int sun_sample_count(const sp_renderer *r, const sp_render_scene *sc)
+{
+    if (!(sc->sun_angular_radius > 0.0))
+        return 1;
+    return sc->sun_samples < r->set.max_sun_samples ? sc->sun_samples : r->set.max_sun_samples;
+}
+
+static void setup_frame(sp_renderer *r, const sp_render_scene *sc, int n_sun)
+{
+    const sp_render_camera *c = &sc->camera;
+    r->cam = (raster_camera){.fx = c->fx, .fy = c->fy, .cx = c->cx, .cy = c->cy,
+                             .near_plane = r->set.near_plane, .far_plane = r->set.far_plane,
+                             .supersample = r->set.supersample, .sample_width = r->sw, .sample_height = r->sh,
+                             .cull_backfaces = r->set.cull_backfaces};
+    shade_ctx *x = &r->ctx;
+    memset(x, 0, sizeof(*x));
+    x->sc = sc;
+    x->geo = &r->geo;
+    x->cam = &r->cam;
+    m3_tmul(c->R, c->t, x->eye);
+    v3_scale(x->eye, -1.0, x->eye);
+    x->sun_len = v3_normalize(sc->sun_dir, x->sun_l);
+    x->sun_I = sc->sun_intensity / (double)n_sun;
+    env_project(r->env_basis, sc->env, &x->sh);
+    x->shadow_k = sc->shadow_k;
+    x->shadow_b = sc->shadow_bias;
+    for (int k = 0; k < SP_RENDER_CLUSTERS; k++) {
+        double s = sc->shininess[k];
+        x->ks[k] = sc->ks[k];
+        x->s_clamped[k] = !(s >= SP_RENDER_SHININESS_MIN && s <= SP_RENDER_SHININESS_MAX);
+        x->s[k] = s < SP_RENDER_SHININESS_MIN ? SP_RENDER_SHININESS_MIN
+                                              : (s > SP_RENDER_SHININESS_MAX ? SP_RENDER_SHININESS_MAX : s);
+    }
+}
+
+/* The shadow map for direction l: NULL when off; the previous one for REUSE (unless force). */
+static const shadow_map *prepare_shadow(sp_renderer *r, const sp_render_scene *sc, const double l[3], int force)
+{
+    if (sc->shadow_mode == SP_RENDER_SHADOW_OFF)
+        return NULL;
+    if (sc->shadow_mode == SP_RENDER_SHADOW_REUSE && r->sm.valid && !force)
+        return &r->sm;
+    double c[3], rad;
+    if (sc->shadow_radius > 0.0) {
+        memcpy(c, sc->shadow_center, sizeof(c));
+        rad = sc->shadow_radius;
+    } else {
+        shadow_bounds(r->geo.pd, sc->mesh->n_vertices, c, &rad);
+    }
+    shadow_frame_init(&r->sm.f, l, c, rad, sc->shadow_depth_offset, r->sm.n);
+    shadow_map_render(&r->sm, r->geo.pd, sc->mesh);
+    return &r->sm;
+}
+
+static void clear_pixels(sp_renderer *r)
+{
+    size_t n3 = r->npix * 3;
+    float *rgb[] = {r->diffuse, r->specular, r->ambient, r->fill, r->normal, r->albedo};
+    for (size_t i = 0; i < sizeof(rgb) / sizeof(rgb[0]); i++)
+        memset(rgb[i], 0, n3 * sizeof(float));
+    memset(r->visibility, 0, r->npix * sizeof(float));
+    memset(r->coverage, 0, r->npix * sizeof(float));
+    for (size_t s = 0; s < r->nsamp; s++)
+        r->shadow_texel[s] = -1;
+}
+
+static void accumulate_base(sp_renderer *r, size_t p, const shade_rec *rec, double w)
+{
+    for (int c = 0; c < 3; c++) {
+        r->ambient[p * 3 + (size_t)c] += (float)(w * rec->amb[c]);
+        r->fill[p * 3 + (size_t)c] += (float)(w * rec->fill[c]);
+        r->normal[p * 3 + (size_t)c] += (float)(w * rec->n[c]);
+        r->albedo[p * 3 + (size_t)c] += (float)(w * rec->a[c]);
+    }
+    r->coverage[p] += (float)w;
+}
+
+static void accumulate_sun(sp_renderer *r, size_t p, const shade_rec *rec, double w, double wv)
+{
+    for (int c = 0; c < 3; c++) {
+        r->diffuse[p * 3 + (size_t)c] += (float)(w * rec->diff[c]);
+        r->specular[p * 3 + (size_t)c] += (float)(w * rec->spec);
+    }
+    r->visibility[p] += (float)(wv * rec->V);
+}
+
+/* One sweep over covered samples; PASS_SUN adds the sun from direction l with irradiance I. */
+static void shade_pass(sp_renderer *r, int flags, const double l[3], double I, const shadow_map *sm, double wsun)
+{
+    const shade_ctx *ctx = &r->ctx;
+    int S = r->set.supersample;
+    double w = 1.0 / (double)(S * S);
+    for (int sy = 0; sy < r->sh; sy++) {
+        for (int sx = 0; sx < r->sw; sx++) {
+            size_t s = (size_t)sy * (size_t)r->sw + (size_t)sx;
+            int32_t tri = r->tri_id[s];
+            shade_rec rec;
+            if (tri < 0)
+                continue;
+            if (!shade_geometry(ctx, sx, sy, tri, &rec)) { /* degenerate hit: treat as uncovered */
+                r->tri_id[s] = -1;
+                r->depth[s] = FLT_MAX;
+                continue;
+            }
+            size_t p = (size_t)(sy / S) * (size_t)r->set.width + (size_t)(sx / S);
+            if (flags & PASS_BASE) {
+                shade_ambient(ctx, &rec);
+                shade_fill(ctx, &rec);
+                accumulate_base(r, p, &rec, w);
+            }
+            if (flags & PASS_SUN) {
+                shade_sun(ctx, &rec, l, I, sm);
+                accumulate_sun(r, p, &rec, w, w * wsun);
+                r->shadow_texel[s] = rec.shadow.texel;
+            }
+        }
+    }
+}
+
+/* Area sun: Vogel-spiral directions over a disk of the given angular radius around l. */
+static void area_sun(sp_renderer *r, const sp_render_scene *sc, int n)
+{
+    shadow_frame basis;
+    const double *l = r->ctx.sun_l;
+    shadow_frame_init(&basis, l, l, 1.0, 2.0, 16);
+    for (int j = 0; j < n; j++) {
+        double rho = sc->sun_angular_radius * sqrt(((double)j + 0.5) / (double)n);
+        double phi = (double)j * 2.39996322972865332; /* golden angle */
+        double dir[3], u[3];
+        for (int k = 0; k < 3; k++)
+            dir[k] = cos(rho) * l[k] + sin(rho) * (cos(phi) * basis.e1[k] + sin(phi) * basis.e2[k]);
+        v3_normalize(dir, u);
+        const shadow_map *sm = prepare_shadow(r, sc, u, 1);
+        shade_pass(r, PASS_SUN, u, r->ctx.sun_I, sm, 1.0 / (double)n);
+    }
+    r->sm.valid = 0; /* the last sample's map is not the sun's: REUSE must re-render */
+}
+
+static void resolve(sp_renderer *r, const sp_render_scene *sc)
+{
+    for (size_t p = 0; p < r->npix; p++) {
+        double bgw = 1.0 - (double)r->coverage[p];
+        for (int c = 0; c < 3; c++) {
+            size_t i = p * 3 + (size_t)c;
+            double rad = (double)r->diffuse[i] + (double)r->specular[i] + (double)r->ambient[i] +
+                         (double)r->fill[i] + (bgw > 0.0 ? bgw * sc->background[c] : 0.0);
+            r->radiance[i] = (float)rad;
+            r->image[i] = (float)tonemap_eval(sc->exposure * (double)r->radiance[i], NULL);
+        }
+    }
+    for (size_t s = 0; s < r->nsamp; s++)
+        if (r->tri_id[s] < 0)
+            r->depth[s] = 0.0f;
+}
+
+static void fill_outputs(const sp_renderer *r, sp_render_outputs *out)
+{
+    *out = (sp_render_outputs){
+        .width = r->set.width, .height = r->set.height, .sample_width = r->sw, .sample_height = r->sh,
+        .image = r->image, .radiance = r->radiance, .diffuse = r->diffuse, .specular = r->specular,
+        .ambient = r->ambient, .fill = r->fill, .visibility = r->visibility, .normal = r->normal,
+        .albedo = r->albedo, .coverage = r->coverage, .tri_id = r->tri_id, .bary = r->bary,
+        .depth = r->depth, .shadow_texel = r->shadow_texel,
+    };
+}
+
+int sp_render(sp_renderer *r, const sp_render_scene *sc, sp_render_outputs *out)
+{
+    if (!r || !sc || !out)
+        return -EINVAL;
+    int err = validate_scene(sc);
+    if (!err)
+        err = ensure_capacity(r, sc->mesh);
+    if (err)
+        return err;
+    int n_sun = sun_sample_count(r, sc);
+    geom_forward(&r->geo, sc->mesh, &sc->displacement, sc->camera.R, sc->camera.t);
+    setup_frame(r, sc, n_sun);
+    raster_camera_draw(&r->cam, r->geo.xc, sc->mesh, r->tri_id, r->depth, r->bary);
+    clear_pixels(r);
+    if (n_sun == 1) {
+        r->ctx.sm = prepare_shadow(r, sc, r->ctx.sun_l, 0);
+        shade_pass(r, PASS_BASE | PASS_SUN, r->ctx.sun_l, r->ctx.sun_I, r->ctx.sm, 1.0);
+    } else {
+        shade_pass(r, PASS_BASE, r->ctx.sun_l, 0.0, NULL, 0.0);
+        area_sun(r, sc, n_sun);
+    }
+    resolve(r, sc);
+    fill_outputs(r, out);
+    r->last_mesh = sc->mesh;
+    r->last_nv = sc->mesh->n_vertices;
+    r->last_nt = sc->mesh->n_triangles;
+    r->have_render = 1;
+    r->backward_ok = n_sun == 1 && sc->n_lights == 0;
+    return 0;
+}
+
+int sp_render_backward(sp_renderer *r, const sp_render_scene *sc, const float *dL_dimage, sp_render_grads *grads)
+{
+    if (!r || !sc || !dL_dimage || !grads)
+        return -EINVAL;
+    if (!r->have_render || sc->mesh != r->last_mesh || sc->mesh->n_vertices != r->last_nv ||
+        sc->mesh->n_triangles != r->last_nt) {
+        sp_log(SP_LOG_ERROR, MODULE, "backward needs a preceding sp_render of the same scene");
+        return -EINVAL;
+    }
+    if (!r->backward_ok) {
+        sp_log(SP_LOG_ERROR, MODULE, "no gradients for an area sun or fill lights (forward only)");
+        return SP_EUNSUPPORTED;
+    }
+    return render_backward_pass(r, sc, dL_dimage, grads);
+}
+
+void sp_render_grads_zero(sp_render_grads *g, const sp_render_scene *sc)
+{
+    if (!g)
+        return;
+    sp_render_grads keep = *g;
+    memset(g, 0, sizeof(*g));
+    g->albedo = keep.albedo;
+    g->displacement = keep.displacement;
+    g->env = keep.env;
+    g->positions = keep.positions;
+    if (!sc)
+        return;
+    if (g->albedo && sc->albedo.width > 0 && sc->albedo.height > 0)
+        memset(g->albedo, 0, (size_t)sc->albedo.width * (size_t)sc->albedo.height * 3 * sizeof(double));
+    if (g->displacement && sc->displacement.width > 0 && sc->displacement.height > 0)
+        memset(g->displacement, 0,
+               (size_t)sc->displacement.width * (size_t)sc->displacement.height * sizeof(double));
+    if (g->env)
+        memset(g->env, 0, SP_RENDER_ENV_FLOATS * sizeof(double));
+    if (g->positions && sc->mesh)
+        memset(g->positions, 0, (size_t)sc->mesh->n_vertices * 3 * sizeof(double));
+}
+
+int sp_render_l2_loss(const float *image, const float *target, const float *mask, int width, int height,
+                      double *loss, float *dL_dimage)
+{
+    if (!image || !target || !loss || width < 1 || height < 1)
+        return -EINVAL;
+    size_t n = (size_t)width * (size_t)height;
+    double msum = 0.0, sum = 0.0;
+    for (size_t p = 0; p < n; p++) {
+        double m = mask ? (double)mask[p] : 1.0;
+        msum += m;
+        for (int c = 0; c < 3; c++) {
+            double d = (double)image[p * 3 + (size_t)c] - (double)target[p * 3 + (size_t)c];
+            sum += m * d * d;
+        }
+    }
+    double norm = msum > 1e-12 ? msum : 1e-12;
+    *loss = sum / norm;
+    if (!dL_dimage)
+        return 0;
+    for (size_t p = 0; p < n; p++) {
+        double m = mask ? (double)mask[p] : 1.0;
+        for (int c = 0; c < 3; c++) {
+            size_t i = p * 3 + (size_t)c;
+            dL_dimage[i] = (float)(2.0 * m * ((double)image[i] - (double)target[i]) / norm);
+        }
+    }
+    return 0;
+}

@@ -1,0 +1,191 @@
+/* SPDX-License-Identifier: MIT */
+#include "pipeline/render/shadow.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "pipeline/render/vec3.h"
+
+int shadow_map_init(shadow_map *m, int n)
+{
+    memset(m, 0, sizeof(*m));
+    m->depth = calloc((size_t)n * (size_t)n, sizeof(float));
+    if (!m->depth)
+        return -ENOMEM;
+    m->n = n;
+    return 0;
+}
+
+int shadow_map_reserve(shadow_map *m, uint32_t n_vertices)
+{
+    if (m->proj && n_vertices <= m->cap_v)
+        return 0;
+    free(m->proj);
+    m->cap_v = 0;
+    m->proj = calloc((size_t)n_vertices * 3 + 3, sizeof(double));
+    if (!m->proj)
+        return -ENOMEM;
+    m->cap_v = n_vertices;
+    return 0;
+}
+
+void shadow_map_free(shadow_map *m)
+{
+    free(m->depth);
+    free(m->proj);
+    memset(m, 0, sizeof(*m));
+}
+
+void shadow_bounds(const double *pts, uint32_t n, double c[3], double *r)
+{
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (uint32_t i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++) {
+            lo[k] = fmin(lo[k], pts[(size_t)i * 3 + k]);
+            hi[k] = fmax(hi[k], pts[(size_t)i * 3 + k]);
+        }
+    if (n == 0) {
+        v3_zero(c);
+        *r = 1.0;
+        return;
+    }
+    double half[3];
+    for (int k = 0; k < 3; k++) {
+        c[k] = 0.5 * (lo[k] + hi[k]);
+        half[k] = 0.5 * (hi[k] - lo[k]);
+    }
+    /* small margin so silhouette texels stay inside; a point cloud of one point still gets a frame */
+    double rad = v3_norm(half) * 1.001;
+    *r = rad > 1e-9 ? rad : 1e-3;
+}
+
+void shadow_frame_init(shadow_frame *f, const double l[3], const double c[3], double r, double offset, int n)
+{
+    memcpy(f->l, l, sizeof(f->l));
+    memcpy(f->c, c, sizeof(f->c));
+    /* branch-free orthonormal basis around l (continuous except across l.z = 0 sign flips) */
+    double sg = l[2] >= 0.0 ? 1.0 : -1.0;
+    double a = -1.0 / (sg + l[2]);
+    double b = l[0] * l[1] * a;
+    f->e1[0] = 1.0 + sg * l[0] * l[0] * a;
+    f->e1[1] = sg * b;
+    f->e1[2] = -sg * l[0];
+    f->e2[0] = b;
+    f->e2[1] = sg + l[1] * l[1] * a;
+    f->e2[2] = -l[1];
+    f->r = r;
+    f->offset = offset;
+    f->n = n;
+    f->scale = (double)n / (2.0 * r);
+}
+
+static void to_map(const shadow_frame *f, const double p[3], double out[3])
+{
+    double q[3];
+    v3_sub(p, f->c, q);
+    double h = 0.5 * (double)f->n - 0.5;
+    out[0] = v3_dot(q, f->e1) * f->scale + h;
+    out[1] = v3_dot(q, f->e2) * f->scale + h;
+    out[2] = f->offset - v3_dot(q, f->l) / f->r;
+}
+
+/* Twice the signed area of (a, b, p); shared edges evaluate to exact negatives, so fills are watertight. */
+static inline double edge(const double *a, const double *b, double px, double py)
+{
+    return (a[0] - px) * (b[1] - py) - (a[1] - py) * (b[0] - px);
+}
+
+static void clamp_range(double lo, double hi, int n, int *i0, int *i1)
+{
+    double a = ceil(lo), b = floor(hi);
+    *i0 = a < 0.0 ? 0 : (a > (double)n ? n : (int)a);
+    *i1 = b > (double)(n - 1) ? n - 1 : (b < -1.0 ? -1 : (int)b);
+}
+
+/* Orthographic triangle fill at texel centres, keeping the minimum depth. */
+static void fill_tri(shadow_map *m, const double *a, const double *b, const double *c)
+{
+    double area = edge(a, b, c[0], c[1]);
+    if (!(fabs(area) > 1e-12))
+        return;
+    double inv = 1.0 / area;
+    int n = m->n, ix0, ix1, iy0, iy1;
+    clamp_range(fmin(a[0], fmin(b[0], c[0])), fmax(a[0], fmax(b[0], c[0])), n, &ix0, &ix1);
+    clamp_range(fmin(a[1], fmin(b[1], c[1])), fmax(a[1], fmax(b[1], c[1])), n, &iy0, &iy1);
+    for (int y = iy0; y <= iy1; y++) {
+        double py = (double)y;
+        for (int x = ix0; x <= ix1; x++) {
+            double px = (double)x;
+            double l0 = edge(b, c, px, py) * inv, l1 = edge(c, a, px, py) * inv, l2 = edge(a, b, px, py) * inv;
+            if (l0 < 0.0 || l1 < 0.0 || l2 < 0.0)
+                continue;
+            float z = (float)((l0 * a[2] + l1 * b[2] + l2 * c[2]) / (l0 + l1 + l2));
+            float *dst = m->depth + (size_t)y * (size_t)n + (size_t)x;
+            if (z < *dst)
+                *dst = z;
+        }
+    }
+}
+
+void shadow_map_render(shadow_map *m, const double *pts, const sp_mesh *mesh)
+{
+    size_t nn = (size_t)m->n * (size_t)m->n;
+    float empty = (float)(m->f.offset + SHADOW_EMPTY_DEPTH);
+    for (size_t i = 0; i < nn; i++)
+        m->depth[i] = empty;
+    for (uint32_t v = 0; v < mesh->n_vertices; v++)
+        to_map(&m->f, pts + (size_t)v * 3, m->proj + (size_t)v * 3);
+    for (uint32_t t = 0; t < mesh->n_triangles; t++) {
+        const uint32_t *tv = mesh->tri_vertices + (size_t)t * 3;
+        fill_tri(m, m->proj + (size_t)tv[0] * 3, m->proj + (size_t)tv[1] * 3, m->proj + (size_t)tv[2] * 3);
+    }
+    m->valid = 1;
+}
+
+double shadow_sigmoid(double x, double *deriv)
+{
+    double e = exp(-fabs(x)); /* in (0, 1]: never overflows */
+    double inv = 1.0 / (1.0 + e);
+    if (deriv)
+        *deriv = e * inv * inv;
+    return x >= 0.0 ? inv : e * inv;
+}
+
+static double tap(const shadow_map *m, int x, int y, double empty)
+{
+    if (x < 0 || y < 0 || x >= m->n || y >= m->n)
+        return empty;
+    return (double)m->depth[(size_t)y * (size_t)m->n + (size_t)x];
+}
+
+void shadow_eval(const shadow_map *m, double k, double b, const double p[3], shadow_sample *out)
+{
+    const shadow_frame *f = &m->f;
+    double q[3];
+    to_map(f, p, q);
+    v3_zero(out->dVdp);
+    out->V = 1.0;
+    out->texel = -1;
+    int n = m->n;
+    /* wholly outside the map (or non-finite): nothing can shadow it */
+    if (!(q[0] > -1.0 && q[0] < (double)n && q[1] > -1.0 && q[1] < (double)n))
+        return;
+    int ix = (int)floor(q[0]), iy = (int)floor(q[1]);
+    double fx = q[0] - (double)ix, fy = q[1] - (double)iy;
+    double empty = f->offset + SHADOW_EMPTY_DEPTH;
+    double d00 = tap(m, ix, iy, empty), d10 = tap(m, ix + 1, iy, empty);
+    double d01 = tap(m, ix, iy + 1, empty), d11 = tap(m, ix + 1, iy + 1, empty);
+    double ds = (1.0 - fy) * ((1.0 - fx) * d00 + fx * d10) + fy * ((1.0 - fx) * d01 + fx * d11);
+    double dsdx = (1.0 - fy) * (d10 - d00) + fy * (d11 - d01);
+    double dsdy = (1.0 - fx) * (d01 - d00) + fx * (d11 - d10);
+    double z = k * (q[2] - b * ds), dsig;
+    out->V = shadow_sigmoid(-z, &dsig); /* 1 - sigmoid(z) */
+    out->texel = (iy + 1) * (n + 1) + (ix + 1);
+    /* dz/dp = k (-l / r - b (dsdx e1 + dsdy e2) scale); dV/dz = -sigmoid'(z) */
+    double gz = -dsig * k;
+    double gs = -gz * b * f->scale;
+    for (int i = 0; i < 3; i++)
+        out->dVdp[i] = -gz * f->l[i] / f->r + gs * (dsdx * f->e1[i] + dsdy * f->e2[i]);
+}

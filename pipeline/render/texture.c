@@ -1,0 +1,99 @@
+/* SPDX-License-Identifier: MIT */
+#include "pipeline/render/texture.h"
+
+#include <math.h>
+
+/* Continuous texel coordinate x in [0, n-1] (texel centres at integers) and its scale d x / d(uv). */
+static void axis(double coord, int n, double scale, int *i0, int *i1, double *f, double *dfd)
+{
+    double x = coord;
+    *dfd = scale;
+    if (!(x > 0.0)) { /* also catches NaN */
+        x = 0.0;
+        *dfd = 0.0;
+    } else if (x >= (double)(n - 1)) {
+        x = (double)(n - 1);
+        *dfd = 0.0;
+    }
+    int i = (int)floor(x);
+    if (i > n - 1)
+        i = n - 1;
+    *i0 = i;
+    *i1 = i + 1 < n ? i + 1 : n - 1;
+    *f = x - (double)i;
+}
+
+void tex_lookup_init(tex_lookup *t, int width, int height, double u, double v)
+{
+    int x0, x1, y0, y1;
+    double fx, fy, dfx, dfy;
+    axis(u * width - 0.5, width, (double)width, &x0, &x1, &fx, &dfx);
+    axis((1.0 - v) * height - 0.5, height, -(double)height, &y0, &y1, &fy, &dfy);
+    size_t w = (size_t)width;
+    t->idx[0] = (size_t)y0 * w + (size_t)x0;
+    t->idx[1] = (size_t)y0 * w + (size_t)x1;
+    t->idx[2] = (size_t)y1 * w + (size_t)x0;
+    t->idx[3] = (size_t)y1 * w + (size_t)x1;
+    t->wt[0] = (1.0 - fx) * (1.0 - fy);
+    t->wt[1] = fx * (1.0 - fy);
+    t->wt[2] = (1.0 - fx) * fy;
+    t->wt[3] = fx * fy;
+    t->dwdu[0] = -(1.0 - fy) * dfx;
+    t->dwdu[1] = (1.0 - fy) * dfx;
+    t->dwdu[2] = -fy * dfx;
+    t->dwdu[3] = fy * dfx;
+    t->dwdv[0] = -(1.0 - fx) * dfy;
+    t->dwdv[1] = -fx * dfy;
+    t->dwdv[2] = (1.0 - fx) * dfy;
+    t->dwdv[3] = fx * dfy;
+}
+
+void tex_sample(const tex_lookup *t, const float *data, int channels, double *out)
+{
+    for (int c = 0; c < channels; c++) {
+        double s = 0.0;
+        for (int k = 0; k < 4; k++)
+            s += t->wt[k] * (double)data[t->idx[k] * (size_t)channels + (size_t)c];
+        out[c] = s;
+    }
+}
+
+void tex_sample_duv(const tex_lookup *t, const float *data, int channels, double *du, double *dv)
+{
+    for (int c = 0; c < channels; c++) {
+        double su = 0.0, sv = 0.0;
+        for (int k = 0; k < 4; k++) {
+            double x = (double)data[t->idx[k] * (size_t)channels + (size_t)c];
+            su += t->dwdu[k] * x;
+            sv += t->dwdv[k] * x;
+        }
+        du[c] = su;
+        dv[c] = sv;
+    }
+}
+
+void tex_splat(const tex_lookup *t, double *grad, int channels, const double *g)
+{
+    for (int k = 0; k < 4; k++) {
+        if (t->wt[k] == 0.0)
+            continue;
+        for (int c = 0; c < channels; c++)
+            grad[t->idx[k] * (size_t)channels + (size_t)c] += t->wt[k] * g[c];
+    }
+}
+
+static int nearest(double x, int n)
+{
+    if (!(x > 0.0))
+        return 0;
+    if (x >= (double)(n - 1))
+        return n - 1;
+    return (int)x;
+}
+
+uint8_t tex_nearest_u8(const uint8_t *data, int width, int height, double u, double v)
+{
+    int i = nearest(u * width, width);
+    int j = nearest((1.0 - v) * height, height);
+    return data[(size_t)j * (size_t)width + (size_t)i];
+}

@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
+# The sunprobe command line end to end: synth -> info -> verify -> replay, damage -> verify
+# fails -> recover -> verify passes; bad input gets the documented exit codes.
+set -u
+SP=$1
+dir=$(mktemp -d "${TMPDIR:-/tmp}/sp-cli.XXXXXX")
+trap 'rm -rf "$dir"' EXIT
+fails=0
+
+expect() { # expected-exit-code description command...
+    local want=$1 what=$2; shift 2
+    "$@" >"$dir/out.txt" 2>"$dir/err.txt"
+    local got=$?
+    if [ "$got" -ne "$want" ]; then
+        echo "FAIL: $what: exit $got, expected $want"; sed 's/^/  | /' "$dir/out.txt" "$dir/err.txt"
+        fails=$((fails + 1))
+    fi
+}
+contains() { # file pattern description
+    grep -qE "$2" "$1" || { echo "FAIL: $3: no /$2/ in output"; sed 's/^/  | /' "$1"; fails=$((fails + 1)); }
+}
+
+cap=$dir/turn.spcap
+expect 0 "synth turn" "$SP" synth turn -o "$cap" --width 64 --height 48 --turn-seconds 2 --fps 15
+[ -f "$cap.partial" ] && { echo "FAIL: partial file left behind"; fails=$((fails + 1)); }
+expect 0 "info" "$SP" info "$cap"
+contains "$dir/out.txt" "frames\[0\]: +61 yuyv 64x48" "info frame count (4 s at 15 fps + 1)"
+contains "$dir/out.txt" "imu gyro +80[0-9] samples" "info gyro count (about 4 s at 200 Hz)"
+contains "$dir/out.txt" "closed cleanly" "info END chunk"
+contains "$dir/out.txt" "kind: +selfie" "info metadata"
+expect 0 "verify intact" "$SP" verify "$cap"
+expect 0 "replay null" "$SP" replay "$cap"
+contains "$dir/out.txt" "replay: 61 frames" "replay frame count"
+expect 0 "replay realtime fast" "$SP" replay "$cap" --realtime --speed 50
+
+for cmd in info verify recover replay import export-video synth; do
+    expect 0 "$cmd --help" "$SP" "$cmd" --help
+done
+expect 1 "no command" "$SP"
+expect 1 "unknown command" "$SP" frobnicate
+expect 1 "info without file" "$SP" info
+expect 1 "replay bad speed" "$SP" replay "$cap" --speed -1
+expect 1 "replay unknown stage" "$SP" replay "$cap" --stage nope
+
+# bad input: missing, not a capture, truncated header, newer version
+expect 3 "missing file" "$SP" info "$dir/nope.spcap"
+printf 'hello, this is not a capture at all, just text\n%.0s' {1..4} >"$dir/text.spcap"
+expect 2 "not a capture" "$SP" info "$dir/text.spcap"
+contains "$dir/err.txt" "not a sunprobe capture" "not-a-capture message"
+head -c 10 "$cap" >"$dir/short.spcap"
+expect 2 "truncated header" "$SP" verify "$dir/short.spcap"
+
+# damage one byte in the middle: verify reports it, info still summarises, recover keeps the prefix
+size=$(stat -c %s "$cap")
+cp "$cap" "$dir/damaged.spcap"
+printf '\xff' | dd of="$dir/damaged.spcap" bs=1 seek=$((size / 2)) conv=notrunc status=none
+expect 2 "verify damaged" "$SP" verify "$dir/damaged.spcap"
+contains "$dir/out.txt" "corrupt" "verify names the corruption"
+expect 0 "info damaged" "$SP" info "$dir/damaged.spcap"
+expect 2 "replay damaged without skip" "$SP" replay "$dir/damaged.spcap"
+expect 0 "replay damaged with skip" "$SP" replay "$dir/damaged.spcap" --skip-corrupt
+expect 0 "recover to copy" "$SP" recover "$dir/damaged.spcap" -o "$dir/recovered.spcap"
+expect 0 "verify recovered" "$SP" verify "$dir/recovered.spcap"
+cmp -s "$dir/damaged.spcap" "$dir/recovered.spcap" && { echo "FAIL: recover copy equals damaged input"; fails=$((fails + 1)); }
+
+# torn tail: cut the file mid-chunk, recover in place
+head -c $((size - 100)) "$cap" >"$dir/torn.spcap"
+expect 2 "verify torn" "$SP" verify "$dir/torn.spcap"
+contains "$dir/out.txt" "torn tail" "verify torn message"
+expect 0 "recover in place" "$SP" recover "$dir/torn.spcap"
+expect 0 "verify after recover" "$SP" verify "$dir/torn.spcap"
+
+[ "$fails" -eq 0 ] && echo "all CLI checks passed"
+exit $((fails > 0))

@@ -1,0 +1,395 @@
+/* SPDX-License-Identifier: MIT */
+/* `sunprobe export-video`: capture frames to numbered PNG files or to an .avi (MJPG) / .mp4 (mp4v) file. */
+#include <errno.h>
+#include <getopt.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "capture/opencv_shim.h"
+#include "capture_open.h"
+#include "cmd.h"
+#include "common/pixconv.h"
+#include "common/progress.h"
+#include "export/png.h"
+#include "sp_config.h"
+#include "sunprobe/sp_capture.h"
+#include "sunprobe/sp_meta.h"
+
+#define CMD "export-video"
+
+typedef struct export_opts {
+    const char *capture, *out;
+    uint64_t every, max_frames;
+    double scale, fps;
+    uint32_t stream;
+    int force, quiet;
+} export_opts;
+
+typedef struct exporter {
+    const export_opts *o;
+    int video;                 /* 1: one video file, 0: a directory of PNGs */
+    char *video_tmp;           /* the video is written here, renamed at the end */
+    sp_cv_video_writer *writer;
+    sp_capture_meta meta;
+    uint8_t *rgb, *scaled;
+    size_t rgb_cap, scaled_cap;
+    uint32_t out_w, out_h, src_w, src_h;
+    uint32_t *x0, *x1;         /* source column range of each output column */
+    uint64_t seen, written;    /* frames of the stream seen, exported */
+} exporter;
+
+static void usage(FILE *out)
+{
+    fprintf(out, "usage: sunprobe export-video CAPTURE -o OUT [options]\n\n"
+                 "OUT ending in .avi (MJPG) or .mp4 (mp4v) is one video file (needs OpenCV); anything else is\n"
+                 "a directory (created if needed) of frame_NNNNNN.png, numbered by frame index in the stream.\n\n"
+                 "options:\n"
+                 "  -o, --output OUT     video file or PNG directory\n"
+                 "      --every N        keep every Nth frame (default 1)\n"
+                 "      --max-frames N   stop after writing N frames\n"
+                 "      --scale S        resize by S in (0, 8] (area average when shrinking; default 1)\n"
+                 "      --fps F          video frame rate (default: camera.fps of the capture / N, else 30)\n"
+                 "      --stream ID      camera stream to export (default 0)\n"
+                 "  -f, --force          replace an existing video file\n"
+                 "  -q, --quiet          no progress bar or summary\n"
+                 "  -h, --help           this text\n");
+}
+
+static int has_ext(const char *name, const char *ext)
+{
+    size_t n = strlen(name), e = strlen(ext);
+    return n > e && strcasecmp(name + n - e, ext) == 0;
+}
+
+static int bad_value(const char *opt, const char *value)
+{
+    fprintf(stderr, "sunprobe " CMD ": bad value for %s: '%s'\n", opt, value);
+    return SP_EXIT_USAGE;
+}
+
+static int parse_number(const char *s, double lo, double hi, double *out)
+{
+    char *end = NULL;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (end == s || *end || errno || !(v >= lo && v <= hi))
+        return -EINVAL;
+    *out = v;
+    return 0;
+}
+
+enum { OPT_EVERY = 256, OPT_MAX, OPT_SCALE, OPT_FPS, OPT_STREAM };
+
+static int parse_args(int argc, char **argv, export_opts *o)
+{
+    static const struct option opts[] = {
+        { "output", required_argument, NULL, 'o' }, { "every", required_argument, NULL, OPT_EVERY },
+        { "max-frames", required_argument, NULL, OPT_MAX }, { "scale", required_argument, NULL, OPT_SCALE },
+        { "fps", required_argument, NULL, OPT_FPS }, { "stream", required_argument, NULL, OPT_STREAM },
+        { "force", no_argument, NULL, 'f' },        { "quiet", no_argument, NULL, 'q' },
+        { "help", no_argument, NULL, 'h' },         { 0 },
+    };
+    optind = 0;
+    int c;
+    double v;
+    while ((c = getopt_long(argc, argv, "o:fqh", opts, NULL)) != -1) {
+        switch (c) {
+        case 'o': o->out = optarg; break;
+        case OPT_EVERY:
+            if (parse_number(optarg, 1, 1e9, &v) || v != floor(v))
+                return bad_value("--every", optarg);
+            o->every = (uint64_t)v;
+            break;
+        case OPT_MAX:
+            if (parse_number(optarg, 1, 1e15, &v) || v != floor(v))
+                return bad_value("--max-frames", optarg);
+            o->max_frames = (uint64_t)v;
+            break;
+        case OPT_SCALE:
+            if (parse_number(optarg, 1e-6, 8, &o->scale) || o->scale <= 0)
+                return bad_value("--scale (0, 8]", optarg);
+            break;
+        case OPT_FPS:
+            if (parse_number(optarg, 1e-3, 1e4, &o->fps))
+                return bad_value("--fps", optarg);
+            break;
+        case OPT_STREAM:
+            if (parse_number(optarg, 0, 65535, &v) || v != floor(v))
+                return bad_value("--stream", optarg);
+            o->stream = (uint32_t)v;
+            break;
+        case 'f': o->force = 1; break;
+        case 'q': o->quiet = 1; break;
+        case 'h': usage(stdout); return SP_EXIT_OK;
+        default: usage(stderr); return SP_EXIT_USAGE;
+        }
+    }
+    if (optind != argc - 1 || !o->out) {
+        fprintf(stderr, "sunprobe " CMD ": %s\n", optind != argc - 1 ? "expected one CAPTURE" : "-o OUT is required");
+        usage(stderr);
+        return SP_EXIT_USAGE;
+    }
+    o->capture = argv[optind];
+    return -1;
+}
+
+static int grow(uint8_t **buf, size_t *cap, size_t need)
+{
+    if (need <= *cap)
+        return 0;
+    uint8_t *p = realloc(*buf, need);
+    if (!p)
+        return -ENOMEM;
+    *buf = p;
+    *cap = need;
+    return 0;
+}
+
+/* Output size and the column ranges of the area-average resampler, once per source size. */
+static int plan_scale(exporter *e, uint32_t w, uint32_t h)
+{
+    double s = e->o->scale;
+    uint32_t ow = (uint32_t)fmax(1.0, floor(w * s + 0.5)), oh = (uint32_t)fmax(1.0, floor(h * s + 0.5));
+    if (e->video && has_ext(e->o->out, ".mp4")) { /* MPEG-4 part 2 wants even sizes */
+        ow = ow > 2 ? ow & ~1u : 2;
+        oh = oh > 2 ? oh & ~1u : 2;
+    }
+    free(e->x0);
+    free(e->x1);
+    e->x0 = malloc(ow * sizeof(uint32_t));
+    e->x1 = malloc(ow * sizeof(uint32_t));
+    if (!e->x0 || !e->x1)
+        return -ENOMEM;
+    for (uint32_t x = 0; x < ow; x++) {
+        e->x0[x] = (uint32_t)((uint64_t)x * w / ow);
+        uint32_t end = (uint32_t)(((uint64_t)(x + 1) * w + ow - 1) / ow);
+        e->x1[x] = end > e->x0[x] ? end : e->x0[x] + 1;
+    }
+    e->src_w = w;
+    e->src_h = h;
+    e->out_w = ow;
+    e->out_h = oh;
+    return grow(&e->scaled, &e->scaled_cap, (size_t)ow * oh * 3);
+}
+
+/* Each output pixel is the mean of the source pixels its footprint covers (one pixel when enlarging). */
+static void resample(const exporter *e, const uint8_t *src, uint8_t *dst)
+{
+    uint32_t w = e->src_w, h = e->src_h, ow = e->out_w, oh = e->out_h;
+    for (uint32_t oy = 0; oy < oh; oy++) {
+        uint32_t y0 = (uint32_t)((uint64_t)oy * h / oh);
+        uint32_t y1 = (uint32_t)(((uint64_t)(oy + 1) * h + oh - 1) / oh);
+        if (y1 <= y0)
+            y1 = y0 + 1;
+        for (uint32_t ox = 0; ox < ow; ox++) {
+            uint64_t sum[3] = { 0, 0, 0 };
+            for (uint32_t y = y0; y < y1; y++)
+                for (uint32_t x = e->x0[ox]; x < e->x1[ox]; x++)
+                    for (int c = 0; c < 3; c++)
+                        sum[c] += src[((size_t)y * w + x) * 3 + c];
+            uint64_t n = (uint64_t)(y1 - y0) * (e->x1[ox] - e->x0[ox]);
+            for (int c = 0; c < 3; c++)
+                dst[((size_t)oy * ow + ox) * 3 + c] = (uint8_t)((sum[c] + n / 2) / n);
+        }
+    }
+}
+
+static double video_fps(const exporter *e)
+{
+    if (e->o->fps > 0)
+        return e->o->fps;
+    double fps = isfinite(e->meta.fps) && e->meta.fps > 0 ? e->meta.fps : 30.0;
+    fps /= (double)e->o->every;
+    return fps >= 1e-3 ? fps : 1e-3;
+}
+
+static int open_video(exporter *e)
+{
+#if HAVE_OPENCV
+    int rc = sp_cv_video_writer_open(&e->writer, e->video_tmp, e->out_w, e->out_h, video_fps(e));
+    if (rc)
+        fprintf(stderr, "sunprobe " CMD ": %s: OpenCV cannot create this video: %s\n", e->o->out, sp_strerror(rc));
+    return rc;
+#else
+    fprintf(stderr, "sunprobe " CMD ": %s: writing video needs OpenCV; rebuild with -Dopencv=enabled, or export "
+                    "PNG frames to a directory\n", e->o->out);
+    return SP_EDISABLED;
+#endif
+}
+
+static int write_frame(exporter *e, const uint8_t *rgb)
+{
+    if (e->video) {
+#if HAVE_OPENCV
+        int rc = e->writer ? 0 : open_video(e);
+        if (!rc)
+            rc = sp_cv_video_write(e->writer, rgb, e->out_w * 3);
+        return rc;
+#else
+        return open_video(e);
+#endif
+    }
+    char path[4096];
+    snprintf(path, sizeof(path), "%s/frame_%06llu.png", e->o->out, (unsigned long long)e->seen);
+    int rc = sp_png_write(path, rgb, e->out_w, e->out_h, e->out_w * 3, 3);
+    if (rc)
+        fprintf(stderr, "sunprobe " CMD ": %s: %s\n", path, sp_strerror(rc));
+    return rc;
+}
+
+static int export_frame(exporter *e, const sp_chunk *ch)
+{
+    sp_frame_chunk fc;
+    int rc = sp_chunk_parse_frame(ch, &fc);
+    if (rc) {
+        fprintf(stderr, "sunprobe " CMD ": %s: bad frame chunk at byte %llu: %s\n", e->o->capture,
+                (unsigned long long)ch->offset, sp_strerror(rc));
+        return rc;
+    }
+    if (fc.stream_id != e->o->stream)
+        return 0;
+    uint64_t index = e->seen;
+    if (index % e->o->every != 0) {
+        e->seen++;
+        return 0;
+    }
+    if (e->video && e->writer && (fc.width != e->src_w || fc.height != e->src_h)) {
+        fprintf(stderr, "sunprobe " CMD ": %s: frame %llu is %ux%u, but the video was started at %ux%u\n",
+                e->o->capture, (unsigned long long)index, fc.width, fc.height, e->src_w, e->src_h);
+        return SP_EUNSUPPORTED;
+    }
+    if (fc.width != e->src_w || fc.height != e->src_h)
+        rc = plan_scale(e, fc.width, fc.height);
+    if (!rc)
+        rc = grow(&e->rgb, &e->rgb_cap, (size_t)fc.width * fc.height * 3);
+    sp_pixconv_src src = { fc.format, fc.width, fc.height, fc.stride, fc.data, fc.data_size };
+    if (!rc)
+        rc = sp_pixconv_to_rgb24(&src, e->rgb, e->rgb_cap, fc.width * 3);
+    if (rc) {
+        fprintf(stderr, "sunprobe " CMD ": %s: frame %llu (%s) at byte %llu: %s%s\n", e->o->capture,
+                (unsigned long long)index, sp_pixfmt_name(fc.format), (unsigned long long)ch->offset,
+                sp_strerror(rc), rc == SP_EDISABLED ? " (rebuild with -Djpeg=enabled)" : "");
+        return rc;
+    }
+    const uint8_t *out = e->rgb;
+    if (e->out_w != fc.width || e->out_h != fc.height) {
+        resample(e, e->rgb, e->scaled);
+        out = e->scaled;
+    }
+    rc = write_frame(e, out);
+    e->seen++;
+    e->written += rc == 0;
+    return rc;
+}
+
+static int prepare_output(exporter *e)
+{
+    const char *out = e->o->out;
+    e->video = has_ext(out, ".avi") || has_ext(out, ".mp4");
+    if (!e->video) {
+        if (mkdir(out, 0777) != 0 && errno != EEXIST)
+            return -errno;
+        struct stat st;
+        return stat(out, &st) == 0 && S_ISDIR(st.st_mode) ? 0 : -ENOTDIR;
+    }
+#if !HAVE_OPENCV
+    return open_video(e);
+#else
+    if (!e->o->force && access(out, F_OK) == 0)
+        return -EEXIST;
+    /* "clip.avi" is written as "clip.partial.avi": OpenCV picks the container from the extension */
+    size_t n = strlen(out), ext = 4;
+    e->video_tmp = malloc(n + sizeof(".partial"));
+    if (!e->video_tmp)
+        return -ENOMEM;
+    snprintf(e->video_tmp, n + sizeof(".partial"), "%.*s.partial%s", (int)(n - ext), out, out + n - ext);
+    return 0;
+#endif
+}
+
+static int finish_video(exporter *e, int rc)
+{
+#if HAVE_OPENCV
+    if (e->writer) {
+        int crc = sp_cv_video_writer_close(&e->writer);
+        rc = rc ? rc : crc;
+    }
+#endif
+    if (!e->video_tmp)
+        return rc;
+    if (!rc && rename(e->video_tmp, e->o->out) != 0)
+        rc = -errno;
+    if (rc)
+        unlink(e->video_tmp);
+    return rc;
+}
+
+/* Reads the capture in file order, exporting frames as they come. */
+static int run(exporter *e, sp_capture_reader *r, sp_progress *bar)
+{
+    sp_chunk ch;
+    int rc;
+    while ((rc = sp_capture_reader_next(r, &ch)) == 0) {
+        if (ch.type == SP_CHUNK_META && sp_capture_meta_merge(&e->meta, (const char *)ch.payload, ch.payload_size))
+            fprintf(stderr, "sunprobe " CMD ": %s: ignoring a bad META chunk at byte %llu\n", e->o->capture,
+                    (unsigned long long)ch.offset);
+        if (ch.type == SP_CHUNK_FRAME && (rc = export_frame(e, &ch)) != 0)
+            return sp_exit_for_error(rc);
+        sp_progress_update(bar, ch.offset, NULL);
+        if (e->o->max_frames && e->written >= e->o->max_frames)
+            return SP_EXIT_OK;
+    }
+    if (rc != SP_EOS)
+        return sp_tool_capture_error(CMD, e->o->capture, rc, ch.offset);
+    return SP_EXIT_OK;
+}
+
+int sp_cmd_export_video(int argc, char **argv)
+{
+    export_opts o = { .every = 1, .scale = 1.0 };
+    int code = parse_args(argc, argv, &o);
+    if (code >= 0)
+        return code;
+    exporter e = { .o = &o };
+    sp_capture_meta_init(&e.meta);
+    sp_capture_reader *r = NULL;
+    code = sp_tool_open_capture(CMD, o.capture, 0, &r);
+    if (code)
+        return code;
+    int rc = prepare_output(&e);
+    if (rc) {
+        if (rc != SP_EDISABLED)
+            fprintf(stderr, "sunprobe " CMD ": %s: %s%s\n", o.out, sp_strerror(rc),
+                    rc == -EEXIST ? " (use --force to replace it)" : "");
+        sp_capture_reader_close(&r);
+        free(e.video_tmp);
+        return sp_exit_for_error(rc);
+    }
+    sp_progress bar;
+    sp_progress_start(&bar, CMD, sp_capture_reader_info(r)->file_size, o.quiet ? 0 : -1);
+    code = run(&e, r, &bar);
+    sp_progress_finish(&bar);
+    if (code == SP_EXIT_OK && e.written == 0) {
+        fprintf(stderr, "sunprobe " CMD ": %s: no frames in stream %u\n", o.capture, o.stream);
+        code = sp_exit_for_error(SP_ENODATA);
+    }
+    rc = finish_video(&e, code == SP_EXIT_OK ? 0 : -EIO);
+    if (rc && code == SP_EXIT_OK) {
+        fprintf(stderr, "sunprobe " CMD ": %s: %s\n", o.out, sp_strerror(rc));
+        code = sp_exit_for_error(rc);
+    }
+    if (code == SP_EXIT_OK && !o.quiet)
+        printf("%s: %llu frames %ux%u\n", o.out, (unsigned long long)e.written, e.out_w, e.out_h);
+    sp_capture_reader_close(&r);
+    free(e.video_tmp);
+    free(e.rgb);
+    free(e.scaled);
+    free(e.x0);
+    free(e.x1);
+    return code;
+}

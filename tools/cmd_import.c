@@ -1,0 +1,195 @@
+/* SPDX-License-Identifier: MIT */
+/* `sunprobe import`: image sequence or video (+ IMU CSV + frame times + metadata JSON) to a capture. */
+#include <errno.h>
+#include <getopt.h>
+#include <math.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cmd.h"
+#include "common/progress.h"
+#include "sunprobe/sp_import.h"
+
+static volatile sig_atomic_t interrupted;
+
+static void on_signal(int sig)
+{
+    (void)sig;
+    interrupted = 1;
+}
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "usage: sunprobe import INPUT -o OUT.spcap [options]\n\n"
+            "INPUT is a directory of .jpg/.jpeg/.png images (sorted by name, numbers in names compared\n"
+            "as numbers), a pattern such as shots/img_%%04d.png, one image, or a video file (OpenCV).\n"
+            "JPEG files are stored byte-for-byte; other images and video frames are re-encoded.\n\n"
+            "options:\n"
+            "  -o, --output FILE       capture to create (written as FILE.partial, renamed when complete)\n"
+            "      --fps F             frame rate for timestamps (default: frame-times CSV, the video's\n"
+            "                          rate, or camera.fps of --meta; required otherwise)\n"
+            "      --frame-times CSV   per-frame times: column t (seconds) or t_ns, one row per frame\n"
+            "      --imu CSV           IMU samples: t or t_ns, then gx,gy,gz (rad/s) ax,ay,az (m/s^2)\n"
+            "                          mx,my,mz (uT); times on the frame clock, 0 = first frame\n"
+            "      --imu-offset S      seconds added to every IMU time (default 0)\n"
+            "      --meta JSON         metadata (capture/FORMAT.md), merged with what the import knows\n"
+            "      --kind K            selfie or static (overrides the metadata's)\n"
+            "      --store M           jpeg (default) or rgb: how non-JPEG frames are stored\n"
+            "      --quality Q         JPEG quality for re-encoded frames, 1..100 (default 92)\n"
+            "      --max-frames N      stop after N frames\n"
+            "  -f, --force             replace OUT if it exists\n"
+            "  -q, --quiet             no progress bar or summary\n"
+            "  -h, --help              this text\n\n"
+            "Layouts and examples: capture/IMPORT.md.\n");
+}
+
+static int parse_double(const char *s, double *out)
+{
+    char *end = NULL;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (end == s || *end || errno || !isfinite(v))
+        return -EINVAL;
+    *out = v;
+    return 0;
+}
+
+static int parse_u64(const char *s, uint64_t *out)
+{
+    char *end = NULL;
+    errno = 0;
+    if (*s == '-')
+        return -EINVAL;
+    unsigned long long v = strtoull(s, &end, 10);
+    if (end == s || *end || errno)
+        return -EINVAL;
+    *out = v;
+    return 0;
+}
+
+static void on_progress(void *user, uint64_t done, uint64_t total)
+{
+    sp_progress *p = user;
+    if (p->total != total)
+        p->total = total;
+    sp_progress_update(p, done, NULL);
+}
+
+enum { OPT_FPS = 256, OPT_FRAME_TIMES, OPT_IMU, OPT_IMU_OFFSET, OPT_META, OPT_KIND, OPT_STORE, OPT_QUALITY,
+       OPT_MAX_FRAMES };
+
+static int bad_value(const char *opt, const char *value)
+{
+    fprintf(stderr, "sunprobe import: bad value for %s: '%s'\n", opt, value);
+    return SP_EXIT_USAGE;
+}
+
+/* Fills s from the command line; returns -1 to go on, else an exit code. */
+static int parse_args(int argc, char **argv, sp_import_settings *s, int *quiet)
+{
+    static const struct option opts[] = {
+        { "output", required_argument, NULL, 'o' },       { "fps", required_argument, NULL, OPT_FPS },
+        { "frame-times", required_argument, NULL, OPT_FRAME_TIMES }, { "imu", required_argument, NULL, OPT_IMU },
+        { "imu-offset", required_argument, NULL, OPT_IMU_OFFSET }, { "meta", required_argument, NULL, OPT_META },
+        { "kind", required_argument, NULL, OPT_KIND },    { "store", required_argument, NULL, OPT_STORE },
+        { "quality", required_argument, NULL, OPT_QUALITY }, { "max-frames", required_argument, NULL, OPT_MAX_FRAMES },
+        { "force", no_argument, NULL, 'f' },              { "quiet", no_argument, NULL, 'q' },
+        { "help", no_argument, NULL, 'h' },               { 0 },
+    };
+    optind = 0; /* full getopt reset: commands may run more than once in a process (tests) */
+    int c;
+    double q;
+    while ((c = getopt_long(argc, argv, "o:fqh", opts, NULL)) != -1) {
+        switch (c) {
+        case 'o': s->output = optarg; break;
+        case OPT_FPS:
+            if (parse_double(optarg, &s->fps) || !(s->fps > 0))
+                return bad_value("--fps", optarg);
+            break;
+        case OPT_FRAME_TIMES: s->frame_times_csv = optarg; break;
+        case OPT_IMU: s->imu_csv = optarg; break;
+        case OPT_IMU_OFFSET:
+            if (parse_double(optarg, &s->imu_offset_s))
+                return bad_value("--imu-offset", optarg);
+            break;
+        case OPT_META: s->meta_json = optarg; break;
+        case OPT_KIND: s->kind = optarg; break;
+        case OPT_STORE:
+            if (strcmp(optarg, "jpeg") && strcmp(optarg, "rgb"))
+                return bad_value("--store (jpeg or rgb)", optarg);
+            s->store = strcmp(optarg, "rgb") == 0 ? SP_IMPORT_STORE_RGB : SP_IMPORT_STORE_JPEG;
+            break;
+        case OPT_QUALITY:
+            if (parse_double(optarg, &q) || q < 1 || q > 100 || q != floor(q))
+                return bad_value("--quality (1..100)", optarg);
+            s->quality = (int)q;
+            break;
+        case OPT_MAX_FRAMES:
+            if (parse_u64(optarg, &s->max_frames) || s->max_frames == 0)
+                return bad_value("--max-frames", optarg);
+            break;
+        case 'f': s->overwrite = 1; break;
+        case 'q': *quiet = 1; break;
+        case 'h': usage(stdout); return SP_EXIT_OK;
+        default: usage(stderr); return SP_EXIT_USAGE;
+        }
+    }
+    if (optind != argc - 1 || !s->output) {
+        fprintf(stderr, "sunprobe import: %s\n", optind != argc - 1 ? "expected one INPUT" : "-o OUT is required");
+        usage(stderr);
+        return SP_EXIT_USAGE;
+    }
+    s->input = argv[optind];
+    return -1;
+}
+
+static void print_summary(const sp_import_settings *s, const sp_import_report *r)
+{
+    printf("%s: %llu frames %ux%u", s->output, (unsigned long long)r->frames, r->width, r->height);
+    if (r->fps > 0)
+        printf(" at %.6g fps", r->fps);
+    printf(", %.3f s", (double)r->last_frame_ns * 1e-9);
+    if (r->frames_copied)
+        printf(", %llu JPEG files copied as-is", (unsigned long long)r->frames_copied);
+    if (s->imu_csv)
+        printf(", %llu IMU samples in %llu chunks", (unsigned long long)r->imu_samples,
+               (unsigned long long)r->imu_chunks);
+    printf("\n");
+}
+
+int sp_cmd_import(int argc, char **argv)
+{
+    sp_import_settings s;
+    sp_import_default_settings(&s);
+    int quiet = 0;
+    int code = parse_args(argc, argv, &s, &quiet);
+    if (code >= 0)
+        return code;
+
+    sp_progress bar;
+    sp_progress_start(&bar, "import", 0, quiet ? 0 : -1);
+    s.progress = on_progress;
+    s.progress_user = &bar;
+    s.cancel = &interrupted;
+    struct sigaction sa = { .sa_handler = on_signal }, old_int, old_term;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, &old_int);
+    sigaction(SIGTERM, &sa, &old_term);
+
+    sp_import_report report;
+    int rc = sp_import_run(&s, &report);
+
+    sigaction(SIGINT, &old_int, NULL);
+    sigaction(SIGTERM, &old_term, NULL);
+    sp_progress_finish(&bar);
+    if (rc) {
+        fprintf(stderr, "sunprobe import: %s\n", report.message);
+        return sp_exit_for_error(rc);
+    }
+    if (!quiet)
+        print_summary(&s, &report);
+    return SP_EXIT_OK;
+}

@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
+# Installs what sunprobe builds and tests with, from Debian 12's archive (apt-get). Idempotent:
+# packages already present are not fetched again. Usage: tools/install-deps.sh [minimal|full]
+set -euo pipefail
+
+profile=${1:-full}
+core=(meson ninja-build pkg-config gcc g++ python3 zlib1g-dev libjpeg62-turbo-dev)
+full=(clang libclang-rt-14-dev libopencv-dev opencv-doc libopenimageio-dev libdraco-dev libeigen3-dev
+      libcamera-dev libiio-dev libdlib-dev)
+pkgs=("${core[@]}")
+[ "$profile" = full ] && pkgs+=("${full[@]}")
+
+missing=()
+for p in "${pkgs[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+[ ${#missing[@]} -eq 0 ] && { echo "install-deps: all ${#pkgs[@]} packages present"; exit 0; }
+
+as_root=()
+if [ "$(id -u)" -ne 0 ]; then
+    command -v sudo >/dev/null || { echo "install-deps: need root (or sudo) to install: ${missing[*]}" >&2; exit 3; }
+    as_root=(sudo)
+fi
+echo "install-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+"${as_root[@]}" apt-get update -qq
+"${as_root[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "install-deps: done"
