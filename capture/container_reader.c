@@ -18,7 +18,7 @@
 #include "common/crc32c.h"
 
 #define SCAN_WINDOW (64u << 10)
-#define MIN_BUFFER (64u << 10)
+#define MIN_BUFFER (4u << 10)
 
 struct sp_capture_reader {
     int fd;

@@ -21,11 +21,12 @@
 typedef struct walk {
     int fd, out_fd;        /* out_fd < 0: in place */
     uint64_t file_size;
-    uint8_t *buf;          /* COPY_BUFFER bytes */
+    uint8_t *buf;          /* buf_size bytes: the file, or COPY_BUFFER if bigger */
+    size_t buf_size;
     uint64_t pos;          /* end of the valid prefix so far */
     uint64_t chunks;       /* whole chunks before any END */
     uint64_t last_index;   /* 0 = none */
-    int64_t max_timestamp;
+    int64_t max_timestamp; /* of the chunks kept; INT64_MIN before any */
     int had_end;
 } walk;
 
@@ -33,7 +34,7 @@ typedef struct walk {
 static int stream_range(walk *w, uint64_t off, uint64_t len, uint32_t *crc)
 {
     while (len > 0) {
-        size_t n = len < COPY_BUFFER ? (size_t)len : COPY_BUFFER;
+        size_t n = len < w->buf_size ? (size_t)len : w->buf_size;
         int64_t got = spc_pread_full(w->fd, w->buf, n, off);
         if (got < 0)
             return (int)got;
@@ -97,7 +98,7 @@ static int append_end(walk *w, int fd)
     spc_put64(b + SPC_CHUNK_HDR_SIZE, w->last_index);
     spc_put64(b + SPC_CHUNK_HDR_SIZE + 8, w->chunks);
     spc_build_chunk_header(b, SP_CHUNK_END, 0, SPC_END_SIZE, sp_crc32c(0, b + SPC_CHUNK_HDR_SIZE, SPC_END_SIZE),
-                           w->max_timestamp);
+                           w->chunks ? w->max_timestamp : 0);
     return spc_pwrite_full(fd, b, sizeof(b), w->pos);
 }
 
@@ -164,6 +165,8 @@ static int run(walk *w, const char *out_path, sp_recover_report *rep)
         err = -errno;
     if (err < 0)
         return err;
+    if (w->out_fd < 0 && w->had_end && rep->bytes_dropped == 0)
+        return 0; /* a clean file: nothing was changed, nothing to sync */
     int target = w->out_fd >= 0 ? w->out_fd : w->fd;
     if (!w->had_end && (err = append_end(w, target)) < 0)
         return err;
@@ -179,7 +182,7 @@ int sp_capture_recover(const char *path, const char *out_path, sp_recover_report
     sp_recover_report scratch;
     sp_recover_report *rep = report ? report : &scratch;
     memset(rep, 0, sizeof(*rep));
-    walk w = { .fd = -1, .out_fd = -1 };
+    walk w = { .fd = -1, .out_fd = -1, .max_timestamp = INT64_MIN };
     int err = 0;
     w.fd = open(path, (out_path ? O_RDONLY : O_RDWR) | O_CLOEXEC);
     struct stat st;
@@ -188,7 +191,8 @@ int sp_capture_recover(const char *path, const char *out_path, sp_recover_report
         goto done;
     }
     w.file_size = st.st_size > 0 ? (uint64_t)st.st_size : 0;
-    if (!(w.buf = malloc(COPY_BUFFER))) {
+    w.buf_size = w.file_size < COPY_BUFFER ? (size_t)w.file_size + 1 : COPY_BUFFER;
+    if (!(w.buf = malloc(w.buf_size))) {
         err = -ENOMEM;
         goto done;
     }

@@ -25,7 +25,7 @@ struct sp_capture_writer {
     uint64_t offset;        /* end of the last whole chunk == file size */
     int broken;             /* a failed append could not be cut back: refuse further appends */
     int64_t last_sync_ns;
-    int64_t max_timestamp;  /* stamps INDEX and END chunks */
+    int64_t max_timestamp;  /* stamps INDEX and END chunks; INT64_MIN until a chunk is written */
     uint64_t chunk_count;   /* chunks written, INDEX included, END excluded */
     uint64_t prev_index;    /* offset of the last INDEX chunk, 0 = none */
     uint8_t *index;         /* pending entries, SPC_INDEX_HDR_SIZE + n * SPC_INDEX_ENTRY_SIZE bytes */
@@ -182,6 +182,12 @@ static int append_chunk(sp_capture_writer *w, uint16_t type, int64_t ts, struct 
     return sync_by_policy(w);
 }
 
+/* INDEX and END carry the largest timestamp so far, 0 before any. */
+static int64_t stamp(const sp_capture_writer *w)
+{
+    return w->max_timestamp == INT64_MIN ? 0 : w->max_timestamp;
+}
+
 static int write_index(sp_capture_writer *w)
 {
     if (!w->index || w->index_count == 0)
@@ -193,7 +199,7 @@ static int write_index(sp_capture_writer *w)
         { 0 },
         { w->index, SPC_INDEX_HDR_SIZE + (size_t)w->index_count * SPC_INDEX_ENTRY_SIZE },
     };
-    int err = append_chunk(w, SP_CHUNK_INDEX, w->max_timestamp, iov, 2);
+    int err = append_chunk(w, SP_CHUNK_INDEX, stamp(w), iov, 2);
     if (err == 0)
         w->index_count = 0;
     return err;
@@ -254,6 +260,7 @@ int sp_capture_writer_open(sp_capture_writer **out, const char *path, const sp_c
         return -ENOMEM;
     w->fd = -1;
     w->s = *s;
+    w->max_timestamp = INT64_MIN;
     if (s->index_interval) {
         w->index = malloc(SPC_INDEX_HDR_SIZE + (size_t)s->index_interval * SPC_INDEX_ENTRY_SIZE);
         if (!w->index) {
@@ -418,7 +425,7 @@ static int write_end(sp_capture_writer *w)
     spc_put64(p + 8, w->chunk_count);
     struct iovec iov[2] = { { 0 }, { p, sizeof(p) } };
     uint64_t count = w->chunk_count;
-    int err = append_chunk(w, SP_CHUNK_END, w->max_timestamp, iov, 2);
+    int err = append_chunk(w, SP_CHUNK_END, stamp(w), iov, 2);
     w->chunk_count = count; /* END is not counted */
     return err;
 }

@@ -212,3 +212,14 @@ int sp_csv_time_ns(sp_csv *c, int col_t, int col_tns, int64_t *out)
     *out = llround(t * 1e9);
     return 0;
 }
+
+int sp_csv_time_columns(sp_csv *c, int *col_t, int *col_tns)
+{
+    *col_t = sp_csv_column(c, "t");
+    *col_tns = sp_csv_column(c, "t_ns");
+    if (*col_t >= 0 && *col_tns >= 0)
+        return sp_csv_fail(c, SP_ECORRUPT, "has both 't' and 't_ns' columns; keep one");
+    if (*col_t < 0 && *col_tns < 0)
+        return sp_csv_fail(c, SP_ECORRUPT, "needs a 't' (seconds) or 't_ns' (nanoseconds) column");
+    return 0;
+}

@@ -44,6 +44,8 @@ int sp_csv_empty(const sp_csv *c, int col);
 int sp_csv_double(sp_csv *c, int col, double *out);
 /* A decimal integer from field col; SP_ECORRUPT when malformed or out of range. */
 int sp_csv_int64(sp_csv *c, int col, int64_t *out);
+/* Finds the time column: exactly one of `t` (seconds) and `t_ns` (nanoseconds), the other -1. */
+int sp_csv_time_columns(sp_csv *c, int *col_t, int *col_tns);
 /* A time in ns from a `t` (seconds) or `t_ns` column, whichever exists (col_t/col_tns, -1 if absent). */
 int sp_csv_time_ns(sp_csv *c, int col_t, int col_tns, int64_t *out);
 /* Formats "PATH:LINE: " + message into err and returns rc (for callers' own checks). */

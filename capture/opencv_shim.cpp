@@ -78,6 +78,18 @@ bool dst_fits(uint32_t w, uint32_t h, size_t dst_size, uint32_t dst_stride)
     return dst_stride >= row && (uint64_t)dst_size >= (uint64_t)(h - 1) * dst_stride + row;
 }
 
+/*
+ * File backends only: CAP_ANY would also probe camera backends (dc1394, gphoto2) for a
+ * file it cannot read, which is slow and leaks inside libusb.
+ */
+bool open_file_capture(cv::VideoCapture &cap, const char *path)
+{
+    for (int api : { cv::CAP_FFMPEG, cv::CAP_GSTREAMER })
+        if (cap.open(path, api) && cap.isOpened())
+            return true;
+    return false;
+}
+
 bool has_ext(const char *path, const char *ext)
 {
     size_t n = strlen(path), e = strlen(ext);
@@ -99,7 +111,7 @@ extern "C" int sp_cv_video_open(sp_cv_video_reader **out, const char *path, sp_c
     if (!r)
         return -ENOMEM;
     rc = guarded("open video", [&]() -> int {
-        if (!r->cap.open(path, cv::CAP_ANY) || !r->cap.isOpened())
+        if (!open_file_capture(r->cap, path))
             return SP_EFORMAT;
         if (!r->cap.read(r->bgr) || r->bgr.empty() || r->bgr.type() != CV_8UC3)
             return SP_EFORMAT;
@@ -220,8 +232,11 @@ extern "C" int sp_cv_video_writer_open(sp_cv_video_writer **out, const char *pat
     if (!w)
         return -ENOMEM;
     int rc = guarded("open video writer", [&]() -> int {
-        if (!w->out.open(path, cv::CAP_ANY, fourcc, fps, cv::Size((int)width, (int)height), true) ||
-            !w->out.isOpened())
+        cv::Size size((int)width, (int)height);
+        if (!w->out.open(path, cv::CAP_FFMPEG, fourcc, fps, size, true) &&
+            !w->out.open(path, cv::CAP_ANY, fourcc, fps, size, true))
+            return -EIO;
+        if (!w->out.isOpened())
             return -EIO;
         w->width = width;
         w->height = height;

@@ -8,12 +8,15 @@
 #include "sunprobe/sp_recorder.h"
 
 #include <errno.h>
+#include <math.h>
 #include <pthread.h>
 #include <semaphore.h>
 #include <signal.h>
+#include <stdio.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -47,6 +50,7 @@ struct sp_recorder {
     sp_recorder_end end;       /* capture thread until joined */
     int error;
     int write_error;           /* writer thread until joined */
+    uint64_t final_bytes;      /* file size after close */
 };
 
 void sp_recorder_default_settings(sp_recorder_settings *s)
@@ -74,17 +78,21 @@ static void utc_now(char *buf, size_t size)
     struct tm tm;
     clock_gettime(CLOCK_REALTIME, &ts);
     gmtime_r(&ts.tv_sec, &tm);
-    strftime(buf, size, "%Y-%m-%dT%H:%M:%SZ", &tm);
+    char secs[32];
+    strftime(secs, sizeof(secs), "%Y-%m-%dT%H:%M:%S", &tm);
+    int ms = (int)(ts.tv_nsec / 1000000) % 1000;
+    if (snprintf(buf, size, "%s.%03dZ", secs, ms) >= (int)size)
+        buf[0] = '\0';
 }
 
 static void meta_camera(sp_strbuf *b, const sp_camera_info *ci)
 {
     sp_strbuf_printf(b, "\"camera\":{\"name\":");
     sp_strbuf_json_string(b, ci->desc.name);
-    sp_strbuf_printf(b, ",\"driver\":");
-    sp_strbuf_json_string(b, ci->desc.driver);
-    sp_strbuf_printf(b, ",\"backend\":");
+    sp_strbuf_printf(b, ",\"driver\":"); /* FORMAT.md: the backend that delivered the frames */
     sp_strbuf_json_string(b, ci->desc.backend);
+    sp_strbuf_printf(b, ",\"kernel_driver\":");
+    sp_strbuf_json_string(b, ci->desc.driver);
     sp_strbuf_printf(b, ",\"id\":");
     sp_strbuf_json_string(b, ci->desc.id);
     sp_strbuf_printf(b, ",\"width\":%u,\"height\":%u,\"fps\":", ci->width, ci->height);
@@ -116,8 +124,13 @@ static int write_start_meta(sp_recorder *r)
     sp_strbuf b = { 0 };
     sp_strbuf_printf(&b, "{\"kind\":");
     sp_strbuf_json_string(&b, r->s.kind);
-    sp_strbuf_printf(&b, ",\"source\":\"sunprobe record\",\"utc_start\":\"%s\",", utc);
-    meta_camera(&b, sp_camera_get_info(r->s.camera));
+    const sp_camera_info *ci = sp_camera_get_info(r->s.camera);
+    char source[160];
+    snprintf(source, sizeof(source), "%s:%s", ci->desc.backend, ci->desc.id);
+    sp_strbuf_printf(&b, ",\"source\":");
+    sp_strbuf_json_string(&b, source);
+    sp_strbuf_printf(&b, ",\"utc_start\":\"%s\",", utc);
+    meta_camera(&b, ci);
     if (r->s.imu)
         meta_imu(&b, sp_imu_device_get_info(r->s.imu));
     sp_strbuf_printf(&b, "}");
@@ -439,7 +452,7 @@ void sp_recorder_get_stats(const sp_recorder *rc, sp_recorder_stats *st)
     st->device_dropped = sp_camera_dropped(r->s.camera);
     st->imu_samples_written = atomic_load(&r->imu_written);
     st->imu_samples_dropped = atomic_load(&r->imu_dropped);
-    st->bytes_written = sp_capture_writer_bytes(r->w);
+    st->bytes_written = r->w ? sp_capture_writer_bytes(r->w) : r->final_bytes;
     st->end = r->waited ? r->end : SP_RECORDER_RUNNING;
     st->error = r->waited ? r->error : 0;
     if (st->frames_written > 1 && r->waited)
@@ -475,13 +488,13 @@ int sp_recorder_wait(sp_recorder *r, sp_recorder_stats *stats)
         if (!r->write_error)
             write_end_meta(r, &st);
         int err = sp_capture_writer_close(&r->w);
+        struct stat sb;
+        r->final_bytes = stat(r->path, &sb) == 0 ? (uint64_t)sb.st_size : 0;
         if (err < 0 && r->error == 0 && !r->write_error)
             end_with(r, is_disk_full(err) ? SP_RECORDER_DISK_FULL : SP_RECORDER_ERROR, err);
     }
-    if (stats) {
+    if (stats)
         sp_recorder_get_stats(r, stats);
-        stats->bytes_written = stats->bytes_written ? stats->bytes_written : 0;
-    }
     return r->error;
 }
 

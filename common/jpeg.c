@@ -233,7 +233,11 @@ int sp_jpeg_available(void)
 
 static int jpeg_disabled(void)
 {
-    sp_log(SP_LOG_ERROR, "jpeg", "JPEG decoding/encoding needs libjpeg: rebuild with -Djpeg=enabled");
+    static int said; /* once per process: callers report the failure in their own words */
+    if (!said) {
+        said = 1;
+        sp_log(SP_LOG_INFO, "jpeg", "JPEG decoding/encoding needs libjpeg: rebuild with -Djpeg=enabled");
+    }
     return SP_EDISABLED;
 }
 

@@ -23,11 +23,45 @@ run_suite() { # name, meson options...
     meson test -C "$dir" --num-processes "$jobs" --print-errorlogs || status=1
 }
 
+# ---- run_vm (live capture): the vm suite. A static minimal build (V4L2 only) boots Debian's kernel
+# under qemu with the vivid driver, records inside the VM and checks the capture on the host. ----
+run_vm() {
+    local dir="build-check-vm"
+    tools/install-deps.sh vm || { status=1; return; }
+    logs+=("$dir/meson-logs/testlog.json")
+    echo "=== $dir: static minimal build, vm suite"
+    if [ ! -f "$dir/build.ninja" ]; then
+        meson setup "$dir" -Dwerror=true -Dauto_features=disabled -Dv4l2=enabled -Dvm_tests=true \
+            -Dc_link_args=-static -Dcpp_link_args=-static >"$dir.setup.log" 2>&1 || { cat "$dir.setup.log"; status=1; return; }
+    fi
+    ninja -C "$dir" -j "$jobs" tools/sunprobe tests/vm/uhid_gyro >"$dir.build.log" 2>&1 || { tail -50 "$dir.build.log"; status=1; return; }
+    meson test -C "$dir" --no-rebuild --suite vm --print-errorlogs || status=1
+}
+# ---- end run_vm ----
+
+# ---- run_cross (live capture): core + V4L2/IIO backends cross-built for aarch64, unit tests under qemu-aarch64 ----
+run_cross() {
+    local dir="build-check-cross"
+    tools/install-deps.sh cross || { status=1; return; }
+    logs+=("$dir/meson-logs/testlog.json")
+    echo "=== $dir: aarch64 cross build, unit suite under qemu-aarch64"
+    if [ ! -f "$dir/build.ninja" ]; then
+        meson setup "$dir" --cross-file cross/aarch64-linux-gnu.txt -Dwerror=true -Dauto_features=disabled \
+            -Dv4l2=enabled >"$dir.setup.log" 2>&1 || { cat "$dir.setup.log"; status=1; return; }
+    fi
+    ninja -C "$dir" -j "$jobs" >"$dir.build.log" 2>&1 || { tail -50 "$dir.build.log"; status=1; return; }
+    meson test -C "$dir" --no-rebuild --suite unit --num-processes "$jobs" --timeout-multiplier 2 \
+        --print-errorlogs || status=1
+}
+# ---- end run_cross ----
+
 export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
 export ASAN_OPTIONS=detect_leaks=1
 run_suite normal
 run_suite sanitize -Db_sanitize=address,undefined -Db_lundef=false
 run_suite minimal -Dauto_features=disabled
+run_vm
+run_cross
 
 python3 tools/test-summary.py "${logs[@]}" || status=1
 exit $status

@@ -199,6 +199,7 @@ static void resample(const exporter *e, const uint8_t *src, uint8_t *dst)
     }
 }
 
+#if HAVE_OPENCV
 static double video_fps(const exporter *e)
 {
     if (e->o->fps > 0)
@@ -210,17 +211,19 @@ static double video_fps(const exporter *e)
 
 static int open_video(exporter *e)
 {
-#if HAVE_OPENCV
     int rc = sp_cv_video_writer_open(&e->writer, e->video_tmp, e->out_w, e->out_h, video_fps(e));
     if (rc)
         fprintf(stderr, "sunprobe " CMD ": %s: OpenCV cannot create this video: %s\n", e->o->out, sp_strerror(rc));
     return rc;
+}
 #else
+static int open_video(exporter *e)
+{
     fprintf(stderr, "sunprobe " CMD ": %s: writing video needs OpenCV; rebuild with -Dopencv=enabled, or export "
                     "PNG frames to a directory\n", e->o->out);
     return SP_EDISABLED;
-#endif
 }
+#endif
 
 static int write_frame(exporter *e, const uint8_t *rgb)
 {

@@ -235,7 +235,9 @@ static void usage(FILE *out)
 {
     fprintf(out, "usage: sunprobe synth KIND [options]   (sunprobe synth KIND --help)\n\n"
                  "kinds:\n"
-                 "  turn     a person turning in place: fake camera + fake IMU with ground truth\n");
+                 "  turn     a person turning in place: fake camera + fake IMU with ground truth\n"
+                 "  street   a static camera watching people walk past occluders, with ground truth\n"
+                 "  selfie   a rendered face turning under the sun: MJPEG + IMU + landmarks + truth dir\n");
 }
 
 int sp_cmd_synth(int argc, char **argv)
@@ -250,6 +252,10 @@ int sp_cmd_synth(int argc, char **argv)
     }
     if (!strcmp(argv[1], "turn"))
         return cmd_turn(argc - 1, argv + 1);
+    if (!strcmp(argv[1], "street")) /* tools/cmd_synth_street.c */
+        return sp_cmd_synth_street(argc - 1, argv + 1);
+    if (!strcmp(argv[1], "selfie")) /* tools/cmd_synth_selfie.c */
+        return sp_cmd_synth_selfie(argc - 1, argv + 1);
     fprintf(stderr, "sunprobe synth: unknown kind '%s'\n", argv[1]);
     usage(stderr);
     return SP_EXIT_USAGE;

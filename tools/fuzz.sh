@@ -21,7 +21,7 @@ fi
 
 srcs="capture/container_writer.c capture/container_reader.c capture/container_recover.c
       common/crc32c.c common/json.c common/clock.c common/frame.c common/error.c common/log.c"
-flags="-std=c11 -D_GNU_SOURCE -g -O1 -I$root -I$root/include"
+flags="-std=c11 -D_GNU_SOURCE -D_FILE_OFFSET_BITS=64 -g -O1 -I$root -I$root/include"
 cd "$root"
 # shellcheck disable=SC2086
 "$cc" $flags -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -DSP_LIBFUZZER \

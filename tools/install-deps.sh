@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: MIT
 # Installs what sunprobe builds and tests with, from Debian 12's archive (apt-get). Idempotent:
-# packages already present are not fetched again. Usage: tools/install-deps.sh [minimal|full]
+# packages already present are not fetched again. Usage: tools/install-deps.sh [minimal|full|vm|cross]
 set -euo pipefail
 
 profile=${1:-full}
@@ -10,6 +10,12 @@ full=(clang libclang-rt-14-dev libopencv-dev opencv-doc libopenimageio-dev libdr
       libcamera-dev libiio-dev libdlib-dev)
 pkgs=("${core[@]}")
 [ "$profile" = full ] && pkgs+=("${full[@]}")
+# vm: boot Debian's kernel with vivid under qemu (kmod's depmod indexes the extracted modules)
+vm=(qemu-system-x86 busybox-static cpio kmod binutils)
+# cross: aarch64 cross compilers and qemu-user to run the unit tests
+cross=(gcc-aarch64-linux-gnu g++-aarch64-linux-gnu qemu-user)
+[ "$profile" = vm ] && pkgs+=("${vm[@]}")
+[ "$profile" = cross ] && pkgs+=("${cross[@]}")
 
 missing=()
 for p in "${pkgs[@]}"; do

@@ -15,6 +15,12 @@ static const sp_command commands[] = {
     { "import", "image sequence or video (+ IMU CSV + metadata JSON) to a capture", sp_cmd_import },
     { "export-video", "capture frames to PNG files or a video file", sp_cmd_export_video },
     { "synth", "generate a synthetic capture with ground truth", sp_cmd_synth },
+    { "fit", "rotating selfie: fit face geometry, reflectance, sun and sky (SunStage)", sp_cmd_fit },
+    { "relight", "render a fitted face directory under a new sun and sky", sp_cmd_relight },
+    { "probe", "static camera: learn occlusion, lighting, scale and shadow from passers-by", sp_cmd_probe },
+    { "composite", "insert cut-outs into a probed scene with size, occlusion, lighting, shadow", sp_cmd_composite },
+    { "devices", "list cameras (formats, sizes) and IMUs (channels, rates)", sp_cmd_devices },
+    { "record", "record a live camera (+ IMU) to a capture until the duration or Ctrl-C", sp_cmd_record },
 };
 #define N_COMMANDS (sizeof(commands) / sizeof(commands[0]))
 

@@ -47,8 +47,8 @@ typedef struct channel {
 } channel;
 
 typedef struct iio_ctx {
-    char dir[160];           /* sysfs directory of the device */
-    char devnode[64];
+    char dir[256];           /* sysfs directory of the device */
+    char devnode[96];
     channel ch[N_KINDS][3];
     int buffered;
     int fd;                  /* /dev/iio:deviceN when buffered */
@@ -64,10 +64,18 @@ typedef struct iio_ctx {
 
 /* ---- small sysfs helpers ---- */
 
+/* dir/name into path; -ENAMETOOLONG rather than a truncated path. */
+static int join(char *path, size_t size, const char *dir, const char *name)
+{
+    int n = snprintf(path, size, "%s/%s", dir, name);
+    return n < 0 || (size_t)n >= size ? -ENAMETOOLONG : 0;
+}
+
 static int read_attr(const char *dir, const char *name, char *buf, size_t size)
 {
-    char path[320];
-    snprintf(path, sizeof(path), "%s/%s", dir, name);
+    char path[384];
+    if (join(path, sizeof(path), dir, name) < 0)
+        return -ENAMETOOLONG;
     int fd = open(path, O_RDONLY | O_CLOEXEC);
     if (fd < 0)
         return -errno;
@@ -83,8 +91,9 @@ static int read_attr(const char *dir, const char *name, char *buf, size_t size)
 
 static int write_attr(const char *dir, const char *name, const char *value)
 {
-    char path[320];
-    snprintf(path, sizeof(path), "%s/%s", dir, name);
+    char path[384];
+    if (join(path, sizeof(path), dir, name) < 0)
+        return -ENAMETOOLONG;
     int fd = open(path, O_WRONLY | O_TRUNC | O_CLOEXEC);
     if (fd < 0)
         return -errno;
@@ -97,9 +106,8 @@ static int write_attr(const char *dir, const char *name, const char *value)
 
 static int attr_exists(const char *dir, const char *name)
 {
-    char path[320];
-    snprintf(path, sizeof(path), "%s/%s", dir, name);
-    return access(path, F_OK) == 0;
+    char path[384];
+    return join(path, sizeof(path), dir, name) == 0 && access(path, F_OK) == 0;
 }
 
 static int read_double(const char *dir, const char *name, double *out)
@@ -348,15 +356,16 @@ static void pick_trigger(iio_ctx *c, const char *devname, const char *id)
     if (!attr_exists(c->dir, "trigger/current_trigger") ||
         (read_attr(c->dir, "trigger/current_trigger", cur, sizeof(cur)) == 0 && cur[0]))
         return;
-    char want[96];
-    snprintf(want, sizeof(want), "%s-dev%s", devname, id + strlen("iio:device"));
+    char want[160];
+    int len = snprintf(want, sizeof(want), "%s-dev%s", devname, id + strlen("iio:device"));
+    if (len < 0 || (size_t)len >= sizeof(want))
+        return;
     DIR *d = opendir(SYSFS_ROOT);
     struct dirent *e;
     while (d && (e = readdir(d))) {
-        char tdir[320], tname[96];
-        if (strncmp(e->d_name, "trigger", 7))
+        char tdir[384], tname[96];
+        if (strncmp(e->d_name, "trigger", 7) || join(tdir, sizeof(tdir), SYSFS_ROOT, e->d_name) < 0)
             continue;
-        snprintf(tdir, sizeof(tdir), SYSFS_ROOT "/%s", e->d_name);
         if (read_attr(tdir, "name", tname, sizeof(tname)) == 0 && !strcmp(tname, want))
             (void)write_attr(c->dir, "trigger/current_trigger", tname);
     }
@@ -439,10 +448,12 @@ static int setup_polling(iio_ctx *c)
 {
     for (int k = 0; k < N_KINDS; k++)
         for (int a = 0; a < 3; a++) {
-            char path[320];
+            char path[384], name[64];
             if (!c->ch[k][a].present)
                 continue;
-            snprintf(path, sizeof(path), "%s/in_%s_%c_raw", c->dir, kinds[k].prefix, axes[a]);
+            snprintf(name, sizeof(name), "in_%s_%c_raw", kinds[k].prefix, axes[a]);
+            if (join(path, sizeof(path), c->dir, name) < 0)
+                return -ENAMETOOLONG;
             c->ch[k][a].raw_fd = open(path, O_RDONLY | O_CLOEXEC);
             if (c->ch[k][a].raw_fd < 0)
                 return -errno;
@@ -608,7 +619,7 @@ static int read_polled(iio_ctx *c, sp_imu_sample *out, size_t max, int timeout_m
     for (int k = 0; k < N_KINDS; k++)
         for (int a = 0; a < 3; a++) {
             const channel *ch = &c->ch[k][a];
-            long long raw;
+            long long raw = 0;
             if (!ch->present)
                 continue;
             int err = read_raw(ch->raw_fd, &raw);

@@ -149,7 +149,10 @@ SP_API void sp_face_params_init(sp_face_params *params);
 
 /* v for every vertex into out (3 * n_vertices doubles, caller-owned). -EINVAL for non-finite or out-of-limit params. */
 SP_API int sp_face_model_eval(const sp_face_model *model, const sp_face_params *params, double *out);
-/* Same in float, e.g. into a copy of model->mesh.positions for the renderer. */
+/*
+ * Same in float. For the renderer: sp_mesh world = model->mesh; world.positions = out;
+ * (triangles and UVs are shared, still owned by the model).
+ */
 SP_API int sp_face_model_eval_float(const sp_face_model *model, const sp_face_params *params, float *out);
 
 /* Gradient of a scalar loss; id/exp are caller arrays (n_id / n_exp), NULL to skip. */

@@ -42,7 +42,7 @@ typedef struct sp_renderer sp_renderer;
 typedef struct sp_renderer_settings {
     int width, height;      /* output image, pixels (default 224 x 224, at most 16384) */
     int supersample;        /* S: S x S samples per pixel, box filter (default 1, at most 8) */
-    int shadow_size;        /* shadow map is N x N texels (default 512, 16..8192) */
+    int shadow_size;        /* shadow map is N x N texels (default 256, 16..8192) */
     int max_sun_samples;    /* cap on scene.sun_samples for the area sun (default 16) */
     int cull_backfaces;     /* 1: skip camera-facing-away triangles (default 1); never in the shadow map */
     double near_plane;      /* camera-space z below which geometry is clipped away (default 0.01 m) */
@@ -166,7 +166,7 @@ typedef struct sp_render_grads {
     double fx, fy, cx, cy;
 } sp_render_grads;
 
-/* Fills documented defaults (224 x 224, S = 1, shadow 512, near 0.01, far 1e4). */
+/* Fills documented defaults (224 x 224, S = 1, shadow 256, near 0.01, far 1e4). */
 SP_API void sp_renderer_default_settings(sp_renderer_settings *s);
 /* Allocates every buffer; *out is owned by the caller, free with sp_renderer_close. */
 SP_API int sp_renderer_open(sp_renderer **out, const sp_renderer_settings *s);

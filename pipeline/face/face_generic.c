@@ -19,10 +19,10 @@
 #include "face_internal.h"
 
 #define NS 80          /* vertices around */
-#define NR 56          /* rings below the crown pole */
+#define NR 64          /* rings below the crown pole */
 #define PHI_END 2.86   /* polar angle of the neck's bottom ring (radians) */
 #define KAPPA_U 0.5    /* face-ward crowding of columns */
-#define KAPPA_W 0.45   /* face-ward crowding of rings */
+#define KAPPA_W 0.6    /* face-ward crowding of rings */
 #define N_ID 6
 #define N_EXP 3
 
@@ -49,7 +49,7 @@ static double smax(double a, double b, double k)
 
 static double radius_ellipsoid(const double d[3])
 {
-    double x = d[0] / 0.075, y = d[1] / 0.11, z = d[2] / 0.095;
+    double x = d[0] / 0.075, y = d[1] / 0.115, z = d[2] / 0.095;
     return 1.0 / sqrt(x * x + y * y + z * z);
 }
 
@@ -69,10 +69,10 @@ static double radius_neck(const double d[3])
 
 static double nose_offset(double x, double y)
 {
-    double s = y >= -0.035 ? fmin(1.0, fmax(0.0, (0.025 - y) / 0.06)) : exp(-0.5 * ((y + 0.035) / 0.007) * ((y + 0.035) / 0.007));
+    double s = y >= -0.028 ? fmin(1.0, fmax(0.0, (0.032 - y) / 0.06)) : exp(-0.5 * ((y + 0.028) / 0.007) * ((y + 0.028) / 0.007));
     double sx = 0.007 + 0.008 * s;
-    return 0.026 * s * exp(-0.5 * (x / sx) * (x / sx)) + 0.008 * (gauss2(x, y, -0.016, -0.035, 0.007, 0.007) +
-                                                                gauss2(x, y, 0.016, -0.035, 0.007, 0.007));
+    return 0.026 * s * exp(-0.5 * (x / sx) * (x / sx)) + 0.008 * (gauss2(x, y, -0.016, -0.029, 0.007, 0.007) +
+                                                                gauss2(x, y, 0.016, -0.029, 0.007, 0.007));
 }
 
 /* Radial face relief at frontal coordinates (x, y) of the base surface, nose excluded. */
@@ -84,11 +84,11 @@ static double relief(double x, double y)
         r += 0.006 * gauss2(x, y, side * 0.032, 0.0, 0.008, 0.006);    /* eyeball */
         r += 0.006 * gauss2(x, y, side * 0.045, -0.015, 0.018, 0.015); /* cheekbone */
     }
-    r += 0.008 * gauss2(x, y, 0, -0.060, 0.022, 0.006);   /* upper lip */
-    r += 0.007 * gauss2(x, y, 0, -0.071, 0.020, 0.006);   /* lower lip */
-    r -= 0.004 * gauss2(x, y, 0, -0.065, 0.024, 0.002);   /* mouth line */
-    r += 0.008 * gauss2(x, y, 0, -0.095, 0.018, 0.012);   /* chin */
-    r += 0.030 * gauss2(x, y, 0, -0.075, 0.050, 0.035);   /* jaw mass */
+    r += 0.008 * gauss2(x, y, 0, -0.063, 0.022, 0.006);   /* upper lip */
+    r += 0.007 * gauss2(x, y, 0, -0.075, 0.020, 0.006);   /* lower lip */
+    r -= 0.004 * gauss2(x, y, 0, -0.069, 0.024, 0.002);   /* mouth line */
+    r += 0.008 * gauss2(x, y, 0, -0.100, 0.018, 0.012);   /* chin */
+    r += 0.030 * gauss2(x, y, 0, -0.082, 0.050, 0.035);   /* jaw mass */
     return r;
 }
 
@@ -180,12 +180,13 @@ static void build_triangles(sp_mesh *mesh)
 
 /* ---- landmarks ---- */
 
+/* Landmark positions in the frontal coordinates of the base surface, where the relief is defined. */
 static void landmark_targets(double x[68], double y[68])
 {
     for (int k = 0; k <= 16; k++) { /* jaw: subject's right ear level, round the chin, to the left */
         double a = PI * k / 16.0;
         x[k] = -0.068 * cos(a);
-        y[k] = 0.005 - 0.105 * pow(sin(a), 0.8);
+        y[k] = 0.0 - 0.105 * pow(sin(a), 0.8);
     }
     for (int i = 0; i < 5; i++) { /* brows: right outer->inner, left inner->outer */
         x[17 + i] = -0.055 + 0.0105 * i;
@@ -193,9 +194,9 @@ static void landmark_targets(double x[68], double y[68])
         x[26 - i] = -x[17 + i];
         y[26 - i] = y[17 + i];
     }
-    static const double bridge_y[4] = { 0.012, -0.004, -0.020, -0.036 };
-    static const double nostril[5][2] = { { -0.016, -0.042 }, { -0.008, -0.045 }, { 0, -0.047 },
-                                          { 0.008, -0.045 }, { 0.016, -0.042 } };
+    static const double bridge_y[4] = { 0.012, -0.002, -0.015, -0.028 };
+    static const double nostril[5][2] = { { -0.016, -0.033 }, { -0.008, -0.036 }, { 0, -0.038 },
+                                          { 0.008, -0.036 }, { 0.016, -0.033 } };
     for (int i = 0; i < 4; i++) {
         x[27 + i] = 0;
         y[27 + i] = bridge_y[i];
@@ -214,10 +215,10 @@ static void landmark_targets(double x[68], double y[68])
         y[42 + i] = eye[mirror[i]][1];
     }
     static const double lips[20][2] = {
-        { -0.025, -0.065 }, { -0.016, -0.059 }, { -0.006, -0.056 }, { 0, -0.057 }, { 0.006, -0.056 },
-        { 0.016, -0.059 },  { 0.025, -0.065 },  { 0.016, -0.073 },  { 0.008, -0.077 }, { 0, -0.078 },
-        { -0.008, -0.077 }, { -0.016, -0.073 }, { -0.021, -0.065 }, { -0.008, -0.063 }, { 0, -0.063 },
-        { 0.008, -0.063 },  { 0.021, -0.065 },  { 0.008, -0.067 },  { 0, -0.067 },  { -0.008, -0.067 },
+        { -0.025, -0.069 }, { -0.016, -0.064 }, { -0.006, -0.061 }, { 0, -0.062 }, { 0.006, -0.061 },
+        { 0.016, -0.064 },  { 0.025, -0.069 },  { 0.016, -0.075 },  { 0.008, -0.078 }, { 0, -0.079 },
+        { -0.008, -0.078 }, { -0.016, -0.075 }, { -0.021, -0.069 }, { -0.008, -0.067 }, { 0, -0.067 },
+        { 0.008, -0.067 },  { 0.021, -0.069 },  { 0.008, -0.071 },  { 0, -0.071 },  { -0.008, -0.071 },
     };
     for (int i = 0; i < 20; i++) {
         x[48 + i] = lips[i][0];
@@ -225,23 +226,27 @@ static void landmark_targets(double x[68], double y[68])
     }
 }
 
-/* Nearest front-facing vertex in the frontal (x, y) projection. */
-static void pick_landmarks(sp_face_model *m, const gen_vertex *gv)
+/* Nearest front-facing vertex in frontal base coordinates, never one already taken. */
+static int pick_landmarks(sp_face_model *m, const gen_vertex *gv)
 {
     double tx[68], ty[68];
     landmark_targets(tx, ty);
     for (int j = 0; j < SP_FACE_N_LANDMARKS; j++) {
         double best = INFINITY;
         for (uint32_t i = 0; i < m->mesh.n_vertices; i++) {
-            if (gv[i].d[2] <= 0.1)
-                continue;
-            double dx = gv[i].p[0] - tx[j], dy = gv[i].p[1] - ty[j], e = dx * dx + dy * dy;
-            if (e < best) {
+            int taken = 0;
+            for (int k = 0; k < j && !taken; k++)
+                taken = m->landmarks[k] == i;
+            double dx = gv[i].fx - tx[j], dy = gv[i].fy - ty[j], e = dx * dx + dy * dy;
+            if (gv[i].d[2] > 0.1 && !taken && e < best) {
                 best = e;
                 m->landmarks[j] = i;
             }
         }
+        if (isinf(best))
+            return SP_ECORRUPT;
     }
+    return 0;
 }
 
 /* ---- modes (one-sigma identity displacements, unit-strength expressions) ---- */
@@ -321,11 +326,12 @@ int sp_face_model_generic(sp_face_model *model)
     }
     build_mesh(model, gv);
     build_triangles(&model->mesh);
-    pick_landmarks(model, gv);
+    err = pick_landmarks(model, gv);
     build_modes(model, gv);
     free(gv);
     snprintf(model->source, sizeof(model->source), "generic-head v1");
-    err = face_regions_compute(model);
+    if (!err)
+        err = face_regions_compute(model);
     if (!err)
         err = sp_face_model_validate(model);
     if (err)

@@ -75,6 +75,27 @@ static int inside_polygon(const double *px, const double *py, int n, double x, d
     return in;
 }
 
+static double segment_distance(double ax, double ay, double bx, double by, double x, double y)
+{
+    double dx = bx - ax, dy = by - ay, len2 = dx * dx + dy * dy;
+    double t = len2 > 0 ? ((x - ax) * dx + (y - ay) * dy) / len2 : 0.0;
+    t = t < 0 ? 0 : t > 1 ? 1 : t;
+    return hypot(x - ax - t * dx, y - ay - t * dy);
+}
+
+/*
+ * Inside test with a margin: > 0 grows the polygon by that distance, < 0 shrinks it, so
+ * vertices on the landmark polygon itself (the landmarks) fall on a definite side.
+ */
+static int inside_margin(const double *px, const double *py, int n, double x, double y, double margin)
+{
+    double d = INFINITY;
+    for (int i = 0, j = n - 1; i < n; j = i++)
+        d = fmin(d, segment_distance(px[j], py[j], px[i], py[i], x, y));
+    int in = inside_polygon(px, py, n, x, y);
+    return margin >= 0 ? in || d < margin : in && d > -margin;
+}
+
 static int inside_landmarks(const face_frame *f, int first, int last, double x, double y)
 {
     double px[20], py[20];
@@ -83,7 +104,7 @@ static int inside_landmarks(const face_frame *f, int first, int last, double x, 
         px[k] = f->lx[first + k];
         py[k] = f->ly[first + k];
     }
-    return inside_polygon(px, py, n, x, y);
+    return inside_margin(px, py, n, x, y, -0.02); /* lid and lip landmarks stay skin */
 }
 
 static double mean_y(const face_frame *f, int first, int last)
@@ -114,7 +135,7 @@ static int inside_face_outline(const face_frame *f, double x, double y)
     px[18] = 0.5 * f->lx[16];  py[18] = top;
     px[19] = 0.5 * f->lx[0];   py[19] = top;
     px[20] = f->lx[0];         py[20] = top - 0.15;
-    return inside_polygon(px, py, 21, x, y);
+    return inside_margin(px, py, 21, x, y, 0.02); /* the jaw landmarks are on the face */
 }
 
 static int in_front(const face_frame *f, double z)

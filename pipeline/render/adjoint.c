@@ -21,7 +21,7 @@ static void specular_backward(const shade_ctx *ctx, const shade_rec *rec, double
     double f = (s + 2.0) / (2.0 * SHADE_PI), P = rec->bl.P, nl = rec->nl, V = rec->V;
     acc->g_ks[cl] += gs * f * P * nl * I * V;
     if (!ctx->s_clamped[cl])
-        acc->g_s[cl] += gs * ks * P * nl * I * V * (1.0 / (2.0 * SHADE_PI) + f * log(rec->bl.nh));
+        acc->g_s[cl] += gs * ks * P * nl * I * V * (1.0 / (2.0 * SHADE_PI) + f * rec->bl.log_nh);
     double k = gs * ks * f;
     *g_nl += k * P * I * V;
     *g_I += k * P * nl * V;
@@ -81,19 +81,22 @@ static void bary_backward(const shade_ctx *ctx, const shade_rec *rec, const samp
     /* w0 = [d, B, C], w1 = [d, C, A], w2 = [d, A, B] */
     const double *A = g->xc + (size_t)rec->vi[0] * 3, *B = g->xc + (size_t)rec->vi[1] * 3,
                  *C = g->xc + (size_t)rec->vi[2] * 3, *d = rec->d;
-    double t[3];
-    double *gA = acc->g_xc + (size_t)rec->vi[0] * 3, *gB = acc->g_xc + (size_t)rec->vi[1] * 3,
-           *gC = acc->g_xc + (size_t)rec->vi[2] * 3;
-    v3_cross(d, C, t), v3_axpy(gw[1], t, gA);
-    v3_cross(B, d, t), v3_axpy(gw[2], t, gA);
-    v3_cross(C, d, t), v3_axpy(gw[0], t, gB);
-    v3_cross(d, A, t), v3_axpy(gw[2], t, gB);
-    v3_cross(d, B, t), v3_axpy(gw[0], t, gC);
-    v3_cross(A, d, t), v3_axpy(gw[1], t, gC);
+    /* dw0/dB = C x d, dw0/dC = d x B, and cyclically; grouped as d x (...) */
+    double q[3], t[3];
+    for (int i = 0; i < 3; i++)
+        q[i] = gw[1] * C[i] - gw[2] * B[i];
+    v3_cross(d, q, t), v3_axpy(1.0, t, acc->g_xc + (size_t)rec->vi[0] * 3);
+    for (int i = 0; i < 3; i++)
+        q[i] = gw[2] * A[i] - gw[0] * C[i];
+    v3_cross(d, q, t), v3_axpy(1.0, t, acc->g_xc + (size_t)rec->vi[1] * 3);
+    for (int i = 0; i < 3; i++)
+        q[i] = gw[0] * B[i] - gw[1] * A[i];
+    v3_cross(d, q, t), v3_axpy(1.0, t, acc->g_xc + (size_t)rec->vi[2] * 3);
+    const double *k = g->tri_k + (size_t)rec->tri * 9; /* B x C, C x A, A x B */
     double gd[3] = {0, 0, 0};
-    v3_cross(B, C, t), v3_axpy(gw[0], t, gd);
-    v3_cross(C, A, t), v3_axpy(gw[1], t, gd);
-    v3_cross(A, B, t), v3_axpy(gw[2], t, gd);
+    v3_axpy(gw[0], k, gd);
+    v3_axpy(gw[1], k + 3, gd);
+    v3_axpy(gw[2], k + 6, gd);
     /* d = ((u - cx) / fx, (v - cy) / fy, 1) */
     const raster_camera *cam = ctx->cam;
     acc->g_fx -= gd[0] * d[0] / cam->fx;
@@ -106,15 +109,15 @@ void shade_backward(const shade_ctx *ctx, const shade_rec *rec, const double gc[
 {
     sample_grad sg;
     memset(&sg, 0, sizeof(sg));
-    double gE[3], dEdn[3][3], E[3];
+    /* ambient: a / pi * E(n), E from the SH irradiance */
+    double gE[3], dEdn[3][3], E[3], y[ENV_SH_N];
+    env_irradiance(&ctx->sh, rec->n, E, dEdn, y);
     for (int c = 0; c < 3; c++) {
-        sg.a[c] += gc[c] * rec->E[c] / SHADE_PI;
+        sg.a[c] += gc[c] * E[c] / SHADE_PI;
         gE[c] = gc[c] * rec->a[c] / SHADE_PI;
-    }
-    env_irradiance_backward_L(rec->n, rec->E, gE, acc->gL);
-    env_irradiance(&ctx->sh, rec->n, E, dEdn);
-    for (int c = 0; c < 3; c++)
         v3_axpy(gE[c], dEdn[c], sg.n);
+    }
+    env_irradiance_backward_L(y, E, gE, acc->gY);
     sun_backward(ctx, rec, gc, &sg, acc);
     /* v = normalize(eye - p) */
     double g_ev[3] = {0, 0, 0};
@@ -138,9 +141,13 @@ static int pixel_adjoint(const sp_renderer *r, const sp_render_scene *sc, const 
     double e = sc->exposure, any = 0.0;
     double inv_s2 = 1.0 / (double)(r->set.supersample * r->set.supersample);
     for (int c = 0; c < 3; c++) {
-        double rad = (double)r->radiance[i * 3 + (size_t)c], deriv;
-        tonemap_eval(e * rad, &deriv);
-        double gx = (double)dL[i * 3 + (size_t)c] * deriv;
+        double g = (double)dL[i * 3 + (size_t)c];
+        if (g == 0.0) {
+            gc[c] = 0.0;
+            continue;
+        }
+        double rad = r->radiance64[i * 3 + (size_t)c];
+        double gx = g * tonemap_deriv(e * rad, r->image64[i * 3 + (size_t)c]);
         *g_exposure += gx * rad;
         gc[c] = gx * e * inv_s2;
         any += fabs(gc[c]);
@@ -165,8 +172,7 @@ static void samples_backward(sp_renderer *r, const shade_ctx *ctx, const float *
                     shade_rec rec;
                     if (tri < 0 || !shade_geometry(ctx, sx, sy, tri, &rec))
                         continue;
-                    shade_ambient(ctx, &rec);
-                    shade_sun(ctx, &rec, ctx->sun_l, ctx->sun_I, ctx->sm);
+                    shade_sun_replay(ctx, &rec, r->sun_cache + (size_t)sy * (size_t)r->sw + (size_t)sx);
                     shade_backward(ctx, &rec, gc, acc);
                 }
         }
@@ -237,8 +243,11 @@ int render_backward_pass(sp_renderer *r, const sp_render_scene *sc, const float 
     camera_backward(r, sc, &acc, gr);
     if (gr->positions || gr->displacement)
         geom_backward(g, sc->mesh, &sc->displacement, gr->positions, sc->displacement.data ? gr->displacement : NULL);
-    if (gr->env)
-        env_project_backward(r->env_basis, acc.gL, gr->env);
+    if (gr->env) {
+        double gL[3][ENV_SH_N];
+        env_weights_backward(acc.gY, gL);
+        env_project_backward(r->env_basis, gL, gr->env);
+    }
     scalars_backward(&ctx, &acc, gr);
     return 0;
 }

@@ -14,7 +14,7 @@
 typedef struct shade_acc {
     double *g_albedo;              /* 3 per texel, NULL to skip */
     double *g_pd, *g_nd, *g_xc;    /* 3 per vertex */
-    double gL[3][ENV_SH_N];        /* SH radiance coefficients */
+    double gY[3][ENV_SH_N];        /* SH coefficients before the clamped-cosine weights (envlight.h) */
     double g_ks[SP_RENDER_CLUSTERS], g_s[SP_RENDER_CLUSTERS];
     double g_l[3];                 /* unit sun direction */
     double g_I;                    /* sun irradiance */

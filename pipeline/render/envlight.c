@@ -33,25 +33,6 @@ void env_sh_eval(const double n[3], double y[ENV_SH_N])
     y[8] = K4 * (x * x - yy * yy);
 }
 
-/* dY_j/dn of the polynomials above (radial parts vanish after the normal's projection). */
-static void sh_grad(const double n[3], double g[ENV_SH_N][3])
-{
-    double x = n[0], y = n[1], z = n[2];
-    memset(g, 0, sizeof(double) * ENV_SH_N * 3);
-    g[1][1] = K1;
-    g[2][2] = K1;
-    g[3][0] = K1;
-    g[4][0] = K2 * y;
-    g[4][1] = K2 * x;
-    g[5][1] = K2 * z;
-    g[5][2] = K2 * y;
-    g[6][2] = 6.0 * K3 * z;
-    g[7][0] = K2 * z;
-    g[7][2] = K2 * x;
-    g[8][0] = 2.0 * K4 * x;
-    g[8][1] = -2.0 * K4 * y;
-}
-
 void env_texel_dir(int row, int col, double dir[3])
 {
     double theta = ((double)row + 0.5) * PI / SP_RENDER_ENV_H;
@@ -92,45 +73,54 @@ void env_project(const double *basis, const float *env, env_sh *sh)
                 sh->L[c][k] += v * b[k];
         }
     }
+    for (int c = 0; c < 3; c++)
+        for (int k = 0; k < ENV_SH_N; k++)
+            sh->C[c][k] = conv_a[k] * sh->L[c][k];
 }
 
-void env_irradiance(const env_sh *sh, const double n[3], double E[3], double dEdn[3][3])
+void env_irradiance(const env_sh *sh, const double n[3], double E[3], double dEdn[3][3], double y[ENV_SH_N])
 {
-    double y[ENV_SH_N];
-    env_sh_eval(n, y);
-    double g[ENV_SH_N][3];
-    if (dEdn)
-        sh_grad(n, g);
+    double yy[ENV_SH_N];
+    double *b = y ? y : yy;
+    env_sh_eval(n, b);
+    double x = n[0], ny = n[1], z = n[2];
     for (int c = 0; c < 3; c++) {
-        double e = 0.0;
-        for (int k = 0; k < ENV_SH_N; k++)
-            e += conv_a[k] * sh->L[c][k] * y[k];
+        const double *C = sh->C[c];
+        double e = C[0] * b[0] + C[1] * b[1] + C[2] * b[2] + C[3] * b[3] + C[4] * b[4] + C[5] * b[5] +
+                   C[6] * b[6] + C[7] * b[7] + C[8] * b[8];
         E[c] = e > 0.0 ? e : 0.0;
         if (!dEdn)
             continue;
-        dEdn[c][0] = dEdn[c][1] = dEdn[c][2] = 0.0;
-        if (!(e > 0.0))
+        if (!(e > 0.0)) {
+            dEdn[c][0] = dEdn[c][1] = dEdn[c][2] = 0.0;
             continue;
-        for (int k = 1; k < ENV_SH_N; k++) {
-            double a = conv_a[k] * sh->L[c][k];
-            dEdn[c][0] += a * g[k][0];
-            dEdn[c][1] += a * g[k][1];
-            dEdn[c][2] += a * g[k][2];
         }
+        /* gradients of the basis polynomials; radial parts vanish after the normal's projection */
+        dEdn[c][0] = K1 * C[3] + K2 * (C[4] * ny + C[7] * z) + 2.0 * K4 * C[8] * x;
+        dEdn[c][1] = K1 * C[1] + K2 * (C[4] * x + C[5] * z) - 2.0 * K4 * C[8] * ny;
+        dEdn[c][2] = K1 * C[2] + K2 * (C[5] * ny + C[7] * x) + 6.0 * K3 * C[6] * z;
     }
 }
 
-void env_irradiance_backward_L(const double n[3], const double E[3], const double gE[3],
-                               double gL[3][ENV_SH_N])
+void env_irradiance_backward_L(const double y[ENV_SH_N], const double E[3], const double gE[3],
+                               double gY[3][ENV_SH_N])
 {
-    double y[ENV_SH_N];
-    env_sh_eval(n, y);
     for (int c = 0; c < 3; c++) {
-        if (!(E[c] > 0.0) || gE[c] == 0.0)
+        if (!(E[c] > 0.0))
             continue;
-        for (int k = 0; k < ENV_SH_N; k++)
-            gL[c][k] += gE[c] * conv_a[k] * y[k];
+        double g = gE[c];
+        double *o = gY[c];
+        o[0] += g * y[0], o[1] += g * y[1], o[2] += g * y[2];
+        o[3] += g * y[3], o[4] += g * y[4], o[5] += g * y[5];
+        o[6] += g * y[6], o[7] += g * y[7], o[8] += g * y[8];
     }
+}
+
+void env_weights_backward(const double gY[3][ENV_SH_N], double gL[3][ENV_SH_N])
+{
+    for (int c = 0; c < 3; c++)
+        for (int k = 0; k < ENV_SH_N; k++)
+            gL[c][k] = conv_a[k] * gY[c][k];
 }
 
 void env_project_backward(const double *basis, const double gL[3][ENV_SH_N], double *genv)

@@ -16,6 +16,7 @@ void geom_free(render_geom *g)
         free(*d[i]);
         *d[i] = NULL;
     }
+    free(g->tri_k);
     free(g->copy_head);
     free(g->copy_next);
     free(g->copy_uv);
@@ -42,6 +43,7 @@ int geom_reserve(render_geom *g, uint32_t n_vertices, uint32_t n_triangles)
     ok &= (g->copy_count = calloc(v1, sizeof(uint32_t))) != NULL;
     ok &= (g->copy_next = calloc(c, sizeof(int32_t))) != NULL;
     ok &= (g->copy_uv = calloc(c, sizeof(uint32_t))) != NULL;
+    ok &= (g->tri_k = calloc((size_t)nt * 9 + 9, sizeof(double))) != NULL;
     if (!ok) {
         geom_free(g);
         return -ENOMEM;

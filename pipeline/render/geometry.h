@@ -25,6 +25,7 @@ typedef struct render_geom {
     double *pd;  /* displaced positions */
     double *md, *nd; /* displaced normal sums and unit normals */
     double *xc;  /* displaced positions in camera space */
+    double *tri_k; /* 9 per triangle: camera-space B x C, C x A, A x B of drawn triangles (raster.h) */
     /* adjoint accumulators, same layout */
     double *g_pd, *g_nd, *g_xc, *g_n0, *g_h;
     double *g_m; /* scratch: adjoint of a normal sum */

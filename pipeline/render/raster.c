@@ -3,26 +3,15 @@
 
 #include <float.h>
 #include <math.h>
+#include <string.h>
 
 #include "pipeline/render/vec3.h"
 
 typedef struct tri_setup {
-    double k[3][3]; /* edge-function vectors B x C, C x A, A x B, flipped so covered samples are >= 0 */
-    double abs_abc; /* |A . (B x C)| */
+    double k[9];     /* B x C, C x A, A x B as the shading caches them */
+    double kf[3][3]; /* the same, sign-flipped so covered samples are >= 0 */
+    double abs_abc;  /* |A . (B x C)| */
 } tri_setup;
-
-void raster_tri_weights(const double a[3], const double b[3], const double c[3], const double d[3],
-                        double w[3], double *sum)
-{
-    double k[3];
-    v3_cross(b, c, k);
-    w[0] = v3_dot(d, k);
-    v3_cross(c, a, k);
-    w[1] = v3_dot(d, k);
-    v3_cross(a, b, k);
-    w[2] = v3_dot(d, k);
-    *sum = w[0] + w[1] + w[2];
-}
 
 /* Sample-grid x (or y) of a camera-space point with z >= near. */
 static void project(const raster_camera *c, const double p[3], double *sx, double *sy)
@@ -57,41 +46,35 @@ static int tri_bounds(const raster_camera *c, const double *v[3], double bb[4])
         for (int j = 0; j < np; j++) {
             double x, y;
             project(c, pts[j], &x, &y);
-            bb[0] = fmin(bb[0], x), bb[1] = fmin(bb[1], y);
-            bb[2] = fmax(bb[2], x), bb[3] = fmax(bb[3], y);
+            bb[0] = dmin(bb[0], x), bb[1] = dmin(bb[1], y);
+            bb[2] = dmax(bb[2], x), bb[3] = dmax(bb[3], y);
             count++;
         }
     }
     return count > 0;
 }
 
-/* Clamped integer sample range [lo, hi] covering [a, b]; empty when lo > hi. */
-static void range(double a, double b, int n, int *lo, int *hi)
-{
-    double l = ceil(a), h = floor(b);
-    *lo = l < 0.0 ? 0 : (l > (double)n ? n : (int)l);
-    *hi = h > (double)(n - 1) ? n - 1 : (h < -1.0 ? -1 : (int)h);
-}
-
 static int tri_setup_init(const raster_camera *c, const double *v[3], tri_setup *ts)
 {
-    v3_cross(v[1], v[2], ts->k[0]);
-    v3_cross(v[2], v[0], ts->k[1]);
-    v3_cross(v[0], v[1], ts->k[2]);
-    double abc = v3_dot(v[0], ts->k[0]);
+    v3_cross(v[1], v[2], ts->k);
+    v3_cross(v[2], v[0], ts->k + 3);
+    v3_cross(v[0], v[1], ts->k + 6);
+    double abc = v3_dot(v[0], ts->k);
     if (!(abc != 0.0) || !isfinite(abc)) /* edge-on (camera in the plane) or degenerate */
         return 0;
     if (abc > 0.0 && c->cull_backfaces) /* abc < 0: the outward (CCW) side faces the camera */
         return 0;
-    if (abc > 0.0)
-        for (int i = 0; i < 3; i++)
-            v3_scale(ts->k[i], -1.0, ts->k[i]);
+    /* covered samples have w_i / sum(w) >= 0 and sum(w) of abc's sign: flip to make both positive */
+    double sg = abc < 0.0 ? -1.0 : 1.0;
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            ts->kf[i][j] = sg * ts->k[i * 3 + j];
     ts->abs_abc = fabs(abc);
     return 1;
 }
 
 static void draw_tri(const raster_camera *c, int32_t id, const double *v[3], int32_t *tri_id, float *zbuf,
-                     float *bary)
+                     float *bary, double *tri_k)
 {
     if (v[0][2] < c->near_plane && v[1][2] < c->near_plane && v[2][2] < c->near_plane)
         return;
@@ -101,22 +84,23 @@ static void draw_tri(const raster_camera *c, int32_t id, const double *v[3], int
     double bb[4];
     if (!tri_setup_init(c, v, &ts) || !tri_bounds(c, v, bb))
         return;
+    memcpy(tri_k + (size_t)id * 9, ts.k, sizeof(ts.k));
     int x0, x1, y0, y1;
-    range(bb[0], bb[2], c->sample_width, &x0, &x1);
-    range(bb[1], bb[3], c->sample_height, &y0, &y1);
+    int_range(bb[0], bb[2], c->sample_width, &x0, &x1);
+    int_range(bb[1], bb[3], c->sample_height, &y0, &y1);
     double s_min = ts.abs_abc / c->far_plane, s_max = ts.abs_abc / c->near_plane;
     for (int sy = y0; sy <= y1; sy++) {
         double d[3];
         raster_sample_ray(c, x0, sy, d);
         double base[3];
         for (int i = 0; i < 3; i++)
-            base[i] = ts.k[i][1] * d[1] + ts.k[i][2];
+            base[i] = ts.kf[i][1] * d[1] + ts.kf[i][2];
         size_t row = (size_t)sy * (size_t)c->sample_width;
         for (int sx = x0; sx <= x1; sx++) {
-            raster_sample_ray(c, sx, sy, d);
-            double w0 = ts.k[0][0] * d[0] + base[0];
-            double w1 = ts.k[1][0] * d[0] + base[1];
-            double w2 = ts.k[2][0] * d[0] + base[2];
+            double dx = (((double)sx + 0.5) * c->inv_s - 0.5 - c->cx) * c->inv_fx;
+            double w0 = ts.kf[0][0] * dx + base[0];
+            double w1 = ts.kf[1][0] * dx + base[1];
+            double w2 = ts.kf[2][0] * dx + base[2];
             if (w0 < 0.0 || w1 < 0.0 || w2 < 0.0)
                 continue;
             double s = w0 + w1 + w2;
@@ -129,15 +113,15 @@ static void draw_tri(const raster_camera *c, int32_t id, const double *v[3], int
                 continue;
             zbuf[idx] = (float)z;
             tri_id[idx] = id;
-            bary[idx * 3 + 0] = (float)(w0 / s);
-            bary[idx * 3 + 1] = (float)(w1 / s);
-            bary[idx * 3 + 2] = (float)(w2 / s);
+            bary[idx * 3 + 0] = to_float(w0 / s);
+            bary[idx * 3 + 1] = to_float(w1 / s);
+            bary[idx * 3 + 2] = to_float(w2 / s);
         }
     }
 }
 
 void raster_camera_draw(const raster_camera *c, const double *xc, const sp_mesh *mesh, int32_t *tri_id,
-                        float *zbuf, float *bary)
+                        float *zbuf, float *bary, double *tri_k)
 {
     size_t n = (size_t)c->sample_width * (size_t)c->sample_height;
     for (size_t i = 0; i < n; i++) {
@@ -148,6 +132,6 @@ void raster_camera_draw(const raster_camera *c, const double *xc, const sp_mesh 
     for (uint32_t t = 0; t < mesh->n_triangles; t++) {
         const uint32_t *tv = mesh->tri_vertices + (size_t)t * 3;
         const double *v[3] = {xc + (size_t)tv[0] * 3, xc + (size_t)tv[1] * 3, xc + (size_t)tv[2] * 3};
-        draw_tri(c, (int32_t)t, v, tri_id, zbuf, bary);
+        draw_tri(c, (int32_t)t, v, tri_id, zbuf, bary, tri_k);
     }
 }

@@ -19,8 +19,10 @@ struct sp_renderer {
     size_t npix, nsamp;
     /* per pixel */
     float *image, *radiance, *diffuse, *specular, *ambient, *fill, *visibility, *normal, *albedo, *coverage;
+    double *radiance64, *image64; /* double twins: the adjoint's reference, float outputs are their rounding */
     /* per sample */
     int32_t *tri_id, *shadow_texel;
+    sun_cache *sun_cache;  /* forward sun terms the adjoint reuses */
     float *bary, *depth;
     render_geom geo;
     shadow_map sm;
@@ -33,6 +35,12 @@ struct sp_renderer {
     int have_render;
     int backward_ok;       /* 0 after a render with forward-only features */
 };
+
+/*
+ * The last render's display image in double (3 per pixel): what the adjoint
+ * differentiates exactly; the float output is its rounding. For tests.
+ */
+const double *render_image_f64(const sp_renderer *r);
 
 /* The adjoint pass (adjoint.c); arguments already validated. */
 int render_backward_pass(sp_renderer *r, const sp_render_scene *sc, const float *dL, sp_render_grads *gr);

@@ -25,7 +25,7 @@ void sp_renderer_default_settings(sp_renderer_settings *s)
     s->width = 224;
     s->height = 224;
     s->supersample = 1;
-    s->shadow_size = 512;
+    s->shadow_size = 256;
     s->max_sun_samples = 16;
     s->cull_backfaces = 1;
     s->near_plane = 0.01;
@@ -62,6 +62,9 @@ void sp_renderer_close(sp_renderer **pr)
                    &r->visibility, &r->normal, &r->albedo, &r->coverage, &r->bary, &r->depth};
     for (size_t i = 0; i < sizeof(f) / sizeof(f[0]); i++)
         free(*f[i]);
+    free(r->radiance64);
+    free(r->image64);
+    free(r->sun_cache);
     free(r->tri_id);
     free(r->shadow_texel);
     free(r->env_basis);
@@ -101,11 +104,14 @@ static int alloc_buffers(sp_renderer *r)
                      &r->albedo};
     for (size_t i = 0; i < sizeof(rgb) / sizeof(rgb[0]); i++)
         ok &= (*rgb[i] = calloc(r->npix * 3, sizeof(float))) != NULL;
+    ok &= (r->radiance64 = calloc(r->npix * 3, sizeof(double))) != NULL;
+    ok &= (r->image64 = calloc(r->npix * 3, sizeof(double))) != NULL;
     ok &= (r->visibility = calloc(r->npix, sizeof(float))) != NULL;
     ok &= (r->coverage = calloc(r->npix, sizeof(float))) != NULL;
     ok &= (r->bary = calloc(r->nsamp * 3, sizeof(float))) != NULL;
     ok &= (r->depth = calloc(r->nsamp, sizeof(float))) != NULL;
     ok &= (r->tri_id = calloc(r->nsamp, sizeof(int32_t))) != NULL;
+    ok &= (r->sun_cache = calloc(r->nsamp, sizeof(sun_cache))) != NULL;
     ok &= (r->shadow_texel = calloc(r->nsamp, sizeof(int32_t))) != NULL;
     ok &= (r->env_basis = calloc((size_t)ENV_TEXELS * ENV_SH_N, sizeof(double))) != NULL;
     return ok ? 0 : -ENOMEM;
@@ -245,7 +251,8 @@ static int sun_sample_count(const sp_renderer *r, const sp_render_scene *sc)
 static void setup_frame(sp_renderer *r, const sp_render_scene *sc, int n_sun)
 {
     const sp_render_camera *c = &sc->camera;
-    r->cam = (raster_camera){.fx = c->fx, .fy = c->fy, .cx = c->cx, .cy = c->cy,
+    r->cam = (raster_camera){.fx = c->fx, .fy = c->fy, .cx = c->cx, .cy = c->cy, .inv_fx = 1.0 / c->fx,
+                             .inv_fy = 1.0 / c->fy, .inv_s = 1.0 / (double)r->set.supersample,
                              .near_plane = r->set.near_plane, .far_plane = r->set.far_plane,
                              .supersample = r->set.supersample, .sample_width = r->sw, .sample_height = r->sh,
                              .cull_backfaces = r->set.cull_backfaces};
@@ -295,6 +302,7 @@ static void clear_pixels(sp_renderer *r)
     float *rgb[] = {r->diffuse, r->specular, r->ambient, r->fill, r->normal, r->albedo};
     for (size_t i = 0; i < sizeof(rgb) / sizeof(rgb[0]); i++)
         memset(rgb[i], 0, n3 * sizeof(float));
+    memset(r->radiance64, 0, n3 * sizeof(double));
     memset(r->visibility, 0, r->npix * sizeof(float));
     memset(r->coverage, 0, r->npix * sizeof(float));
     for (size_t s = 0; s < r->nsamp; s++)
@@ -304,10 +312,12 @@ static void clear_pixels(sp_renderer *r)
 static void accumulate_base(sp_renderer *r, size_t p, const shade_rec *rec, double w)
 {
     for (int c = 0; c < 3; c++) {
-        r->ambient[p * 3 + (size_t)c] += (float)(w * rec->amb[c]);
-        r->fill[p * 3 + (size_t)c] += (float)(w * rec->fill[c]);
-        r->normal[p * 3 + (size_t)c] += (float)(w * rec->n[c]);
-        r->albedo[p * 3 + (size_t)c] += (float)(w * rec->a[c]);
+        r->radiance64[p * 3 + (size_t)c] += w * (rec->amb[c] + rec->fill[c]);
+        r->ambient[p * 3 + (size_t)c] += to_float(w * rec->amb[c]);
+        if (rec->fill[c] != 0.0)
+            r->fill[p * 3 + (size_t)c] += to_float(w * rec->fill[c]);
+        r->normal[p * 3 + (size_t)c] += to_float(w * rec->n[c]);
+        r->albedo[p * 3 + (size_t)c] += to_float(w * rec->a[c]);
     }
     r->coverage[p] += (float)w;
 }
@@ -315,10 +325,11 @@ static void accumulate_base(sp_renderer *r, size_t p, const shade_rec *rec, doub
 static void accumulate_sun(sp_renderer *r, size_t p, const shade_rec *rec, double w, double wv)
 {
     for (int c = 0; c < 3; c++) {
-        r->diffuse[p * 3 + (size_t)c] += (float)(w * rec->diff[c]);
-        r->specular[p * 3 + (size_t)c] += (float)(w * rec->spec);
+        r->radiance64[p * 3 + (size_t)c] += w * (rec->diff[c] + rec->spec);
+        r->diffuse[p * 3 + (size_t)c] += to_float(w * rec->diff[c]);
+        r->specular[p * 3 + (size_t)c] += to_float(w * rec->spec);
     }
-    r->visibility[p] += (float)(wv * rec->V);
+    r->visibility[p] += to_float(wv * rec->V);
 }
 
 /* One sweep over covered samples; PASS_SUN adds the sun from direction l with irradiance I. */
@@ -342,11 +353,12 @@ static void shade_pass(sp_renderer *r, int flags, const double l[3], double I, c
             size_t p = (size_t)(sy / S) * (size_t)r->set.width + (size_t)(sx / S);
             if (flags & PASS_BASE) {
                 shade_ambient(ctx, &rec);
-                shade_fill(ctx, &rec);
+                if (ctx->sc->n_lights)
+                    shade_fill(ctx, &rec);
                 accumulate_base(r, p, &rec, w);
             }
             if (flags & PASS_SUN) {
-                shade_sun(ctx, &rec, l, I, sm);
+                shade_sun(ctx, &rec, l, I, sm, r->sun_cache + s);
                 accumulate_sun(r, p, &rec, w, w * wsun);
                 r->shadow_texel[s] = rec.shadow.texel;
             }
@@ -375,19 +387,28 @@ static void area_sun(sp_renderer *r, const sp_render_scene *sc, int n)
 
 static void resolve(sp_renderer *r, const sp_render_scene *sc)
 {
+    double bg_img[3]; /* most uncovered pixels share it: one pow each */
+    for (int c = 0; c < 3; c++)
+        bg_img[c] = tonemap_eval(sc->exposure * sc->background[c], NULL);
     for (size_t p = 0; p < r->npix; p++) {
         double bgw = 1.0 - (double)r->coverage[p];
         for (int c = 0; c < 3; c++) {
             size_t i = p * 3 + (size_t)c;
-            double rad = (double)r->diffuse[i] + (double)r->specular[i] + (double)r->ambient[i] +
-                         (double)r->fill[i] + (bgw > 0.0 ? bgw * sc->background[c] : 0.0);
-            r->radiance[i] = (float)rad;
-            r->image[i] = (float)tonemap_eval(sc->exposure * (double)r->radiance[i], NULL);
+            if (bgw > 0.0)
+                r->radiance64[i] += bgw * sc->background[c];
+            r->image64[i] = bgw == 1.0 ? bg_img[c] : tonemap_eval(sc->exposure * r->radiance64[i], NULL);
+            r->radiance[i] = to_float(r->radiance64[i]);
+            r->image[i] = to_float(r->image64[i]);
         }
     }
     for (size_t s = 0; s < r->nsamp; s++)
         if (r->tri_id[s] < 0)
             r->depth[s] = 0.0f;
+}
+
+const double *render_image_f64(const sp_renderer *r)
+{
+    return r ? r->image64 : NULL;
 }
 
 static void fill_outputs(const sp_renderer *r, sp_render_outputs *out)
@@ -413,7 +434,7 @@ int sp_render(sp_renderer *r, const sp_render_scene *sc, sp_render_outputs *out)
     int n_sun = sun_sample_count(r, sc);
     geom_forward(&r->geo, sc->mesh, &sc->displacement, sc->camera.R, sc->camera.t);
     setup_frame(r, sc, n_sun);
-    raster_camera_draw(&r->cam, r->geo.xc, sc->mesh, r->tri_id, r->depth, r->bary);
+    raster_camera_draw(&r->cam, r->geo.xc, sc->mesh, r->tri_id, r->depth, r->bary, r->geo.tri_k);
     clear_pixels(r);
     if (n_sun == 1) {
         r->ctx.sm = prepare_shadow(r, sc, r->ctx.sun_l, 0);
@@ -494,7 +515,7 @@ int sp_render_l2_loss(const float *image, const float *target, const float *mask
         double m = mask ? (double)mask[p] : 1.0;
         for (int c = 0; c < 3; c++) {
             size_t i = p * 3 + (size_t)c;
-            dL_dimage[i] = (float)(2.0 * m * ((double)image[i] - (double)target[i]) / norm);
+            dL_dimage[i] = to_float(2.0 * m * ((double)image[i] - (double)target[i]) / norm);
         }
     }
     return 0;

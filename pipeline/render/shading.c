@@ -18,8 +18,7 @@ int shade_geometry(const shade_ctx *ctx, int sx, int sy, int32_t tri, shade_rec 
         rec->ui[i] = mesh->tri_uvs[(size_t)tri * 3 + (size_t)i];
     }
     raster_sample_ray(ctx->cam, sx, sy, rec->d);
-    raster_tri_weights(g->xc + (size_t)rec->vi[0] * 3, g->xc + (size_t)rec->vi[1] * 3,
-                       g->xc + (size_t)rec->vi[2] * 3, rec->d, rec->w, &rec->wsum);
+    rec->wsum = raster_weights(g->tri_k + (size_t)tri * 9, rec->d, rec->w);
     if (!(fabs(rec->wsum) > 0.0) || !isfinite(rec->wsum))
         return 0;
     v3_zero(rec->p);
@@ -57,13 +56,13 @@ int shade_geometry(const shade_ctx *ctx, int sx, int sy, int32_t tri, shade_rec 
 
 void shade_ambient(const shade_ctx *ctx, shade_rec *rec)
 {
-    env_irradiance(&ctx->sh, rec->n, rec->E, NULL);
+    env_irradiance(&ctx->sh, rec->n, rec->E, NULL, NULL);
     for (int c = 0; c < 3; c++)
         rec->amb[c] = rec->a[c] / SHADE_PI * rec->E[c];
 }
 
-/* (n.h)^s into b->P for light l, exponent s; P = 0 when l + v vanishes (l opposite the view). */
-static void blinn(const shade_rec *rec, const double l[3], double s, blinn_state *b)
+/* Half vector and clamped n.h for light l; 0 when l + v vanishes (l opposite the view). */
+static int blinn_half(const shade_rec *rec, const double l[3], blinn_state *b)
 {
     for (int i = 0; i < 3; i++)
         b->hs[i] = l[i] + rec->v[i];
@@ -71,37 +70,89 @@ static void blinn(const shade_rec *rec, const double l[3], double s, blinn_state
     b->nh_clamped = 1;
     b->nh = SHADE_NH_MIN;
     b->P = 0.0;
+    b->log_nh = log(SHADE_NH_MIN);
     if (!(b->hlen > 1e-12))
-        return;
+        return 0;
     double nh = v3_dot(rec->n, b->h);
     b->nh_clamped = !(nh >= SHADE_NH_MIN && nh <= 1.0);
     b->nh = nh < SHADE_NH_MIN ? SHADE_NH_MIN : (nh > 1.0 ? 1.0 : nh);
-    /* s >= 1 and nh in (0, 1]: the exponent is <= 0, so exp never overflows */
-    b->P = exp(s * log(b->nh));
+    return 1;
 }
 
-void shade_sun(const shade_ctx *ctx, shade_rec *rec, const double l[3], double I, const shadow_map *sm)
+/* (n.h)^s into b->P for light l, exponent s. */
+static void blinn(const shade_rec *rec, const double l[3], double s, blinn_state *b)
+{
+    if (!blinn_half(rec, l, b))
+        return;
+    /* s >= 1 and nh in (0, 1]: the exponent is <= 0, so exp never overflows; a lobe tail below
+     * 1e-30 is flushed to 0 so no subnormal (slow) arithmetic follows */
+    b->log_nh = log(b->nh);
+    double e = s * b->log_nh;
+    b->P = e > -69.0 ? exp(e) : 0.0;
+}
+
+/* Lambert + normalised Blinn-Phong of the sun given rec->nl and rec->V; lobe from rec->bl. */
+static void sun_terms(const shade_ctx *ctx, shade_rec *rec, double I)
+{
+    double lit = I * rec->nl * rec->V;
+    for (int c = 0; c < 3; c++)
+        rec->diff[c] += rec->a[c] / SHADE_PI * lit;
+    if (rec->spec_on) {
+        double s = ctx->s[rec->cluster];
+        rec->spec += ctx->ks[rec->cluster] * (s + 2.0) / (2.0 * SHADE_PI) * rec->bl.P * lit;
+    }
+}
+
+static int spec_active(const shade_ctx *ctx, const shade_rec *rec)
+{
+    return rec->cluster >= 0 && ctx->ks[rec->cluster] != 0.0;
+}
+
+void shade_sun(const shade_ctx *ctx, shade_rec *rec, const double l[3], double I, const shadow_map *sm,
+               sun_cache *store)
 {
     rec->nl = v3_dot(rec->n, l);
     rec->V = 1.0;
     rec->spec_on = 0;
     v3_zero(rec->shadow.dVdp);
     rec->shadow.texel = -1;
+    rec->bl.P = 0.0;
+    rec->bl.log_nh = 0.0;
     if (sm) {
         shadow_eval(sm, ctx->shadow_k, ctx->shadow_b, rec->p, &rec->shadow);
         rec->V = rec->shadow.V;
     }
+    if (rec->nl > 0.0) {
+        rec->spec_on = spec_active(ctx, rec);
+        if (rec->spec_on)
+            blinn(rec, l, ctx->s[rec->cluster], &rec->bl);
+        sun_terms(ctx, rec, I);
+    }
+    if (store) {
+        store->V = to_float(rec->V);
+        for (int i = 0; i < 3; i++)
+            store->dVdp[i] = to_float(rec->shadow.dVdp[i]);
+        store->P = to_float(rec->bl.P);
+        store->log_nh = to_float(rec->bl.log_nh);
+    }
+}
+
+void shade_sun_replay(const shade_ctx *ctx, shade_rec *rec, const sun_cache *c)
+{
+    rec->nl = v3_dot(rec->n, ctx->sun_l);
+    rec->V = (double)c->V;
+    for (int i = 0; i < 3; i++)
+        rec->shadow.dVdp[i] = (double)c->dVdp[i];
+    rec->spec_on = 0;
     if (!(rec->nl > 0.0))
         return;
-    double lit = I * rec->nl * rec->V;
-    for (int c = 0; c < 3; c++)
-        rec->diff[c] += rec->a[c] / SHADE_PI * lit;
-    if (rec->cluster < 0 || ctx->ks[rec->cluster] == 0.0)
-        return;
-    rec->spec_on = 1;
-    double s = ctx->s[rec->cluster];
-    blinn(rec, l, s, &rec->bl);
-    rec->spec += ctx->ks[rec->cluster] * (s + 2.0) / (2.0 * SHADE_PI) * rec->bl.P * lit;
+    rec->spec_on = spec_active(ctx, rec);
+    if (rec->spec_on) {
+        blinn_half(rec, ctx->sun_l, &rec->bl);
+        rec->bl.P = (double)c->P;
+        rec->bl.log_nh = (double)c->log_nh;
+    }
+    sun_terms(ctx, rec, ctx->sun_I);
 }
 
 void shade_fill(const shade_ctx *ctx, shade_rec *rec)

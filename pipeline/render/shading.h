@@ -41,9 +41,16 @@ typedef struct shade_ctx {
 typedef struct blinn_state {
     double hs[3], hlen, h[3]; /* l + v, its length, the half vector */
     double nh;                /* n.h clamped to [SHADE_NH_MIN, 1] */
+    double log_nh;            /* log(nh) */
     double P;                 /* nh^s */
     int nh_clamped;           /* the clamp was active: no gradient through nh */
 } blinn_state;
+
+/* What the adjoint reuses from the forward sun term of one sample (its costly parts). */
+typedef struct sun_cache {
+    float V, dVdp[3]; /* shadow lookup */
+    float P, log_nh;  /* Blinn-Phong lobe */
+} sun_cache;
 
 typedef struct shade_rec {
     int32_t tri;
@@ -71,7 +78,13 @@ int shade_geometry(const shade_ctx *ctx, int sx, int sy, int32_t tri, shade_rec 
 void shade_ambient(const shade_ctx *ctx, shade_rec *rec);
 /* Fill lights into rec->fill (unshadowed). */
 void shade_fill(const shade_ctx *ctx, shade_rec *rec);
-/* Sun term for unit direction l with irradiance I and shadow map sm (NULL = unshadowed). */
-void shade_sun(const shade_ctx *ctx, shade_rec *rec, const double l[3], double I, const shadow_map *sm);
+/*
+ * Sun term for unit direction l with irradiance I and shadow map sm (NULL =
+ * unshadowed); fills *store (if non-NULL) for shade_sun_replay.
+ */
+void shade_sun(const shade_ctx *ctx, shade_rec *rec, const double l[3], double I, const shadow_map *sm,
+               sun_cache *store);
+/* The same for ctx's sun, taking the shadow lookup and lobe power from the forward pass's cache. */
+void shade_sun_replay(const shade_ctx *ctx, shade_rec *rec, const sun_cache *c);
 
 #endif

@@ -43,8 +43,8 @@ void shadow_bounds(const double *pts, uint32_t n, double c[3], double *r)
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (uint32_t i = 0; i < n; i++)
         for (int k = 0; k < 3; k++) {
-            lo[k] = fmin(lo[k], pts[(size_t)i * 3 + k]);
-            hi[k] = fmax(hi[k], pts[(size_t)i * 3 + k]);
+            lo[k] = dmin(lo[k], pts[(size_t)i * 3 + k]);
+            hi[k] = dmax(hi[k], pts[(size_t)i * 3 + k]);
         }
     if (n == 0) {
         v3_zero(c);
@@ -91,40 +91,66 @@ static void to_map(const shadow_frame *f, const double p[3], double out[3])
     out[2] = f->offset - v3_dot(q, f->l) / f->r;
 }
 
-/* Twice the signed area of (a, b, p); shared edges evaluate to exact negatives, so fills are watertight. */
-static inline double edge(const double *a, const double *b, double px, double py)
+/* Edge function of (a, b) as e(p) = A px + B py + C; the reversed edge gives exact negatives (watertight). */
+static void edge_coef(const double *a, const double *b, double e[3])
 {
-    return (a[0] - px) * (b[1] - py) - (a[1] - py) * (b[0] - px);
+    e[0] = a[1] - b[1];
+    e[1] = b[0] - a[0];
+    e[2] = a[0] * b[1] - a[1] * b[0];
 }
 
-static void clamp_range(double lo, double hi, int n, int *i0, int *i1)
+/*
+ * Narrows [lo, hi] (texel x range of one row) to where e(x) = A x + r has the
+ * sign of the triangle or is zero; ia = 1 / A (sign-adjusted). Shared edges
+ * give the same boundary from both sides, so neighbouring triangles leave no gap.
+ */
+static inline void edge_span(double A, double ia, double r, double *lo, double *hi)
 {
-    double a = ceil(lo), b = floor(hi);
-    *i0 = a < 0.0 ? 0 : (a > (double)n ? n : (int)a);
-    *i1 = b > (double)(n - 1) ? n - 1 : (b < -1.0 ? -1 : (int)b);
+    if (A > 0.0)
+        *lo = dmax(*lo, -r * ia);
+    else if (A < 0.0)
+        *hi = dmin(*hi, -r * ia);
+    else if (r < 0.0)
+        *hi = -1.0; /* parallel edge, row outside */
 }
 
-/* Orthographic triangle fill at texel centres, keeping the minimum depth. */
+/* Orthographic triangle fill at texel centres, keeping the minimum depth (affine in x, y); row spans. */
 static void fill_tri(shadow_map *m, const double *a, const double *b, const double *c)
 {
-    double area = edge(a, b, c[0], c[1]);
-    if (!(fabs(area) > 1e-12))
+    double e[3][3];
+    edge_coef(b, c, e[0]);
+    edge_coef(c, a, e[1]);
+    edge_coef(a, b, e[2]);
+    double area = e[0][0] * a[0] + e[0][1] * a[1] + e[0][2]; /* e0 at a: twice the signed area */
+    if (!(area > 1e-12 || area < -1e-12))
         return;
-    double inv = 1.0 / area;
+    double sg = area > 0.0 ? 1.0 : -1.0, inv = 1.0 / area, ia[3];
+    for (int k = 0; k < 3; k++) {
+        for (int j = 0; j < 3; j++)
+            e[k][j] *= sg; /* exact: covered texels now have e >= 0 */
+        ia[k] = e[k][0] != 0.0 ? 1.0 / e[k][0] : 0.0;
+    }
+    inv *= sg;
+    /* depth plane z = zx x + zy y + z0 from the barycentric form */
+    double zx = (e[0][0] * a[2] + e[1][0] * b[2] + e[2][0] * c[2]) * inv;
+    double zy = (e[0][1] * a[2] + e[1][1] * b[2] + e[2][1] * c[2]) * inv;
+    double z0 = (e[0][2] * a[2] + e[1][2] * b[2] + e[2][2] * c[2]) * inv;
     int n = m->n, ix0, ix1, iy0, iy1;
-    clamp_range(fmin(a[0], fmin(b[0], c[0])), fmax(a[0], fmax(b[0], c[0])), n, &ix0, &ix1);
-    clamp_range(fmin(a[1], fmin(b[1], c[1])), fmax(a[1], fmax(b[1], c[1])), n, &iy0, &iy1);
+    int_range(dmin(a[0], dmin(b[0], c[0])), dmax(a[0], dmax(b[0], c[0])), n, &ix0, &ix1);
+    int_range(dmin(a[1], dmin(b[1], c[1])), dmax(a[1], dmax(b[1], c[1])), n, &iy0, &iy1);
     for (int y = iy0; y <= iy1; y++) {
-        double py = (double)y;
-        for (int x = ix0; x <= ix1; x++) {
-            double px = (double)x;
-            double l0 = edge(b, c, px, py) * inv, l1 = edge(c, a, px, py) * inv, l2 = edge(a, b, px, py) * inv;
-            if (l0 < 0.0 || l1 < 0.0 || l2 < 0.0)
-                continue;
-            float z = (float)((l0 * a[2] + l1 * b[2] + l2 * c[2]) / (l0 + l1 + l2));
-            float *dst = m->depth + (size_t)y * (size_t)n + (size_t)x;
-            if (z < *dst)
-                *dst = z;
+        double py = (double)y, lo = (double)ix0, hi = (double)ix1;
+        for (int k = 0; k < 3; k++)
+            edge_span(e[k][0], ia[k], e[k][1] * py + e[k][2], &lo, &hi);
+        if (!(lo <= hi))
+            continue;
+        int x0 = iceil(lo), x1 = ifloor(hi);
+        float *row = m->depth + (size_t)y * (size_t)n;
+        double zr = zy * py + z0;
+        for (int x = x0; x <= x1; x++) {
+            float z = (float)(zx * (double)x + zr);
+            if (z < row[x])
+                row[x] = z;
         }
     }
 }
@@ -146,6 +172,11 @@ void shadow_map_render(shadow_map *m, const double *pts, const sp_mesh *mesh)
 
 double shadow_sigmoid(double x, double *deriv)
 {
+    if (fabs(x) > 60.0) { /* exp(-60) ~ 1e-26: saturated to double precision, skip the exp */
+        if (deriv)
+            *deriv = 0.0;
+        return x > 0.0 ? 1.0 : 0.0;
+    }
     double e = exp(-fabs(x)); /* in (0, 1]: never overflows */
     double inv = 1.0 / (1.0 + e);
     if (deriv)
@@ -172,7 +203,7 @@ void shadow_eval(const shadow_map *m, double k, double b, const double p[3], sha
     /* wholly outside the map (or non-finite): nothing can shadow it */
     if (!(q[0] > -1.0 && q[0] < (double)n && q[1] > -1.0 && q[1] < (double)n))
         return;
-    int ix = (int)floor(q[0]), iy = (int)floor(q[1]);
+    int ix = ifloor(q[0]), iy = ifloor(q[1]);
     double fx = q[0] - (double)ix, fy = q[1] - (double)iy;
     double empty = f->offset + SHADOW_EMPTY_DEPTH;
     double d00 = tap(m, ix, iy, empty), d10 = tap(m, ix + 1, iy, empty);

@@ -5,6 +5,8 @@
 #include <math.h>
 #include <string.h>
 
+#include "pipeline/render/vec3.h"
+
 #define PI 3.14159265358979323846
 
 static void set3(float *dst, double x, double y, double z)
@@ -122,4 +124,21 @@ int testmesh_append(sp_mesh *a, const sp_mesh *b)
     sp_mesh_free(a);
     *a = out;
     return 0;
+}
+
+void testmesh_look_at(sp_render_camera *cam, const double eye[3], const double target[3], const double up[3])
+{
+    double f[3], x[3], y[3], d[3];
+    v3_sub(target, eye, d);
+    v3_normalize(d, f);
+    v3_cross(f, up, d);
+    v3_normalize(d, x);
+    v3_cross(f, x, y); /* OpenCV: y = z x x points down */
+    for (int k = 0; k < 3; k++) {
+        cam->R[k] = x[k];
+        cam->R[3 + k] = y[k];
+        cam->R[6 + k] = f[k];
+    }
+    m3_mul(cam->R, eye, d);
+    v3_scale(d, -1.0, cam->t);
 }

@@ -3,6 +3,8 @@
 
 #include <math.h>
 
+#include "pipeline/render/vec3.h"
+
 /* Continuous texel coordinate x in [0, n-1] (texel centres at integers) and its scale d x / d(uv). */
 static void axis(double coord, int n, double scale, int *i0, int *i1, double *f, double *dfd)
 {
@@ -15,7 +17,7 @@ static void axis(double coord, int n, double scale, int *i0, int *i1, double *f,
         x = (double)(n - 1);
         *dfd = 0.0;
     }
-    int i = (int)floor(x);
+    int i = ifloor(x); /* x is in [0, n - 1] here */
     if (i > n - 1)
         i = n - 1;
     *i0 = i;
@@ -50,6 +52,14 @@ void tex_lookup_init(tex_lookup *t, int width, int height, double u, double v)
 
 void tex_sample(const tex_lookup *t, const float *data, int channels, double *out)
 {
+    if (channels == 3) { /* the albedo hot path, unrolled */
+        const float *a = data + t->idx[0] * 3, *b = data + t->idx[1] * 3;
+        const float *c = data + t->idx[2] * 3, *d = data + t->idx[3] * 3;
+        for (int k = 0; k < 3; k++)
+            out[k] = t->wt[0] * (double)a[k] + t->wt[1] * (double)b[k] + t->wt[2] * (double)c[k] +
+                     t->wt[3] * (double)d[k];
+        return;
+    }
     for (int c = 0; c < channels; c++) {
         double s = 0.0;
         for (int k = 0; k < 4; k++)
@@ -60,6 +70,15 @@ void tex_sample(const tex_lookup *t, const float *data, int channels, double *ou
 
 void tex_sample_duv(const tex_lookup *t, const float *data, int channels, double *du, double *dv)
 {
+    if (channels == 3) {
+        const float *p[4] = {data + t->idx[0] * 3, data + t->idx[1] * 3, data + t->idx[2] * 3, data + t->idx[3] * 3};
+        for (int c = 0; c < 3; c++) {
+            double x0 = (double)p[0][c], x1 = (double)p[1][c], x2 = (double)p[2][c], x3 = (double)p[3][c];
+            du[c] = t->dwdu[0] * x0 + t->dwdu[1] * x1 + t->dwdu[2] * x2 + t->dwdu[3] * x3;
+            dv[c] = t->dwdv[0] * x0 + t->dwdv[1] * x1 + t->dwdv[2] * x2 + t->dwdv[3] * x3;
+        }
+        return;
+    }
     for (int c = 0; c < channels; c++) {
         double su = 0.0, sv = 0.0;
         for (int k = 0; k < 4; k++) {
@@ -75,10 +94,16 @@ void tex_sample_duv(const tex_lookup *t, const float *data, int channels, double
 void tex_splat(const tex_lookup *t, double *grad, int channels, const double *g)
 {
     for (int k = 0; k < 4; k++) {
-        if (t->wt[k] == 0.0)
+        double w = t->wt[k];
+        if (w == 0.0)
             continue;
+        double *dst = grad + t->idx[k] * (size_t)channels;
+        if (channels == 3) {
+            dst[0] += w * g[0], dst[1] += w * g[1], dst[2] += w * g[2];
+            continue;
+        }
         for (int c = 0; c < channels; c++)
-            grad[t->idx[k] * (size_t)channels + (size_t)c] += t->wt[k] * g[c];
+            dst[c] += w * g[c];
     }
 }
 

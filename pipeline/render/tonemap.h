@@ -13,5 +13,7 @@
 
 /* Display value of exposed linear radiance x; *deriv (if non-NULL) gets d/dx. */
 double tonemap_eval(double x, double *deriv);
+/* d/dx of the display value, given x and its display value g = tonemap_eval(x) (no pow needed). */
+double tonemap_deriv(double x, double g);
 
 #endif

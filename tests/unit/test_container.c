@@ -147,6 +147,7 @@ static int read_all(const char *path, int skip, recs *v, uint64_t *corrupt, uint
         *corrupt = sp_capture_reader_corrupt_count(r);
     if (first_bad)
         *first_bad = sp_capture_reader_first_corrupt_offset(r);
+    CHECK_EQ_INT(sp_capture_reader_saw_end(r), err == SP_EOS && c.type == SP_CHUNK_END);
     /* after the end the reader stays at the end */
     if (err == SP_EOS)
         CHECK_EQ_INT(sp_capture_reader_next(r, &c), SP_EOS);
@@ -327,6 +328,7 @@ static void test_roundtrip(void)
     }
     CHECK_EQ_INT(err, SP_EOS);
     CHECK_EQ_INT(c.type, SP_CHUNK_END);
+    CHECK_EQ_INT(c.timestamp_ns, frames[nf - 1].timestamp_ns); /* the largest written */
     CHECK_EQ_INT(c.offset + SPC_CHUNK_HDR_SIZE + c.payload_size, file_size(path)); /* END is last */
     CHECK_EQ_INT(idx, 1 + (int)nf + 3);
     CHECK_EQ_INT(fi, nf);
@@ -443,7 +445,7 @@ static void test_writer_errors(void)
     s.sync = SP_SYNC_PERIODIC;
     s.sync_interval_ms = 0;
     CHECK_EQ_INT(sp_capture_writer_open(&w, path, &s), 0);
-    CHECK_EQ_INT(sp_capture_write_meta(w, 0, "{}", 2), 0);
+    CHECK_EQ_INT(sp_capture_write_meta(w, -100, "{}", 2), 0);
     CHECK_EQ_INT(sp_capture_writer_close(&w), 0);
     recs v;
     CHECK_EQ_INT(read_all(path, 0, &v, NULL, NULL), 0);
@@ -451,6 +453,7 @@ static void test_writer_errors(void)
     CHECK_EQ_INT(v.r[0].type, SP_CHUNK_META);
     CHECK_EQ_INT(v.r[1].type, SP_CHUNK_INDEX);
     CHECK_EQ_INT(v.r[2].type, SP_CHUNK_END);
+    CHECK(v.r[1].ts == -100 && v.r[2].ts == -100); /* INDEX and END carry the latest timestamp */
     recs_free(&v);
 }
 
@@ -830,6 +833,9 @@ static void test_recover_cases(void)
     write_file(path, text, sizeof(text));
     CHECK_EQ_INT(sp_capture_recover(path, NULL, &rep), SP_EFORMAT);
     CHECK_EQ_INT(file_size(path), sizeof(text));
+    unlink(copy);
+    CHECK_EQ_INT(sp_capture_recover(path, copy, &rep), SP_EFORMAT);
+    CHECK(access(copy, F_OK) < 0); /* a failed copy is removed */
     recs_free(&ref);
 }
 

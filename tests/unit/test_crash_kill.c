@@ -21,7 +21,7 @@
 #include "sunprobe/sp_capture.h"
 
 #define TRIALS 240
-#define MAX_CHUNKS 320
+#define MAX_CHUNKS 480
 #define CLOSED_MARK 0xFFFFFFFFu
 #define END_CHUNK_BYTES 48 /* 32-byte header + 16-byte payload (FORMAT.md) */
 

@@ -1,0 +1,26 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * PNG reader: any non-interlaced PNG (gray, gray+alpha, RGB, RGBA, palette;
+ * 1..16 bits) decoded to 8-bit RGBA. Inflate is zlib's when built with it;
+ * without zlib only stored (uncompressed) deflate blocks are read, which is
+ * what this project's own PNG writer produces in such builds, and anything
+ * compressed gives SP_EDISABLED with a message naming -Dzlib.
+ */
+#ifndef SUNPROBE_EXPORT_PNG_READ_H
+#define SUNPROBE_EXPORT_PNG_READ_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+/*
+ * Decodes `size` bytes (borrowed) into *rgba (malloc'd, width*height*4 bytes,
+ * the caller frees). Returns 0; SP_EFORMAT for data that is not a PNG;
+ * SP_ECORRUPT for a bad checksum, structure or stream; SP_ETRUNCATED when it
+ * ends early; SP_EUNSUPPORTED for interlaced images; -E2BIG beyond 16384 pixels
+ * a side or 2^28 pixels; SP_EDISABLED as above.
+ */
+int sp_png_decode_rgba(const uint8_t *data, size_t size, uint8_t **rgba, uint32_t *width, uint32_t *height);
+/* Reads and decodes a file (`path` borrowed); -errno when it cannot be read. */
+int sp_png_read_rgba(const char *path, uint8_t **rgba, uint32_t *width, uint32_t *height);
+
+#endif

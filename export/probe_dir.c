@@ -1,0 +1,294 @@
+/* SPDX-License-Identifier: MIT */
+#include "probe_dir.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/atomic_file.h"
+#include "export/png.h"
+#include "export/png_read.h"
+
+/* ---- PFM ---- */
+
+int sp_pfm_write(const char *path, const float *v, uint32_t width, uint32_t height, int channels)
+{
+    if (!path || !v || !width || !height || (channels != 1 && channels != 3))
+        return -EINVAL;
+    sp_atomic_file af;
+    int ret = sp_atomic_file_open(&af, path);
+    if (ret)
+        return ret;
+    fprintf(af.file, "%s\n%u %u\n-1.0\n", channels == 3 ? "PF" : "Pf", width, height);
+    size_t row = (size_t)width * (size_t)channels;
+    uint8_t *buf = malloc(row * 4);
+    if (!buf)
+        ret = -ENOMEM;
+    for (uint32_t y = height; !ret && y-- > 0;) { /* PFM stores the bottom row first */
+        for (size_t i = 0; i < row; i++) {
+            uint32_t bits;
+            memcpy(&bits, &v[(size_t)y * row + i], 4);
+            for (int b = 0; b < 4; b++)
+                buf[4 * i + (size_t)b] = (uint8_t)(bits >> (8 * b));
+        }
+        if (fwrite(buf, 4, row, af.file) != row)
+            ret = -EIO;
+    }
+    free(buf);
+    return sp_atomic_file_finish(&af, ret);
+}
+
+static int pfm_header(FILE *f, uint32_t *w, uint32_t *h, int *channels, int *little)
+{
+    char magic[3] = { 0 };
+    double scale;
+    unsigned long ww, hh;
+    if (fread(magic, 1, 2, f) != 2 || magic[0] != 'P' || (magic[1] != 'F' && magic[1] != 'f'))
+        return SP_EFORMAT;
+    if (fscanf(f, "%lu %lu %lf", &ww, &hh, &scale) != 3 || fgetc(f) == EOF)
+        return SP_ECORRUPT;
+    if (ww == 0 || hh == 0 || ww > 16384 || hh > 16384 || !isfinite(scale) || scale == 0)
+        return SP_ECORRUPT;
+    *w = (uint32_t)ww, *h = (uint32_t)hh;
+    *channels = magic[1] == 'F' ? 3 : 1;
+    *little = scale < 0;
+    return 0;
+}
+
+int sp_pfm_read(const char *path, float **v, uint32_t *width, uint32_t *height, int *channels)
+{
+    if (!path || !v || !width || !height || !channels)
+        return -EINVAL;
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return -errno;
+    uint32_t w = 0, h = 0;
+    int ch = 0, little = 1, ret = pfm_header(f, &w, &h, &ch, &little);
+    size_t row = (size_t)w * (size_t)ch;
+    float *out = ret ? NULL : malloc(row * h * sizeof(float));
+    uint8_t *buf = ret ? NULL : malloc(row * 4);
+    if (!ret && (!out || !buf))
+        ret = -ENOMEM;
+    for (uint32_t y = h; !ret && y-- > 0;) {
+        if (fread(buf, 4, row, f) != row) {
+            ret = SP_ETRUNCATED;
+            break;
+        }
+        for (size_t i = 0; i < row; i++) {
+            uint32_t bits = 0;
+            for (int b = 0; b < 4; b++)
+                bits |= (uint32_t)buf[4 * i + (size_t)(little ? b : 3 - b)] << (8 * b);
+            memcpy(&out[(size_t)y * row + i], &bits, 4);
+            if (!isfinite(out[(size_t)y * row + i]))
+                ret = SP_ECORRUPT;
+        }
+    }
+    fclose(f);
+    free(buf);
+    if (ret) {
+        free(out);
+        return ret;
+    }
+    *v = out, *width = w, *height = h, *channels = ch;
+    return 0;
+}
+
+/* ---- writing a probe directory ---- */
+
+static char *join(const char *dir, const char *name)
+{
+    size_t n = strlen(dir) + strlen(name) + 2;
+    char *p = malloc(n);
+    if (p)
+        snprintf(p, n, "%s/%s", dir, name);
+    return p;
+}
+
+/* Occluding pixels coloured by the depth they hide (near: red, far: blue), the rest dark. */
+static void occlusion_preview(const sp_probe_maps *m, uint8_t *rgb)
+{
+    for (size_t i = 0; i < (size_t)m->width * m->height; i++) {
+        float z = m->occlusion[i];
+        if (z < 0) {
+            rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = 24;
+            continue;
+        }
+        double t = (double)z / (m->height > 1 ? m->height - 1 : 1);
+        t = t < 0 ? 0 : t > 1 ? 1 : t;
+        rgb[3 * i] = (uint8_t)lrint(255 * t), rgb[3 * i + 1] = 96, rgb[3 * i + 2] = (uint8_t)lrint(255 * (1 - t));
+    }
+}
+
+/* Relative lighting 1.0 at 128 gray. */
+static void lighting_preview(const sp_probe_maps *m, uint8_t *rgb)
+{
+    for (size_t i = 0; i < (size_t)m->width * m->height * 3; i++) {
+        double v = 128.0 * (double)m->lighting[i];
+        rgb[i] = (uint8_t)(v < 0 ? 0 : v > 255 ? 255 : lrint(v));
+    }
+}
+
+static int write_params(const char *dir, const sp_probe *p, const sp_probe_maps *m)
+{
+    sp_probe_plane plane;
+    sp_probe_shadow shadow;
+    char *json = NULL, *path = join(dir, "probe.json");
+    int ret = path ? 0 : -ENOMEM;
+    if (!ret)
+        ret = sp_probe_get_plane(p, &plane);
+    if (!ret)
+        ret = sp_probe_get_shadow(p, &shadow);
+    if (!ret)
+        ret = sp_probe_params_to_json(&plane, &shadow, m->width, m->height, &json);
+    sp_atomic_file af;
+    if (!ret && !(ret = sp_atomic_file_open(&af, path))) {
+        size_t n = strlen(json);
+        ret = sp_atomic_file_finish(&af, fwrite(json, 1, n, af.file) == n ? 0 : -EIO);
+    }
+    free(json);
+    free(path);
+    return ret;
+}
+
+int sp_probe_dir_write(const char *dir, const sp_probe *p)
+{
+    if (!dir || !p)
+        return -EINVAL;
+    sp_probe_maps m;
+    int ret = sp_probe_get_maps(p, &m);
+    if (ret)
+        return ret;
+    static const char *const names[5] = { "clean_plate.png", "occlusion.pfm", "occlusion.png", "lighting.pfm",
+                                          "lighting.png" };
+    char *path[5] = { 0 };
+    uint8_t *rgb = malloc((size_t)m.width * m.height * 3);
+    for (int i = 0; i < 5; i++)
+        if (!(path[i] = join(dir, names[i])))
+            ret = -ENOMEM;
+    if (!rgb)
+        ret = -ENOMEM;
+    if (!ret)
+        ret = sp_png_write(path[0], m.clean_plate, m.width, m.height, m.width * 3, 3);
+    if (!ret)
+        ret = sp_pfm_write(path[1], m.occlusion, m.width, m.height, 1);
+    if (!ret) {
+        occlusion_preview(&m, rgb);
+        ret = sp_png_write(path[2], rgb, m.width, m.height, m.width * 3, 3);
+    }
+    if (!ret)
+        ret = sp_pfm_write(path[3], m.lighting, m.width, m.height, 3);
+    if (!ret) {
+        lighting_preview(&m, rgb);
+        ret = sp_png_write(path[4], rgb, m.width, m.height, m.width * 3, 3);
+    }
+    if (!ret) /* last: a directory with probe.json is complete */
+        ret = write_params(dir, p, &m);
+    for (int i = 0; i < 5; i++)
+        free(path[i]);
+    free(rgb);
+    return ret;
+}
+
+/* ---- loading ---- */
+
+static int read_text(const char *path, char **out, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return -errno;
+    size_t cap = 4096, n = 0;
+    char *buf = malloc(cap);
+    int ret = buf ? 0 : -ENOMEM;
+    while (!ret) {
+        size_t got = fread(buf + n, 1, cap - n, f);
+        n += got;
+        if (got == 0)
+            break;
+        if (n == cap) {
+            char *nb = cap < (1u << 24) ? realloc(buf, cap * 2) : NULL;
+            ret = nb ? 0 : SP_ECORRUPT; /* a params file is small */
+            buf = nb ? nb : buf;
+            cap *= 2;
+        }
+    }
+    fclose(f);
+    if (ret) {
+        free(buf);
+        return ret;
+    }
+    *out = buf, *len = n;
+    return 0;
+}
+
+static int load_map(const char *dir, const char *name, int want_ch, const sp_probe_dir *d, float **out)
+{
+    char *path = join(dir, name);
+    if (!path)
+        return -ENOMEM;
+    uint32_t w, h;
+    int ch, ret = sp_pfm_read(path, out, &w, &h, &ch);
+    free(path);
+    if (!ret && (w != d->width || h != d->height || ch != want_ch)) {
+        free(*out);
+        *out = NULL;
+        ret = SP_ECORRUPT;
+    }
+    return ret;
+}
+
+static int load_plate(const char *dir, sp_probe_dir *d)
+{
+    char *path = join(dir, "clean_plate.png");
+    uint8_t *rgba = NULL;
+    uint32_t w, h;
+    int ret = path ? sp_png_read_rgba(path, &rgba, &w, &h) : -ENOMEM;
+    free(path);
+    if (!ret && (w != d->width || h != d->height))
+        ret = SP_ECORRUPT;
+    if (!ret && !(d->clean_plate = malloc((size_t)w * h * 3)))
+        ret = -ENOMEM;
+    for (size_t i = 0; !ret && i < (size_t)w * h; i++)
+        memcpy(d->clean_plate + 3 * i, rgba + 4 * i, 3);
+    free(rgba);
+    return ret;
+}
+
+int sp_probe_dir_load(const char *dir, sp_probe_dir *d)
+{
+    if (!dir || !d)
+        return -EINVAL;
+    memset(d, 0, sizeof(*d));
+    char *path = join(dir, "probe.json"), *json = NULL;
+    size_t len = 0;
+    int ret = path ? read_text(path, &json, &len) : -ENOMEM;
+    free(path);
+    if (!ret)
+        ret = sp_probe_params_from_json(json, len, &d->plane, &d->shadow, &d->width, &d->height);
+    free(json);
+    if (!ret)
+        ret = load_map(dir, "occlusion.pfm", 1, d, &d->occlusion);
+    if (!ret)
+        ret = load_map(dir, "lighting.pfm", 3, d, &d->lighting);
+    if (!ret)
+        ret = load_plate(dir, d);
+    if (ret)
+        sp_probe_dir_free(d);
+    return ret;
+}
+
+void sp_probe_dir_free(sp_probe_dir *d)
+{
+    if (!d)
+        return;
+    free(d->clean_plate);
+    free(d->occlusion);
+    free(d->lighting);
+    memset(d, 0, sizeof(*d));
+}
+
+sp_probe_maps sp_probe_dir_maps(const sp_probe_dir *d)
+{
+    return (sp_probe_maps){ d->width, d->height, d->clean_plate, d->occlusion, d->lighting };
+}

@@ -1,0 +1,175 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * SunStage fitting: from a rotating-selfie stream (frames + IMU + landmarks) to
+ * face geometry, skin reflectance, sun and sky, and per-frame cameras.
+ * Streaming front end (one event at a time, bounded keyframe reservoir), then
+ * a two-stage fit (landmark alignment, photometric) with one of two solvers.
+ * Method, memory bound and face-directory layout: pipeline/sunstage/SUNSTAGE.md.
+ */
+#ifndef SUNPROBE_SP_SUNSTAGE_H
+#define SUNPROBE_SP_SUNSTAGE_H
+
+#include <stdint.h>
+
+#include "sp_common.h"
+#include "sp_face_model.h"
+#include "sp_math.h"
+#include "sp_render.h"
+#include "sp_source.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+enum sp_sunstage_solver {
+    SP_SUNSTAGE_SOLVER_FAST = 0, /* closed-form albedo, least squares lighting, sun search, Gauss-Newton pose */
+    SP_SUNSTAGE_SOLVER_ADAM = 1, /* reference: Adam on every parameter through the renderer adjoint */
+};
+
+typedef struct sp_sunstage_settings {
+    enum sp_sunstage_solver solver; /* default FAST */
+    int keyframes;          /* training reservoir: one frame per camera-yaw bin (default 12, 2..64) */
+    int heldout;            /* held-out reservoir bins (default 3, 0..16) */
+    int fit_width;          /* frames are box-downsampled to this width for fitting (default 128) */
+    int texture_size;       /* albedo/displacement height; width doubles for two-tile UVs (default 128) */
+    int adam_iterations;    /* Adam steps (default 300) */
+    double time_budget_s;   /* stop the photometric stage after this wall time; 0 = none (default 0) */
+    double min_rotation_deg; /* yaw range below which lighting is called unobservable (default 90) */
+    double blur_ratio;      /* skip frames sharper than this fraction of the running mean (default 0.35) */
+    const char *dlib_model; /* shape predictor path; NULL = /usr/share/dlib/... Borrowed. */
+    int use_dlib;           /* 1: detect landmarks when a frame carries none (default 1) */
+} sp_sunstage_settings;
+
+/* What the front end kept and skipped. */
+typedef struct sp_sunstage_counts {
+    uint64_t frames, imu_samples;
+    uint64_t skipped_dark, skipped_saturated, skipped_blurred, skipped_no_face, skipped_no_orientation;
+    uint64_t accepted;  /* passed every check (then competed for a reservoir slot) */
+    int keyframes, heldout; /* slots filled */
+} sp_sunstage_counts;
+
+/* Progress of the fit, passed to the callback (borrowed for the call). */
+typedef struct sp_sunstage_progress {
+    const char *stage;  /* "align", "photometric" */
+    int iteration, total;
+    double seconds;     /* wall time since the fit started */
+    double loss;        /* training photometric loss (display values, masked L2) or landmark RMS px */
+    double heldout_psnr; /* dB on held-out frames, NaN when not measured */
+} sp_sunstage_progress;
+
+/* Called during sp_sunstage_fit; returning non-zero stops the fit early (the result stays usable). */
+typedef int (*sp_sunstage_callback)(void *user, const sp_sunstage_progress *p);
+
+/* The fitted face; every pointer is owned by the sp_sunstage and valid until it is closed. */
+typedef struct sp_sunstage_result {
+    const sp_face_model *model;  /* borrowed model given at open */
+    const double *id;            /* n_id identity coefficients */
+    double scale;                /* shared model scale */
+    int tex_width, tex_height;
+    const float *albedo;         /* tex_width * tex_height * 3 linear albedo */
+    const float *displacement;   /* tex_width * tex_height metres along the normal */
+    double ks[SP_RENDER_CLUSTERS], shininess[SP_RENDER_CLUSTERS];
+    const float *env;            /* SP_RENDER_ENV_FLOATS, world frame (z up) */
+    double sun_dir[3];           /* unit, world frame, towards the sun */
+    double sun_intensity;        /* 0 when the sun was dropped */
+    int sun_dropped;             /* overcast: no sun, shadows or specular */
+    int lighting_unobservable;   /* too little rotation: lighting not fitted (env only, neutral) */
+    const char *notes;           /* NUL-terminated, human-readable reasons for the two flags */
+    double yaw_range_deg;        /* camera yaw covered by the keyframes */
+    int n_frames;                /* keyframes fitted */
+    double train_psnr, heldout_psnr; /* dB, display values on the face mask; NaN if unknown */
+    double seconds;              /* fit wall time */
+} sp_sunstage_result;
+
+/* One fitted keyframe camera: the face in the camera frame and the camera in the world. */
+typedef struct sp_sunstage_frame {
+    uint64_t sequence;
+    int64_t timestamp_ns;
+    double fx, fy, cx, cy;  /* fit-resolution pixels */
+    int width, height;      /* fit resolution */
+    double scale_to_capture; /* capture pixels per fit pixel */
+    sp_quat camera_to_world;
+    double rotvec[3], t[3]; /* face pose in the camera frame */
+    const double *exp;      /* n_exp expression coefficients (owned by the fitter) */
+    int heldout;
+} sp_sunstage_frame;
+
+typedef struct sp_sunstage sp_sunstage;
+
+SP_API void sp_sunstage_default_settings(sp_sunstage_settings *s);
+/* model is borrowed and must outlive the fitter; settings are copied. Caller owns *out. */
+SP_API int sp_sunstage_open(sp_sunstage **out, const sp_sunstage_settings *s, const sp_face_model *model);
+SP_API void sp_sunstage_close(sp_sunstage **ss);
+
+/*
+ * Feeds one event (borrowed for the call; the fitter takes its own frame
+ * reference when needed and drops it before returning or within a bounded ring).
+ * Returns 0, SP_EDISABLED when a frame needs dlib and the build has none, or a
+ * negative error for a broken frame.
+ */
+SP_API int sp_sunstage_push(sp_sunstage *ss, const sp_event *ev);
+/* Flushes frames still waiting for IMU coverage; call once at the end of the stream. */
+SP_API int sp_sunstage_end_stream(sp_sunstage *ss);
+
+/*
+ * Adds one keyframe directly (tests, other front ends): rgb is width * height * 3
+ * display values in [0, 1] (borrowed, copied), landmarks 136 pixel coordinates
+ * (borrowed), fx..cy intrinsics of that image. Bypasses the quality checks.
+ */
+SP_API int sp_sunstage_add_keyframe(sp_sunstage *ss, const float *rgb, int width, int height,
+                                    const double landmarks[136], double fx, double fy, double cx, double cy,
+                                    sp_quat camera_to_world, int heldout);
+
+SP_API void sp_sunstage_get_counts(const sp_sunstage *ss, sp_sunstage_counts *out);
+
+/*
+ * Runs both stages on the reservoir. Returns 0; SP_ENODATA (logged, with the
+ * reason) when fewer than 2 keyframes survived or no IMU orientation was seen.
+ * cb may be NULL.
+ */
+SP_API int sp_sunstage_fit(sp_sunstage *ss, sp_sunstage_callback cb, void *user);
+
+/* The current (or final) fit; views owned by ss. */
+SP_API int sp_sunstage_get_result(const sp_sunstage *ss, sp_sunstage_result *out);
+SP_API int sp_sunstage_n_frames(const sp_sunstage *ss);
+SP_API int sp_sunstage_get_frame(const sp_sunstage *ss, int i, sp_sunstage_frame *out);
+/* Keyframe i's target image (display values), width * height * 3; owned by ss. */
+SP_API const float *sp_sunstage_frame_image(const sp_sunstage *ss, int i);
+
+/*
+ * Maps the fit's world frame (IMU world, arbitrary heading) onto the world of
+ * the capture's true orientations (SP_SIDE_TRUE_ORIENTATION side data of
+ * synthetic captures), averaged over the keyframes that carry one: R
+ * (row-major) with x_true = R x_fit. SP_ENODATA when no keyframe has truth.
+ */
+SP_API int sp_sunstage_align_world(const sp_sunstage *ss, double R[9]);
+/* Exposure (exposure_us x gain) that the fit's intensities are relative to; 0 when frames carried none. */
+SP_API double sp_sunstage_exposure_reference(const sp_sunstage *ss);
+
+/*
+ * Face directory (layout in SUNSTAGE.md). sp_face_dir_write writes every file
+ * of the result into dir (which must exist; borrowed path). Readers get a
+ * self-contained asset for relighting; free it with sp_face_asset_free.
+ */
+SP_API int sp_face_dir_write(const sp_sunstage *ss, const char *dir);
+
+typedef struct sp_face_asset {
+    sp_mesh mesh;              /* placed in the fit's world (z up) as in keyframe 0, metres; owned */
+    int tex_width, tex_height;
+    float *albedo, *displacement; /* owned */
+    int cluster_width, cluster_height;
+    uint8_t *clusters;         /* owned */
+    double ks[SP_RENDER_CLUSTERS], shininess[SP_RENDER_CLUSTERS];
+    float env[SP_RENDER_ENV_FLOATS]; /* world frame */
+    double sun_dir[3], sun_intensity;
+    sp_render_camera camera;   /* keyframe 0's camera */
+    int width, height;
+} sp_face_asset;
+
+SP_API int sp_face_dir_read(sp_face_asset *asset, const char *dir);
+SP_API void sp_face_asset_free(sp_face_asset *asset);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,156 @@
+/* SPDX-License-Identifier: MIT */
+/* OpenCV behind a C API for the probe: HOG people scores and MOG2; exceptions stop here. */
+#include "opencv_probe_shim.h"
+
+#include <cerrno>
+#include <new>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/core/utils/logger.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/objdetect.hpp>
+#include <opencv2/video/background_segm.hpp>
+
+#include "sunprobe/sp_common.h"
+
+struct sp_cv_hog {
+    cv::HOGDescriptor hog;
+    std::vector<float> weights; /* descriptor weights, then the bias */
+    std::vector<float> desc;
+    cv::Mat patch, window;
+};
+
+struct sp_cv_mog2 {
+    cv::Ptr<cv::BackgroundSubtractorMOG2> mog;
+};
+
+namespace {
+
+template <typename F> int guarded(const char *what, F &&fn)
+{
+    try {
+        return fn();
+    } catch (const std::bad_alloc &) {
+        return -ENOMEM;
+    } catch (const cv::Exception &e) {
+        sp_log(SP_LOG_ERROR, "opencv", "%s: %s", what, e.what());
+        return -EIO;
+    } catch (...) {
+        sp_log(SP_LOG_ERROR, "opencv", "%s: unknown exception", what);
+        return -EIO;
+    }
+}
+
+void quiet()
+{
+    static bool done = false;
+    if (!done) {
+        done = true;
+        cv::utils::logging::setLogLevel(sp_log_get_level() >= SP_LOG_DEBUG ? cv::utils::logging::LOG_LEVEL_INFO
+                                                                            : cv::utils::logging::LOG_LEVEL_SILENT);
+    }
+}
+
+} // namespace
+
+extern "C" int sp_cv_hog_open(sp_cv_hog **out)
+{
+    if (!out)
+        return -EINVAL;
+    *out = nullptr;
+    quiet();
+    sp_cv_hog *h = new (std::nothrow) sp_cv_hog;
+    if (!h)
+        return -ENOMEM;
+    int rc = guarded("HOG people detector", [&]() -> int {
+        h->weights = cv::HOGDescriptor::getDefaultPeopleDetector();
+        return h->weights.size() == h->hog.getDescriptorSize() + 1 ? 0 : -EIO;
+    });
+    if (rc) {
+        delete h;
+        return rc;
+    }
+    *out = h;
+    return 0;
+}
+
+extern "C" int sp_cv_hog_score(sp_cv_hog *h, const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride,
+                               int x0, int y0, int x1, int y1, double *score)
+{
+    if (!h || !rgb || !score || x1 < x0 || y1 < y0 || width == 0 || height == 0 || stride < width * 3)
+        return -EINVAL;
+    return guarded("HOG score", [&]() -> int {
+        cv::Mat img((int)height, (int)width, CV_8UC3, const_cast<uint8_t *>(rgb), stride);
+        double bh = y1 - y0 + 1, wh = 1.25 * bh; /* the training windows leave 16 of 128 rows above and below */
+        cv::Point2f centre((float)(0.5 * (x0 + x1)), (float)(0.5 * (y0 + y1)));
+        cv::getRectSubPix(img, cv::Size((int)(0.5 * wh + 0.5), (int)(wh + 0.5)), centre, h->patch);
+        cv::resize(h->patch, h->window, h->hog.winSize, 0, 0, cv::INTER_AREA);
+        h->hog.compute(h->window, h->desc);
+        if (h->desc.size() + 1 != h->weights.size())
+            return -EIO;
+        double s = h->weights.back();
+        for (size_t i = 0; i < h->desc.size(); i++)
+            s += (double)h->desc[i] * h->weights[i];
+        *score = s;
+        return 0;
+    });
+}
+
+extern "C" void sp_cv_hog_close(sp_cv_hog **h)
+{
+    if (!h || !*h)
+        return;
+    delete *h;
+    *h = nullptr;
+}
+
+extern "C" int sp_cv_mog2_open(sp_cv_mog2 **out, int history, double var_threshold, int detect_shadows)
+{
+    if (!out || history < 1 || !(var_threshold > 0))
+        return -EINVAL;
+    *out = nullptr;
+    quiet();
+    sp_cv_mog2 *m = new (std::nothrow) sp_cv_mog2;
+    if (!m)
+        return -ENOMEM;
+    int rc = guarded("MOG2", [&]() -> int {
+        m->mog = cv::createBackgroundSubtractorMOG2(history, var_threshold, detect_shadows != 0);
+        return m->mog ? 0 : -EIO;
+    });
+    if (rc) {
+        delete m;
+        return rc;
+    }
+    *out = m;
+    return 0;
+}
+
+extern "C" int sp_cv_mog2_apply(sp_cv_mog2 *m, const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride,
+                                uint8_t *mask, uint32_t mask_stride)
+{
+    if (!m || !rgb || !mask || stride < width * 3 || mask_stride < width)
+        return -EINVAL;
+    return guarded("MOG2 apply", [&]() -> int {
+        cv::Mat img((int)height, (int)width, CV_8UC3, const_cast<uint8_t *>(rgb), stride);
+        cv::Mat out((int)height, (int)width, CV_8UC1, mask, mask_stride);
+        m->mog->apply(img, out);
+        return out.data == mask ? 0 : -EIO; /* OpenCV must have written into our buffer */
+    });
+}
+
+extern "C" void sp_cv_mog2_close(sp_cv_mog2 **m)
+{
+    if (!m || !*m)
+        return;
+    delete *m;
+    *m = nullptr;
+}
+
+extern "C" void sp_cv_set_threads(int n)
+{
+    guarded("threads", [&]() -> int {
+        cv::setNumThreads(n);
+        return 0;
+    });
+}

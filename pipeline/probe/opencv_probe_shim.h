@@ -1,0 +1,47 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The probe's C face of OpenCV (opencv_probe_shim.cpp, compiled only under
+ * HAVE_OPENCV): the HOG people detector that can confirm person-shaped objects,
+ * and the MOG2 background subtractor the benchmark compares against. Pixels
+ * cross as packed RGB24; no C++ exception escapes. Internal, not installed.
+ */
+#ifndef SUNPROBE_PIPELINE_PROBE_OPENCV_PROBE_SHIM_H
+#define SUNPROBE_PIPELINE_PROBE_OPENCV_PROBE_SHIM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct sp_cv_hog sp_cv_hog;
+
+/* OpenCV's default 64x128 people detector (Dalal-Triggs HOG + linear SVM). */
+int sp_cv_hog_open(sp_cv_hog **out);
+/*
+ * SVM margin of one detection window fitted around the box x0..x1, y0..y1
+ * (inclusive pixels) of an RGB24 image (borrowed): the box is padded by an
+ * eighth of its height, as in the training windows, and resampled to 64x128.
+ * Positive means "person".
+ */
+int sp_cv_hog_score(sp_cv_hog *hog, const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, int x0,
+                    int y0, int x1, int y1, double *score);
+void sp_cv_hog_close(sp_cv_hog **hog);
+
+typedef struct sp_cv_mog2 sp_cv_mog2;
+
+/* OpenCV's MOG2 background subtractor with its usual parameters. */
+int sp_cv_mog2_open(sp_cv_mog2 **out, int history, double var_threshold, int detect_shadows);
+/* Updates the model with one RGB24 frame and writes the foreground mask (0, 127 shadow, 255). */
+int sp_cv_mog2_apply(sp_cv_mog2 *m, const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride,
+                     uint8_t *mask, uint32_t mask_stride);
+void sp_cv_mog2_close(sp_cv_mog2 **m);
+
+/* OpenCV's own worker threads (benchmarks compare single-threaded). */
+void sp_cv_set_threads(int n);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

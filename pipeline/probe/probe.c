@@ -1,0 +1,548 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The scene probe: frames in, one at a time; the clean plate, segmentation,
+ * maps and observation reservoirs are updated per frame; the models are
+ * fitted at checkpoints (for the convergence report) and at the end.
+ * Everything is allocated at open (PROBE.md gives the bound).
+ */
+#include "probe_internal.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/clock.h"
+#include "common/pixconv.h"
+#include "common/report.h"
+#include "sp_config.h"
+#if HAVE_OPENCV
+#include "opencv_probe_shim.h"
+#endif
+
+#define PERSON_REC 3     /* x, y, h */
+#define RECENT_MAX 1024  /* observations between checkpoints scored before they join the fit */
+#define N_SERIES 8
+
+struct sp_probe {
+    sp_probe_settings s;
+    uint32_t width, height;
+    probe_plate plate;
+    probe_segment seg;
+    probe_maps maps;
+    probe_shadows shadows;
+    probe_reservoir people, holdout;
+    float *recent;
+    unsigned n_recent;
+    uint8_t *rgb;            /* the last frame, packed RGB24 */
+    int segmented;           /* the last frame was segmented against a ready plate */
+    sp_probe_truth_sample *truth;
+    sp_report *report;
+    int64_t start_ns, last_ts;
+    sp_probe_plane plane;    /* the latest fit */
+    sp_probe_shadow shadow;
+    sp_probe_stats st;
+    uint64_t rng;
+    int finished;
+    void *hog;
+    char message[320];
+};
+
+void sp_probe_default_settings(sp_probe_settings *s)
+{
+    if (!s)
+        return;
+    memset(s, 0, sizeof(*s));
+    s->window_s = 4.0;
+    s->window_samples = 15;
+    s->fg_threshold = 50;
+    s->shadow_min_ratio = 0.3;
+    s->shadow_max_ratio = 0.85;
+    s->shadow_chroma_tol = 0.035;
+    s->block = 4;
+    s->min_object_px = 0; /* automatic: width * height / 4000, at least 16 */
+    s->detector = SP_PROBE_DETECT_SHAPE;
+    s->min_occlusion_events = 2;
+    s->holdout_from = -1;
+    s->max_observations = 4096;
+    s->checkpoint_frames = 25;
+    s->max_foreground = 0.5;
+    s->seed = 1;
+}
+
+static int check_settings(const sp_probe_settings *s, uint32_t width, uint32_t height)
+{
+    if (width < 16 || height < 16 || width > 16384 || height > 16384)
+        return -EINVAL; /* rows are stored as int16 */
+    if (!(s->window_s > 0 && s->window_s <= 3600) || s->window_samples < 3 ||
+        s->window_samples > PROBE_MAX_WIRES || s->window_samples % 2 == 0)
+        return -EINVAL;
+    if (s->fg_threshold < 1 || s->fg_threshold > 765 || s->block < 2 || s->block > 15)
+        return -EINVAL;
+    if (!(s->shadow_min_ratio >= 0 && s->shadow_min_ratio < s->shadow_max_ratio && s->shadow_max_ratio <= 1.0) ||
+        !(s->shadow_chroma_tol >= 0 && s->shadow_chroma_tol <= 3.0))
+        return -EINVAL;
+    if (s->max_observations < 16 || s->max_observations > (1u << 24) || s->checkpoint_frames < 1 ||
+        !(s->max_foreground > 0 && s->max_foreground <= 1.0))
+        return -EINVAL;
+    if (s->detector != SP_PROBE_DETECT_SHAPE && s->detector != SP_PROBE_DETECT_HOG)
+        return -EINVAL;
+    if (s->n_truth && !s->truth)
+        return -EINVAL;
+    return 0;
+}
+
+static size_t memory_bound(uint32_t w, uint32_t h, const sp_probe_settings *s)
+{
+    size_t px = (size_t)w * h, cells = ((size_t)w / s->block + 1) * ((size_t)h / s->block + 1);
+    size_t per_px = 3 * (size_t)s->window_samples + 3 /* plate */ + 1 /* cls */ + 3 /* frame */ +
+                    10 /* occlusion */ + 16 /* lighting */ + 16 /* background */ + 3 + 4 + 12 /* final */ + 5;
+    return px * per_px + cells * 28 + (size_t)s->max_observations * 4 * (2 * PERSON_REC + 4) +
+           RECENT_MAX * PERSON_REC * 4;
+}
+
+static int open_report(sp_probe *p)
+{
+    static const char *const names[N_SERIES] = { "occlusion_change", "lighting_change", "coverage",
+                                                  "occluders",        "plane_heldout_err", "plane_change",
+                                                  "plane_truth_err",  "shadow_truth_deg" };
+    if (!p->s.report_prefix)
+        return 0;
+    return sp_report_open(&p->report, p->s.report_prefix, "scene probe: convergence against run time", names,
+                          N_SERIES, 1);
+}
+
+static int open_parts(sp_probe *p)
+{
+    const sp_probe_settings *s = &p->s;
+    int ret = plate_open(&p->plate, p->width, p->height, s->window_samples, (int64_t)(s->window_s * 1e9));
+    if (!ret)
+        ret = segment_open(&p->seg, p->width, p->height, s);
+    if (!ret)
+        ret = maps_open(&p->maps, p->width, p->height, s->min_occlusion_events);
+    if (!ret)
+        ret = shadows_open(&p->shadows, s->max_observations, s->seed);
+    if (!ret)
+        ret = reservoir_open(&p->people, s->max_observations, PERSON_REC, s->seed);
+    if (!ret)
+        ret = reservoir_open(&p->holdout, s->max_observations, PERSON_REC, s->seed + 1);
+    if (!ret) {
+        p->recent = malloc(RECENT_MAX * PERSON_REC * sizeof(float));
+        p->rgb = calloc((size_t)p->width * p->height, 3);
+        ret = p->recent && p->rgb ? 0 : -ENOMEM;
+    }
+    if (!ret && s->n_truth) {
+        p->truth = malloc(s->n_truth * sizeof(*p->truth));
+        if (p->truth)
+            memcpy(p->truth, s->truth, s->n_truth * sizeof(*p->truth));
+        ret = p->truth ? 0 : -ENOMEM;
+    }
+    p->s.truth = p->truth; /* our copy: the caller's array need not outlive open */
+    return ret ? ret : open_report(p);
+}
+
+int sp_probe_open(sp_probe **out, uint32_t width, uint32_t height, const sp_probe_settings *s)
+{
+    if (!out || !s)
+        return -EINVAL;
+    *out = NULL;
+    int ret = check_settings(s, width, height);
+    if (ret)
+        return ret;
+#if !HAVE_OPENCV
+    if (s->detector == SP_PROBE_DETECT_HOG) {
+        sp_log(SP_LOG_ERROR, "probe", "the HOG people detector needs OpenCV: build with -Dopencv=enabled");
+        return SP_EDISABLED;
+    }
+#endif
+    sp_probe *p = calloc(1, sizeof(*p));
+    if (!p)
+        return -ENOMEM;
+    p->s = *s;
+    if (!p->s.min_object_px) {
+        size_t autopx = (size_t)width * height / 4000;
+        p->s.min_object_px = autopx > 16 ? (unsigned)autopx : 16;
+    }
+    p->width = width;
+    p->height = height;
+    p->rng = s->seed * 0x9E3779B97F4A7C15ull + 7;
+    p->last_ts = INT64_MIN;
+    p->plane.status = SP_PROBE_PLANE_NONE;
+    p->plane.holdout_error_rel = (double)NAN;
+    p->start_ns = sp_clock_monotonic_ns();
+    p->st.memory_bytes = memory_bound(width, height, s);
+    ret = open_parts(p); /* after the automatic settings are filled in */
+    if (ret) {
+        sp_probe_close(&p);
+        return ret;
+    }
+    snprintf(p->message, sizeof(p->message), "no frames yet");
+    *out = p;
+    return 0;
+}
+
+void sp_probe_close(sp_probe **pp)
+{
+    if (!pp || !*pp)
+        return;
+    sp_probe *p = *pp;
+    if (p->report)
+        sp_report_close(&p->report);
+    plate_close(&p->plate);
+    segment_close(&p->seg);
+    maps_close(&p->maps);
+    shadows_close(&p->shadows);
+    reservoir_close(&p->people);
+    reservoir_close(&p->holdout);
+    probe_hog_close(&p->hog);
+    free(p->recent);
+    free(p->rgb);
+    free(p->truth);
+    free(p);
+    *pp = NULL;
+}
+
+/* ---- per frame ---- */
+
+static int is_person(sp_probe *p, const probe_object *o)
+{
+    if (!o->person || p->s.detector != SP_PROBE_DETECT_HOG)
+        return o->person;
+    int yes = 0;
+    p->st.hog_checked++;
+    if (probe_hog_person(&p->hog, p->rgb, p->width, p->height, o, &yes))
+        return 0;
+    p->st.hog_confirmed += (uint64_t)yes;
+    return yes;
+}
+
+static void observe_person(sp_probe *p, const probe_object *o)
+{
+    float rec[PERSON_REC] = { (float)o->foot_x, (float)o->foot_y, (float)o->height };
+    p->st.people++;
+    if (p->s.holdout_from >= 0 && p->st.frames - 1 >= (uint64_t)p->s.holdout_from) {
+        reservoir_add(&p->holdout, rec);
+        return;
+    }
+    reservoir_add(&p->people, rec);
+    if (p->n_recent < RECENT_MAX)
+        memcpy(p->recent + (size_t)p->n_recent++ * PERSON_REC, rec, sizeof(rec));
+    shadows_add(&p->shadows, &p->seg, o, p->rgb, p->plate.median);
+}
+
+static void checkpoint(sp_probe *p);
+
+static int probe_frame(sp_probe *p, int64_t t)
+{
+    p->st.frames++;
+    int updated = plate_offer(&p->plate, p->rgb, t);
+    p->segmented = 0;
+    if (!plate_ready(&p->plate))
+        return 0;
+    segment_frame(&p->seg, p->rgb, p->plate.median, &p->plane);
+    p->segmented = 1;
+    if (getenv("SP_PROBE_DUMP") && (uint64_t)atoll(getenv("SP_PROBE_DUMP")) == p->st.frames - 1) {
+        FILE *df = fopen("/tmp/probe/cls.pgm", "wb");
+        fprintf(df, "P5\n%u %u\n255\n", p->width, p->height);
+        for (size_t i = 0; i < (size_t)p->width * p->height; i++)
+            fputc(p->seg.cls[i] * 120, df);
+        fclose(df);
+    }
+    p->st.frames_probed++;
+    double changed = (double)(p->seg.fg_pixels + p->seg.shadow_pixels) / ((double)p->width * p->height);
+    if (changed > p->s.max_foreground) {
+        /* the plate does not describe this frame: the camera moved or the light jumped */
+        p->st.frames_moving++;
+        if (p->st.frames_probed >= 30 && p->st.frames_moving * 10 > p->st.frames_probed * 8) {
+            snprintf(p->message, sizeof(p->message),
+                     "the camera moves: %llu of %llu frames differ from the clean plate over more than %.0f%% "
+                     "of the image; probing needs a static camera",
+                     (unsigned long long)p->st.frames_moving, (unsigned long long)p->st.frames_probed,
+                     100.0 * p->s.max_foreground);
+            return SP_ENODATA;
+        }
+        return 0;
+    }
+    if (updated)
+        maps_add_background(&p->maps, p->plate.median, p->seg.cls);
+    for (unsigned i = 0; i < p->seg.n_obj; i++) {
+        const probe_object *o = &p->seg.obj[i];
+        p->st.objects++;
+        if (getenv("SP_PROBE_OBJ"))
+            fprintf(stderr, "OBJ f%llu box %d,%d-%d,%d area %u foot %.1f,%.1f h %.1f person %d touch %d sh %u\n",
+                    (unsigned long long)p->st.frames - 1, o->x0, o->y0, o->x1, o->y1, o->area, o->foot_x, o->foot_y,
+                    o->height, o->person, o->touches, o->shadow_area);
+        maps_add_object(&p->maps, &p->seg, o);
+        if (is_person(p, o))
+            observe_person(p, o);
+    }
+    if (p->st.frames_probed % p->s.checkpoint_frames == 0)
+        checkpoint(p);
+    return 0;
+}
+
+int sp_probe_push_rgb(sp_probe *p, const uint8_t *rgb, uint32_t stride, int64_t timestamp_ns)
+{
+    if (!p || !rgb || stride < p->width * 3)
+        return -EINVAL;
+    if (p->finished)
+        return -EALREADY;
+    if (p->last_ts != INT64_MIN && timestamp_ns < p->last_ts)
+        return -EINVAL;
+    p->last_ts = timestamp_ns;
+    for (uint32_t y = 0; y < p->height; y++)
+        memcpy(p->rgb + (size_t)y * p->width * 3, rgb + (size_t)y * stride, (size_t)p->width * 3);
+    return probe_frame(p, timestamp_ns);
+}
+
+int sp_probe_push_frame(sp_probe *p, const sp_frame *frame)
+{
+    if (!p || !frame || frame->width != p->width || frame->height != p->height)
+        return -EINVAL;
+    if (p->finished)
+        return -EALREADY;
+    if (p->last_ts != INT64_MIN && frame->timestamp_ns < p->last_ts)
+        return -EINVAL;
+    int ret = sp_pixconv_frame_to_rgb24(frame, p->rgb, (size_t)p->width * p->height * 3, p->width * 3);
+    if (ret) {
+        snprintf(p->message, sizeof(p->message), "frame %llu could not be decoded: %s",
+                 (unsigned long long)frame->sequence, sp_strerror(ret));
+        return ret;
+    }
+    p->last_ts = frame->timestamp_ns;
+    return probe_frame(p, frame->timestamp_ns);
+}
+
+/* ---- checkpoints: the error-against-run-time report ---- */
+
+/* Relative change of the predicted heights on a 3x3 grid of image points. */
+static double plane_change(const sp_probe_plane *a, const sp_probe_plane *b, uint32_t w, uint32_t h)
+{
+    double sum = 0;
+    int n = 0;
+    for (int i = 1; i <= 3; i++)
+        for (int j = 1; j <= 3; j++) {
+            double x = w * i / 4.0, y = h * j / 4.0;
+            double ha = sp_probe_plane_height(a, x, y), hb = sp_probe_plane_height(b, x, y);
+            if (isfinite(ha) && isfinite(hb) && hb > 0) {
+                sum += fabs(ha - hb) / hb;
+                n++;
+            }
+        }
+    return n ? sum / n : (double)NAN;
+}
+
+static double truth_plane_error(const sp_probe *p, const sp_probe_plane *pl)
+{
+    double sum = 0;
+    size_t n = 0;
+    for (size_t i = 0; i < p->s.n_truth; i++) {
+        double h = sp_probe_plane_height(pl, p->truth[i].x, p->truth[i].y);
+        if (isfinite(h) && p->truth[i].height > 0) {
+            sum += fabs(h - p->truth[i].height) / p->truth[i].height;
+            n++;
+        }
+    }
+    return n ? sum / (double)n : (double)NAN;
+}
+
+/* Mean angle (degrees) between the model's shadow direction and the truth's at the truth points. */
+double probe_shadow_direction_error(const sp_probe_shadow *sh, const sp_probe_truth_sample *t, size_t n,
+                                    uint32_t width, uint32_t height)
+{
+    if (!sh->present)
+        return (double)NAN;
+    double sum = 0;
+    size_t k = 0;
+    for (size_t i = 0; i < n; i++) {
+        double u = t[i].x / width, v = t[i].y / height;
+        double dx = sh->ox[0] + sh->ox[1] * u + sh->ox[2] * v, dy = sh->oy[0] + sh->oy[1] * u + sh->oy[2] * v;
+        double a = hypot(dx, dy), b = hypot(t[i].shadow_dx, t[i].shadow_dy);
+        if (!(a > 0) || !(b > 0))
+            continue;
+        double c = (dx * t[i].shadow_dx + dy * t[i].shadow_dy) / (a * b);
+        sum += acos(c > 1 ? 1 : c < -1 ? -1 : c) * 180.0 / M_PI;
+        k++;
+    }
+    return k ? sum / (double)k : (double)NAN;
+}
+
+static void checkpoint(sp_probe *p)
+{
+    double v[N_SERIES];
+    maps_checkpoint(&p->maps, v);
+    /* prequential: observations since the last checkpoint against the fit made before them */
+    v[4] = p->n_recent ? plane_median_error(&p->plane, p->recent, p->n_recent, PERSON_REC) : (double)NAN;
+    p->n_recent = 0;
+    sp_probe_plane next = p->plane;
+    plane_fit(p->people.v, p->people.n, PERSON_REC, p->width, p->height, &p->rng, &next);
+    v[5] = plane_change(&next, &p->plane, p->width, p->height);
+    p->plane = next;
+    v[6] = p->s.n_truth ? truth_plane_error(p, &p->plane) : (double)NAN;
+    v[7] = (double)NAN;
+    if (p->s.n_truth) {
+        shadows_fit(&p->shadows, p->width, p->height, &p->shadow);
+        v[7] = probe_shadow_direction_error(&p->shadow, p->truth, p->s.n_truth, p->width, p->height);
+    }
+    if (p->report)
+        sp_report_add(p->report, (double)(sp_clock_monotonic_ns() - p->start_ns) * 1e-9, v);
+}
+
+/* ---- the end ---- */
+
+static int check_enough(sp_probe *p)
+{
+    if (p->st.frames_probed == 0) {
+        snprintf(p->message, sizeof(p->message),
+                 "the capture is too short: %llu frames, but the clean plate needs %u samples over %.1f s "
+                 "(--window) before probing can start",
+                 (unsigned long long)p->st.frames, p->s.window_samples, p->s.window_s);
+        return SP_ENODATA;
+    }
+    if (p->st.frames_moving * 2 > p->st.frames_probed) {
+        snprintf(p->message, sizeof(p->message),
+                 "the camera moves: %llu of %llu frames differ from the clean plate over more than %.0f%% "
+                 "of the image; probing needs a static camera",
+                 (unsigned long long)p->st.frames_moving, (unsigned long long)p->st.frames_probed,
+                 100.0 * p->s.max_foreground);
+        return SP_ENODATA;
+    }
+    if (p->st.objects == 0) {
+        snprintf(p->message, sizeof(p->message),
+                 "no moving objects were seen in %llu probed frames: nothing to probe the scene with",
+                 (unsigned long long)p->st.frames_probed);
+        return SP_ENODATA;
+    }
+    return 0;
+}
+
+int sp_probe_finish(sp_probe *p)
+{
+    if (!p)
+        return -EINVAL;
+    if (p->finished)
+        return 0;
+    int ret = check_enough(p);
+    if (ret)
+        return ret;
+    checkpoint(p);
+    plane_fit(p->people.v, p->people.n, PERSON_REC, p->width, p->height, &p->rng, &p->plane);
+    p->plane.holdout_n = (unsigned)(p->holdout.seen < UINT32_MAX ? p->holdout.seen : UINT32_MAX);
+    p->plane.holdout_error_rel =
+        p->holdout.n ? plane_median_error(&p->plane, p->holdout.v, p->holdout.n, PERSON_REC) : (double)NAN;
+    shadows_fit(&p->shadows, p->width, p->height, &p->shadow);
+    if (!p->shadow.present)
+        sp_log(SP_LOG_INFO, "probe", "shadow model %s", p->shadow.note);
+    maps_finalise(&p->maps, p->plate.median);
+    if (p->report)
+        ret = sp_report_close(&p->report);
+    p->finished = 1;
+    snprintf(p->message, sizeof(p->message), "probed %llu of %llu frames: %llu object and %llu person observations",
+             (unsigned long long)p->st.frames_probed, (unsigned long long)p->st.frames,
+             (unsigned long long)p->st.objects, (unsigned long long)p->st.people);
+    return ret;
+}
+
+const char *sp_probe_message(const sp_probe *p)
+{
+    return p ? p->message : "no probe";
+}
+
+int sp_probe_get_stats(const sp_probe *p, sp_probe_stats *out)
+{
+    if (!p || !out)
+        return -EINVAL;
+    *out = p->st;
+    size_t n = (size_t)p->width * p->height, covered = 0, occluding = 0;
+    for (size_t i = 0; i < n; i++) {
+        covered += p->maps.light_n[i] > 0;
+        occluding += maps_occlusion_at(&p->maps, i) >= 0;
+    }
+    out->covered_fraction = (double)covered / (double)n;
+    out->occluder_fraction = (double)occluding / (double)n;
+    return 0;
+}
+
+int sp_probe_get_plane(const sp_probe *p, sp_probe_plane *out)
+{
+    if (!p || !out)
+        return -EINVAL;
+    if (!p->finished)
+        return -EAGAIN;
+    *out = p->plane;
+    return 0;
+}
+
+int sp_probe_get_shadow(const sp_probe *p, sp_probe_shadow *out)
+{
+    if (!p || !out)
+        return -EINVAL;
+    if (!p->finished)
+        return -EAGAIN;
+    *out = p->shadow;
+    return 0;
+}
+
+int sp_probe_get_maps(const sp_probe *p, sp_probe_maps *out)
+{
+    if (!p || !out)
+        return -EINVAL;
+    if (!p->finished)
+        return -EAGAIN;
+    *out = (sp_probe_maps){ p->width, p->height, p->maps.clean, p->maps.occlusion, p->maps.lighting };
+    return 0;
+}
+
+int sp_probe_empty_frame(const sp_probe *p, uint8_t *dst, uint32_t dst_stride)
+{
+    if (!p || !dst || dst_stride < p->width * 3)
+        return -EINVAL;
+    if (!p->segmented)
+        return -EAGAIN;
+    const probe_segment *sg = &p->seg;
+    for (uint32_t y = 0; y < p->height; y++) {
+        uint8_t *d = dst + (size_t)y * dst_stride;
+        const uint8_t *f = p->rgb + (size_t)y * p->width * 3, *b = p->plate.median + (size_t)y * p->width * 3;
+        int64_t gy = y / sg->block;
+        for (uint32_t x = 0; x < p->width; x++) {
+            int64_t gx = x / sg->block;
+            int near = 0; /* any changed cell within one cell: objects, shadows and their soft edges */
+            for (int64_t yy = gy - 1; yy <= gy + 1 && !near; yy++)
+                for (int64_t xx = gx - 1; xx <= gx + 1 && !near; xx++)
+                    near = yy >= 0 && xx >= 0 && yy < sg->gh && xx < sg->gw && sg->grid[yy * sg->gw + xx];
+            memcpy(d + 3 * x, (near ? b : f) + 3 * x, 3);
+        }
+    }
+    return 0;
+}
+
+/* ---- the HOG people detector, through the OpenCV shim ---- */
+
+int probe_hog_person(void **hog, const uint8_t *rgb, uint32_t width, uint32_t height, const probe_object *o,
+                     int *is_person)
+{
+#if HAVE_OPENCV
+    int ret = 0;
+    if (!*hog)
+        ret = sp_cv_hog_open((sp_cv_hog **)hog);
+    double score = 0;
+    if (!ret)
+        ret = sp_cv_hog_score((sp_cv_hog *)*hog, rgb, width, height, width * 3, o->x0, o->y0, o->x1, o->y1, &score);
+    *is_person = !ret && score > 0;
+    return ret;
+#else
+    (void)hog, (void)rgb, (void)width, (void)height, (void)o;
+    *is_person = 0;
+    return SP_EDISABLED;
+#endif
+}
+
+void probe_hog_close(void **hog)
+{
+#if HAVE_OPENCV
+    sp_cv_hog_close((sp_cv_hog **)hog);
+#else
+    (void)hog;
+#endif
+}

@@ -1,0 +1,191 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Internals of the scene probe (pipeline/probe): the clean plate, per-frame
+ * segmentation, the maps, the robust fits. Not installed. PROBE.md describes
+ * the method; each part here is a plain struct with open/close and one step.
+ */
+#ifndef SUNPROBE_PIPELINE_PROBE_INTERNAL_H
+#define SUNPROBE_PIPELINE_PROBE_INTERNAL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "sunprobe/sp_probe.h"
+
+#define PROBE_MAX_OBJECTS 64  /* objects kept per frame (largest first) */
+#define PROBE_MAX_WIRES 32    /* median network width: window_samples rounded up to a power of two */
+#define PROBE_MAX_PAIRS 256   /* compare-exchanges of that network (Batcher, n = 32: 191) */
+
+/* ---- clean plate: per-channel median of a ring of sampled frames (plate.c) ---- */
+
+typedef struct probe_plate {
+    uint32_t width, height;
+    size_t bytes;            /* width * height * 3 */
+    unsigned k;              /* ring slots (window_samples) */
+    unsigned filled, next;
+    uint8_t *ring;           /* k images of `bytes` */
+    uint8_t *median;         /* the plate, valid once filled == k */
+    int64_t interval_ns, next_sample_ns;
+    unsigned n_wires, out_wire, n_pairs;
+    uint8_t pairs[PROBE_MAX_PAIRS][2];
+    uint64_t updates;
+} probe_plate;
+
+int plate_open(probe_plate *pl, uint32_t width, uint32_t height, unsigned k, int64_t window_ns);
+void plate_close(probe_plate *pl);
+/* Samples the frame when the interval has passed; 1 when the plate was recomputed, else 0. */
+int plate_offer(probe_plate *pl, const uint8_t *rgb, int64_t t_ns);
+static inline int plate_ready(const probe_plate *pl) { return pl->filled == pl->k; }
+/* Element-wise median of `k` (3..PROBE_MAX_WIRES) byte arrays of n bytes into out: exposed for tests. */
+int probe_median_bytes(const uint8_t *const *in, unsigned k, size_t n, uint8_t *out);
+
+/* ---- segmentation: refined mask, shadows, components, objects (segment.c) ---- */
+
+enum { PROBE_CLS_BG = 0, PROBE_CLS_OBJECT = 1, PROBE_CLS_SHADOW = 2 };
+enum { PROBE_TOUCH_TOP = 1, PROBE_TOUCH_BOTTOM = 2, PROBE_TOUCH_LEFT = 4, PROBE_TOUCH_RIGHT = 8 };
+
+typedef struct probe_object {
+    int32_t label;           /* coarse component label */
+    int x0, y0, x1, y1;      /* refined-mask bounding box, inclusive */
+    uint32_t area;           /* refined-mask pixels */
+    int touches;             /* PROBE_TOUCH_* */
+    double foot_x, foot_y;   /* bottom middle: the ground contact point */
+    double height;           /* foot_y - top + 1 */
+    double mean_rgb[3];      /* mean colour of the refined mask */
+    double cx;               /* mean x of the refined mask */
+    double tbar;             /* mean height fraction (0 foot .. 1 top) of the refined mask */
+    int person;
+    /* its shadow, when one was found (shadow_area > 0) */
+    uint32_t shadow_area;
+    double shadow_cx, shadow_cy;
+    double shadow_ratio;     /* mean brightness of the shadow over the plate's */
+} probe_object;
+
+typedef struct probe_segment {
+    uint32_t width, height, gw, gh, block;
+    unsigned fg_threshold, min_object_px;
+    int32_t shadow_lo, shadow_hi, chroma_tol; /* ratios in 1/1024 */
+    uint8_t *cls;            /* width * height: PROBE_CLS_* */
+    uint8_t *cell_obj, *cell_sh;       /* gw * gh: object and shadow pixel counts per cell */
+    uint8_t *grid, *tmp;               /* gw * gh: changed cells, morphology scratch */
+    int32_t *lab_obj;                  /* gw * gh component labels of changed cells, 0 = none */
+    int32_t *rows;                     /* height: per-row counts scratch */
+    int32_t *parent;                   /* union-find scratch, gw * gh + 1 */
+    int32_t *comp;                     /* per label: x0, y0, x1, y1, cells (5 each), gw * gh + 1 labels */
+    int32_t *objbox;                   /* the same over the cells holding object pixels */
+    int32_t *order;                    /* gw * gh + 1: label renumbering, then candidates by size */
+    probe_object obj[PROBE_MAX_OBJECTS];
+    unsigned n_obj;
+    uint64_t fg_pixels, shadow_pixels; /* of the last frame */
+} probe_segment;
+
+int segment_open(probe_segment *sg, uint32_t width, uint32_t height, const sp_probe_settings *s);
+void segment_close(probe_segment *sg);
+/*
+ * Classifies the frame against the plate and extracts the objects and their
+ * shadows; the current scale model (may be NULL) helps rejoin people an
+ * occluder cut in two.
+ */
+void segment_frame(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate, const sp_probe_plane *plane);
+/* 1 when pixel (x, y) belongs to object o's refined mask M'. */
+static inline int segment_in_mask(const probe_segment *sg, const probe_object *o, uint32_t x, uint32_t y)
+{
+    return sg->cls[(size_t)y * sg->width + x] == PROBE_CLS_OBJECT &&
+           sg->lab_obj[(y / sg->block) * sg->gw + x / sg->block] == o->label;
+}
+
+/* ---- maps: occlusion, lighting, long-term plate (maps.c) ---- */
+
+typedef struct probe_maps {
+    uint32_t width, height;
+    unsigned min_events;
+    int16_t *occ1, *occ2;    /* the two nearest (largest) bottom rows of objects seen hidden, -1 none */
+    uint16_t *occ_n;         /* occlusion events (saturating) */
+    int16_t *vis1, *vis2;    /* the two farthest (smallest) bottom rows of objects seen visible, INT16_MAX none */
+    float *light;            /* running mean RGB of covering objects' mean colours */
+    uint32_t *light_n;
+    float *bg;               /* running mean RGB of the local plate where the frame is background */
+    uint32_t *bg_n;
+    double light_ref[3];     /* running mean colour over all object observations (pixel-weighted) */
+    double light_ref_w;
+    /* finalised (maps_finalise) */
+    uint8_t *clean;
+    float *occlusion, *lighting;
+    uint8_t *prev_occ;       /* occluding bit at the previous checkpoint */
+    float *prev_light;       /* relative luminance at the previous checkpoint */
+    int32_t *span_l, *span_r; /* height: an object's hull per row (scratch) */
+    int32_t *col_top;        /* width: its first M' row per column (scratch) */
+    uint8_t *span_hidden;    /* height: the row had no M' pixel, its span was interpolated (scratch) */
+} probe_maps;
+
+int maps_open(probe_maps *m, uint32_t width, uint32_t height, unsigned min_events);
+void maps_close(probe_maps *m);
+/* Adds one object's visibility, occlusion and lighting evidence. */
+void maps_add_object(probe_maps *m, const probe_segment *sg, const probe_object *o);
+/* Adds the local plate at background pixels to the long-term plate. */
+void maps_add_background(probe_maps *m, const uint8_t *plate, const uint8_t *cls);
+/* Final occlusion value of pixel i from the evidence (-1: never occluding). */
+float maps_occlusion_at(const probe_maps *m, size_t i);
+/* Fills clean, occlusion and lighting; `fallback_plate` where no background was seen. */
+void maps_finalise(probe_maps *m, const uint8_t *fallback_plate);
+/* Convergence metrics since the last call: occlusion change, lighting change, coverage, occluders. */
+void maps_checkpoint(probe_maps *m, double out[4]);
+
+/* ---- fixed-capacity reservoir of float records (fit.c) ---- */
+
+typedef struct probe_reservoir {
+    float *v;
+    unsigned cap, n, stride; /* records of `stride` floats */
+    uint64_t seen;
+    uint64_t rng;
+} probe_reservoir;
+
+int reservoir_open(probe_reservoir *r, unsigned cap, unsigned stride, uint64_t seed);
+void reservoir_close(probe_reservoir *r);
+void reservoir_add(probe_reservoir *r, const float *rec);
+/* xorshift64* step; never returns the same stream for different seeds. */
+uint64_t probe_rand(uint64_t *state);
+
+/* ---- robust fits (fit.c) ---- */
+
+/* Solves the 3x3 system A x = b (row-major); -1 when (near) singular. */
+int probe_solve3(const double A[9], const double b[3], double x[3]);
+/*
+ * Eq. 3.7: fits h = a x + b y + c to records {x, y, h} (RANSAC on relative
+ * residuals, then Tukey IRLS), or says which part cannot be estimated.
+ */
+void plane_fit(const float *rec, unsigned n, unsigned stride, uint32_t width, uint32_t height, uint64_t *rng,
+               sp_probe_plane *out);
+/* Median relative error |h - plane| / h of records {x, y, h}; NaN when the plane says nothing there. */
+double plane_median_error(const sp_probe_plane *pl, const float *rec, unsigned n, unsigned stride);
+
+/* ---- shadow model (shadow.c) ---- */
+
+#define PROBE_RATIO_BINS 256  /* shadow/lit ratio histogram over [0, 2) */
+
+typedef struct probe_shadows {
+    probe_reservoir obs;     /* {u, v, dx, dy} per hard shadow */
+    uint64_t candidates, hard;
+    uint32_t ratio_hist[3][PROBE_RATIO_BINS];
+} probe_shadows;
+
+int shadows_open(probe_shadows *sh, unsigned cap, uint64_t seed);
+void shadows_close(probe_shadows *sh);
+/* Examines a person's shadow; records it when hard (returns 1). */
+int shadows_add(probe_shadows *sh, const probe_segment *sg, const probe_object *o, const uint8_t *rgb,
+                const uint8_t *plate);
+/* Fits the model or leaves it out with the reason. */
+void shadows_fit(const probe_shadows *sh, uint32_t width, uint32_t height, sp_probe_shadow *out);
+
+/* Mean angle in degrees between the model's shadow direction and the truth's; NaN when not comparable. */
+double probe_shadow_direction_error(const sp_probe_shadow *sh, const sp_probe_truth_sample *t, size_t n,
+                                    uint32_t width, uint32_t height);
+
+/* ---- OpenCV people detector (opencv_probe_shim.cpp under HAVE_OPENCV) ---- */
+
+/* Lazily created HOG scorer; SP_EDISABLED without OpenCV. */
+int probe_hog_person(void **hog, const uint8_t *rgb, uint32_t width, uint32_t height, const probe_object *o,
+                     int *is_person);
+void probe_hog_close(void **hog);
+
+#endif

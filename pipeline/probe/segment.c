@@ -1,0 +1,454 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Per-frame segmentation against the clean plate. Each pixel is background,
+ * object (refined mask M': colour differs from the plate by more than the
+ * threshold) or shadow (darker than the plate by a bounded ratio with its
+ * chromaticity kept). Changed pixels are counted on a coarse grid, closed
+ * (dilate, erode) and labelled in 8-connected components; a component with
+ * object pixels is an object, and its shadow pixels are its shadow, except
+ * those inside the object's upper body, which are dark clothing and rejoin M'.
+ */
+#include "probe_internal.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define NOISE_LEVELS 2 /* sensor noise assumed by the shadow test, in 8-bit levels */
+
+int segment_open(probe_segment *sg, uint32_t width, uint32_t height, const sp_probe_settings *s)
+{
+    memset(sg, 0, sizeof(*sg));
+    sg->width = width;
+    sg->height = height;
+    sg->block = s->block;
+    sg->gw = (width + s->block - 1) / s->block;
+    sg->gh = (height + s->block - 1) / s->block;
+    sg->fg_threshold = s->fg_threshold;
+    sg->min_object_px = s->min_object_px;
+    sg->shadow_lo = (int32_t)lround(s->shadow_min_ratio * 1024.0);
+    sg->shadow_hi = (int32_t)lround(s->shadow_max_ratio * 1024.0);
+    sg->chroma_tol = (int32_t)lround(s->shadow_chroma_tol * 1024.0);
+    size_t cells = (size_t)sg->gw * sg->gh;
+    sg->cls = malloc((size_t)width * height);
+    sg->cell_obj = malloc(cells);
+    sg->cell_sh = malloc(cells);
+    sg->grid = malloc(cells);
+    sg->tmp = malloc(cells);
+    sg->lab_obj = malloc(cells * sizeof(int32_t));
+    sg->parent = malloc((cells + 1) * sizeof(int32_t));
+    sg->comp = malloc((cells + 1) * 5 * sizeof(int32_t));
+    sg->objbox = malloc((cells + 1) * 5 * sizeof(int32_t));
+    sg->order = malloc((cells + 1) * sizeof(int32_t));
+    sg->rows = malloc((size_t)height * sizeof(int32_t));
+    if (!sg->cls || !sg->cell_obj || !sg->cell_sh || !sg->grid || !sg->tmp || !sg->lab_obj || !sg->parent ||
+        !sg->comp || !sg->objbox || !sg->order || !sg->rows) {
+        segment_close(sg);
+        return -ENOMEM;
+    }
+    memset(sg->cls, PROBE_CLS_BG, (size_t)width * height);
+    memset(sg->lab_obj, 0, cells * sizeof(int32_t));
+    return 0;
+}
+
+void segment_close(probe_segment *sg)
+{
+    free(sg->cls);
+    free(sg->cell_obj);
+    free(sg->cell_sh);
+    free(sg->grid);
+    free(sg->tmp);
+    free(sg->lab_obj);
+    free(sg->parent);
+    free(sg->comp);
+    free(sg->objbox);
+    free(sg->order);
+    free(sg->rows);
+    memset(sg, 0, sizeof(*sg));
+}
+
+/* One pixel against the plate: the refined-mask test, then the shadow test on what changed. */
+static inline uint8_t classify_pixel(const probe_segment *sg, const uint8_t *p, const uint8_t *q)
+{
+    int32_t r = p[0], g = p[1], b = p[2], R = q[0], G = q[1], B = q[2];
+    int32_t d = abs(r - R) + abs(g - G) + abs(b - B);
+    if (d <= (int32_t)sg->fg_threshold)
+        return PROBE_CLS_BG;
+    int32_t s = r + g + b, S = R + G + B;
+    /* darker by a bounded ratio: lo <= s/S <= hi, in 1/1024 */
+    if (s * 1024 < sg->shadow_lo * S || s * 1024 > sg->shadow_hi * S)
+        return PROBE_CLS_OBJECT;
+    /*
+     * chromaticity kept: sum |c/s - C/S| <= tol + 3 NOISE / s, multiplied through by s*S; the second
+     * term is what sensor noise of NOISE levels per channel does to the chromaticity of a dark pixel
+     */
+    int32_t chroma = abs(r * S - R * s) + abs(g * S - G * s) + abs(b * S - B * s);
+    int64_t allowed = (int64_t)sg->chroma_tol * s * S + 1024 * 3 * NOISE_LEVELS * (int64_t)S;
+    return (int64_t)chroma * 1024 <= allowed ? PROBE_CLS_SHADOW : PROBE_CLS_OBJECT;
+}
+
+static void classify(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate)
+{
+    size_t cells = (size_t)sg->gw * sg->gh;
+    memset(sg->cell_obj, 0, cells);
+    memset(sg->cell_sh, 0, cells);
+    uint64_t fg = 0, sh = 0;
+    for (uint32_t y = 0; y < sg->height; y++) {
+        size_t row = (size_t)y * sg->width;
+        uint8_t *co = sg->cell_obj + (size_t)(y / sg->block) * sg->gw;
+        uint8_t *cs = sg->cell_sh + (size_t)(y / sg->block) * sg->gw;
+        for (uint32_t gx = 0, x = 0; gx < sg->gw; gx++) {
+            uint32_t xe = x + sg->block < sg->width ? x + sg->block : sg->width;
+            unsigned no = 0, ns = 0;
+            for (; x < xe; x++) {
+                uint8_t c = classify_pixel(sg, rgb + (row + x) * 3, plate + (row + x) * 3);
+                sg->cls[row + x] = c;
+                no += c == PROBE_CLS_OBJECT;
+                ns += c == PROBE_CLS_SHADOW;
+            }
+            co[gx] = (uint8_t)(co[gx] + no); /* block <= 15: at most 225 per cell */
+            cs[gx] = (uint8_t)(cs[gx] + ns);
+            fg += no;
+            sh += ns;
+        }
+    }
+    sg->fg_pixels = fg;
+    sg->shadow_pixels = sh;
+}
+
+/* 3x3 dilation (grow = 1) or erosion (grow = 0) of a binary grid. */
+static void morph(const uint8_t *in, uint8_t *out, uint32_t gw, uint32_t gh, int grow)
+{
+    for (uint32_t y = 0; y < gh; y++)
+        for (uint32_t x = 0; x < gw; x++) {
+            int hit = !grow;
+            for (int dy = -1; dy <= 1; dy++)
+                for (int dx = -1; dx <= 1; dx++) {
+                    int64_t yy = (int64_t)y + dy, xx = (int64_t)x + dx;
+                    /* outside the image counts as "off" for dilation and "on" for erosion */
+                    int v = yy < 0 || xx < 0 || yy >= gh || xx >= gw ? !grow : in[yy * gw + xx];
+                    hit = grow ? hit || v : hit && v;
+                }
+            out[(size_t)y * gw + x] = (uint8_t)hit;
+        }
+}
+
+static int32_t uf_find(int32_t *parent, int32_t a)
+{
+    while (parent[a] != a) {
+        parent[a] = parent[parent[a]];
+        a = parent[a];
+    }
+    return a;
+}
+
+static void uf_union(int32_t *parent, int32_t a, int32_t b)
+{
+    a = uf_find(parent, a);
+    b = uf_find(parent, b);
+    if (a != b)
+        parent[a > b ? a : b] = a < b ? a : b;
+}
+
+/* Two-pass 8-connected labelling of grid into lab; returns the number of labels (1..n). */
+static int32_t label_components(probe_segment *sg, const uint8_t *grid)
+{
+    uint32_t gw = sg->gw, gh = sg->gh;
+    int32_t next = 1;
+    sg->parent[0] = 0;
+    for (uint32_t y = 0; y < gh; y++)
+        for (uint32_t x = 0; x < gw; x++) {
+            size_t i = (size_t)y * gw + x;
+            sg->lab_obj[i] = 0;
+            if (!grid[i])
+                continue;
+            int32_t nb[4] = { x > 0 ? sg->lab_obj[i - 1] : 0, y > 0 && x > 0 ? sg->lab_obj[i - gw - 1] : 0,
+                              y > 0 ? sg->lab_obj[i - gw] : 0, y > 0 && x + 1 < gw ? sg->lab_obj[i - gw + 1] : 0 };
+            int32_t l = 0;
+            for (int k = 0; k < 4; k++)
+                if (nb[k] && (!l || nb[k] < l))
+                    l = nb[k];
+            if (!l) {
+                l = next++;
+                sg->parent[l] = l;
+            }
+            for (int k = 0; k < 4; k++)
+                if (nb[k])
+                    uf_union(sg->parent, l, nb[k]);
+            sg->lab_obj[i] = l;
+        }
+    /* flatten to consecutive labels */
+    int32_t n = 0;
+    for (int32_t l = 1; l < next; l++)
+        sg->order[l] = sg->parent[l] == l ? ++n : 0;
+    for (size_t i = 0; i < (size_t)gw * gh; i++)
+        if (sg->lab_obj[i])
+            sg->lab_obj[i] = sg->order[uf_find(sg->parent, sg->lab_obj[i])];
+    return n;
+}
+
+/*
+ * Cell bounding box and cell count per component: box[5 l + 0..4] = x0, y0,
+ * x1, y1, cells; over all its cells, or (objects_only) over the cells that
+ * hold object pixels.
+ */
+static void component_boxes(probe_segment *sg, int32_t n, int32_t *box, int objects_only)
+{
+    for (int32_t l = 1; l <= n; l++) {
+        int32_t *c = box + 5 * l;
+        c[0] = INT32_MAX, c[1] = INT32_MAX, c[2] = -1, c[3] = -1, c[4] = 0;
+    }
+    for (uint32_t y = 0; y < sg->gh; y++)
+        for (uint32_t x = 0; x < sg->gw; x++) {
+            size_t i = (size_t)y * sg->gw + x;
+            int32_t l = sg->lab_obj[i];
+            if (!l || (objects_only && !sg->cell_obj[i]))
+                continue;
+            int32_t *c = box + 5 * l;
+            c[0] = (int32_t)x < c[0] ? (int32_t)x : c[0];
+            c[1] = (int32_t)y < c[1] ? (int32_t)y : c[1];
+            c[2] = (int32_t)x > c[2] ? (int32_t)x : c[2];
+            c[3] = (int32_t)y > c[3] ? (int32_t)y : c[3];
+            c[4]++;
+        }
+}
+
+static int32_t max_i32(int32_t a, int32_t b) { return a > b ? a : b; }
+static int32_t min_i32(int32_t a, int32_t b) { return a < b ? a : b; }
+
+/*
+ * Two components that look like the parts of one person an occluder cut
+ * apart (cell boxes of their object cells): side by side with the same top and
+ * bottom (a pole or pillar in front), or one above the other (a sign across the
+ * body) when the scale model says the lower part alone is too short for a
+ * person standing there and the two together are about right.
+ */
+static int parts_of_one(const probe_segment *sg, const int32_t *a, const int32_t *b, const sp_probe_plane *plane)
+{
+    int32_t wa = a[2] - a[0] + 1, wb = b[2] - b[0] + 1, ha = a[3] - a[1] + 1, hb = b[3] - b[1] + 1;
+    int32_t ovx = min_i32(a[2], b[2]) - max_i32(a[0], b[0]) + 1, ovy = min_i32(a[3], b[3]) - max_i32(a[1], b[1]) + 1;
+    int32_t h = max_i32(a[3], b[3]) - min_i32(a[1], b[1]) + 1, w = max_i32(a[2], b[2]) - min_i32(a[0], b[0]) + 1;
+    if (5 * ovy >= 3 * min_i32(ha, hb) && ovx <= 0) { /* side by side */
+        int32_t gap = -ovx, tall = max_i32(ha, hb);
+        return 2 * gap <= tall && 4 * abs(a[3] - b[3]) <= tall + 4 && 4 * abs(a[1] - b[1]) <= tall + 4 && 5 * w <= 4 * h;
+    }
+    if (2 * ovx < min_i32(wa, wb) || ovy > 0 || !plane || plane->status != SP_PROBE_PLANE_OK)
+        return 0;
+    const int32_t *low = a[3] > b[3] ? a : b;
+    double bs = sg->block, foot = (low[3] + 1) * bs - 1, x = 0.5 * (low[0] + low[2] + 1) * bs;
+    double expect = sp_probe_plane_height(plane, x, foot), own = (low[3] - low[1] + 1) * bs, both = h * bs;
+    return isfinite(expect) && own < 0.8 * expect && fabs(both - expect) <= 0.25 * expect;
+}
+
+/* Joins the parts of occluded people (union-find over labels), then renumbers the cells. */
+static void merge_parts(probe_segment *sg, int32_t n, const sp_probe_plane *plane)
+{
+    component_boxes(sg, n, sg->objbox, 1);
+    for (int32_t l = 0; l <= n; l++)
+        sg->parent[l] = l;
+    for (int32_t a = 1; a <= n; a++) {
+        const int32_t *ba = sg->objbox + 5 * a;
+        if (ba[4] < 2)
+            continue;
+        for (int32_t b = a + 1; b <= n; b++) {
+            const int32_t *bb = sg->objbox + 5 * b;
+            if (bb[4] >= 2 && parts_of_one(sg, ba, bb, plane))
+                uf_union(sg->parent, a, b);
+        }
+    }
+    for (size_t i = 0; i < (size_t)sg->gw * sg->gh; i++)
+        if (sg->lab_obj[i])
+            sg->lab_obj[i] = uf_find(sg->parent, sg->lab_obj[i]);
+}
+
+typedef struct rect {
+    uint32_t x0, y0, x1, y1; /* pixels, half-open */
+} rect;
+
+static rect component_rect(const probe_segment *sg, int32_t label)
+{
+    const int32_t *c = sg->comp + 5 * label;
+    rect r = { (uint32_t)c[0] * sg->block, (uint32_t)c[1] * sg->block, (uint32_t)(c[2] + 1) * sg->block,
+               (uint32_t)(c[3] + 1) * sg->block };
+    r.x1 = r.x1 < sg->width ? r.x1 : sg->width;
+    r.y1 = r.y1 < sg->height ? r.y1 : sg->height;
+    return r;
+}
+
+static inline int in_component(const probe_segment *sg, int32_t label, uint32_t x, uint32_t y)
+{
+    return sg->lab_obj[(y / sg->block) * sg->gw + x / sg->block] == label;
+}
+
+/*
+ * Rows holding object pixels of the component, and their x range. The top is
+ * the first row with at least 2 pixels; the foot is the last row of the last
+ * run of at least 3 such rows, so stray object pixels inside a shadow below
+ * the feet do not lower it, while a gap (an occluder across the body) may.
+ */
+static int object_extent(probe_segment *sg, int32_t label, rect r, int *top, int *foot, int *xa, int *xb)
+{
+    *top = *foot = *xa = *xb = -1;
+    int run = 0;
+    for (uint32_t y = r.y0; y < r.y1; y++) {
+        int32_t n = 0;
+        const uint8_t *c = sg->cls + (size_t)y * sg->width;
+        for (uint32_t x = r.x0; x < r.x1; x++)
+            if (c[x] == PROBE_CLS_OBJECT && in_component(sg, label, x, y)) {
+                n++;
+                *xa = *xa < 0 || (int)x < *xa ? (int)x : *xa;
+                *xb = (int)x > *xb ? (int)x : *xb;
+            }
+        sg->rows[y] = n;
+        run = n >= 2 ? run + 1 : 0;
+        if (n >= 2 && *top < 0)
+            *top = (int)y;
+        if (run >= 3)
+            *foot = (int)y;
+    }
+    return *top >= 0 && *foot > *top;
+}
+
+/*
+ * Shadow-classified pixels inside the body's box (its x range, top to foot)
+ * are dark clothing or the shadow right under the feet: back into M'. A cast
+ * shadow is what lies outside; one falling straight away from the camera hides
+ * behind the body and is not learned (PROBE.md).
+ */
+static void reclaim_clothing(probe_segment *sg, int32_t label, int top, int foot, int xa, int xb)
+{
+    for (int y = top; y <= foot; y++) {
+        uint8_t *c = sg->cls + (size_t)y * sg->width;
+        for (int x = xa; x <= xb; x++)
+            if (c[x] == PROBE_CLS_SHADOW && in_component(sg, label, (uint32_t)x, (uint32_t)y))
+                c[x] = PROBE_CLS_OBJECT;
+    }
+}
+
+typedef struct sums {
+    double n, x, rgb[3], t, foot_n, foot_x;
+    double sh_n, sh_x, sh_y, sh_ratio;
+    int x0, x1;
+} sums;
+
+static void accumulate(const probe_segment *sg, const uint8_t *rgb, const uint8_t *plate, int32_t label, rect r,
+                       int top, int foot, sums *s)
+{
+    double h = foot - top + 1;
+    int foot_rows = (int)ceil(0.1 * h);
+    memset(s, 0, sizeof(*s));
+    s->x0 = INT32_MAX, s->x1 = -1;
+    for (uint32_t y = r.y0; y < r.y1; y++) {
+        const uint8_t *c = sg->cls + (size_t)y * sg->width;
+        for (uint32_t x = r.x0; x < r.x1; x++) {
+            if (c[x] == PROBE_CLS_BG || !in_component(sg, label, x, y))
+                continue;
+            const uint8_t *p = rgb + ((size_t)y * sg->width + x) * 3;
+            if (c[x] == PROBE_CLS_SHADOW) {
+                const uint8_t *q = plate + ((size_t)y * sg->width + x) * 3;
+                int lit = q[0] + q[1] + q[2];
+                s->sh_n++, s->sh_x += x, s->sh_y += y;
+                s->sh_ratio += lit > 0 ? (double)(p[0] + p[1] + p[2]) / lit : 1.0;
+                continue;
+            }
+            s->n++, s->x += x;
+            s->rgb[0] += p[0], s->rgb[1] += p[1], s->rgb[2] += p[2];
+            s->t += (foot - (double)y) / h;
+            s->x0 = (int)x < s->x0 ? (int)x : s->x0;
+            s->x1 = (int)x > s->x1 ? (int)x : s->x1;
+            if ((int)y > foot - foot_rows && (int)y <= foot)
+                s->foot_n++, s->foot_x += x;
+        }
+    }
+}
+
+static int touches(const probe_segment *sg, int x0, int y0, int x1, int y1)
+{
+    return (y0 <= 1 ? PROBE_TOUCH_TOP : 0) | (y1 >= (int)sg->height - 2 ? PROBE_TOUCH_BOTTOM : 0) |
+           (x0 <= 1 ? PROBE_TOUCH_LEFT : 0) | (x1 >= (int)sg->width - 2 ? PROBE_TOUCH_RIGHT : 0);
+}
+
+/* Upright and compact like one walking person: a group or a car is too wide, a pole too thin. */
+static int person_shaped(const probe_object *o)
+{
+    double w = o->x1 - o->x0 + 1, aspect = o->height / w, fill = o->area / (w * o->height);
+    return !o->touches && o->height >= 16 && aspect >= 1.4 && aspect <= 5.5 && fill >= 0.25 && fill <= 0.95;
+}
+
+static int extract_object(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate, int32_t label,
+                          probe_object *o)
+{
+    rect r = component_rect(sg, label);
+    int top, foot, xa, xb;
+    if (!object_extent(sg, label, r, &top, &foot, &xa, &xb))
+        return 0; /* a shadow without an object, or a speck */
+    reclaim_clothing(sg, label, top, foot, xa, xb);
+    sums s;
+    accumulate(sg, rgb, plate, label, r, top, foot, &s);
+    if (s.n < sg->min_object_px || s.foot_n <= 0)
+        return 0;
+    memset(o, 0, sizeof(*o));
+    o->label = label;
+    o->x0 = s.x0, o->x1 = s.x1, o->y0 = top, o->y1 = foot;
+    o->area = (uint32_t)s.n;
+    o->touches = touches(sg, o->x0, o->y0, o->x1, o->y1);
+    o->foot_x = s.foot_x / s.foot_n;
+    o->foot_y = foot;
+    o->height = foot - top + 1;
+    for (int c = 0; c < 3; c++)
+        o->mean_rgb[c] = s.rgb[c] / s.n;
+    o->cx = s.x / s.n;
+    o->tbar = s.t / s.n;
+    o->person = person_shaped(o);
+    if (s.sh_n > 0) {
+        o->shadow_area = (uint32_t)s.sh_n;
+        o->shadow_cx = s.sh_x / s.sh_n;
+        o->shadow_cy = s.sh_y / s.sh_n;
+        o->shadow_ratio = s.sh_ratio / s.sh_n;
+    }
+    return 1;
+}
+
+static int by_cells_desc(const void *a, const void *b, void *comp)
+{
+    const int32_t *c = comp;
+    int32_t na = c[5 * *(const int32_t *)a + 4], nb = c[5 * *(const int32_t *)b + 4];
+    return (na < nb) - (na > nb);
+}
+
+/* Insertion sort of candidate labels by size (few candidates per frame). */
+static void sort_candidates(int32_t *v, int32_t n, int32_t *comp)
+{
+    for (int32_t i = 1; i < n; i++) {
+        int32_t key = v[i], j = i - 1;
+        while (j >= 0 && by_cells_desc(&v[j], &key, comp) > 0) {
+            v[j + 1] = v[j];
+            j--;
+        }
+        v[j + 1] = key;
+    }
+}
+
+void segment_frame(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate, const sp_probe_plane *plane)
+{
+    classify(sg, rgb, plate);
+    size_t cells = (size_t)sg->gw * sg->gh;
+    unsigned quarter = (sg->block * sg->block + 3) / 4;
+    for (size_t i = 0; i < cells; i++)
+        sg->grid[i] = (uint8_t)(sg->cell_obj[i] + sg->cell_sh[i] >= quarter);
+    morph(sg->grid, sg->tmp, sg->gw, sg->gh, 1); /* closing joins the parts of one person */
+    morph(sg->tmp, sg->grid, sg->gw, sg->gh, 0);
+    int32_t n = label_components(sg, sg->grid);
+    merge_parts(sg, n, plane);
+    component_boxes(sg, n, sg->comp, 0);
+    int32_t cand = 0;
+    unsigned min_cells = sg->min_object_px / (sg->block * sg->block);
+    for (int32_t l = 1; l <= n; l++)
+        if ((unsigned)sg->comp[5 * l + 4] >= (min_cells ? min_cells : 1))
+            sg->order[cand++] = l;
+    sort_candidates(sg->order, cand, sg->comp);
+    sg->n_obj = 0;
+    for (int32_t i = 0; i < cand && sg->n_obj < PROBE_MAX_OBJECTS; i++)
+        sg->n_obj += (unsigned)extract_object(sg, rgb, plate, sg->order[i], &sg->obj[sg->n_obj]);
+}

@@ -1,0 +1,287 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Stage 1, coarse alignment: Levenberg-Marquardt (damped Gauss-Newton) on the
+ * 68 projected landmarks of every keyframe with Huber weights (a smooth stand-in
+ * for the thesis' L1), shared identity and scale, per-frame expression, rotation
+ * and translation of the face in the camera frame. Priors keep identity near the
+ * mean (unit Gaussian), expressions in [0, 1] and small, and the scale near 1.
+ */
+#include "pipeline/sunstage/sunstage_internal.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define HUBER_PX 1.0
+#define W_JAW 0.5     /* jaw contour landmarks slide along the silhouette: trust them less */
+#define W_ID 1.0      /* px^2 per unit identity coefficient squared */
+#define W_EXP 4.0
+#define W_SCALE 400.0 /* (s - 1)^2 weight: a 5 % scale change costs 1 px^2 */
+
+typedef struct align_ctx {
+    sp_sunstage *ss;
+    const int *idx;
+    int n, shared, n_id, n_exp, ns, np, P;
+    double *uv, *jac, *JtJ, *Jtr, *save;
+    sp_face_camera cam;
+} align_ctx;
+
+static void frame_params(const align_ctx *a, const ss_frame *f, sp_face_params *p)
+{
+    sp_face_params_init(p);
+    p->id = a->ss->id;
+    p->exp = f->exp;
+    memcpy(p->rotvec, f->rotvec, sizeof(p->rotvec));
+    memcpy(p->t, f->t_face, sizeof(p->t));
+    p->s = a->ss->scale;
+}
+
+/* Landmark weight for the point residual (du, dv): Huber on its length times the jaw factor. */
+static double lm_weight(int k, double du, double dv)
+{
+    double r = hypot(du, dv);
+    double w = r > HUBER_PX ? HUBER_PX / r : 1.0;
+    return k <= 16 ? W_JAW * w : w;
+}
+
+static double huber_cost(double r)
+{
+    return r > HUBER_PX ? HUBER_PX * (2.0 * r - HUBER_PX) : r * r;
+}
+
+/* Robust cost of every frame plus priors; jac != NULL also accumulates the normal equations. */
+static double evaluate(align_ctx *a, int with_jac)
+{
+    sp_sunstage *ss = a->ss;
+    const sp_face_model *m = ss->model;
+    double cost = 0.0;
+    uint32_t nc = sp_face_model_n_params(m);
+    if (with_jac) {
+        memset(a->JtJ, 0, sizeof(double) * (size_t)a->P * (size_t)a->P);
+        memset(a->Jtr, 0, sizeof(double) * (size_t)a->P);
+    }
+    int *col = malloc(sizeof(int) * nc);
+    if (!col)
+        return NAN;
+    for (int fi = 0; fi < a->n; fi++) {
+        ss_frame *f = &ss->slots[a->idx[fi]];
+        sp_face_params p;
+        frame_params(a, f, &p);
+        if (sp_face_model_project_landmarks(m, &p, &a->cam, a->uv, NULL, with_jac ? a->jac : NULL) < 0) {
+            free(col);
+            return NAN;
+        }
+        int base = a->ns + fi * a->np;
+        for (uint32_t j = 0; j < nc; j++) { /* Jacobian column -> parameter index, -1 = fixed */
+            int jj = (int)j;
+            if (jj < a->n_id)
+                col[j] = a->shared ? jj : -1;
+            else if (jj < a->n_id + a->n_exp + 6)
+                col[j] = base + (jj - a->n_id);
+            else
+                col[j] = a->shared ? a->n_id : -1;
+        }
+        for (int k = 0; k < 68; k++) {
+            double du = a->uv[2 * k] - f->lm[2 * k], dv = a->uv[2 * k + 1] - f->lm[2 * k + 1];
+            double w = lm_weight(k, du, dv);
+            cost += (k <= 16 ? W_JAW : 1.0) * huber_cost(hypot(du, dv));
+            if (!with_jac)
+                continue;
+            for (int c = 0; c < 2; c++) {
+                const double *J = a->jac + (size_t)(2 * k + c) * nc;
+                double r = c ? dv : du;
+                for (uint32_t i = 0; i < nc; i++) {
+                    if (col[i] < 0 || J[i] == 0.0)
+                        continue;
+                    a->Jtr[col[i]] += w * J[i] * r;
+                    for (uint32_t j = 0; j < nc; j++)
+                        if (col[j] >= 0)
+                            a->JtJ[(size_t)col[i] * (size_t)a->P + (size_t)col[j]] += w * J[i] * J[j];
+                }
+            }
+        }
+        for (int e = 0; e < a->n_exp; e++) {
+            cost += W_EXP * f->exp[e] * f->exp[e];
+            if (with_jac) {
+                a->JtJ[(size_t)(base + e) * (size_t)a->P + (size_t)(base + e)] += W_EXP;
+                a->Jtr[base + e] += W_EXP * f->exp[e];
+            }
+        }
+    }
+    free(col);
+    if (a->shared) {
+        for (int i = 0; i < a->n_id; i++) {
+            cost += W_ID * ss->id[i] * ss->id[i];
+            if (with_jac) {
+                a->JtJ[(size_t)i * (size_t)a->P + (size_t)i] += W_ID;
+                a->Jtr[i] += W_ID * ss->id[i];
+            }
+        }
+        cost += W_SCALE * (ss->scale - 1.0) * (ss->scale - 1.0);
+        if (with_jac) {
+            a->JtJ[(size_t)a->n_id * (size_t)a->P + (size_t)a->n_id] += W_SCALE;
+            a->Jtr[a->n_id] += W_SCALE * (ss->scale - 1.0);
+        }
+    }
+    return cost;
+}
+
+/* Reads (dir = 0) or writes (dir = 1) the parameter vector x. */
+static void params_io(align_ctx *a, double *x, int dir)
+{
+    sp_sunstage *ss = a->ss;
+    if (a->shared)
+        for (int i = 0; i <= a->n_id; i++) {
+            double *v = i < a->n_id ? &ss->id[i] : &ss->scale;
+            if (dir)
+                *v = x[i];
+            else
+                x[i] = *v;
+        }
+    for (int fi = 0; fi < a->n; fi++) {
+        ss_frame *f = &ss->slots[a->idx[fi]];
+        double *b = x + a->ns + fi * a->np;
+        for (int e = 0; e < a->np; e++) {
+            double *v = e < a->n_exp ? &f->exp[e] : (e < a->n_exp + 3 ? &f->rotvec[e - a->n_exp] : &f->t_face[e - a->n_exp - 3]);
+            if (dir)
+                *v = b[e];
+            else
+                b[e] = *v;
+        }
+    }
+}
+
+/* Frontal start: face turned towards the camera (180 deg about x), depth from the landmark spread. */
+static void init_frame(align_ctx *a, ss_frame *f)
+{
+    const sp_face_model *m = a->ss->model;
+    double mu[2] = { 0, 0 }, mm[2] = { 0, 0 }, ru = 0.0, rm = 0.0;
+    for (int k = 0; k < 68; k++) {
+        const float *v = m->mesh.positions + (size_t)m->landmarks[k] * 3;
+        mu[0] += f->lm[2 * k] / 68.0;
+        mu[1] += f->lm[2 * k + 1] / 68.0;
+        mm[0] += (double)v[0] / 68.0;
+        mm[1] += (double)v[1] / 68.0;
+    }
+    for (int k = 0; k < 68; k++) {
+        const float *v = m->mesh.positions + (size_t)m->landmarks[k] * 3;
+        ru += hypot(f->lm[2 * k] - mu[0], f->lm[2 * k + 1] - mu[1]);
+        rm += hypot((double)v[0] - mm[0], (double)v[1] - mm[1]);
+    }
+    double z = ru > 1e-6 ? a->cam.fx * rm / ru : 0.5;
+    z = z < 0.05 ? 0.05 : (z > 20.0 ? 20.0 : z);
+    f->rotvec[0] = M_PI;
+    f->rotvec[1] = f->rotvec[2] = 0.0;
+    /* model (x, y) maps to camera (x, -y) under the flip */
+    f->t_face[0] = (mu[0] - a->cam.cx) * z / a->cam.fx - mm[0];
+    f->t_face[1] = (mu[1] - a->cam.cy) * z / a->cam.fy + mm[1];
+    f->t_face[2] = z;
+}
+
+static void clamp_params(align_ctx *a)
+{
+    sp_sunstage *ss = a->ss;
+    ss->scale = ss->scale < 0.7 ? 0.7 : (ss->scale > 1.4 ? 1.4 : ss->scale);
+    for (int fi = 0; fi < a->n; fi++) {
+        ss_frame *f = &ss->slots[a->idx[fi]];
+        for (int e = 0; e < a->n_exp; e++)
+            f->exp[e] = f->exp[e] < 0.0 ? 0.0 : (f->exp[e] > 1.0 ? 1.0 : f->exp[e]);
+        f->t_face[2] = f->t_face[2] < 0.05 ? 0.05 : f->t_face[2];
+    }
+}
+
+static int lm_iterate(align_ctx *a, int iterations, double *cost_out)
+{
+    double mu = 1e-3, cost = evaluate(a, 0);
+    double *A = malloc(sizeof(double) * (size_t)a->P * ((size_t)a->P + 2));
+    if (!A)
+        return -ENOMEM;
+    double *b = A + (size_t)a->P * (size_t)a->P, *x0 = b + a->P;
+    for (int it = 0; it < iterations && isfinite(cost); it++) {
+        evaluate(a, 1);
+        params_io(a, x0, 0);
+        int accepted = 0;
+        for (int tries = 0; tries < 8 && !accepted; tries++) {
+            memcpy(A, a->JtJ, sizeof(double) * (size_t)a->P * (size_t)a->P);
+            for (int i = 0; i < a->P; i++) {
+                A[(size_t)i * (size_t)a->P + (size_t)i] *= 1.0 + mu;
+                A[(size_t)i * (size_t)a->P + (size_t)i] += 1e-9;
+                b[i] = -a->Jtr[i];
+            }
+            if (ss_cholesky_solve(A, b, a->P) == 0) {
+                for (int i = 0; i < a->P; i++)
+                    a->save[i] = x0[i] + b[i];
+                params_io(a, a->save, 1);
+                clamp_params(a);
+                double c = evaluate(a, 0);
+                if (isfinite(c) && c < cost) {
+                    accepted = 1;
+                    mu = fmax(mu * 0.3, 1e-7);
+                    double gain = cost - c;
+                    cost = c;
+                    if (gain < 1e-6 * cost)
+                        it = iterations;
+                    break;
+                }
+            }
+            params_io(a, x0, 1);
+            mu *= 10.0;
+        }
+        if (!accepted)
+            break;
+    }
+    free(A);
+    *cost_out = cost;
+    return 0;
+}
+
+double ss_align_landmarks(sp_sunstage *ss, const int *idx, int n, int shared, int iterations)
+{
+    align_ctx a = { .ss = ss, .idx = idx, .n = n, .shared = shared };
+    const sp_face_model *m = ss->model;
+    a.n_id = (int)m->n_id;
+    a.n_exp = (int)m->n_exp;
+    a.ns = shared ? a.n_id + 1 : 0;
+    a.np = a.n_exp + 6;
+    a.P = a.ns + n * a.np;
+    sp_face_camera_init(&a.cam, ss->fx, ss->fy, ss->cx, ss->cy);
+    size_t nc = sp_face_model_n_params(m);
+    a.uv = malloc(sizeof(double) * 136);
+    a.jac = malloc(sizeof(double) * 136 * nc);
+    a.JtJ = malloc(sizeof(double) * (size_t)a.P * (size_t)a.P);
+    a.Jtr = malloc(sizeof(double) * (size_t)a.P);
+    a.save = malloc(sizeof(double) * (size_t)a.P);
+    double rms = -ENOMEM;
+    if (!a.uv || !a.jac || !a.JtJ || !a.Jtr || !a.save)
+        goto done;
+    for (int fi = 0; fi < n; fi++) {
+        ss_frame *f = &ss->slots[idx[fi]];
+        if (f->t_face[2] == 0.0)
+            init_frame(&a, f);
+    }
+    double cost;
+    int ret = lm_iterate(&a, iterations, &cost);
+    if (ret) {
+        rms = ret;
+        goto done;
+    }
+    /* plain RMS landmark error in pixels for the report */
+    double se = 0.0;
+    for (int fi = 0; fi < n; fi++) {
+        ss_frame *f = &ss->slots[idx[fi]];
+        sp_face_params p;
+        frame_params(&a, f, &p);
+        sp_face_model_project_landmarks(m, &p, &a.cam, a.uv, NULL, NULL);
+        for (int k = 0; k < 136; k++)
+            se += (a.uv[k] - f->lm[k]) * (a.uv[k] - f->lm[k]);
+    }
+    rms = sqrt(se / (68.0 * n));
+done:
+    free(a.uv);
+    free(a.jac);
+    free(a.JtJ);
+    free(a.Jtr);
+    free(a.save);
+    return rms;
+}

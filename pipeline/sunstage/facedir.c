@@ -1,0 +1,221 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The face directory: manifest.json (sizes, lighting, flags, file names),
+ * mesh.obj (for people and other tools) and mesh.bin (for relight), raw
+ * little-endian float maps (albedo.f32 RGB, displacement.f32, env.f32),
+ * clusters.u8, cameras.json. Files are written with atomic renames; the caller
+ * writes into DIR.partial and renames the directory when everything is there.
+ */
+#include "sunprobe/sp_sunstage.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/atomic_file.h"
+#include "common/json.h"
+#include "pipeline/sunstage/sunstage_internal.h"
+
+#define MESH_MAGIC "SPFMESH1"
+
+static int write_blob(const char *dir, const char *name, const void *data, size_t size)
+{
+    char path[4096];
+    if ((size_t)snprintf(path, sizeof(path), "%s/%s", dir, name) >= sizeof(path))
+        return -ENAMETOOLONG;
+    sp_atomic_file af;
+    int ret = sp_atomic_file_open(&af, path);
+    if (ret)
+        return ret;
+    int st = size && fwrite(data, 1, size, af.file) != size ? -EIO : 0;
+    return sp_atomic_file_finish(&af, st);
+}
+
+static int write_text(const char *dir, const char *name, const sp_strbuf *b)
+{
+    if (b->failed)
+        return -ENOMEM;
+    return write_blob(dir, name, b->data, b->len);
+}
+
+/* Keyframe 0's face in the world, as floats. */
+static int placed_mesh(const sp_sunstage *ss, float *pos)
+{
+    int idx[64];
+    if (ss_list_frames(ss, 0, idx, 64) < 1)
+        return SP_ENODATA;
+    ss_scene sc;
+    int ret = ss_scene_open(&sc, ss);
+    if (ret)
+        return ret;
+    sp_render_scene scene;
+    ret = ss_scene_setup(&sc, ss, &ss->slots[idx[0]], &scene);
+    if (!ret)
+        memcpy(pos, sc.pos, sizeof(float) * 3 * ss->model->mesh.n_vertices);
+    ss_scene_close(&sc);
+    return ret;
+}
+
+static int write_mesh(const sp_sunstage *ss, const char *dir, const float *pos)
+{
+    const sp_mesh *m = &ss->model->mesh;
+    sp_strbuf b = { 0 };
+    sp_strbuf_printf(&b, "# sunprobe fitted face (metres, fit world frame, z up)\n");
+    for (uint32_t i = 0; i < m->n_vertices; i++)
+        sp_strbuf_printf(&b, "v %.6f %.6f %.6f\n", (double)pos[i * 3], (double)pos[i * 3 + 1], (double)pos[i * 3 + 2]);
+    for (uint32_t i = 0; i < m->n_uvs; i++)
+        sp_strbuf_printf(&b, "vt %.6f %.6f\n", (double)m->uvs[i * 2], (double)m->uvs[i * 2 + 1]);
+    for (uint32_t t = 0; t < m->n_triangles; t++) {
+        const uint32_t *v = m->tri_vertices + t * 3, *u = m->tri_uvs + t * 3;
+        sp_strbuf_printf(&b, "f %u/%u %u/%u %u/%u\n", v[0] + 1, u[0] + 1, v[1] + 1, u[1] + 1, v[2] + 1, u[2] + 1);
+    }
+    int ret = write_text(dir, "mesh.obj", &b);
+    sp_strbuf_free(&b);
+    if (ret)
+        return ret;
+    size_t size = 8 + 12 + sizeof(float) * (3 * (size_t)m->n_vertices + 2 * (size_t)m->n_uvs) +
+                  sizeof(uint32_t) * 6 * (size_t)m->n_triangles;
+    uint8_t *blob = malloc(size), *p = blob;
+    if (!blob)
+        return -ENOMEM;
+    uint32_t counts[3] = { m->n_vertices, m->n_uvs, m->n_triangles };
+    memcpy(p, MESH_MAGIC, 8);
+    memcpy(p += 8, counts, 12);
+    memcpy(p += 12, pos, sizeof(float) * 3 * m->n_vertices);
+    memcpy(p += sizeof(float) * 3 * m->n_vertices, m->uvs, sizeof(float) * 2 * m->n_uvs);
+    memcpy(p += sizeof(float) * 2 * m->n_uvs, m->tri_vertices, sizeof(uint32_t) * 3 * m->n_triangles);
+    memcpy(p += sizeof(uint32_t) * 3 * m->n_triangles, m->tri_uvs, sizeof(uint32_t) * 3 * m->n_triangles);
+    ret = write_blob(dir, "mesh.bin", blob, size);
+    free(blob);
+    return ret;
+}
+
+static void json_array(sp_strbuf *b, const double *v, int n)
+{
+    sp_strbuf_append(b, "[", 1);
+    for (int i = 0; i < n; i++) {
+        if (i)
+            sp_strbuf_append(b, ",", 1);
+        sp_strbuf_json_number(b, v[i]);
+    }
+    sp_strbuf_append(b, "]", 1);
+}
+
+static int write_cameras(const sp_sunstage *ss, const char *dir)
+{
+    sp_strbuf b = { 0 };
+    sp_strbuf_printf(&b, "{\"frames\":[");
+    int n = sp_sunstage_n_frames(ss);
+    for (int i = 0; i < n; i++) {
+        sp_sunstage_frame f;
+        sp_sunstage_get_frame(ss, i, &f);
+        double q[4] = { f.camera_to_world.w, f.camera_to_world.x, f.camera_to_world.y, f.camera_to_world.z };
+        double k[4] = { f.fx, f.fy, f.cx, f.cy };
+        sp_strbuf_printf(&b, "%s\n {\"sequence\":%llu,\"timestamp_ns\":%lld,\"heldout\":%s,\"width\":%d,\"height\":%d,",
+                         i ? "," : "", (unsigned long long)f.sequence, (long long)f.timestamp_ns,
+                         f.heldout ? "true" : "false", f.width, f.height);
+        sp_strbuf_printf(&b, "\"capture_pixels_per_pixel\":");
+        sp_strbuf_json_number(&b, f.scale_to_capture);
+        sp_strbuf_printf(&b, ",\"intrinsics\":");
+        json_array(&b, k, 4);
+        sp_strbuf_printf(&b, ",\"camera_to_world_wxyz\":");
+        json_array(&b, q, 4);
+        sp_strbuf_printf(&b, ",\"face_rotvec\":");
+        json_array(&b, f.rotvec, 3);
+        sp_strbuf_printf(&b, ",\"face_t\":");
+        json_array(&b, f.t, 3);
+        sp_strbuf_printf(&b, ",\"expression\":");
+        json_array(&b, f.exp, (int)ss->model->n_exp);
+        sp_strbuf_printf(&b, "}");
+    }
+    sp_strbuf_printf(&b, "\n]}\n");
+    int ret = write_text(dir, "cameras.json", &b);
+    sp_strbuf_free(&b);
+    return ret;
+}
+
+static void manifest_lighting(const sp_sunstage *ss, sp_strbuf *b)
+{
+    sp_strbuf_printf(b, "\"lighting\":{\"sun_direction\":");
+    json_array(b, ss->sun_dir, 3);
+    sp_strbuf_printf(b, ",\"sun_intensity\":");
+    sp_strbuf_json_number(b, ss->sun_dropped || ss->unobservable ? 0.0 : ss->sun_I);
+    sp_strbuf_printf(b, ",\"sun_dropped\":%s,\"lighting_unobservable\":%s,\"notes\":",
+                     ss->sun_dropped ? "true" : "false", ss->unobservable ? "true" : "false");
+    sp_strbuf_json_string(b, ss->notes);
+    sp_strbuf_printf(b, ",\"env\":\"env.f32\",\"env_height\":%d,\"env_width\":%d,\"yaw_range_deg\":",
+                     SP_RENDER_ENV_H, SP_RENDER_ENV_W);
+    sp_strbuf_json_number(b, ss->yaw_range);
+    sp_strbuf_printf(b, "},\n");
+}
+
+static int write_manifest(const sp_sunstage *ss, const char *dir)
+{
+    sp_strbuf b = { 0 };
+    sp_sunstage_counts c;
+    sp_sunstage_get_counts(ss, &c);
+    sp_strbuf_printf(&b, "{\"format\":\"sunprobe-face\",\"version\":1,\n\"model\":");
+    sp_strbuf_json_string(&b, ss->model->source);
+    sp_strbuf_printf(&b, ",\"solver\":\"%s\",\n\"mesh\":\"mesh.obj\",\"mesh_binary\":\"mesh.bin\",\"n_vertices\":%u,"
+                         "\"n_triangles\":%u,\n",
+                     ss->set.solver == SP_SUNSTAGE_SOLVER_ADAM ? "adam" : "fast", ss->model->mesh.n_vertices,
+                     ss->model->mesh.n_triangles);
+    sp_strbuf_printf(&b, "\"textures\":{\"width\":%d,\"height\":%d,\"albedo\":\"albedo.f32\",\"albedo_png\":"
+                         "\"albedo.png\",\"displacement\":\"displacement.f32\",\"clusters\":\"clusters.u8\","
+                         "\"cluster_width\":%u,\"cluster_height\":%u},\n",
+                     ss->tw, ss->th, ss->model->cluster_width, ss->model->cluster_height);
+    sp_strbuf_printf(&b, "\"specular\":{\"ks\":");
+    json_array(&b, ss->ks, SP_RENDER_CLUSTERS);
+    sp_strbuf_printf(&b, ",\"shininess\":");
+    json_array(&b, ss->shin, SP_RENDER_CLUSTERS);
+    sp_strbuf_printf(&b, "},\n");
+    manifest_lighting(ss, &b);
+    sp_strbuf_printf(&b, "\"identity\":");
+    json_array(&b, ss->id, (int)ss->model->n_id);
+    sp_strbuf_printf(&b, ",\"scale\":");
+    sp_strbuf_json_number(&b, ss->scale);
+    sp_strbuf_printf(&b, ",\n\"cameras\":\"cameras.json\",\"fit\":{\"train_psnr\":");
+    sp_strbuf_json_number(&b, ss->train_psnr);
+    sp_strbuf_printf(&b, ",\"heldout_psnr\":");
+    sp_strbuf_json_number(&b, ss->heldout_psnr);
+    sp_strbuf_printf(&b, ",\"seconds\":");
+    sp_strbuf_json_number(&b, ss->seconds);
+    sp_strbuf_printf(&b, ",\"frames\":%llu,\"keyframes\":%d,\"heldout\":%d,\"skipped\":{\"dark\":%llu,"
+                         "\"saturated\":%llu,\"blurred\":%llu,\"no_face\":%llu,\"no_orientation\":%llu}}}\n",
+                     (unsigned long long)c.frames, c.keyframes, c.heldout, (unsigned long long)c.skipped_dark,
+                     (unsigned long long)c.skipped_saturated, (unsigned long long)c.skipped_blurred,
+                     (unsigned long long)c.skipped_no_face, (unsigned long long)c.skipped_no_orientation);
+    int ret = write_text(dir, "manifest.json", &b);
+    sp_strbuf_free(&b);
+    return ret;
+}
+
+int sp_face_dir_write(const sp_sunstage *ss, const char *dir)
+{
+    if (!ss || !dir || !ss->fitted)
+        return -EINVAL;
+    const sp_face_model *m = ss->model;
+    float *pos = malloc(sizeof(float) * 3 * m->mesh.n_vertices);
+    if (!pos)
+        return -ENOMEM;
+    int ret = placed_mesh(ss, pos);
+    if (!ret)
+        ret = write_mesh(ss, dir, pos);
+    free(pos);
+    size_t nt = (size_t)ss->tw * (size_t)ss->th;
+    if (!ret)
+        ret = write_blob(dir, "albedo.f32", ss->albedo, nt * 3 * sizeof(float));
+    if (!ret)
+        ret = write_blob(dir, "displacement.f32", ss->disp, nt * sizeof(float));
+    if (!ret)
+        ret = write_blob(dir, "clusters.u8", m->cluster_map, (size_t)m->cluster_width * m->cluster_height);
+    if (!ret)
+        ret = write_blob(dir, "env.f32", ss->env, sizeof(ss->env));
+    if (!ret)
+        ret = write_cameras(ss, dir);
+    if (!ret)
+        ret = write_manifest(ss, dir);
+    return ret;
+}

@@ -1,0 +1,203 @@
+/* SPDX-License-Identifier: MIT */
+/* Reads a face directory (facedir.c) back into a self-contained asset for relighting; every size is checked. */
+#include "sunprobe/sp_sunstage.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/json.h"
+
+#define MOD "sunstage"
+#define MAX_FILE ((size_t)1 << 30)
+
+/* Reads dir/name into a malloc'd buffer (NUL appended); SP_ETRUNCATED if want > 0 and the size differs. */
+static int read_file(const char *dir, const char *name, size_t want, char **out, size_t *size)
+{
+    char path[4096];
+    if ((size_t)snprintf(path, sizeof(path), "%s/%s", dir, name) >= sizeof(path))
+        return -ENAMETOOLONG;
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        int err = -errno;
+        sp_log(SP_LOG_ERROR, MOD, "cannot open %s", path);
+        return err;
+    }
+    int ret = 0;
+    char *buf = NULL;
+    long len = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
+    if (len < 0 || (size_t)len > MAX_FILE || fseek(f, 0, SEEK_SET))
+        ret = -EIO;
+    else if (want && (size_t)len != want)
+        ret = SP_ETRUNCATED;
+    else if (!(buf = malloc((size_t)len + 1)))
+        ret = -ENOMEM;
+    else if (fread(buf, 1, (size_t)len, f) != (size_t)len)
+        ret = -EIO;
+    fclose(f);
+    if (ret) {
+        if (ret == SP_ETRUNCATED)
+            sp_log(SP_LOG_ERROR, MOD, "%s has %ld bytes, expected %zu", path, len, want);
+        free(buf);
+        return ret;
+    }
+    buf[len] = 0;
+    *out = buf;
+    if (size)
+        *size = (size_t)len;
+    return 0;
+}
+
+static int read_mesh(sp_face_asset *a, const char *dir)
+{
+    char *buf;
+    size_t size;
+    int ret = read_file(dir, "mesh.bin", 0, &buf, &size);
+    if (ret)
+        return ret;
+    uint32_t c[3];
+    if (size < 20 || memcmp(buf, "SPFMESH1", 8)) {
+        free(buf);
+        return SP_EFORMAT;
+    }
+    memcpy(c, buf + 8, 12);
+    size_t need = 20 + 4 * (3 * (size_t)c[0] + 2 * (size_t)c[1] + 6 * (size_t)c[2]);
+    if (c[0] > 10000000 || c[1] > 10000000 || c[2] > 10000000 || need != size ||
+        (ret = sp_mesh_alloc(&a->mesh, c[0], c[1], c[2]))) {
+        free(buf);
+        return ret ? ret : SP_ECORRUPT;
+    }
+    const char *p = buf + 20;
+    memcpy(a->mesh.positions, p, 12 * (size_t)c[0]);
+    memcpy(a->mesh.uvs, p += 12 * (size_t)c[0], 8 * (size_t)c[1]);
+    memcpy(a->mesh.tri_vertices, p += 8 * (size_t)c[1], 12 * (size_t)c[2]);
+    memcpy(a->mesh.tri_uvs, p + 12 * (size_t)c[2], 12 * (size_t)c[2]);
+    free(buf);
+    return sp_mesh_validate(&a->mesh);
+}
+
+static int read_maps(sp_face_asset *a, const char *dir, const sp_json *tex)
+{
+    a->tex_width = (int)sp_json_number(sp_json_get(tex, "width"), 0);
+    a->tex_height = (int)sp_json_number(sp_json_get(tex, "height"), 0);
+    a->cluster_width = (int)sp_json_number(sp_json_get(tex, "cluster_width"), 0);
+    a->cluster_height = (int)sp_json_number(sp_json_get(tex, "cluster_height"), 0);
+    if (a->tex_width < 1 || a->tex_height < 1 || a->tex_width > 16384 || a->tex_height > 16384 ||
+        a->cluster_width < 1 || a->cluster_height < 1 || a->cluster_width > 16384 || a->cluster_height > 16384)
+        return SP_ECORRUPT;
+    size_t nt = (size_t)a->tex_width * (size_t)a->tex_height;
+    char *buf;
+    int ret = read_file(dir, "albedo.f32", nt * 12, &buf, NULL);
+    if (ret)
+        return ret;
+    a->albedo = (float *)(void *)buf;
+    if ((ret = read_file(dir, "displacement.f32", nt * 4, &buf, NULL)))
+        return ret;
+    a->displacement = (float *)(void *)buf;
+    if ((ret = read_file(dir, "clusters.u8", (size_t)a->cluster_width * (size_t)a->cluster_height, &buf, NULL)))
+        return ret;
+    a->clusters = (uint8_t *)buf;
+    if ((ret = read_file(dir, "env.f32", sizeof(a->env), &buf, NULL)))
+        return ret;
+    memcpy(a->env, buf, sizeof(a->env));
+    free(buf);
+    for (size_t i = 0; i < nt * 3; i++)
+        if (!isfinite(a->albedo[i]))
+            return SP_ECORRUPT;
+    return 0;
+}
+
+static int read_camera(sp_face_asset *a, const char *dir)
+{
+    char *buf, err[128];
+    size_t size;
+    int ret = read_file(dir, "cameras.json", 0, &buf, &size);
+    if (ret)
+        return ret;
+    sp_json *root = NULL;
+    ret = sp_json_parse(buf, size, &root, err, sizeof(err));
+    free(buf);
+    if (ret)
+        return ret;
+    const sp_json *f = sp_json_at(sp_json_get(root, "frames"), 0);
+    double k[4], q[4];
+    if (!f || sp_json_numbers(sp_json_get(f, "intrinsics"), k, 4) != 4 ||
+        sp_json_numbers(sp_json_get(f, "camera_to_world_wxyz"), q, 4) != 4) {
+        sp_json_free(root);
+        return SP_ECORRUPT;
+    }
+    a->width = (int)sp_json_number(sp_json_get(f, "width"), 0);
+    a->height = (int)sp_json_number(sp_json_get(f, "height"), 0);
+    sp_json_free(root);
+    if (a->width < 1 || a->height < 1 || a->width > 16384 || a->height > 16384 || !(k[0] > 0.0) || !(k[1] > 0.0))
+        return SP_ECORRUPT;
+    double R[9];
+    sp_quat_to_matrix(sp_quat_normalize((sp_quat){ q[0], q[1], q[2], q[3] }), R);
+    a->camera.fx = k[0];
+    a->camera.fy = k[1];
+    a->camera.cx = k[2];
+    a->camera.cy = k[3];
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++)
+            a->camera.R[r * 3 + c] = R[c * 3 + r];
+    a->camera.t[0] = a->camera.t[1] = a->camera.t[2] = 0.0;
+    return 0;
+}
+
+static int read_manifest(sp_face_asset *a, const char *dir, sp_json **root)
+{
+    char *buf, err[128];
+    size_t size;
+    int ret = read_file(dir, "manifest.json", 0, &buf, &size);
+    if (ret)
+        return ret;
+    ret = sp_json_parse(buf, size, root, err, sizeof(err));
+    free(buf);
+    if (ret) {
+        sp_log(SP_LOG_ERROR, MOD, "%s/manifest.json: %s", dir, err);
+        return ret;
+    }
+    if (strcmp(sp_json_string(sp_json_get(*root, "format"), ""), "sunprobe-face"))
+        return SP_EFORMAT;
+    if (sp_json_number(sp_json_get(*root, "version"), 0) > 1)
+        return SP_EVERSION;
+    const sp_json *spec = sp_json_get(*root, "specular"), *light = sp_json_get(*root, "lighting");
+    if (sp_json_numbers(sp_json_get(spec, "ks"), a->ks, SP_RENDER_CLUSTERS) != SP_RENDER_CLUSTERS ||
+        sp_json_numbers(sp_json_get(spec, "shininess"), a->shininess, SP_RENDER_CLUSTERS) != SP_RENDER_CLUSTERS ||
+        sp_json_numbers(sp_json_get(light, "sun_direction"), a->sun_dir, 3) != 3)
+        return SP_ECORRUPT;
+    a->sun_intensity = sp_json_number(sp_json_get(light, "sun_intensity"), 0.0);
+    return 0;
+}
+
+int sp_face_dir_read(sp_face_asset *a, const char *dir)
+{
+    if (!a || !dir)
+        return -EINVAL;
+    memset(a, 0, sizeof(*a));
+    sp_json *root = NULL;
+    int ret = read_manifest(a, dir, &root);
+    if (!ret)
+        ret = read_maps(a, dir, sp_json_get(root, "textures"));
+    sp_json_free(root);
+    if (!ret)
+        ret = read_mesh(a, dir);
+    if (!ret)
+        ret = read_camera(a, dir);
+    if (ret)
+        sp_face_asset_free(a);
+    return ret;
+}
+
+void sp_face_asset_free(sp_face_asset *a)
+{
+    if (!a)
+        return;
+    sp_mesh_free(&a->mesh);
+    free(a->albedo);
+    free(a->displacement);
+    free(a->clusters);
+    memset(a, 0, sizeof(*a));
+}

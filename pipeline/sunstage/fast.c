@@ -1,0 +1,648 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Fast photometric solver. With the stage-1 geometry fixed, every masked pixel
+ * of every keyframe becomes one linear-radiance observation (the display
+ * transform is inverted; weights = its slope squared, so the cost matches the
+ * display-space L2). The image model is
+ *     L = a(uv) * (I D(n, sun) V + sum_k c_k E_k(n)) + I ks_cluster P_s
+ * which is linear in the albedo given the lighting (closed form per texel) and
+ * linear in (I, c, I ks) given the albedo (non-negative least squares). The
+ * sun direction is the only nonlinear unknown: a sphere search on unshadowed
+ * shading, then a shrinking pattern search with shadows from re-rendering.
+ */
+#include "pipeline/sunstage/sunstage_internal.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/clock.h"
+
+#define MOD "sunstage"
+#define NK SS_ENV_BASIS
+#define NL (1 + 3 * NK + SP_RENDER_CLUSTERS) /* I, env per channel, I ks per cluster */
+#define N_SHIN 7
+static const double shin_grid[N_SHIN] = { 4, 8, 16, 32, 64, 128, 256 };
+
+typedef struct obs {
+    double L[3], w;
+    double n[3];
+    double V, D, P;    /* visibility, shadowed sun diffuse / pi, specular basis for the chosen shininess */
+    double A[NK];      /* ambient of env lobe k / pi */
+    int32_t tex[4];
+    double tw[4];
+    int8_t cluster;
+} obs;
+
+typedef struct fast_ctx {
+    sp_sunstage *ss;
+    ss_scene sc;
+    obs *o;
+    size_t n, cap;
+    int idx[64], nf;
+    size_t *frame_start;
+    float *envb;      /* NK env maps */
+    double *num, *den; /* per texel * 3 */
+    double x[NL];     /* lighting unknowns */
+    int use_sun, use_spec;
+    size_t stride; /* observation subsampling while searching (1 = all) */
+    double sun[3];
+} fast_ctx;
+
+/* Non-negative broad lobes over the sky: constant, up, down and six horizon directions. */
+static void make_env_basis(float *envb)
+{
+    for (int k = 0; k < NK; k++)
+        for (int i = 0; i < SP_RENDER_ENV_H; i++)
+            for (int j = 0; j < SP_RENDER_ENV_W; j++) {
+                double th = (i + 0.5) * M_PI / SP_RENDER_ENV_H, ph = (j + 0.5) * 2.0 * M_PI / SP_RENDER_ENV_W;
+                double d[3] = { sin(th) * cos(ph), sin(th) * sin(ph), cos(th) };
+                double c[3] = { 0, 0, 0 }, v = 1.0;
+                if (k == 1 || k == 2)
+                    c[2] = k == 1 ? 1.0 : -1.0;
+                else if (k >= 3) {
+                    double a = (k - 3) * M_PI / 3.0;
+                    c[0] = cos(a);
+                    c[1] = sin(a);
+                }
+                if (k > 0) {
+                    double dot = d[0] * c[0] + d[1] * c[1] + d[2] * c[2];
+                    v = dot > 0.0 ? dot * dot : 0.0;
+                }
+                for (int ch = 0; ch < 3; ch++)
+                    envb[((size_t)k * SP_RENDER_ENV_H * SP_RENDER_ENV_W + (size_t)(i * SP_RENDER_ENV_W + j)) * 3 + (size_t)ch] = (float)v;
+            }
+}
+
+static void texel_taps(const sp_sunstage *ss, double u, double v, obs *ob)
+{
+    double x = u * ss->tw - 0.5, y = (1.0 - v) * ss->th - 0.5;
+    int x0 = (int)floor(x), y0 = (int)floor(y);
+    double fx = x - x0, fy = y - y0;
+    for (int k = 0; k < 4; k++) {
+        int xi = x0 + (k & 1), yi = y0 + (k >> 1);
+        xi = xi < 0 ? 0 : (xi >= ss->tw ? ss->tw - 1 : xi);
+        yi = yi < 0 ? 0 : (yi >= ss->th ? ss->th - 1 : yi);
+        ob->tex[k] = yi * ss->tw + xi;
+        ob->tw[k] = (((k & 1) ? fx : 1.0 - fx) * ((k >> 1) ? fy : 1.0 - fy));
+    }
+}
+
+static int grow(fast_ctx *c, size_t need)
+{
+    if (need <= c->cap)
+        return 0;
+    size_t cap = c->cap ? c->cap * 2 : 16384;
+    while (cap < need)
+        cap *= 2;
+    obs *o = realloc(c->o, cap * sizeof(obs));
+    if (!o)
+        return -ENOMEM;
+    c->o = o;
+    c->cap = cap;
+    return 0;
+}
+
+/* Renders frame f with a white 1x1 albedo, sun/env/ks as given. */
+static int render_white(fast_ctx *c, const ss_frame *f, const double sun[3], double I, const float *env, double ks,
+                        double shin, sp_render_outputs *out)
+{
+    sp_render_scene scene;
+    int ret = ss_scene_setup(&c->sc, c->ss, f, &scene);
+    if (ret)
+        return ret;
+    scene.albedo = (sp_render_texture){ 1, 1, c->sc.white };
+    scene.displacement.data = NULL;
+    scene.env = env;
+    memcpy(scene.sun_dir, sun, sizeof(scene.sun_dir));
+    scene.sun_intensity = I;
+    scene.shadow_mode = I > 0.0 ? SP_RENDER_SHADOW_RENDER : SP_RENDER_SHADOW_OFF;
+    for (int k = 0; k < SP_RENDER_CLUSTERS; k++) {
+        scene.ks[k] = ks;
+        scene.shininess[k] = shin;
+    }
+    return sp_render(c->sc.r, &scene, out);
+}
+
+/* Collects the masked pixels of every training frame with their geometry and env-lobe shading. */
+static int gather(fast_ctx *c)
+{
+    sp_sunstage *ss = c->ss;
+    const sp_face_model *m = ss->model;
+    int npx = ss->W * ss->H;
+    float *mask = malloc(sizeof(float) * (size_t)npx);
+    if (!mask)
+        return -ENOMEM;
+    int ret = 0;
+    for (int fi = 0; fi < c->nf && !ret; fi++) {
+        const ss_frame *f = &ss->slots[c->idx[fi]];
+        sp_render_outputs o;
+        c->frame_start[fi] = c->n;
+        if ((ret = render_white(c, f, c->sun, 0.0, NULL, 0.0, 16.0, &o)))
+            break;
+        ss_scene_mask(&c->sc, &o, f->rgb, mask);
+        size_t first = c->n;
+        for (int p = 0; p < npx; p++) {
+            if (!(mask[p] > 0.0f))
+                continue;
+            if ((ret = grow(c, c->n + 1)))
+                break;
+            obs *ob = &c->o[c->n++];
+            memset(ob, 0, sizeof(*ob));
+            double slope = 0.0;
+            for (int ch = 0; ch < 3; ch++) {
+                double s;
+                /* display = tonemap(exposure * L): divide the exposure out, scale the slope by it */
+                ob->L[ch] = ss_tonemap_inverse((double)f->rgb[(size_t)p * 3 + (size_t)ch], &s) / f->expo;
+                slope += (s * f->expo) * (s * f->expo) / 3.0;
+            }
+            ob->w = slope;
+            for (int k = 0; k < 3; k++)
+                ob->n[k] = o.normal[(size_t)p * 3 + (size_t)k];
+            ob->V = 1.0;
+            const float *b = o.bary + (size_t)p * 3;
+            const uint32_t *tu = m->mesh.tri_uvs + (size_t)o.tri_id[p] * 3;
+            double u = 0.0, v = 0.0;
+            for (int k = 0; k < 3; k++) {
+                u += (double)b[k] * (double)m->mesh.uvs[tu[k] * 2];
+                v += (double)b[k] * (double)m->mesh.uvs[tu[k] * 2 + 1];
+            }
+            texel_taps(ss, u, v, ob);
+            int cx = (int)(u * m->cluster_width), cy = (int)((1.0 - v) * m->cluster_height);
+            cx = cx < 0 ? 0 : (cx >= (int)m->cluster_width ? (int)m->cluster_width - 1 : cx);
+            cy = cy < 0 ? 0 : (cy >= (int)m->cluster_height ? (int)m->cluster_height - 1 : cy);
+            uint8_t cl = m->cluster_map[(size_t)cy * m->cluster_width + (size_t)cx];
+            ob->cluster = (int8_t)(cl < SP_RENDER_CLUSTERS ? cl : -1);
+        }
+        for (int k = 0; k < NK && !ret; k++) {
+            const float *env = c->envb + (size_t)k * SP_RENDER_ENV_FLOATS;
+            if ((ret = render_white(c, f, c->sun, 0.0, env, 0.0, 16.0, &o)))
+                break;
+            size_t i = first;
+            for (int p = 0; p < npx; p++)
+                if (mask[p] > 0.0f)
+                    c->o[i++].A[k] = (double)o.ambient[(size_t)p * 3];
+        }
+    }
+    c->frame_start[c->nf] = c->n;
+    free(mask);
+    return ret;
+}
+
+static void set_sun_diffuse(fast_ctx *c, const double d[3])
+{
+    for (size_t i = 0; i < c->n; i++) {
+        obs *o = &c->o[i];
+        double nl = o->n[0] * d[0] + o->n[1] * d[1] + o->n[2] * d[2];
+        o->D = nl > 0.0 ? nl * o->V / M_PI : 0.0;
+    }
+}
+
+static double albedo_at(const sp_sunstage *ss, const obs *o, int ch)
+{
+    double a = 0.0;
+    for (int k = 0; k < 4; k++)
+        a += (double)o->tw[k] * (double)ss->albedo[(size_t)o->tex[k] * 3 + (size_t)ch];
+    return a;
+}
+
+static double shading(const fast_ctx *c, const obs *o, int ch)
+{
+    double s = c->use_sun ? c->x[0] * o->D : 0.0;
+    for (int k = 0; k < NK; k++)
+        s += c->x[1 + ch * NK + k] * o->A[k];
+    return s;
+}
+
+static double spec_of(const fast_ctx *c, const obs *o)
+{
+    return c->use_spec && o->cluster >= 0 ? c->x[1 + 3 * NK + o->cluster] * o->P : 0.0;
+}
+
+/* Weighted squared residual of the current model. */
+static double cost(const fast_ctx *c)
+{
+    double e = 0.0;
+    for (size_t i = 0; i < c->n; i += c->stride) {
+        const obs *o = &c->o[i];
+        double sp = spec_of(c, o);
+        for (int ch = 0; ch < 3; ch++) {
+            double r = albedo_at(c->ss, o, ch) * shading(c, o, ch) + sp - o->L[ch];
+            e += o->w * r * r;
+        }
+    }
+    return e;
+}
+
+/* Jacobi steps of the per-texel closed form a = sum w S (L - spec) / sum w S^2, with a weak pull to the mean. */
+static void solve_albedo(fast_ctx *c, int steps)
+{
+    sp_sunstage *ss = c->ss;
+    size_t nt = (size_t)ss->tw * (size_t)ss->th * 3;
+    for (int it = 0; it < steps; it++) {
+        memset(c->num, 0, nt * sizeof(double));
+        memset(c->den, 0, nt * sizeof(double));
+        for (size_t i = 0; i < c->n; i += c->stride) {
+            const obs *o = &c->o[i];
+            double sp = spec_of(c, o);
+            for (int ch = 0; ch < 3; ch++) {
+                double S = shading(c, o, ch);
+                double r = o->L[ch] - sp - albedo_at(ss, o, ch) * S;
+                for (int k = 0; k < 4; k++) {
+                    size_t t = (size_t)o->tex[k] * 3 + (size_t)ch;
+                    double ws = (double)o->w * (double)o->tw[k] * S;
+                    c->num[t] += ws * r;
+                    c->den[t] += ws * S; /* sum of taps is 1: a majoriser, so the Jacobi step never overshoots */
+                }
+            }
+        }
+        double mean[3] = { 0, 0, 0 }, wsum = 0.0, dmax = 0.0;
+        for (size_t t = 0; t < nt; t++)
+            dmax = fmax(dmax, c->den[t]);
+        for (size_t t = 0; t < nt; t += 3)
+            if (c->den[t] > 1e-3 * dmax) {
+                for (int ch = 0; ch < 3; ch++)
+                    mean[ch] += (double)ss->albedo[t + (size_t)ch];
+                wsum += 1.0;
+            }
+        for (int ch = 0; ch < 3; ch++)
+            mean[ch] = wsum > 0.0 ? mean[ch] / wsum : 0.5;
+        double lam = 1e-4 * dmax + 1e-30;
+        for (size_t t = 0; t < nt; t++) {
+            double a = ss->albedo[t];
+            a += (c->num[t] + lam * (mean[t % 3] - a)) / (c->den[t] + lam);
+            ss->albedo[t] = (float)(a < 0.0 ? 0.0 : (a > 4.0 ? 4.0 : a));
+        }
+    }
+}
+
+/* Lighting unknowns by NNLS given the albedo; terms switched off stay 0. */
+static int solve_lighting(fast_ctx *c)
+{
+    double A[NL * NL], b[NL], x[NL];
+    memset(A, 0, sizeof(A));
+    memset(b, 0, sizeof(b));
+    for (size_t i = 0; i < c->n; i += c->stride) {
+        const obs *o = &c->o[i];
+        for (int ch = 0; ch < 3; ch++) {
+            double a = albedo_at(c->ss, o, ch);
+            double g[2 + NK];
+            int gi[2 + NK], ng = 0;
+            if (c->use_sun) {
+                g[ng] = a * o->D;
+                gi[ng++] = 0;
+            }
+            for (int k = 0; k < NK; k++) {
+                g[ng] = a * o->A[k];
+                gi[ng++] = 1 + ch * NK + k;
+            }
+            if (c->use_spec && o->cluster >= 0) {
+                g[ng] = o->P;
+                gi[ng++] = 1 + 3 * NK + o->cluster;
+            }
+            for (int p = 0; p < ng; p++) {
+                double wg = o->w * g[p];
+                b[gi[p]] += wg * o->L[ch];
+                double *row = A + gi[p] * NL;
+                for (int q = 0; q < ng; q++)
+                    row[gi[q]] += wg * g[q];
+            }
+        }
+    }
+    double tr = 0.0;
+    for (int i = 0; i < NL; i++)
+        tr += A[i * NL + i];
+    for (int i = 0; i < NL; i++) /* environment L2 (and a floor for unused unknowns) */
+        A[i * NL + i] += 1e-6 * tr / NL + 1e-12;
+    int ret = ss_nnls(A, b, NL, x);
+    if (ret)
+        return ret;
+    if (!c->use_sun)
+        x[0] = 0.0;
+    for (int i = 0; i < NL; i++)
+        c->x[i] = x[i];
+    return 0;
+}
+
+static double alternate(fast_ctx *c, int rounds, int albedo_steps)
+{
+    for (int r = 0; r < rounds; r++) {
+        solve_albedo(c, albedo_steps);
+        if (solve_lighting(c))
+            return INFINITY;
+    }
+    return cost(c);
+}
+
+static void reset_state(fast_ctx *c)
+{
+    sp_sunstage *ss = c->ss;
+    size_t nt = (size_t)ss->tw * (size_t)ss->th * 3;
+    for (size_t t = 0; t < nt; t++)
+        ss->albedo[t] = 0.5f;
+    memset(c->x, 0, sizeof(c->x));
+    c->x[0] = c->use_sun ? 1.0 : 0.0;
+    for (int ch = 0; ch < 3; ch++)
+        c->x[1 + ch * NK] = 0.5;
+}
+
+/* Cost of a sun direction: alternations from a neutral start. */
+static double try_sun(fast_ctx *c, const double d[3], int rounds)
+{
+    set_sun_diffuse(c, d);
+    reset_state(c);
+    return alternate(c, rounds, 2);
+}
+
+static void fib_dir(int i, int n, double d[3])
+{
+    double z = 1.0 - (2.0 * i + 1.0) / n;
+    double r = sqrt(fmax(0.0, 1.0 - z * z));
+    double ph = i * M_PI * (3.0 - sqrt(5.0));
+    d[0] = r * cos(ph);
+    d[1] = r * sin(ph);
+    d[2] = z;
+}
+
+static void perturb(const double d[3], double step, int k, double out[3])
+{
+    /* tangent basis of d, then move by step along one of 8 directions */
+    double a[3] = { fabs(d[0]) < 0.9 ? 1.0 : 0.0, fabs(d[0]) < 0.9 ? 0.0 : 1.0, 0.0 };
+    double u[3] = { d[1] * a[2] - d[2] * a[1], d[2] * a[0] - d[0] * a[2], d[0] * a[1] - d[1] * a[0] };
+    double nu = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    for (int i = 0; i < 3; i++)
+        u[i] /= nu;
+    double v[3] = { d[1] * u[2] - d[2] * u[1], d[2] * u[0] - d[0] * u[2], d[0] * u[1] - d[1] * u[0] };
+    double ang = k * M_PI / 4.0;
+    double len = 0.0;
+    for (int i = 0; i < 3; i++) {
+        out[i] = d[i] + step * (cos(ang) * u[i] + sin(ang) * v[i]);
+        len += out[i] * out[i];
+    }
+    len = sqrt(len);
+    for (int i = 0; i < 3; i++)
+        out[i] /= len;
+}
+
+/* Shrinking pattern search around c->sun with the current visibility. */
+static double pattern_search(fast_ctx *c, double step, double min_step, int rounds)
+{
+    double best = try_sun(c, c->sun, rounds);
+    while (step >= min_step) {
+        int improved = 0;
+        for (int k = 0; k < 8; k++) {
+            double d[3];
+            perturb(c->sun, step, k, d);
+            double e = try_sun(c, d, rounds);
+            if (e < best) {
+                best = e;
+                memcpy(c->sun, d, sizeof(d));
+                improved = 1;
+            }
+        }
+        if (!improved)
+            step *= 0.5;
+    }
+    return best;
+}
+
+/* Visibility (soft shadow) of each observation for the current sun, from the renderer. */
+static int update_visibility(fast_ctx *c)
+{
+    sp_sunstage *ss = c->ss;
+    float *mask = malloc(sizeof(float) * (size_t)ss->W * (size_t)ss->H);
+    if (!mask)
+        return -ENOMEM;
+    int ret = 0;
+    for (int fi = 0; fi < c->nf && !ret; fi++) {
+        const ss_frame *f = &ss->slots[c->idx[fi]];
+        sp_render_outputs o;
+        if ((ret = render_white(c, f, c->sun, 1.0, NULL, 0.0, 16.0, &o)))
+            break;
+        size_t i = c->frame_start[fi];
+        for (int p = 0; p < ss->W * ss->H && i < c->frame_start[fi + 1]; p++) {
+            /* the observation order is the mask order of gather(); re-derive it from the same test */
+            int32_t t = o.tri_id[p];
+            const float *g = f->rgb + (size_t)p * 3;
+            int sat = g[0] > 0.98f || g[1] > 0.98f || g[2] > 0.98f;
+            if (t >= 0 && c->sc.skin_tri[t] && o.coverage[p] > 0.999f && !sat)
+                c->o[i++].V = (double)o.visibility[p];
+        }
+    }
+    free(mask);
+    return ret;
+}
+
+/* Specular basis per observation for one shininess (ks = 1 in every cluster, white sun of intensity 1). */
+static int update_specular(fast_ctx *c, double shin, float *out)
+{
+    sp_sunstage *ss = c->ss;
+    int ret = 0;
+    for (int fi = 0; fi < c->nf && !ret; fi++) {
+        const ss_frame *f = &ss->slots[c->idx[fi]];
+        sp_render_outputs o;
+        if ((ret = render_white(c, f, c->sun, 1.0, NULL, 1.0, shin, &o)))
+            break;
+        size_t i = c->frame_start[fi];
+        for (int p = 0; p < ss->W * ss->H && i < c->frame_start[fi + 1]; p++) {
+            int32_t t = o.tri_id[p];
+            const float *g = f->rgb + (size_t)p * 3;
+            int sat = g[0] > 0.98f || g[1] > 0.98f || g[2] > 0.98f;
+            if (t >= 0 && c->sc.skin_tri[t] && o.coverage[p] > 0.999f && !sat)
+                out[i++] = o.specular[(size_t)p * 3];
+        }
+    }
+    return ret;
+}
+
+/* Per-cluster weighted residual under the current model. */
+static void cluster_costs(const fast_ctx *c, double *e)
+{
+    for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
+        e[k] = 0.0;
+    for (size_t i = 0; i < c->n; i++) {
+        const obs *o = &c->o[i];
+        if (o->cluster < 0)
+            continue;
+        double sp = spec_of(c, o);
+        for (int ch = 0; ch < 3; ch++) {
+            double r = albedo_at(c->ss, o, ch) * shading(c, o, ch) + sp - o->L[ch];
+            e[o->cluster] += o->w * r * r;
+        }
+    }
+}
+
+/* Chooses the shininess per cluster on a grid, solving albedo and lighting for each. */
+static int fit_specular(fast_ctx *c)
+{
+    float *P = malloc(sizeof(float) * c->n * N_SHIN);
+    if (!P)
+        return -ENOMEM;
+    int ret = 0;
+    double best[SP_RENDER_CLUSTERS];
+    int pick[SP_RENDER_CLUSTERS];
+    for (int k = 0; k < SP_RENDER_CLUSTERS; k++) {
+        best[k] = INFINITY;
+        pick[k] = 2;
+    }
+    c->use_spec = 1;
+    for (int s = 0; s < N_SHIN && !ret; s++) {
+        if ((ret = update_specular(c, shin_grid[s], P + (size_t)s * c->n)))
+            break;
+        for (size_t i = 0; i < c->n; i++)
+            c->o[i].P = (double)P[(size_t)s * c->n + i];
+        alternate(c, 2, 2);
+        double e[SP_RENDER_CLUSTERS];
+        cluster_costs(c, e);
+        for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
+            if (e[k] < best[k]) {
+                best[k] = e[k];
+                pick[k] = s;
+            }
+    }
+    for (size_t i = 0; ret == 0 && i < c->n; i++) {
+        int k = c->o[i].cluster;
+        c->o[i].P = k >= 0 ? (double)P[(size_t)pick[k] * c->n + i] : 0.0;
+    }
+    for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
+        c->ss->shin[k] = shin_grid[pick[k]];
+    free(P);
+    return ret;
+}
+
+static void report(fast_ctx *c, sp_sunstage_callback cb, void *user, int it, int total)
+{
+    sp_sunstage *ss = c->ss;
+    double tr = NAN, ho = NAN;
+    ss_evaluate(ss, &c->sc, &tr, &ho);
+    ss->train_psnr = tr;
+    ss->heldout_psnr = ho;
+    if (!cb)
+        return;
+    sp_sunstage_progress p = { "photometric", it, total, (double)(sp_clock_monotonic_ns() - ss->t0) * 1e-9,
+                               isfinite(tr) ? pow(10.0, -tr / 10.0) : (double)NAN, ho };
+    cb(user, &p);
+}
+
+/* Writes the solver's unknowns into the fitter's lighting state. */
+static void commit(fast_ctx *c)
+{
+    sp_sunstage *ss = c->ss;
+    double I = c->use_sun ? c->x[0] : 0.0;
+    ss->sun_I = I;
+    memcpy(ss->sun_dir, c->sun, sizeof(c->sun));
+    for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
+        ss->ks[k] = c->use_spec && I > 1e-9 ? c->x[1 + 3 * NK + k] / I : 0.0;
+    for (int t = 0; t < SP_RENDER_ENV_H * SP_RENDER_ENV_W; t++)
+        for (int ch = 0; ch < 3; ch++) {
+            double v = 0.0;
+            for (int k = 0; k < NK; k++)
+                v += c->x[1 + ch * NK + k] * (double)c->envb[(size_t)k * SP_RENDER_ENV_FLOATS + (size_t)t * 3 + (size_t)ch];
+            ss->env[t * 3 + ch] = (float)v;
+        }
+}
+
+static int fit_sun(fast_ctx *c, sp_sunstage_callback cb, void *user)
+{
+    sp_sunstage *ss = c->ss;
+    c->use_sun = 0;
+    double e_nosun = try_sun(c, c->sun, 4);
+    c->use_sun = 1;
+    double best = INFINITY;
+    c->stride = 3;
+    for (int i = 0; i < 160; i++) { /* upper-hemisphere search on unshadowed shading, a third of the pixels */
+        double d[3];
+        fib_dir(i, 320, d);
+        double e = try_sun(c, d, 2);
+        if (e < best) {
+            best = e;
+            memcpy(c->sun, d, sizeof(d));
+        }
+    }
+    best = pattern_search(c, 0.12, 0.02, 2);
+    c->stride = 1;
+    best = pattern_search(c, 0.02, 0.004, 2);
+    report(c, cb, user, 1, 4);
+    for (int round = 0; round < 2; round++) { /* shadows from the renderer, then search again */
+        int ret = update_visibility(c);
+        if (ret)
+            return ret;
+        best = pattern_search(c, 0.02, 0.002, 3);
+    }
+    if (!(best < 0.8 * e_nosun) || !(c->x[0] > 0.0)) {
+        snprintf(ss->notes, sizeof(ss->notes),
+                 "overcast: a sun explains %.0f%% of the residual of a sky-only fit (need 20%%); sun, shadows and "
+                 "specular dropped",
+                 e_nosun > 0.0 ? 100.0 * (1.0 - best / e_nosun) : 0.0);
+        sp_log(SP_LOG_INFO, MOD, "%s", ss->notes);
+        ss->sun_dropped = 1;
+        c->use_sun = 0;
+        reset_state(c);
+        alternate(c, 6, 3);
+    }
+    return 0;
+}
+
+static int fast_run(fast_ctx *c, sp_sunstage_callback cb, void *user)
+{
+    sp_sunstage *ss = c->ss;
+    c->sun[0] = c->sun[1] = 0.0;
+    c->sun[2] = 1.0;
+    int ret = gather(c);
+    if (ret)
+        return ret;
+    if (c->n < 50) {
+        sp_log(SP_LOG_ERROR, MOD, "only %zu face pixels in the keyframes: the face is too small or misaligned", c->n);
+        return SP_ENODATA;
+    }
+    if (ss->unobservable) {
+        c->use_sun = 0;
+        reset_state(c);
+        alternate(c, 6, 3);
+    } else if ((ret = fit_sun(c, cb, user))) {
+        return ret;
+    }
+    if (c->use_sun) {
+        try_sun(c, c->sun, 4);
+        if ((ret = fit_specular(c)))
+            return ret;
+        alternate(c, 4, 3);
+    }
+    commit(c);
+    report(c, cb, user, 4, 4);
+    sp_log(SP_LOG_INFO, MOD, "fast solver: %zu observations, sun (%.3f %.3f %.3f) I %.3f, train %.2f dB", c->n,
+           ss->sun_dir[0], ss->sun_dir[1], ss->sun_dir[2], ss->sun_I, ss->train_psnr);
+    return 0;
+}
+
+int ss_fit_fast(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
+{
+    fast_ctx c;
+    memset(&c, 0, sizeof(c));
+    c.ss = ss;
+    c.stride = 1;
+    c.nf = ss_list_frames(ss, 0, c.idx, 64);
+    size_t nt = (size_t)ss->tw * (size_t)ss->th * 3;
+    int ret = ss_scene_open(&c.sc, ss);
+    if (ret)
+        return ret;
+    c.frame_start = calloc((size_t)c.nf + 1, sizeof(size_t));
+    c.envb = malloc(sizeof(float) * SP_RENDER_ENV_FLOATS * NK);
+    c.num = malloc(sizeof(double) * nt);
+    c.den = malloc(sizeof(double) * nt);
+    if (!c.frame_start || !c.envb || !c.num || !c.den)
+        ret = -ENOMEM;
+    if (!ret) {
+        make_env_basis(c.envb);
+        ret = fast_run(&c, cb, user);
+    }
+    ss_scene_close(&c.sc);
+    free(c.o);
+    free(c.frame_start);
+    free(c.envb);
+    free(c.num);
+    free(c.den);
+    return ret;
+}

@@ -1,0 +1,384 @@
+/* SPDX-License-Identifier: MIT */
+/* SunStage fitter: lifecycle, event dispatch, keyframe reservoir access and the two-stage fit driver. */
+#include "sunprobe/sp_sunstage.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/clock.h"
+#include "pipeline/sunstage/sunstage_internal.h"
+
+#define MOD "sunstage"
+
+void sp_sunstage_default_settings(sp_sunstage_settings *s)
+{
+    if (!s)
+        return;
+    memset(s, 0, sizeof(*s));
+    s->solver = SP_SUNSTAGE_SOLVER_FAST;
+    s->keyframes = 12;
+    s->heldout = 3;
+    s->fit_width = 128;
+    s->texture_size = 128;
+    s->adam_iterations = 300;
+    s->min_rotation_deg = 90.0;
+    s->blur_ratio = 0.35;
+    s->use_dlib = 1;
+}
+
+static int check_settings(const sp_sunstage_settings *s)
+{
+    if (s->keyframes < 2 || s->keyframes > 64 || s->heldout < 0 || s->heldout > 16)
+        return -EINVAL;
+    if (s->fit_width < 16 || s->fit_width > 1024 || s->texture_size < 8 || s->texture_size > 2048)
+        return -EINVAL;
+    if (s->adam_iterations < 0 || !(s->time_budget_s >= 0.0) || !(s->blur_ratio >= 0.0))
+        return -EINVAL;
+    if (s->solver != SP_SUNSTAGE_SOLVER_FAST && s->solver != SP_SUNSTAGE_SOLVER_ADAM)
+        return -EINVAL;
+    return 0;
+}
+
+static void init_lighting(sp_sunstage *ss)
+{
+    for (int i = 0; i < SP_RENDER_ENV_FLOATS; i++)
+        ss->env[i] = 0.3f;
+    ss->sun_dir[0] = 0.0;
+    ss->sun_dir[1] = 0.0;
+    ss->sun_dir[2] = 1.0;
+    ss->sun_I = 2.0;
+    for (int c = 0; c < SP_RENDER_CLUSTERS; c++) {
+        ss->ks[c] = 0.0;
+        ss->shin[c] = 16.0;
+    }
+}
+
+int sp_sunstage_open(sp_sunstage **out, const sp_sunstage_settings *s, const sp_face_model *model)
+{
+    if (!out || !s || !model || !model->mesh.n_vertices)
+        return -EINVAL;
+    *out = NULL;
+    int ret = check_settings(s);
+    if (ret)
+        return ret;
+    sp_sunstage *ss = calloc(1, sizeof(*ss));
+    if (!ss)
+        return -ENOMEM;
+    ss->set = *s;
+    ss->model = model;
+    sp_capture_meta_init(&ss->meta);
+    ss->scale = 1.0;
+    ss->th = s->texture_size;
+    ss->tw = model->cluster_width > model->cluster_height ? 2 * s->texture_size : s->texture_size;
+    size_t texels = (size_t)ss->tw * (size_t)ss->th;
+    ss->id = calloc(model->n_id + 1, sizeof(double));
+    ss->albedo = malloc(texels * 3 * sizeof(float));
+    ss->disp = calloc(texels, sizeof(float));
+    if (!ss->id || !ss->albedo || !ss->disp) {
+        sp_sunstage_close(&ss);
+        return -ENOMEM;
+    }
+    for (size_t i = 0; i < texels * 3; i++)
+        ss->albedo[i] = 0.5f;
+    init_lighting(ss);
+    ss->train_psnr = ss->heldout_psnr = NAN;
+    *out = ss;
+    return 0;
+}
+
+void ss_dlib_close_ctx(void *ctx);
+
+void sp_sunstage_close(sp_sunstage **pss)
+{
+    if (!pss || !*pss)
+        return;
+    sp_sunstage *ss = *pss;
+    sp_orientation_close(&ss->orient);
+    ss_dlib_close_ctx(ss->dlib);
+    free(ss->rgb24);
+    for (int i = 0; i < SS_PENDING; i++) {
+        free(ss->pend[i].rgb);
+        free(ss->pend[i].gray);
+    }
+    for (int i = 0; ss->slots && i < ss->n_slots; i++) {
+        free(ss->slots[i].rgb);
+        free(ss->slots[i].exp);
+    }
+    free(ss->slots);
+    free(ss->id);
+    free(ss->albedo);
+    free(ss->disp);
+    free(ss);
+    *pss = NULL;
+}
+
+static int open_orientation(sp_sunstage *ss)
+{
+    sp_orientation_settings os;
+    sp_orientation_default_settings(&os);
+    os.imu_to_camera = ss->meta.imu_to_camera;
+    os.time_offset_s = isfinite(ss->meta.imu_time_offset_s) ? ss->meta.imu_time_offset_s : 0.0;
+    return sp_orientation_open(&ss->orient, &os);
+}
+
+int sp_sunstage_push(sp_sunstage *ss, const sp_event *ev)
+{
+    if (!ss || !ev)
+        return -EINVAL;
+    switch (ev->type) {
+    case SP_EVENT_META:
+        if (ev->meta_json)
+            sp_capture_meta_merge(&ss->meta, ev->meta_json, ev->meta_len); /* replay logged bad chunks */
+        return 0;
+    case SP_EVENT_IMU:
+        ss->counts.imu_samples++;
+        if (!ss->orient) {
+            int ret = open_orientation(ss);
+            if (ret)
+                return ret;
+        }
+        sp_orientation_push(ss->orient, &ev->imu);
+        return ss_frontend_resolve(ss, 0);
+    case SP_EVENT_SIDE:
+        ss_frontend_side(ss, ev);
+        return 0;
+    case SP_EVENT_FRAME:
+        if (!ev->frame)
+            return -EINVAL;
+        ss->counts.frames++;
+        return ss_frontend_frame(ss, ev->frame, ev->timestamp_ns);
+    }
+    return 0;
+}
+
+int sp_sunstage_end_stream(sp_sunstage *ss)
+{
+    if (!ss)
+        return -EINVAL;
+    return ss_frontend_resolve(ss, 1);
+}
+
+void sp_sunstage_get_counts(const sp_sunstage *ss, sp_sunstage_counts *out)
+{
+    if (!ss || !out)
+        return;
+    *out = ss->counts;
+    out->keyframes = out->heldout = 0;
+    for (int i = 0; ss->slots && i < ss->n_slots; i++)
+        if (ss->slots[i].used) {
+            if (ss->slots[i].heldout)
+                out->heldout++;
+            else
+                out->keyframes++;
+        }
+}
+
+int ss_list_frames(const sp_sunstage *ss, int heldout, int *idx, int cap)
+{
+    int n = 0;
+    for (int i = 0; ss->slots && i < ss->n_slots && n < cap; i++)
+        if (ss->slots[i].used && ss->slots[i].heldout == heldout)
+            idx[n++] = i;
+    return n;
+}
+
+void ss_rotvec_to_matrix(const double r[3], double R[9])
+{
+    sp_quat q = sp_quat_from_rotvec((sp_vec3){ r[0], r[1], r[2] });
+    sp_quat_to_matrix(q, R);
+}
+
+int sp_sunstage_add_keyframe(sp_sunstage *ss, const float *rgb, int width, int height, const double landmarks[136],
+                             double fx, double fy, double cx, double cy, sp_quat camera_to_world, int heldout)
+{
+    if (!ss || !rgb || !landmarks || width < 16 || height < 16 || !(fx > 0.0) || !(fy > 0.0))
+        return -EINVAL;
+    if (ss->W && (ss->W != width || ss->H != height))
+        return -EINVAL;
+    ss->W = width;
+    ss->H = height;
+    ss->cap_w = width;
+    ss->cap_h = height;
+    ss->fx = fx;
+    ss->fy = fy;
+    ss->cx = cx;
+    ss->cy = cy;
+    return ss_reservoir_offer(ss, rgb, landmarks, 1.0, 1.0, ss->counts.accepted++, 0, camera_to_world, heldout ? 2 : 3);
+}
+
+static double yaw_range(const sp_sunstage *ss, const int *idx, int n)
+{
+    /* largest gap between sorted headings; coverage = 2 pi - gap */
+    double y[64];
+    for (int i = 0; i < n; i++)
+        y[i] = ss->slots[idx[i]].yaw;
+    for (int i = 1; i < n; i++)
+        for (int j = i; j > 0 && y[j] < y[j - 1]; j--) {
+            double tmp = y[j];
+            y[j] = y[j - 1];
+            y[j - 1] = tmp;
+        }
+    double gap = n ? y[0] + 2.0 * M_PI - y[n - 1] : 2.0 * M_PI;
+    for (int i = 1; i < n; i++)
+        gap = fmax(gap, y[i] - y[i - 1]);
+    return (2.0 * M_PI - gap) * 180.0 / M_PI;
+}
+
+int sp_sunstage_fit(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
+{
+    if (!ss)
+        return -EINVAL;
+    ss->t0 = sp_clock_monotonic_ns();
+    int idx[64];
+    int n = ss_list_frames(ss, 0, idx, 64);
+    if (ss->counts.frames > 0 && ss->counts.imu_samples == 0) {
+        sp_log(SP_LOG_ERROR, MOD, "the capture has no IMU samples: SunStage needs the camera orientation per frame");
+        return SP_ENODATA;
+    }
+    if (n < 2) {
+        sp_sunstage_counts c;
+        sp_sunstage_get_counts(ss, &c);
+        sp_log(SP_LOG_ERROR, MOD,
+               "%d usable keyframe(s), need at least 2 (frames %llu: dark %llu, saturated %llu, blurred %llu, "
+               "no face %llu, no orientation %llu)",
+               n, (unsigned long long)c.frames, (unsigned long long)c.skipped_dark,
+               (unsigned long long)c.skipped_saturated, (unsigned long long)c.skipped_blurred,
+               (unsigned long long)c.skipped_no_face, (unsigned long long)c.skipped_no_orientation);
+        return SP_ENODATA;
+    }
+    ss->yaw_range = yaw_range(ss, idx, n);
+    ss->unobservable = ss->yaw_range < ss->set.min_rotation_deg;
+    if (ss->unobservable) {
+        snprintf(ss->notes, sizeof(ss->notes),
+                 "lighting unobservable: the keyframes cover %.0f deg of camera yaw (< %.0f); sun not fitted, "
+                 "environment is a constant fitted to the mean shading",
+                 ss->yaw_range, ss->set.min_rotation_deg);
+        sp_log(SP_LOG_WARN, MOD, "%s", ss->notes);
+    }
+    double rms = ss_align_landmarks(ss, idx, n, 1, 30);
+    if (rms < 0)
+        return (int)rms;
+    int hidx[16];
+    int nh = ss_list_frames(ss, 1, hidx, 16);
+    if (nh > 0 && ss_align_landmarks(ss, hidx, nh, 0, 20) < 0)
+        sp_log(SP_LOG_WARN, MOD, "held-out frames could not be aligned");
+    sp_log(SP_LOG_INFO, MOD, "stage 1: %d keyframes, landmark RMS %.2f px", n, rms);
+    if (cb) {
+        sp_sunstage_progress p = { "align", 1, 1, (double)(sp_clock_monotonic_ns() - ss->t0) * 1e-9, rms, NAN };
+        cb(user, &p);
+    }
+    int ret = ss->set.solver == SP_SUNSTAGE_SOLVER_ADAM ? ss_fit_adam(ss, cb, user) : ss_fit_fast(ss, cb, user);
+    ss->seconds = (double)(sp_clock_monotonic_ns() - ss->t0) * 1e-9;
+    ss->fitted = ret == 0;
+    return ret;
+}
+
+int sp_sunstage_get_result(const sp_sunstage *ss, sp_sunstage_result *out)
+{
+    if (!ss || !out)
+        return -EINVAL;
+    memset(out, 0, sizeof(*out));
+    out->model = ss->model;
+    out->id = ss->id;
+    out->scale = ss->scale;
+    out->tex_width = ss->tw;
+    out->tex_height = ss->th;
+    out->albedo = ss->albedo;
+    out->displacement = ss->disp;
+    memcpy(out->ks, ss->ks, sizeof(out->ks));
+    memcpy(out->shininess, ss->shin, sizeof(out->shininess));
+    out->env = ss->env;
+    memcpy(out->sun_dir, ss->sun_dir, sizeof(out->sun_dir));
+    out->sun_intensity = ss->sun_I;
+    out->sun_dropped = ss->sun_dropped;
+    out->lighting_unobservable = ss->unobservable;
+    out->notes = ss->notes;
+    out->yaw_range_deg = ss->yaw_range;
+    int idx[64];
+    out->n_frames = ss_list_frames(ss, 0, idx, 64);
+    out->train_psnr = ss->train_psnr;
+    out->heldout_psnr = ss->heldout_psnr;
+    out->seconds = ss->seconds;
+    return 0;
+}
+
+int sp_sunstage_n_frames(const sp_sunstage *ss)
+{
+    int n = 0;
+    for (int i = 0; ss && ss->slots && i < ss->n_slots; i++)
+        n += ss->slots[i].used;
+    return n;
+}
+
+/* The i-th used slot (training and held-out alike). */
+static const ss_frame *nth_frame(const sp_sunstage *ss, int i)
+{
+    for (int k = 0; ss && ss->slots && k < ss->n_slots; k++)
+        if (ss->slots[k].used && i-- == 0)
+            return &ss->slots[k];
+    return NULL;
+}
+
+int sp_sunstage_get_frame(const sp_sunstage *ss, int i, sp_sunstage_frame *out)
+{
+    const ss_frame *f = nth_frame(ss, i);
+    if (!f || !out)
+        return -EINVAL;
+    memset(out, 0, sizeof(*out));
+    out->sequence = f->sequence;
+    out->timestamp_ns = f->t;
+    out->fx = ss->fx;
+    out->fy = ss->fy;
+    out->cx = ss->cx;
+    out->cy = ss->cy;
+    out->width = ss->W;
+    out->height = ss->H;
+    out->scale_to_capture = ss->W > 0 ? (double)ss->cap_w / ss->W : 1.0;
+    out->camera_to_world = f->q_c2w;
+    memcpy(out->rotvec, f->rotvec, sizeof(out->rotvec));
+    memcpy(out->t, f->t_face, sizeof(out->t));
+    out->exp = f->exp;
+    out->heldout = f->heldout;
+    return 0;
+}
+
+const float *sp_sunstage_frame_image(const sp_sunstage *ss, int i)
+{
+    const ss_frame *f = nth_frame(ss, i);
+    return f ? f->rgb : NULL;
+}
+
+int sp_sunstage_align_world(const sp_sunstage *ss, double R[9])
+{
+    if (!ss || !R)
+        return -EINVAL;
+    sp_quat sum = { 0, 0, 0, 0 }, first = { 1, 0, 0, 0 };
+    int n = 0;
+    for (int k = 0; ss->slots && k < ss->n_slots; k++) {
+        const ss_frame *f = &ss->slots[k];
+        if (!f->used || !f->has_truth)
+            continue;
+        sp_quat a = sp_quat_normalize(sp_quat_mul(f->truth_q, sp_quat_conj(f->q_c2w)));
+        if (n == 0)
+            first = a;
+        double d = a.w * first.w + a.x * first.x + a.y * first.y + a.z * first.z;
+        double s = d < 0.0 ? -1.0 : 1.0; /* q and -q are the same rotation */
+        sum.w += s * a.w;
+        sum.x += s * a.x;
+        sum.y += s * a.y;
+        sum.z += s * a.z;
+        n++;
+    }
+    if (!n)
+        return SP_ENODATA;
+    sp_quat_to_matrix(sp_quat_normalize(sum), R);
+    return 0;
+}
+
+double sp_sunstage_exposure_reference(const sp_sunstage *ss)
+{
+    return ss ? ss->expo_ref : 0.0;
+}

@@ -1,0 +1,134 @@
+/* SPDX-License-Identifier: MIT */
+/* Internal state of the SunStage fitter, shared by its files (not installed). */
+#ifndef SUNPROBE_SUNSTAGE_INTERNAL_H
+#define SUNPROBE_SUNSTAGE_INTERNAL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "sunprobe/sp_meta.h"
+#include "sunprobe/sp_orientation.h"
+#include "sunprobe/sp_render.h"
+#include "sunprobe/sp_sunstage.h"
+
+#define SS_PENDING 32  /* frames waiting for IMU coverage or their side data (about 1 s at 30 fps) */
+#define SS_DETECT_W 480 /* grey copy kept for the landmark detector, at most this wide */
+#define SS_ENV_BASIS 9 /* non-negative environment lobes used by the fast solver */
+
+/* One reservoir slot: a fit-resolution frame and its per-frame parameters. */
+typedef struct ss_frame {
+    int used, heldout;
+    uint64_t sequence;
+    int64_t t;
+    double score;       /* sharpness; the best frame wins its bin */
+    double expo;        /* exposure relative to the capture's first frame (exposure_us x gain), else 1 */
+    double yaw;         /* camera heading, radians */
+    float *rgb;         /* W * H * 3 display values */
+    double lm[136];     /* landmarks at fit resolution */
+    double R_c2w[9];    /* camera to world */
+    sp_quat q_c2w;
+    int has_truth;      /* true orientation side data (synthetic captures) */
+    sp_quat truth_q;
+    double *exp;        /* n_exp */
+    double rotvec[3], t_face[3];
+} ss_frame;
+
+/* A frame waiting in the pending ring. */
+typedef struct ss_pending {
+    int used, has_lm, decided, has_truth;
+    sp_quat truth_q;
+    uint64_t sequence;
+    int64_t t;
+    double score, expo;
+    float *rgb;         /* W * H * 3 */
+    uint8_t *gray;      /* dw * dh for the detector */
+    double lm[136];     /* fit resolution */
+} ss_pending;
+
+struct sp_sunstage {
+    sp_sunstage_settings set;
+    const sp_face_model *model;
+    sp_capture_meta meta;
+    sp_orientation *orient;
+    void *dlib;                 /* dlib shim context, NULL when unused */
+    int dlib_failed;
+    /* geometry of frames */
+    int cap_w, cap_h, W, H, dw, dh;
+    double fx, fy, cx, cy;      /* fit resolution */
+    uint8_t *rgb24;             /* capture-size conversion buffer */
+    ss_pending pend[SS_PENDING];
+    uint64_t pend_seq_max;
+    int have_pending_frame;
+    double sharp_mean;
+    double expo_ref;            /* exposure_us x gain of the first frame, 0 when unknown */
+    uint64_t sharp_n;
+    /* reservoir: keyframes bins then held-out bins */
+    int n_slots;
+    ss_frame *slots;
+    sp_sunstage_counts counts;
+    /* shared fitted state */
+    double *id;
+    double scale;
+    int tw, th;
+    float *albedo, *disp;
+    double ks[SP_RENDER_CLUSTERS], shin[SP_RENDER_CLUSTERS];
+    float env[SP_RENDER_ENV_FLOATS];
+    double sun_dir[3], sun_I;
+    int sun_dropped, unobservable, fitted;
+    char notes[512];
+    double yaw_range, train_psnr, heldout_psnr, seconds;
+    int64_t t0;
+};
+
+/* ---- sunstage.c ---- */
+/* The world rotation of a face: R_c2w * R(rotvec). */
+void ss_rotvec_to_matrix(const double r[3], double R[9]);
+/* Fitted frames in slot order: fills idx with the used training (heldout = 0) or held-out slots. */
+int ss_list_frames(const sp_sunstage *ss, int heldout, int *idx, int cap);
+
+/* ---- frontend.c ---- */
+int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t);
+void ss_frontend_side(sp_sunstage *ss, const sp_event *ev);
+int ss_frontend_resolve(sp_sunstage *ss, int final);
+int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const double lm[136], double score, double expo,
+                       uint64_t seq, int64_t t, sp_quat q, int heldout_hint);
+
+/* ---- align.c: stage 1 ---- */
+/* Gauss-Newton (LM) on robust landmark residuals; returns RMS pixel error or a negative error. */
+double ss_align_landmarks(sp_sunstage *ss, const int *idx, int n, int shared, int iterations);
+
+/* ---- scene.c: rendering one frame of the current fit ---- */
+typedef struct ss_scene {
+    sp_renderer *r;
+    float *pos;        /* 3 * n_vertices world positions */
+    double *posd;      /* camera-frame positions */
+    uint8_t *skin_tri; /* per triangle: all corners in the face mask */
+    sp_mesh mesh;      /* view of the model mesh with pos */
+    float white[3];
+} ss_scene;
+
+int ss_scene_open(ss_scene *sc, const sp_sunstage *ss);
+void ss_scene_close(ss_scene *sc);
+/* Evaluates frame f's geometry and fills scene (pointers into ss and sc). */
+int ss_scene_setup(ss_scene *sc, const sp_sunstage *ss, const ss_frame *f, sp_render_scene *scene);
+/* Mask of skin pixels fully covered and not saturated in the target (W * H floats). */
+void ss_scene_mask(const ss_scene *sc, const sp_render_outputs *o, const float *target, float *mask);
+double ss_psnr(const float *img, const float *target, const float *mask, int n);
+/* Training and held-out PSNR of the current fit. */
+int ss_evaluate(sp_sunstage *ss, ss_scene *sc, double *train, double *heldout);
+
+/* ---- fast.c / adam.c: stage 2 ---- */
+int ss_fit_fast(sp_sunstage *ss, sp_sunstage_callback cb, void *user);
+int ss_fit_adam(sp_sunstage *ss, sp_sunstage_callback cb, void *user);
+
+/* ---- lsq.c: small dense solves ---- */
+/* Solves (A + lambda diag) x = b in place of b for symmetric positive A (n x n, row-major); -EDOM if singular. */
+int ss_cholesky_solve(double *A, double *b, int n);
+/* Non-negative least squares by active-set clamping on normal equations A (n x n), b (n); x out. */
+int ss_nnls(const double *A, const double *b, int n, double *x);
+
+/* Tone map and its inverse (display value <-> linear radiance, exposure 1). */
+double ss_tonemap(double x);
+double ss_tonemap_inverse(double g, double *dg_dx);
+
+#endif

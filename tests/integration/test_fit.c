@@ -1,0 +1,192 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * `sunprobe fit` and `sunprobe relight` end to end. Bad input (no IMU, one
+ * frame, all-black frames, frames without a face) must end with exit code 2
+ * and a message, and leave neither FACE_DIR nor FACE_DIR.partial behind.
+ * With "synth" as second argument, a small synthetic selfie is fitted and the
+ * sun direction must come out within a few degrees of the truth.
+ * Usage: test_fit SUNPROBE [synth]
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "check.h"
+#include "sunprobe/sp_capture.h"
+#include "sunprobe/sp_frame.h"
+
+#define FW 64
+#define FH 48
+
+static char dir[256];
+static const char *sunprobe;
+
+typedef enum { CONTENT_BLACK, CONTENT_NOISE } content;
+
+/* Writes a capture: n RGB24 frames at 15 fps (black or noise), optionally 2 s of still IMU at 200 Hz. */
+static int write_capture(const char *path, int n, content what, int with_imu)
+{
+    sp_capture_writer_settings ws;
+    sp_capture_writer_default_settings(&ws);
+    ws.sync = SP_SYNC_NONE;
+    ws.overwrite = 1;
+    sp_capture_writer *w = NULL;
+    int ret = sp_capture_writer_open(&w, path, &ws);
+    if (ret)
+        return ret;
+    const char *meta = "{\"kind\":\"selfie\",\"camera\":{\"width\":64,\"height\":48,\"fps\":15,\"fx\":60,\"fy\":60,"
+                       "\"cx\":31.5,\"cy\":23.5}}";
+    ret = sp_capture_write_meta(w, 0, meta, strlen(meta));
+    sp_frame_pool *pool = NULL;
+    if (!ret)
+        ret = sp_frame_pool_open(&pool, 1, FW * FH * 3);
+    int64_t end_ns = (int64_t)n * 66666667 + 500000000;
+    for (int64_t t = 0; !ret && with_imu && t < end_ns; t += 5000000) {
+        sp_imu_sample s[2] = { { t, SP_IMU_GYRO, { 0, 0, 0 } }, { t, SP_IMU_ACCEL, { 0, -9.81f, 0 } } };
+        ret = sp_capture_write_imu(w, s, 2);
+    }
+    unsigned seed = 7;
+    for (int i = 0; !ret && i < n; i++) {
+        sp_frame *f = NULL;
+        if ((ret = sp_frame_pool_get(pool, &f)))
+            break;
+        f->format = SP_PIXFMT_RGB24;
+        f->width = FW;
+        f->height = FH;
+        f->stride = FW * 3;
+        f->bytes_used = FW * FH * 3;
+        f->timestamp_ns = 300000000 + (int64_t)i * 66666667;
+        f->sequence = (uint64_t)i;
+        for (size_t k = 0; k < f->bytes_used; k++)
+            f->data[k] = what == CONTENT_BLACK ? 0 : (uint8_t)(64 + (rand_r(&seed) % 128));
+        ret = sp_capture_write_frame(w, f);
+        sp_frame_unref(&f);
+    }
+    sp_frame_pool_close(&pool);
+    int cret = sp_capture_writer_close(&w);
+    return ret ? ret : cret;
+}
+
+static int exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0;
+}
+
+/* Runs a command line; returns its exit code, output in dir/out.txt. */
+static int run(const char *args)
+{
+    char cmd[2048];
+    snprintf(cmd, sizeof(cmd), "%s %s > %s/out.txt 2>&1", sunprobe, args, dir);
+    int st = system(cmd);
+    return st == -1 ? -1 : WEXITSTATUS(st);
+}
+
+static int output_contains(const char *needle)
+{
+    char path[512], buf[8192];
+    snprintf(path, sizeof(path), "%s/out.txt", dir);
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return 0;
+    size_t n = fread(buf, 1, sizeof(buf) - 1, f);
+    fclose(f);
+    buf[n] = 0;
+    return strstr(buf, needle) != NULL;
+}
+
+static void show_output(void)
+{
+    char cmd[512];
+    snprintf(cmd, sizeof(cmd), "sed 's/^/  | /' %s/out.txt >&2", dir);
+    if (system(cmd) == -1)
+        fprintf(stderr, "(cannot show output)\n");
+}
+
+static void bad_input(const char *name, int n, content what, int with_imu, const char *message)
+{
+    char cap[512], face[512], partial[600], args[2048];
+    snprintf(cap, sizeof(cap), "%s/%s.spcap", dir, name);
+    snprintf(face, sizeof(face), "%s/%s.face", dir, name);
+    snprintf(partial, sizeof(partial), "%s.partial", face);
+    CHECK(write_capture(cap, n, what, with_imu) == 0);
+    snprintf(args, sizeof(args), "fit %s -o %s --face generic --no-progress", cap, face);
+    int code = run(args);
+    CHECK_MSG(code == 2, "%s: exit %d, expected 2", name, code);
+    CHECK_MSG(output_contains(message), "%s: no '%s' in the output", name, message);
+    CHECK(!exists(face));
+    CHECK(!exists(partial));
+    if (code != 2 || !output_contains(message))
+        show_output();
+}
+
+static void synth_fit(void)
+{
+    char args[2048], face[512];
+    snprintf(args, sizeof(args),
+             "synth selfie -o %s/s.spcap --face generic --width 160 --height 160 --turn-seconds 4 --still 1 "
+             "--supersample 1 --shadow-size 512 --relit 0 --novel 0 --fps 20",
+             dir);
+    int code = run(args);
+    CHECK_MSG(code == 0, "synth selfie: exit %d", code);
+    if (code) {
+        show_output();
+        return;
+    }
+    snprintf(face, sizeof(face), "%s/s.face", dir);
+    snprintf(args, sizeof(args), "fit %s/s.spcap -o %s --face generic --keyframes 8 --heldout 2 --no-progress "
+                                 "--report %s/rep", dir, face, dir);
+    code = run(args);
+    CHECK_MSG(code == 0, "fit: exit %d", code);
+    show_output();
+    char path[700];
+    snprintf(path, sizeof(path), "%s/manifest.json", face);
+    CHECK(exists(path));
+    snprintf(path, sizeof(path), "%s/rep.svg", dir);
+    CHECK(exists(path));
+    char buf[8192] = "";
+    snprintf(path, sizeof(path), "%s/out.txt", dir);
+    FILE *f = fopen(path, "r");
+    size_t n = f ? fread(buf, 1, sizeof(buf) - 1, f) : 0;
+    if (f)
+        fclose(f);
+    buf[n] = 0;
+    const char *p = strstr(buf, "sun direction error ");
+    double err = p ? strtod(p + strlen("sun direction error "), NULL) : (double)NAN;
+    CHECK_MSG(err < 5.0, "sun direction error %.2f deg", err);
+    snprintf(args, sizeof(args), "relight %s --sun 30,40 -o %s/relit.png", face, dir);
+    CHECK(run(args) == 0);
+    snprintf(path, sizeof(path), "%s/relit.png", dir);
+    CHECK(exists(path));
+    snprintf(args, sizeof(args), "relight %s/nothing --sun 30,40 -o %s/x.png", dir, dir);
+    CHECK(run(args) == 2);
+    snprintf(args, sizeof(args), "fit %s/s.spcap -o %s --face generic", dir, face); /* exists: refuse */
+    CHECK(run(args) == 1);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2)
+        SKIP("usage: test_fit SUNPROBE [synth]");
+    sunprobe = argv[1];
+    snprintf(dir, sizeof(dir), "%s/sp-fit.XXXXXX", getenv("TMPDIR") ? getenv("TMPDIR") : "/tmp");
+    if (!mkdtemp(dir))
+        SKIP("cannot create a temporary directory");
+    if (argc > 2 && !strcmp(argv[2], "synth")) {
+        synth_fit();
+    } else {
+        bad_input("noimu", 12, CONTENT_NOISE, 0, "no IMU");
+        bad_input("oneframe", 1, CONTENT_NOISE, 1, "need at least 2");
+        bad_input("black", 12, CONTENT_BLACK, 1, "dark 12");
+        bad_input("noface", 12, CONTENT_NOISE, 1, "no face");
+    }
+    char cmd[300];
+    snprintf(cmd, sizeof(cmd), "rm -rf %s", dir);
+    if (system(cmd) == -1)
+        fprintf(stderr, "cannot remove %s\n", dir);
+    return check_exit();
+}

@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
+# `sunprobe devices` and `sunprobe record` end to end with the fake camera and IMU: a timed recording,
+# SIGINT and SIGTERM mid-recording (valid files, exit 0), a slowed writer (drops counted), bad
+# arguments and missing devices (documented exit codes).
+set -u
+SP=$1
+dir=$(mktemp -d "${TMPDIR:-/tmp}/sp-record.XXXXXX")
+trap 'rm -rf "$dir"' EXIT
+fails=0
+
+expect() { # expected-exit-code description command...
+    local want=$1 what=$2; shift 2
+    "$@" >"$dir/out.txt" 2>"$dir/err.txt"
+    local got=$?
+    if [ "$got" -ne "$want" ]; then
+        echo "FAIL: $what: exit $got, expected $want"; sed 's/^/  | /' "$dir/out.txt" "$dir/err.txt"
+        fails=$((fails + 1))
+    fi
+}
+contains() { # file pattern description
+    grep -qE "$2" "$1" || { echo "FAIL: $3: no /$2/ in output"; sed 's/^/  | /' "$1"; fails=$((fails + 1)); }
+}
+
+expect 0 "devices" "$SP" devices
+contains "$dir/out.txt" "\[fake\] fake: sunprobe test pattern" "devices lists the fake camera"
+contains "$dir/out.txt" "yuyv +320x240@1000" "devices lists formats and sizes"
+contains "$dir/out.txt" "channels: anglvel_x" "devices lists IMU channels"
+
+cap=$dir/a.spcap
+expect 0 "record fake" "$SP" record --camera fake:panorama --imu fake --mode static --duration 1.5 \
+    --format nv12 --size 160x120 --fps 20 --lock-exposure -o "$cap"
+contains "$dir/out.txt" "ended: duration reached" "record says how it ended"
+expect 0 "verify" "$SP" verify "$cap"
+expect 0 "info" "$SP" info "$cap"
+contains "$dir/out.txt" "frames\[0\]: +[0-9]+ nv12 160x120" "frames as negotiated"
+contains "$dir/out.txt" "kind: +static" "META kind"
+contains "$dir/out.txt" "imu gyro +[0-9]+ samples" "IMU samples recorded"
+contains "$dir/out.txt" "closed cleanly" "END chunk"
+expect 3 "refuses to overwrite (EEXIST)" "$SP" record --camera fake --duration 0.2 -o "$cap"
+[ -s "$cap" ] || { echo "FAIL: an existing capture was clobbered"; fails=$((fails + 1)); }
+
+for sig in INT TERM; do
+    out=$dir/sig-$sig.spcap
+    "$SP" record --camera fake --size 160x120 -o "$out" >"$dir/out.txt" 2>&1 &
+    pid=$!
+    for _ in $(seq 50); do [ -s "$out" ] && break; sleep 0.1; done
+    sleep 0.5
+    kill -$sig $pid
+    wait $pid
+    rc=$?
+    [ $rc -eq 0 ] || { echo "FAIL: record after SIG$sig exited $rc"; cat "$dir/out.txt"; fails=$((fails + 1)); }
+    contains "$dir/out.txt" "ended: stopped" "SIG$sig stops the recording"
+    expect 0 "verify after SIG$sig" "$SP" verify "$out"
+done
+
+expect 0 "slow writer" "$SP" record --camera fake --size 160x120 --fps 100 --duration 1 --queue 2 \
+    --writer-delay-us 40000 -o "$dir/slow.spcap"
+contains "$dir/out.txt" " [1-9][0-9]* dropped by the writer queue" "a slow writer drops and counts"
+expect 0 "verify slow" "$SP" verify "$dir/slow.spcap"
+
+expect 1 "no output" "$SP" record --camera fake
+expect 1 "bad size" "$SP" record --camera fake --size 0x10 -o "$dir/x.spcap"
+expect 1 "bad mode" "$SP" record --camera fake --mode movie -o "$dir/x.spcap"
+expect 1 "bad fake option" "$SP" record --camera fake:nonsense --duration 0.1 -o "$dir/x.spcap"
+expect 3 "no such camera" "$SP" record --camera no-such-camera --duration 0.1 -o "$dir/x.spcap"
+expect 3 "no such imu" "$SP" record --camera fake --imu no-such-imu --duration 0.1 -o "$dir/y.spcap"
+if "$SP" record --help | grep -q . && "$SP" devices --help | grep -q "v4l2"; then
+    expect 3 "missing V4L2 node" "$SP" record --camera /dev/video-sunprobe-missing -o "$dir/z.spcap"
+else
+    expect 4 "V4L2 not built" "$SP" record --camera /dev/video-sunprobe-missing -o "$dir/z.spcap"
+fi
+
+echo "record-cli: $fails failure(s)"
+[ $fails -eq 0 ]

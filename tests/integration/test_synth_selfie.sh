@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
+# `sunprobe synth selfie` end to end: a short small capture passes info and verify with the
+# expected frame and IMU counts, the truth directory and contact sheet exist, the same seed gives
+# the same bytes, --overcast gives a zero sun, bad options get exit code 1.
+set -u
+SP=$1
+dir=$(mktemp -d "${TMPDIR:-/tmp}/sp-selfie.XXXXXX")
+trap 'rm -rf "$dir"' EXIT
+fails=0
+fail() { echo "FAIL: $*"; fails=$((fails + 1)); }
+
+expect() { # expected-exit-code description command...
+    local want=$1 what=$2; shift 2
+    "$@" >"$dir/out.txt" 2>"$dir/err.txt"
+    local got=$?
+    if [ "$got" -ne "$want" ]; then
+        fail "$what: exit $got, expected $want"; sed 's/^/  | /' "$dir/out.txt" "$dir/err.txt"
+    fi
+}
+contains() { # file pattern description
+    grep -qE "$2" "$1" || { fail "$3: no /$2/ in $1"; sed 's/^/  | /' "$1"; }
+}
+
+small=(--face generic --width 96 --height 96 --fps 15 --still 0.5 --turn-seconds 1 --albedo-size 128
+       --supersample 1 --shadow-size 256 --seed 7)
+mkdir -p "$dir/a" "$dir/b"
+expect 0 "synth selfie" "$SP" synth selfie -o "$dir/a/s.spcap" "${small[@]}" --contact-sheet "$dir/a/sheet.png"
+[ -f "$dir/a/s.spcap.partial" ] && fail "partial file left behind"
+contains "$dir/out.txt" "31 frames 96x96" "frame count in the summary"
+contains "$dir/out.txt" "12 held-out frames" "held-out count in the summary"
+
+expect 0 "info" "$SP" info "$dir/a/s.spcap"
+contains "$dir/out.txt" "frames\[0\]: +31 (mjpeg|rgb24) 96x96" "info frame count (2 s at 15 fps + 1)"
+contains "$dir/out.txt" "imu gyro +401 samples" "info gyro count (2 s at 200 Hz + 1)"
+contains "$dir/out.txt" "imu accel +401 samples" "info accel count"
+contains "$dir/out.txt" "kind: +selfie" "info metadata kind"
+contains "$dir/out.txt" "62 side" "two side chunks per frame"
+contains "$dir/out.txt" "closed cleanly" "info END chunk"
+expect 0 "verify" "$SP" verify "$dir/a/s.spcap"
+expect 0 "replay" "$SP" replay "$dir/a/s.spcap"
+
+t=$dir/a/s.truth
+for f in truth.json frames.json albedo.png albedo.pfm clusters.png env.pfm env.png; do
+    [ -s "$t/$f" ] || fail "truth file $f missing"
+done
+n_png=$(ls "$t"/heldout/relit_*.png "$t"/heldout/view_*.png 2>/dev/null | wc -l)
+n_json=$(ls "$t"/heldout/*_[0-9][0-9].json 2>/dev/null | wc -l)
+[ "$n_png" -eq 12 ] || fail "expected 12 held-out PNGs, found $n_png"
+[ "$n_json" -eq 12 ] || fail "expected 12 held-out JSON files, found $n_json"
+contains "$t/truth.json" '"capture":"s.spcap"' "manifest names the capture"
+[ "$(head -c 4 "$dir/a/sheet.png" | od -An -tx1 | tr -d ' ')" = "89504e47" ] || fail "contact sheet is not a PNG"
+
+# same seed, another directory: identical bytes after the 64-byte file header (which holds the wall clock)
+expect 0 "synth selfie again" "$SP" synth selfie -o "$dir/b/s.spcap" "${small[@]}"
+cmp -s -i 64 "$dir/a/s.spcap" "$dir/b/s.spcap" || fail "same seed gave different capture bytes"
+cmp -s "$t/truth.json" "$dir/b/s.truth/truth.json" || fail "same seed gave a different truth.json"
+cmp -s "$t/heldout/view_03.png" "$dir/b/s.truth/heldout/view_03.png" || fail "same seed gave a different held-out frame"
+expect 0 "synth selfie other seed" "$SP" synth selfie -o "$dir/b/o.spcap" "${small[@]}" --seed 8 --no-truth
+cmp -s -i 64 "$dir/a/s.spcap" "$dir/b/o.spcap" && fail "another seed gave the same capture"
+[ -e "$dir/b/o.truth" ] && fail "--no-truth wrote a truth directory"
+
+expect 0 "synth selfie overcast" "$SP" synth selfie -o "$dir/b/c.spcap" "${small[@]}" --overcast --truth "$dir/ct"
+contains "$dir/ct/truth.json" '"sun":\{[^}]*"intensity":0,' "overcast sun intensity 0"
+contains "$dir/ct/truth.json" '"model":"overcast"' "overcast sky model"
+
+expect 0 "synth selfie --help" "$SP" synth selfie --help
+expect 1 "synth selfie without output" "$SP" synth selfie
+expect 1 "synth selfie bad width" "$SP" synth selfie -o "$dir/x.spcap" --width 5
+expect 1 "synth selfie bad face" "$SP" synth selfie -o "$dir/x.spcap" --face martian
+expect 1 "synth selfie bad bias" "$SP" synth selfie -o "$dir/x.spcap" --gyro-bias 1,2
+[ -e "$dir/x.spcap" ] && fail "a rejected command wrote a capture"
+
+[ "$fails" -eq 0 ] && echo "all synth selfie checks passed"
+exit $((fails > 0))

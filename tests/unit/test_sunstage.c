@@ -1,0 +1,294 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * SunStage fitter: solver pieces on small problems with known truth (Cholesky
+ * and non-negative least squares as used for the lighting, the tone-map
+ * inverse, Gauss-Newton landmark alignment) and a tiny end-to-end fit of a
+ * rendered generic head turning under a known sun.
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "check.h"
+#include "pipeline/sunstage/sunstage_internal.h"
+#include "sunprobe/sp_face_model.h"
+#include "sunprobe/sp_render.h"
+#include "sunprobe/sp_sunstage.h"
+
+#define W 96
+#define H 80
+#define FX 110.0
+
+static void test_cholesky_nnls(void)
+{
+    /* A = M^T M for a known M; b = A x_true */
+    double M[16] = { 2, 0.3, 0, 0.1, 0.2, 1.5, 0.4, 0, 0, 0.1, 1.2, 0.3, 0.5, 0, 0.2, 1.8 };
+    double A[16] = { 0 }, xt[4] = { 0.7, 0.0, 1.3, 0.2 }, b[4] = { 0 };
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++)
+            for (int k = 0; k < 4; k++)
+                A[i * 4 + j] += M[k * 4 + i] * M[k * 4 + j];
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++)
+            b[i] += A[i * 4 + j] * xt[j];
+    double A2[16], b2[4];
+    memcpy(A2, A, sizeof(A));
+    memcpy(b2, b, sizeof(b));
+    CHECK(ss_cholesky_solve(A2, b2, 4) == 0);
+    for (int i = 0; i < 4; i++)
+        CHECK_NEAR(b2[i], xt[i], 1e-9);
+    double x[4];
+    CHECK(ss_nnls(A, b, 4, x) == 0);
+    for (int i = 0; i < 4; i++)
+        CHECK_NEAR(x[i], xt[i], 1e-6);
+    /* a target whose unconstrained solution is negative: NNLS clamps and stays optimal */
+    double bn[4] = { -1.0, 0.5, 0.2, 0.1 };
+    CHECK(ss_nnls(A, bn, 4, x) == 0);
+    for (int i = 0; i < 4; i++)
+        CHECK(x[i] >= 0.0 && isfinite(x[i]));
+    double sing[4] = { 1, 1, 1, 1 }, sb[2] = { 1, 1 };
+    CHECK(ss_cholesky_solve(sing, sb, 2) != 0); /* singular: an error, no NaN */
+}
+
+static void test_tonemap_inverse(void)
+{
+    double xs[] = { 0.0, 1e-9, 1e-4, 0.05, 0.5, 1.0, 3.0, 20.0 };
+    for (size_t i = 0; i < sizeof(xs) / sizeof(xs[0]); i++) {
+        double g = ss_tonemap(xs[i]), s;
+        double x = ss_tonemap_inverse(g, &s);
+        CHECK_NEAR(x, xs[i], 1e-6 * (1.0 + xs[i]));
+        CHECK(isfinite(s) && s > 0.0);
+    }
+    double s;
+    CHECK(isfinite(ss_tonemap_inverse(1.0, &s)) && isfinite(s));
+    CHECK(isfinite(ss_tonemap_inverse(-3.0, &s)) && isfinite(s));
+    CHECK(ss_tonemap(NAN) == 0.0 && ss_tonemap(-1.0) == 0.0);
+}
+
+/* Camera turned to heading psi (level): forward (cos, sin, 0), image down = world down. */
+static sp_quat camera_at_heading(double psi)
+{
+    double x[3] = { sin(psi), -cos(psi), 0 }, y[3] = { 0, 0, -1 }, z[3] = { cos(psi), sin(psi), 0 };
+    double m[9];
+    for (int r = 0; r < 3; r++) {
+        m[r * 3 + 0] = x[r];
+        m[r * 3 + 1] = y[r];
+        m[r * 3 + 2] = z[r];
+    }
+    return sp_quat_from_matrix(m);
+}
+
+typedef struct truth {
+    double sun[3], I;
+    float env[SP_RENDER_ENV_FLOATS];
+    float albedo[64 * 64 * 3];
+    double id[16];
+} truth;
+
+static void make_truth(truth *t, const sp_face_model *m)
+{
+    double d[3] = { 0.45, -0.35, 0.8 };
+    double n = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (int i = 0; i < 3; i++)
+        t->sun[i] = d[i] / n;
+    t->I = 3.0;
+    for (int i = 0; i < SP_RENDER_ENV_H; i++)
+        for (int j = 0; j < SP_RENDER_ENV_W * 3; j++)
+            t->env[i * SP_RENDER_ENV_W * 3 + j] = (float)(i < SP_RENDER_ENV_H / 2 ? 0.35 : 0.1);
+    for (int i = 0; i < 64 * 64; i++) {
+        double v = 0.08 * sin(i * 0.37);
+        t->albedo[i * 3 + 0] = (float)(0.62 + v);
+        t->albedo[i * 3 + 1] = (float)(0.45 + v);
+        t->albedo[i * 3 + 2] = (float)(0.36 + v);
+    }
+    memset(t->id, 0, sizeof(t->id));
+    for (uint32_t k = 0; k < m->n_id && k < 16; k++)
+        t->id[k] = 0.5 * sin(1.0 + k);
+}
+
+/* Renders one frame of the truth; fills rgb (display) and landmarks. */
+static int render_frame(sp_renderer *r, const sp_face_model *m, const truth *t, sp_quat q, const double rot[3],
+                        float *rgb, double lm[136])
+{
+    sp_face_params p;
+    sp_face_params_init(&p);
+    p.id = t->id;
+    memcpy(p.rotvec, rot, sizeof(p.rotvec));
+    p.t[2] = 0.45;
+    size_t nv = m->mesh.n_vertices;
+    double *pc = malloc(sizeof(double) * 3 * nv);
+    float *pw = malloc(sizeof(float) * 3 * nv);
+    double R[9];
+    sp_quat_to_matrix(q, R);
+    sp_face_model_eval(m, &p, pc);
+    for (size_t i = 0; i < nv; i++)
+        for (int k = 0; k < 3; k++)
+            pw[i * 3 + (size_t)k] = (float)(R[k * 3] * pc[i * 3] + R[k * 3 + 1] * pc[i * 3 + 1] + R[k * 3 + 2] * pc[i * 3 + 2]);
+    sp_mesh mesh = m->mesh;
+    mesh.positions = pw;
+    sp_render_scene sc;
+    sp_render_scene_defaults(&sc);
+    sc.camera.fx = sc.camera.fy = FX;
+    sc.camera.cx = (W - 1) / 2.0;
+    sc.camera.cy = (H - 1) / 2.0;
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++)
+            sc.camera.R[a * 3 + b] = R[b * 3 + a];
+    sc.mesh = &mesh;
+    sc.albedo = (sp_render_texture){ 64, 64, t->albedo };
+    sc.clusters = (sp_render_cluster_map){ (int)m->cluster_width, (int)m->cluster_height, m->cluster_map };
+    sc.env = t->env;
+    memcpy(sc.sun_dir, t->sun, sizeof(sc.sun_dir));
+    sc.sun_intensity = t->I;
+    sp_render_outputs o;
+    int ret = sp_render(r, &sc, &o);
+    if (!ret) {
+        memcpy(rgb, o.image, sizeof(float) * W * H * 3);
+        sp_face_camera cam;
+        sp_face_camera_init(&cam, FX, FX, (W - 1) / 2.0, (H - 1) / 2.0);
+        ret = sp_face_model_project_landmarks(m, &p, &cam, lm, NULL, NULL) == 68 ? 0 : -1;
+    }
+    free(pc);
+    free(pw);
+    return ret;
+}
+
+static double angle_deg(const double a[3], const double b[3])
+{
+    double d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    d = d > 1.0 ? 1.0 : (d < -1.0 ? -1.0 : d);
+    return acos(d) * 180.0 / M_PI;
+}
+
+/* Adds n frames over a yaw range; returns 0 or an error. */
+static int add_frames(sp_sunstage *ss, sp_renderer *r, const sp_face_model *m, const truth *t, int n, double range_deg,
+                      int heldout, double phase)
+{
+    float *rgb = malloc(sizeof(float) * W * H * 3);
+    int ret = 0;
+    for (int i = 0; i < n && !ret; i++) {
+        double psi = (phase + range_deg * i / n) * M_PI / 180.0;
+        double rot[3] = { M_PI + 0.05 * sin(i), 0.08 * cos(1.3 * i), 0.03 };
+        double lm[136];
+        sp_quat q = camera_at_heading(psi);
+        ret = render_frame(r, m, t, q, rot, rgb, lm);
+        if (!ret)
+            ret = sp_sunstage_add_keyframe(ss, rgb, W, H, lm, FX, FX, (W - 1) / 2.0, (H - 1) / 2.0, q, heldout);
+    }
+    free(rgb);
+    return ret;
+}
+
+static void test_end_to_end(const sp_face_model *m, enum sp_sunstage_solver solver)
+{
+    truth *t = calloc(1, sizeof(*t));
+    make_truth(t, m);
+    sp_renderer_settings rs;
+    sp_renderer_default_settings(&rs);
+    rs.width = W;
+    rs.height = H;
+    rs.shadow_size = 256;
+    sp_renderer *r = NULL;
+    CHECK(sp_renderer_open(&r, &rs) == 0);
+    sp_sunstage_settings set;
+    sp_sunstage_default_settings(&set);
+    set.solver = solver;
+    set.keyframes = 8;
+    set.heldout = 2;
+    set.texture_size = 64;
+    set.adam_iterations = 60;
+    sp_sunstage *ss = NULL;
+    CHECK(sp_sunstage_open(&ss, &set, m) == 0);
+    CHECK(add_frames(ss, r, m, t, 8, 360.0, 0, 0.0) == 0);
+    CHECK(add_frames(ss, r, m, t, 2, 360.0, 1, 100.0) == 0);
+    CHECK(sp_sunstage_fit(ss, NULL, NULL) == 0);
+    /* GN alignment recovered the poses: identity close to truth */
+    CHECK_NEAR(ss->scale, 1.0, 0.05);
+    sp_sunstage_result res;
+    CHECK(sp_sunstage_get_result(ss, &res) == 0);
+    double err = angle_deg(res.sun_dir, t->sun);
+    fprintf(stderr, "%s: sun error %.2f deg, train %.2f dB, held-out %.2f dB, %.2f s\n",
+            solver == SP_SUNSTAGE_SOLVER_FAST ? "fast" : "adam", err, res.train_psnr, res.heldout_psnr, res.seconds);
+    if (solver == SP_SUNSTAGE_SOLVER_FAST) {
+        CHECK_MSG(err < 3.0, "sun direction error %.2f deg", err);
+        CHECK(res.train_psnr > 30.0);
+        CHECK(res.heldout_psnr > 25.0);
+        CHECK(!res.sun_dropped && !res.lighting_unobservable);
+    } else {
+        CHECK(isfinite(res.train_psnr) && res.train_psnr > 18.0);
+    }
+    for (int i = 0; i < res.tex_width * res.tex_height * 3; i++)
+        if (!isfinite(res.albedo[i])) {
+            CHECK(!"albedo has a non-finite texel");
+            break;
+        }
+    sp_sunstage_close(&ss);
+    CHECK(ss == NULL);
+    sp_renderer_close(&r);
+    free(t);
+}
+
+/* Too little rotation: the fitter must say the lighting is unobservable and not fit a sun. */
+static void test_unobservable(const sp_face_model *m)
+{
+    truth *t = calloc(1, sizeof(*t));
+    make_truth(t, m);
+    sp_renderer_settings rs;
+    sp_renderer_default_settings(&rs);
+    rs.width = W;
+    rs.height = H;
+    sp_renderer *r = NULL;
+    CHECK(sp_renderer_open(&r, &rs) == 0);
+    sp_sunstage_settings set;
+    sp_sunstage_default_settings(&set);
+    set.keyframes = 4;
+    set.heldout = 0;
+    set.texture_size = 32;
+    sp_sunstage *ss = NULL;
+    CHECK(sp_sunstage_open(&ss, &set, m) == 0);
+    CHECK(add_frames(ss, r, m, t, 4, 30.0, 0, 0.0) == 0);
+    CHECK(sp_sunstage_fit(ss, NULL, NULL) == 0);
+    sp_sunstage_result res;
+    sp_sunstage_get_result(ss, &res);
+    CHECK(res.lighting_unobservable);
+    CHECK(res.yaw_range_deg < 40.0);
+    CHECK(strstr(res.notes, "unobservable") != NULL);
+    sp_sunstage_close(&ss);
+    sp_renderer_close(&r);
+    free(t);
+}
+
+static void test_bad_args(const sp_face_model *m)
+{
+    sp_sunstage_settings set;
+    sp_sunstage_default_settings(&set);
+    sp_sunstage *ss = NULL;
+    set.keyframes = 1;
+    CHECK(sp_sunstage_open(&ss, &set, m) == -EINVAL && ss == NULL);
+    sp_sunstage_default_settings(&set);
+    CHECK(sp_sunstage_open(&ss, &set, NULL) == -EINVAL);
+    CHECK(sp_sunstage_open(&ss, &set, m) == 0);
+    CHECK(sp_sunstage_fit(ss, NULL, NULL) == SP_ENODATA); /* nothing pushed */
+    sp_sunstage_close(&ss);
+    sp_sunstage_close(&ss); /* twice is fine */
+    sp_sunstage_close(NULL);
+}
+
+int main(int argc, char **argv)
+{
+    sp_log_set_level(getenv("SP_LOG") ? SP_LOG_INFO : SP_LOG_WARN);
+    test_cholesky_nnls();
+    test_tonemap_inverse();
+    sp_face_model m;
+    CHECK(sp_face_model_generic(&m) == 0);
+    test_bad_args(&m);
+    test_end_to_end(&m, SP_SUNSTAGE_SOLVER_FAST);
+    if (argc < 2 || strcmp(argv[1], "--fast-only"))
+        test_end_to_end(&m, SP_SUNSTAGE_SOLVER_ADAM);
+    test_unobservable(&m);
+    sp_face_model_free(&m);
+    return check_exit();
+}

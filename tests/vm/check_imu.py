@@ -1,0 +1,47 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
+# vm suite helper: walks a capture's chunks (layout in capture/FORMAT.md) and checks that its gyro
+# samples carry the rate of turn the uhid sensor hub reported (x 10, y -20, z 30 deg/s), are in
+# time order, and lie on the frames' clock (their span overlaps the frames' span).
+# usage: check_imu.py CAPTURE
+import math
+import struct
+import sys
+
+data = open(sys.argv[1], "rb").read()
+pos = struct.unpack_from("<I", data, 12)[0]
+frames, gyro, problems = [], [], []
+while pos + 32 <= len(data):
+    sync, ctype, _flags, size, _crc, ts = struct.unpack_from("<IHHIIq", data, pos)
+    if sync != 0x4B43538A:
+        problems.append("bad chunk sync at %d" % pos)
+        break
+    payload = data[pos + 32:pos + 32 + size]
+    if ctype == 2:
+        frames.append(ts)
+    elif ctype == 3:
+        rec_size, count = struct.unpack_from("<II", payload, 0)
+        for i in range(count):
+            t, sensor, x, y, z = struct.unpack_from("<qIfff", payload, 8 + i * rec_size)
+            if sensor == 1:
+                gyro.append((t, x, y, z))
+    pos += 32 + size
+
+want = [math.radians(v) for v in (10.0, -20.0, 30.0)]
+if len(gyro) < 50:
+    problems.append("only %d gyro samples" % len(gyro))
+for t, x, y, z in gyro:
+    if any(abs(a - b) > 1e-3 for a, b in zip((x, y, z), want)):
+        problems.append("gyro sample %.4f %.4f %.4f rad/s, expected %.4f %.4f %.4f" % (x, y, z, *want))
+        break
+if any(b[0] < a[0] for a, b in zip(gyro, gyro[1:])):
+    problems.append("gyro timestamps go backwards")
+if frames and gyro:
+    f0, f1, g0, g1 = min(frames), max(frames), gyro[0][0], gyro[-1][0]
+    print("frames %.3f..%.3f s, gyro %.3f..%.3f s (monotonic clock), %d gyro samples" %
+          (f0 * 1e-9, f1 * 1e-9, g0 * 1e-9, g1 * 1e-9, len(gyro)))
+    if g0 > f1 + 1e9 or g1 < f0 - 1e9:
+        problems.append("gyro and frame timestamps are not on one clock")
+for p in problems:
+    print("FAIL:", p)
+sys.exit(1 if problems else 0)

@@ -1,0 +1,383 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * `sunprobe fit CAPTURE -o FACE_DIR`: streams a rotating-selfie capture through
+ * the SunStage front end, fits, and writes the face directory into
+ * FACE_DIR.partial, renamed to FACE_DIR only when every file is written.
+ */
+#include <errno.h>
+#include <getopt.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <dirent.h>
+
+#include "cmd.h"
+#include "common/clock.h"
+#include "common/json.h"
+#include "common/progress.h"
+#include "common/report.h"
+#include "export/png.h"
+#include "sunprobe/sp_face_model.h"
+#include "sunprobe/sp_replay.h"
+#include "sunprobe/sp_sunstage.h"
+
+typedef struct fit_args {
+    const char *capture, *out, *report;
+    sp_sunstage_settings set;
+    int progress;
+    const char *face;     /* auto, generic, ict */
+    char truth[4096];     /* truth.json of a synthetic capture, "" when none */
+} fit_args;
+
+static void fit_usage(FILE *out)
+{
+    fprintf(out, "usage: sunprobe fit CAPTURE -o FACE_DIR [options]\n\n"
+                 "Fits face geometry, reflectance, sun and sky and per-frame cameras to a rotating-selfie\n"
+                 "capture (frames + IMU; landmarks from side data, else dlib).\n"
+                 "  --solver fast|adam     photometric solver (default fast)\n"
+                 "  --keyframes N          training keyframes, one per camera-yaw bin (default 12)\n"
+                 "  --heldout N            held-out keyframes (default 3)\n"
+                 "  --fit-width W          fitting resolution (default 128)\n"
+                 "  --texture N            albedo/displacement rows (default 128)\n"
+                 "  --iterations N         Adam steps (default 300)\n"
+                 "  --time-budget S        stop the photometric stage after S seconds\n"
+                 "  --min-rotation DEG     below this camera-yaw range lighting is unobservable (default 90)\n"
+                 "  --no-dlib              never run the dlib detector\n"
+                 "  --dlib-model PATH      shape_predictor_68_face_landmarks.dat location\n"
+                 "  --report PREFIX        error against run time: PREFIX.csv and PREFIX.svg\n"
+                 "  --face auto|generic|ict  face model (default auto: ICT when its data exists)\n"
+                 "  --no-progress          no progress bar\n");
+}
+
+static int parse_int(const char *s, int lo, int hi, int *out)
+{
+    char *end;
+    long v = strtol(s, &end, 10);
+    if (*end || v < lo || v > hi)
+        return -1;
+    *out = (int)v;
+    return 0;
+}
+
+static int parse_double(const char *s, double lo, double hi, double *out)
+{
+    char *end;
+    double v = strtod(s, &end);
+    if (*end || !(v >= lo && v <= hi))
+        return -1;
+    *out = v;
+    return 0;
+}
+
+static int parse_fit(int argc, char **argv, fit_args *a)
+{
+    static const struct option opts[] = {
+        { "help", no_argument, NULL, 'h' },           { "output", required_argument, NULL, 'o' },
+        { "solver", required_argument, NULL, 's' },   { "keyframes", required_argument, NULL, 'k' },
+        { "heldout", required_argument, NULL, 'H' },  { "fit-width", required_argument, NULL, 'w' },
+        { "texture", required_argument, NULL, 't' },  { "iterations", required_argument, NULL, 'i' },
+        { "time-budget", required_argument, NULL, 'b' }, { "min-rotation", required_argument, NULL, 'r' },
+        { "no-dlib", no_argument, NULL, 'n' },        { "dlib-model", required_argument, NULL, 'd' },
+        { "report", required_argument, NULL, 'R' },   { "no-progress", no_argument, NULL, 'P' },
+        { "face", required_argument, NULL, 'f' },
+        { 0 },
+    };
+    int c, bad = 0;
+    while (!bad && (c = getopt_long(argc, argv, "ho:", opts, NULL)) != -1) {
+        switch (c) {
+        case 'h': fit_usage(stdout); return 1;
+        case 'o': a->out = optarg; break;
+        case 's':
+            bad = strcmp(optarg, "fast") && strcmp(optarg, "adam");
+            a->set.solver = strcmp(optarg, "adam") ? SP_SUNSTAGE_SOLVER_FAST : SP_SUNSTAGE_SOLVER_ADAM;
+            break;
+        case 'k': bad = parse_int(optarg, 2, 64, &a->set.keyframes); break;
+        case 'H': bad = parse_int(optarg, 0, 16, &a->set.heldout); break;
+        case 'w': bad = parse_int(optarg, 16, 1024, &a->set.fit_width); break;
+        case 't': bad = parse_int(optarg, 8, 2048, &a->set.texture_size); break;
+        case 'i': bad = parse_int(optarg, 0, 100000, &a->set.adam_iterations); break;
+        case 'b': bad = parse_double(optarg, 0, 1e6, &a->set.time_budget_s); break;
+        case 'r': bad = parse_double(optarg, 0, 360, &a->set.min_rotation_deg); break;
+        case 'n': a->set.use_dlib = 0; break;
+        case 'd': a->set.dlib_model = optarg; break;
+        case 'R': a->report = optarg; break;
+        case 'P': a->progress = 0; break;
+        case 'f':
+            a->face = optarg;
+            bad = strcmp(optarg, "auto") && strcmp(optarg, "generic") && strcmp(optarg, "ict");
+            break;
+        default: bad = 1;
+        }
+    }
+    if (bad || optind != argc - 1 || !a->out) {
+        fprintf(stderr, "sunprobe fit: expected CAPTURE and -o FACE_DIR (see --help)\n");
+        return -1;
+    }
+    a->capture = argv[optind];
+    return 0;
+}
+
+/* Removes a flat directory we created (files only). */
+static void remove_dir(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return;
+    struct dirent *e;
+    char path[4096];
+    while ((e = readdir(d)))
+        if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..") &&
+            (size_t)snprintf(path, sizeof(path), "%s/%s", dir, e->d_name) < sizeof(path))
+            unlink(path);
+    closedir(d);
+    rmdir(dir);
+}
+
+typedef struct fit_cb_ctx {
+    sp_report *report;
+    sp_progress *bar;
+    const sp_sunstage *ss;
+    int have_truth;
+    double true_sun[3];
+} fit_cb_ctx;
+
+/* Angle between the fitted sun (mapped into the truth's world) and the true sun, degrees; NaN without truth. */
+static double sun_error_deg(const fit_cb_ctx *c)
+{
+    double R[9];
+    sp_sunstage_result r;
+    if (!c->have_truth || sp_sunstage_align_world(c->ss, R) || sp_sunstage_get_result(c->ss, &r))
+        return NAN;
+    double d = 0.0;
+    for (int i = 0; i < 3; i++)
+        d += (R[i * 3] * r.sun_dir[0] + R[i * 3 + 1] * r.sun_dir[1] + R[i * 3 + 2] * r.sun_dir[2]) * c->true_sun[i];
+    return acos(fmax(-1.0, fmin(1.0, d))) * 180.0 / M_PI;
+}
+
+static int on_progress(void *user, const sp_sunstage_progress *p)
+{
+    fit_cb_ctx *c = user;
+    if (c->report && !strcmp(p->stage, "photometric")) {
+        double v[3] = { p->loss, p->heldout_psnr, sun_error_deg(c) };
+        sp_report_add(c->report, p->seconds, v);
+    }
+    char detail[96];
+    snprintf(detail, sizeof(detail), "%s loss %.4g", p->stage, p->loss);
+    c->bar->total = (uint64_t)(p->total > 0 ? p->total : 1);
+    sp_progress_update(c->bar, (uint64_t)p->iteration, detail);
+    return 0;
+}
+
+static void find_truth(fit_args *a, const char *rel)
+{
+    char base[4096];
+    snprintf(base, sizeof(base), "%s", a->capture);
+    char *slash = strrchr(base, '/');
+    if (slash)
+        slash[1] = 0;
+    else
+        base[0] = 0;
+    struct stat st;
+    int n = snprintf(a->truth, sizeof(a->truth), "%s%s", rel[0] == '/' ? "" : base, rel);
+    if (n > 0 && (size_t)n < sizeof(a->truth) - 12 && stat(a->truth, &st) == 0 && S_ISDIR(st.st_mode))
+        strcat(a->truth, "/truth.json");
+}
+
+/* The true sun direction from truth.json (lighting.sun.direction_world); 0 when found. */
+static int read_true_sun(const char *path, double sun[3])
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return -errno;
+    char *buf = malloc(1 << 20);
+    size_t n = buf ? fread(buf, 1, (1 << 20) - 1, f) : 0;
+    fclose(f);
+    if (!buf)
+        return -ENOMEM;
+    sp_json *root = NULL;
+    char err[128];
+    int ret = sp_json_parse(buf, n, &root, err, sizeof(err));
+    free(buf);
+    if (ret)
+        return ret;
+    const sp_json *s = sp_json_get(sp_json_get(sp_json_get(root, "lighting"), "sun"), "direction_world");
+    ret = sp_json_numbers(s, sun, 3) == 3 ? 0 : SP_ENODATA;
+    sp_json_free(root);
+    return ret;
+}
+
+/* Streams every event of the capture into the fitter. */
+static int stream(fit_args *a, sp_sunstage *ss)
+{
+    sp_replay_settings rs;
+    sp_replay_default_settings(&rs);
+    sp_source *src = NULL;
+    int ret = sp_replay_open(&src, a->capture, &rs);
+    if (ret) {
+        fprintf(stderr, "sunprobe fit: cannot read capture %s: %s\n", a->capture, sp_strerror(ret));
+        return ret;
+    }
+    sp_progress bar;
+    sp_progress_start(&bar, "frames", 0, a->progress ? -1 : 0);
+    sp_event ev;
+    uint64_t frames = 0;
+    while ((ret = sp_source_next(src, &ev)) == 0) {
+        frames += ev.type == SP_EVENT_FRAME;
+        ret = sp_sunstage_push(ss, &ev);
+        sp_event_release(&ev);
+        if (ret)
+            break;
+        if (ev.type == SP_EVENT_FRAME)
+            sp_progress_update(&bar, frames, "frames read");
+    }
+    sp_progress_finish(&bar);
+    const sp_capture_meta *meta = sp_replay_meta(src);
+    if (meta && meta->ground_truth[0]) /* relative to the capture's directory */
+        find_truth(a, meta->ground_truth);
+    sp_source_close(&src);
+    if (ret == SP_EOS)
+        ret = sp_sunstage_end_stream(ss);
+    else
+        fprintf(stderr, "sunprobe fit: reading %s: %s\n", a->capture, sp_strerror(ret));
+    return ret;
+}
+
+/* Albedo preview: gamma-encoded 8-bit PNG beside the float map. */
+static int write_albedo_png(const sp_sunstage *ss, const char *dir) /* dir: at most 4096 bytes */
+{
+    sp_sunstage_result r;
+    sp_sunstage_get_result(ss, &r);
+    size_t n = (size_t)r.tex_width * (size_t)r.tex_height * 3;
+    uint8_t *px = malloc(n);
+    if (!px)
+        return -ENOMEM;
+    for (size_t i = 0; i < n; i++) {
+        double v = (double)r.albedo[i];
+        v = v > 0.0 ? pow(v > 1.0 ? 1.0 : v, 1.0 / 2.2) : 0.0;
+        px[i] = (uint8_t)lround(255.0 * v);
+    }
+    char path[4200];
+    if ((size_t)snprintf(path, sizeof(path), "%s/albedo.png", dir) >= sizeof(path)) {
+        free(px);
+        return -ENAMETOOLONG;
+    }
+    int ret = sp_png_write(path, px, (uint32_t)r.tex_width, (uint32_t)r.tex_height, (uint32_t)r.tex_width * 3, 3);
+    free(px);
+    return ret;
+}
+
+static int write_output(const fit_args *a, const sp_sunstage *ss)
+{
+    char partial[4096];
+    if ((size_t)snprintf(partial, sizeof(partial), "%s.partial", a->out) >= sizeof(partial))
+        return -ENAMETOOLONG;
+    remove_dir(partial);
+    if (mkdir(partial, 0755) && errno != EEXIST)
+        return -errno;
+    int ret = sp_face_dir_write(ss, partial);
+    if (!ret)
+        ret = write_albedo_png(ss, partial);
+    if (!ret && rename(partial, a->out))
+        ret = -errno;
+    if (ret)
+        remove_dir(partial);
+    return ret;
+}
+
+static void print_summary(const sp_sunstage *ss)
+{
+    sp_sunstage_result r;
+    sp_sunstage_counts c;
+    sp_sunstage_get_result(ss, &r);
+    sp_sunstage_get_counts(ss, &c);
+    printf("fit: %llu frames (%llu dark, %llu saturated, %llu blurred, %llu no face, %llu no orientation "
+           "skipped); %d keyframes + %d held out over %.0f deg of yaw\n",
+           (unsigned long long)c.frames, (unsigned long long)c.skipped_dark, (unsigned long long)c.skipped_saturated,
+           (unsigned long long)c.skipped_blurred, (unsigned long long)c.skipped_no_face,
+           (unsigned long long)c.skipped_no_orientation, c.keyframes, c.heldout, r.yaw_range_deg);
+    printf("fit: sun (%.3f, %.3f, %.3f) intensity %.3f%s%s; train PSNR %.2f dB, held-out %.2f dB; %.1f s\n",
+           r.sun_dir[0], r.sun_dir[1], r.sun_dir[2], r.sun_intensity, r.sun_dropped ? " [dropped: overcast]" : "",
+           r.lighting_unobservable ? " [lighting unobservable]" : "", r.train_psnr, r.heldout_psnr, r.seconds);
+    if (r.notes[0])
+        printf("fit: %s\n", r.notes);
+}
+
+static int run_fit(fit_args *a, const sp_face_model *model)
+{
+    sp_sunstage *ss = NULL;
+    int ret = sp_sunstage_open(&ss, &a->set, model);
+    if (ret)
+        return sp_cmd_fail("fit", ret, "settings");
+    int code = SP_EXIT_OK;
+    if ((ret = stream(a, ss))) {
+        code = sp_exit_for_error(ret);
+        goto done;
+    }
+    sp_report *rep = NULL;
+    const char *names[3] = { "photometric loss", "held-out PSNR dB", "sun error deg" };
+    fit_cb_ctx cb = { .ss = ss };
+    if (a->truth[0] && read_true_sun(a->truth, cb.true_sun) == 0)
+        cb.have_truth = 1;
+    if (a->report && (ret = sp_report_open(&rep, a->report, "sunprobe fit", names, 3, 0)))
+        fprintf(stderr, "sunprobe fit: cannot write the report %s: %s\n", a->report, sp_strerror(ret));
+    sp_progress bar;
+    sp_progress_start(&bar, "fit", 1, a->progress ? -1 : 0);
+    cb.report = rep;
+    cb.bar = &bar;
+    ret = sp_sunstage_fit(ss, on_progress, &cb);
+    sp_progress_finish(&bar);
+    if (rep)
+        sp_report_close(&rep);
+    if (ret) {
+        code = sp_cmd_fail("fit", ret, "nothing to fit (see the message above)");
+        goto done;
+    }
+    print_summary(ss);
+    if (cb.have_truth)
+        printf("fit: ground truth %s: sun direction error %.2f deg\n", a->truth, sun_error_deg(&cb));
+    if ((ret = write_output(a, ss)))
+        code = sp_cmd_fail("fit", ret, "writing the face directory");
+    else
+        printf("fit: wrote %s\n", a->out);
+done:
+    sp_sunstage_close(&ss);
+    return code;
+}
+
+int sp_cmd_fit(int argc, char **argv)
+{
+    fit_args a = { .progress = 1 };
+    sp_sunstage_default_settings(&a.set);
+    int p = parse_fit(argc, argv, &a);
+    if (p)
+        return p > 0 ? SP_EXIT_OK : SP_EXIT_USAGE;
+    struct stat st;
+    if (stat(a.out, &st) == 0) {
+        fprintf(stderr, "sunprobe fit: %s exists; remove it or choose another FACE_DIR\n", a.out);
+        return SP_EXIT_USAGE;
+    }
+    sp_face_model model;
+    int ret;
+    if (a.face && !strcmp(a.face, "generic")) {
+        ret = sp_face_model_generic(&model);
+    } else if (a.face && !strcmp(a.face, "ict")) {
+        sp_face_load_settings ls;
+        sp_face_load_default_settings(&ls);
+        ret = sp_face_model_load(&model, &ls);
+        if (!ret && strncmp(model.source, "ict", 3)) {
+            sp_face_model_free(&model);
+            ret = -ENOENT;
+            fprintf(stderr, "sunprobe fit: the ICT face model is missing (tools/fetch-ict-facekit.sh)\n");
+        }
+    } else {
+        ret = sp_face_model_load_default(&model);
+    }
+    if (ret)
+        return sp_cmd_fail("fit", ret, "loading the face model");
+    int code = run_fit(&a, &model);
+    sp_face_model_free(&model);
+    return code;
+}

@@ -1,0 +1,475 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * `sunprobe probe CAPTURE -o PROBE_DIR`: People as Scene Probes on a static
+ * camera. Streams the capture through the probe and writes the clean plate,
+ * the occlusion and lighting maps, the plane and shadow models and the
+ * convergence report. Everything goes into PROBE_DIR.partial.PID first and is
+ * renamed into place only when complete, so a failed run leaves nothing that
+ * looks like a result.
+ */
+#include <dirent.h>
+#include <errno.h>
+#include <getopt.h>
+#include <inttypes.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "capture_open.h"
+#include "cmd.h"
+#include "common/clock.h"
+#include "common/json.h"
+#include "common/pixconv.h"
+#include "common/progress.h"
+#include "export/png.h"
+#include "export/probe_dir.h"
+#include "sunprobe/sp_probe.h"
+#include "sunprobe/sp_replay.h"
+
+#define MAX_EMPTY 16
+
+typedef struct probe_args {
+    const char *capture, *out;
+    sp_probe_settings s;
+    int holdout_half, quiet, force;
+    uint64_t max_frames;
+    uint64_t empty[MAX_EMPTY];
+    unsigned n_empty;
+} probe_args;
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "usage: sunprobe probe CAPTURE -o PROBE_DIR [options]\n\n"
+            "People as Scene Probes: uses the people and objects moving through a static camera's view\n"
+            "to learn a clean plate, an occlusion map, a lighting map, the ground-plane scale (pixel height\n"
+            "of a person anywhere on the ground) and a shadow model. Method: pipeline/probe/PROBE.md.\n\n"
+            "options:\n"
+            "  -o, --output DIR      probe directory to create (written as DIR.partial.PID, then renamed)\n"
+            "      --window S        clean-plate median window in seconds (default 4)\n"
+            "      --samples K       frames in that window, odd 3..31 (default 15)\n"
+            "      --threshold T     refined-mask colour distance |dR|+|dG|+|dB| (default 50)\n"
+            "      --min-object PX   smallest object in pixels (default: width * height / 4000)\n"
+            "      --detector D      shape (default) or hog (OpenCV's HOG people detector confirms)\n"
+            "      --holdout-from N  frames from N on test the scale model instead of fitting it\n"
+            "      --holdout-half    the same from the middle frame\n"
+            "      --empty-frame N   also write frame_N.png and empty_N.png (objects removed); repeatable\n"
+            "      --max-frames N    stop after N frames\n"
+            "  -f, --force           replace PROBE_DIR if it exists\n"
+            "  -q, --quiet           no progress bar or summary\n"
+            "  -h, --help            this text\n\n"
+            "Writes clean_plate.png, occlusion.pfm/.png, lighting.pfm/.png, probe.json and\n"
+            "convergence.csv/.svg (error against run time).\n");
+}
+
+static int parse_u64(const char *s, uint64_t *out)
+{
+    char *end = NULL;
+    errno = 0;
+    unsigned long long v = strtoull(s, &end, 10);
+    if (*s == '-' || end == s || *end || errno)
+        return -1;
+    *out = v;
+    return 0;
+}
+
+static int parse_real(const char *s, double lo, double hi, double *out)
+{
+    char *end = NULL;
+    double v = strtod(s, &end);
+    if (end == s || *end || !(v >= lo && v <= hi))
+        return -1;
+    *out = v;
+    return 0;
+}
+
+static int bad_value(const char *opt, const char *v)
+{
+    fprintf(stderr, "sunprobe probe: bad value for %s: '%s'\n", opt, v);
+    return SP_EXIT_USAGE;
+}
+
+enum { OPT_WINDOW = 256, OPT_SAMPLES, OPT_THRESHOLD, OPT_MIN_OBJECT, OPT_DETECTOR, OPT_HOLDOUT, OPT_HOLDOUT_HALF,
+       OPT_EMPTY, OPT_MAX_FRAMES };
+
+static int parse_option(int c, probe_args *a)
+{
+    double v;
+    uint64_t u;
+    switch (c) {
+    case 'o': a->out = optarg; return 0;
+    case OPT_WINDOW: return parse_real(optarg, 0.05, 3600, &a->s.window_s) ? bad_value("--window", optarg) : 0;
+    case OPT_SAMPLES:
+        if (parse_real(optarg, 3, 31, &v) || v != floor(v) || fmod(v, 2) == 0)
+            return bad_value("--samples (odd, 3..31)", optarg);
+        a->s.window_samples = (unsigned)v;
+        return 0;
+    case OPT_THRESHOLD:
+        if (parse_real(optarg, 1, 765, &v))
+            return bad_value("--threshold (1..765)", optarg);
+        a->s.fg_threshold = (unsigned)v;
+        return 0;
+    case OPT_MIN_OBJECT:
+        if (parse_real(optarg, 1, 1e7, &v))
+            return bad_value("--min-object", optarg);
+        a->s.min_object_px = (unsigned)v;
+        return 0;
+    case OPT_DETECTOR:
+        if (strcmp(optarg, "shape") && strcmp(optarg, "hog"))
+            return bad_value("--detector (shape or hog)", optarg);
+        a->s.detector = strcmp(optarg, "hog") ? SP_PROBE_DETECT_SHAPE : SP_PROBE_DETECT_HOG;
+        return 0;
+    case OPT_HOLDOUT:
+        if (parse_u64(optarg, &u) || u > INT64_MAX)
+            return bad_value("--holdout-from", optarg);
+        a->s.holdout_from = (int64_t)u;
+        return 0;
+    case OPT_HOLDOUT_HALF: a->holdout_half = 1; return 0;
+    case OPT_EMPTY:
+        if (parse_u64(optarg, &u) || a->n_empty == MAX_EMPTY)
+            return bad_value("--empty-frame (at most 16)", optarg);
+        a->empty[a->n_empty++] = u;
+        return 0;
+    case OPT_MAX_FRAMES:
+        return parse_u64(optarg, &a->max_frames) || !a->max_frames ? bad_value("--max-frames", optarg) : 0;
+    case 'f': a->force = 1; return 0;
+    case 'q': a->quiet = 1; return 0;
+    case 'h': usage(stdout); return -1;
+    default: usage(stderr); return SP_EXIT_USAGE;
+    }
+}
+
+static int parse_args(int argc, char **argv, probe_args *a)
+{
+    static const struct option opts[] = {
+        { "output", required_argument, NULL, 'o' },         { "window", required_argument, NULL, OPT_WINDOW },
+        { "samples", required_argument, NULL, OPT_SAMPLES }, { "threshold", required_argument, NULL, OPT_THRESHOLD },
+        { "min-object", required_argument, NULL, OPT_MIN_OBJECT },
+        { "detector", required_argument, NULL, OPT_DETECTOR }, { "holdout-from", required_argument, NULL, OPT_HOLDOUT },
+        { "holdout-half", no_argument, NULL, OPT_HOLDOUT_HALF }, { "empty-frame", required_argument, NULL, OPT_EMPTY },
+        { "max-frames", required_argument, NULL, OPT_MAX_FRAMES }, { "force", no_argument, NULL, 'f' },
+        { "quiet", no_argument, NULL, 'q' },                  { "help", no_argument, NULL, 'h' },
+        { 0 },
+    };
+    optind = 0;
+    int c, code;
+    while ((c = getopt_long(argc, argv, "o:fqh", opts, NULL)) != -1)
+        if ((code = parse_option(c, a)))
+            return code;
+    if (optind != argc - 1 || !a->out) {
+        usage(stderr);
+        return SP_EXIT_USAGE;
+    }
+    a->capture = argv[optind];
+    return 0;
+}
+
+/* ---- a first pass: frame count, size and the metadata's ground truth ---- */
+
+typedef struct capture_facts {
+    uint64_t frames;
+    uint32_t width, height;
+    char ground_truth[256];
+} capture_facts;
+
+static void meta_ground_truth(const sp_chunk *c, capture_facts *f)
+{
+    sp_json *root = NULL;
+    char err[64];
+    if (sp_json_parse((const char *)c->payload, c->payload_size, &root, err, sizeof(err)))
+        return;
+    const char *gt = sp_json_string(sp_json_get(root, "ground_truth"), NULL);
+    if (gt)
+        snprintf(f->ground_truth, sizeof(f->ground_truth), "%s", gt);
+    sp_json_free(root);
+}
+
+static int first_pass(const char *path, capture_facts *f)
+{
+    sp_capture_reader *r = NULL;
+    int code = sp_tool_open_capture("probe", path, 0, &r);
+    if (code)
+        return code;
+    sp_chunk c;
+    int ret;
+    while ((ret = sp_capture_reader_next(r, &c)) == 0) {
+        sp_frame_chunk fc;
+        if (c.type == SP_CHUNK_META)
+            meta_ground_truth(&c, f);
+        else if (c.type == SP_CHUNK_FRAME && !sp_chunk_parse_frame(&c, &fc) && fc.stream_id == 0) {
+            if (!f->frames++)
+                f->width = fc.width, f->height = fc.height;
+        }
+    }
+    uint64_t off = c.offset;
+    sp_capture_reader_close(&r);
+    return ret == SP_EOS ? 0 : sp_tool_capture_error("probe", path, ret, off);
+}
+
+/* Samples of the truth file a synthetic capture names (for the report); NULL when there is none. */
+static sp_probe_truth_sample *load_truth(const char *capture, const char *name, size_t *n)
+{
+    *n = 0;
+    if (!name[0])
+        return NULL;
+    const char *slash = strrchr(capture, '/');
+    size_t dir = slash ? (size_t)(slash - capture + 1) : 0, len = dir + strlen(name) + 1;
+    char *path = malloc(len), *text = NULL;
+    if (!path)
+        return NULL;
+    snprintf(path, len, "%.*s%s", (int)dir, capture, name);
+    FILE *fp = fopen(path, "rb");
+    free(path);
+    if (!fp)
+        return NULL;
+    size_t cap = 1 << 20, got = 0;
+    text = malloc(cap);
+    if (text)
+        got = fread(text, 1, cap, fp);
+    fclose(fp);
+    sp_json *root = NULL;
+    char err[64];
+    sp_probe_truth_sample *out = NULL;
+    if (text && got < cap && !sp_json_parse(text, got, &root, err, sizeof(err))) {
+        const sp_json *s = sp_json_get(root, "samples");
+        size_t k = s && s->type == SP_JSON_ARRAY ? s->count : 0;
+        out = k ? calloc(k, sizeof(*out)) : NULL;
+        for (size_t i = 0; out && i < k; i++) {
+            const sp_json *e = sp_json_at(s, i);
+            out[i] = (sp_probe_truth_sample){ sp_json_number(sp_json_get(e, "x"), 0), sp_json_number(sp_json_get(e, "y"), 0),
+                                              sp_json_number(sp_json_get(e, "height"), 0),
+                                              sp_json_number(sp_json_get(e, "shadow_dx"), 0),
+                                              sp_json_number(sp_json_get(e, "shadow_dy"), 0) };
+        }
+        *n = out ? k : 0;
+    }
+    sp_json_free(root);
+    free(text);
+    return out;
+}
+
+/* ---- the output directory ---- */
+
+static char *join(const char *dir, const char *name)
+{
+    size_t n = strlen(dir) + strlen(name) + 2;
+    char *p = malloc(n);
+    if (p)
+        snprintf(p, n, "%s/%s", dir, name);
+    return p;
+}
+
+/* Removes a flat directory we created (regular files only). */
+static void remove_dir(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (d) {
+        struct dirent *e;
+        while ((e = readdir(d)) != NULL) {
+            if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, ".."))
+                continue;
+            char *p = join(dir, e->d_name);
+            if (p)
+                unlink(p);
+            free(p);
+        }
+        closedir(d);
+    }
+    rmdir(dir);
+}
+
+/* An existing output is replaced only with --force (an empty directory is fine). */
+static int check_output(const probe_args *a)
+{
+    struct stat st;
+    if (stat(a->out, &st) != 0)
+        return 0;
+    if (S_ISDIR(st.st_mode) && rmdir(a->out) == 0)
+        return 0; /* it was empty */
+    if (a->force && S_ISDIR(st.st_mode))
+        return 0;
+    fprintf(stderr, "sunprobe probe: %s exists (use --force to replace it)\n", a->out);
+    return SP_EXIT_USAGE;
+}
+
+static int put_in_place(const probe_args *a, const char *partial)
+{
+    struct stat st;
+    char old[4096];
+    int had = stat(a->out, &st) == 0;
+    snprintf(old, sizeof(old), "%s.old.%ld", a->out, (long)getpid());
+    if (had && rename(a->out, old) != 0)
+        return -errno;
+    if (rename(partial, a->out) != 0) {
+        int err = -errno;
+        if (had)
+            rename(old, a->out);
+        return err;
+    }
+    if (had)
+        remove_dir(old);
+    return 0;
+}
+
+/* ---- streaming ---- */
+
+typedef struct run_state {
+    const probe_args *a;
+    const char *dir;
+    sp_probe *probe;
+    uint8_t *rgb;
+    uint64_t index;
+} run_state;
+
+static int write_empty(run_state *rs, const sp_frame *f)
+{
+    uint32_t w = f->width, h = f->height;
+    char name[64];
+    int ret = sp_probe_empty_frame(rs->probe, rs->rgb, w * 3);
+    if (ret == -EAGAIN) {
+        fprintf(stderr, "sunprobe probe: frame %" PRIu64 " comes before the clean plate is ready; not emptied\n",
+                rs->index);
+        return 0;
+    }
+    snprintf(name, sizeof(name), "empty_%06" PRIu64 ".png", rs->index);
+    char *p = join(rs->dir, name);
+    ret = ret ? ret : p ? sp_png_write(p, rs->rgb, w, h, w * 3, 3) : -ENOMEM;
+    free(p);
+    snprintf(name, sizeof(name), "frame_%06" PRIu64 ".png", rs->index);
+    p = join(rs->dir, name);
+    if (!ret)
+        ret = p ? sp_pixconv_frame_to_rgb24(f, rs->rgb, (size_t)w * h * 3, w * 3) : -ENOMEM;
+    if (!ret)
+        ret = sp_png_write(p, rs->rgb, w, h, w * 3, 3);
+    free(p);
+    return ret;
+}
+
+static int on_frame(run_state *rs, const sp_frame *f)
+{
+    if (f->stream_id != 0)
+        return 0;
+    int ret = sp_probe_push_frame(rs->probe, f);
+    for (unsigned i = 0; !ret && i < rs->a->n_empty; i++)
+        if (rs->a->empty[i] == rs->index)
+            ret = write_empty(rs, f);
+    rs->index++;
+    return ret;
+}
+
+static int stream(run_state *rs, uint64_t total)
+{
+    sp_replay_settings set;
+    sp_replay_default_settings(&set);
+    sp_source *src = NULL;
+    int ret = sp_replay_open(&src, rs->a->capture, &set);
+    if (ret)
+        return ret;
+    sp_progress bar;
+    sp_progress_start(&bar, "probe", total, rs->a->quiet ? 0 : -1);
+    sp_event ev;
+    while ((ret = sp_source_next(src, &ev)) == 0) {
+        if (ev.type == SP_EVENT_FRAME)
+            ret = on_frame(rs, ev.frame);
+        sp_event_release(&ev);
+        if (ret || (rs->a->max_frames && rs->index >= rs->a->max_frames))
+            break;
+        sp_progress_update(&bar, rs->index, NULL);
+    }
+    sp_progress_finish(&bar);
+    sp_source_close(&src);
+    return ret == SP_EOS ? 0 : ret;
+}
+
+static void summary(const probe_args *a, sp_probe *p, double secs)
+{
+    sp_probe_plane pl;
+    sp_probe_shadow sh;
+    sp_probe_stats st;
+    sp_probe_get_plane(p, &pl);
+    sp_probe_get_shadow(p, &sh);
+    sp_probe_get_stats(p, &st);
+    printf("%s: %s\n", a->out, sp_probe_message(p));
+    printf("  %.1f s (%.1f frames/s), %.1f MB of state; %.1f%% of pixels covered, %.2f%% occluding\n", secs,
+           secs > 0 ? (double)st.frames / secs : 0.0, (double)st.memory_bytes / 1e6, 100 * st.covered_fraction,
+           100 * st.occluder_fraction);
+    if (pl.status == SP_PROBE_PLANE_OK)
+        printf("  plane: h = %.5f x + %.5f y + %.3f; %s\n", pl.a, pl.b, pl.c, pl.note);
+    else
+        printf("  plane: %s\n", pl.note);
+    if (pl.holdout_n)
+        printf("  held out: %u observations, median relative height error %.4f\n", pl.holdout_n,
+               pl.holdout_error_rel);
+    printf("  shadow: %s\n", sh.note);
+    if (a->s.detector == SP_PROBE_DETECT_HOG)
+        printf("  HOG: %" PRIu64 " of %" PRIu64 " person-shaped observations confirmed\n", st.hog_confirmed,
+               st.hog_checked);
+}
+
+static int run(probe_args *a, const capture_facts *facts, const char *dir)
+{
+    run_state rs = { .a = a, .dir = dir };
+    int ret = sp_probe_open(&rs.probe, facts->width, facts->height, &a->s);
+    if (ret)
+        return sp_cmd_fail("probe", ret, "opening the probe");
+    rs.rgb = malloc((size_t)facts->width * facts->height * 3);
+    int64_t t0 = sp_clock_monotonic_ns();
+    ret = rs.rgb ? stream(&rs, a->max_frames && a->max_frames < facts->frames ? a->max_frames : facts->frames)
+                 : -ENOMEM;
+    if (!ret)
+        ret = sp_probe_finish(rs.probe);
+    int code = SP_EXIT_OK;
+    if (ret == SP_ENODATA) {
+        fprintf(stderr, "sunprobe probe: %s: %s\n", a->capture, sp_probe_message(rs.probe));
+        code = SP_EXIT_BAD_INPUT;
+    } else if (ret) {
+        code = sp_tool_capture_error("probe", a->capture, ret, 0);
+    } else if ((ret = sp_probe_dir_write(dir, rs.probe))) {
+        code = sp_cmd_fail("probe", ret, "writing the probe directory");
+    } else if (!a->quiet) {
+        summary(a, rs.probe, (double)(sp_clock_monotonic_ns() - t0) * 1e-9);
+    }
+    free(rs.rgb);
+    sp_probe_close(&rs.probe);
+    return code;
+}
+
+int sp_cmd_probe(int argc, char **argv)
+{
+    probe_args a = { 0 };
+    sp_probe_default_settings(&a.s);
+    int code = parse_args(argc, argv, &a);
+    if (code)
+        return code < 0 ? SP_EXIT_OK : code;
+    capture_facts facts = { 0 };
+    if ((code = first_pass(a.capture, &facts)))
+        return code;
+    if (!facts.frames) {
+        fprintf(stderr, "sunprobe probe: %s: no frames\n", a.capture);
+        return SP_EXIT_BAD_INPUT;
+    }
+    if (a.holdout_half)
+        a.s.holdout_from = (int64_t)(facts.frames / 2);
+    if ((code = check_output(&a)))
+        return code;
+    char partial[4096], report[4200];
+    snprintf(partial, sizeof(partial), "%s.partial.%ld", a.out, (long)getpid());
+    if (mkdir(partial, 0755) != 0)
+        return sp_cmd_fail("probe", -errno, partial);
+    snprintf(report, sizeof(report), "%s/convergence", partial);
+    a.s.report_prefix = report;
+    size_t n_truth = 0;
+    sp_probe_truth_sample *truth = load_truth(a.capture, facts.ground_truth, &n_truth);
+    a.s.truth = truth, a.s.n_truth = n_truth;
+    code = run(&a, &facts, partial);
+    free(truth);
+    int ret = code == SP_EXIT_OK ? put_in_place(&a, partial) : 0;
+    if (ret)
+        code = sp_cmd_fail("probe", ret, a.out);
+    if (code != SP_EXIT_OK)
+        remove_dir(partial);
+    return code;
+}

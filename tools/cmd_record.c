@@ -1,0 +1,253 @@
+/* SPDX-License-Identifier: MIT */
+/* `sunprobe record`: a live camera (+ IMU) to a capture file, until the duration, Ctrl-C or the device goes. */
+#include <errno.h>
+#include <getopt.h>
+#include <inttypes.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "cmd.h"
+#include "sunprobe/sp_recorder.h"
+
+typedef struct record_args {
+    sp_camera_settings cam;
+    sp_imu_device_settings imu;
+    sp_recorder_settings rec;
+    const char *imu_name;
+    int quiet;
+} record_args;
+
+static sp_recorder *volatile g_recorder;
+
+static void on_signal(int sig)
+{
+    (void)sig;
+    sp_recorder *r = g_recorder;
+    if (r)
+        sp_recorder_request_stop(r); /* an atomic store: async-signal-safe */
+}
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "usage: sunprobe record [--camera NAME|/dev/videoN|fake[:opts]] [--imu NAME|fake|none]\n"
+            "                       [--mode selfie|static] [--duration S] [--format F] [--size WxH] [--fps F]\n"
+            "                       [--lock-exposure] [--overwrite] -o CAPTURE.spcap\n\n"
+            "Records frames (and IMU samples) to a capture until the duration passes or SIGINT/SIGTERM;\n"
+            "the file is valid however it ends (device unplugged, disk full). `sunprobe devices` lists ids.\n"
+            "  --camera D        camera id or name; default the first found (fake options: bars, panorama,\n"
+            "                    unpaced, prerender, frames=N, e.g. fake:panorama)\n"
+            "  --backend B       camera backend: v4l2, libcamera or fake; default the one that knows D\n"
+            "  --imu D           IIO device id (iio:deviceN) or name, fake, or none (default)\n"
+            "  --mode M          selfie (default) or static, written to the metadata\n"
+            "  --duration S      seconds; default: until interrupted\n"
+            "  --format F        yuyv, nv12, mjpeg, rgb24, gray8; default the first the camera has\n"
+            "  --size WxH        default 640x480;  --fps F  default the camera's\n"
+            "  --lock-exposure   lock auto exposure, gain and white balance\n"
+            "  --imu-rate HZ     IMU sampling rate; default the device's\n"
+            "  --queue N         frames in flight to the disk writer (default 16)\n"
+            "  --writer-delay-us N  test knob: the writer sleeps N us per chunk (a slow disk)\n"
+            "  --sync P          none, periodic (default) or every (fdatasync after every chunk)\n"
+            "exit: 0 done, 1 usage, 3 device lost or disk full (what was recorded is kept), 4 backend not built\n");
+}
+
+static int parse_size(const char *s, uint32_t *w, uint32_t *h)
+{
+    unsigned a, b;
+    char tail;
+    if (sscanf(s, "%ux%u%c", &a, &b, &tail) != 2 || a == 0 || b == 0 || a > 16384 || b > 16384)
+        return -EINVAL;
+    *w = a;
+    *h = b;
+    return 0;
+}
+
+static int parse_number(const char *s, double lo, double hi, double *out)
+{
+    char *end;
+    double v = strtod(s, &end);
+    if (end == s || *end || !(v >= lo && v <= hi))
+        return -EINVAL;
+    *out = v;
+    return 0;
+}
+
+static int parse_sync(const char *s, enum sp_sync_policy *out)
+{
+    if (!strcmp(s, "none"))
+        *out = SP_SYNC_NONE;
+    else if (!strcmp(s, "periodic"))
+        *out = SP_SYNC_PERIODIC;
+    else if (!strcmp(s, "every"))
+        *out = SP_SYNC_EVERY_CHUNK;
+    else
+        return -EINVAL;
+    return 0;
+}
+
+/* One option into args; -EINVAL names a bad value. */
+static int apply_option(record_args *a, int c, const char *v)
+{
+    double d = 0;
+    switch (c) {
+    case 'c': a->cam.device = v; return 0;
+    case 'b': a->cam.backend = v; return 0;
+    case 'i': a->imu_name = v; return 0;
+    case 'm': a->rec.kind = v; return strcmp(v, "selfie") && strcmp(v, "static") ? -EINVAL : 0;
+    case 'd': return parse_number(v, 0, 1e7, &a->rec.duration_s);
+    case 'f': a->cam.format = sp_pixfmt_from_name(v); return a->cam.format == SP_PIXFMT_NONE ? -EINVAL : 0;
+    case 's': return parse_size(v, &a->cam.width, &a->cam.height);
+    case 'r': return parse_number(v, 0.001, 10000, &a->cam.fps);
+    case 'l': a->cam.lock_exposure = 1; return 0;
+    case 'o': a->rec.path = v; return 0;
+    case 'w': a->rec.writer.overwrite = 1; return 0;
+    case 'q': a->quiet = 1; return 0;
+    case 'R': return parse_number(v, 0.001, 100000, &a->imu.rate_hz);
+    case 'Q': if (parse_number(v, 1, 4096, &d) < 0) return -EINVAL; a->rec.frame_queue = (unsigned)d; return 0;
+    case 'D': if (parse_number(v, 0, 10000000, &d) < 0) return -EINVAL; a->rec.writer_delay_us = (uint32_t)d; return 0;
+    case 'S': return parse_sync(v, &a->rec.writer.sync);
+    default: return -EINVAL;
+    }
+}
+
+static int parse_args(int argc, char **argv, record_args *a)
+{
+    static const struct option opts[] = {
+        { "help", no_argument, NULL, 'h' },        { "camera", required_argument, NULL, 'c' },
+        { "imu", required_argument, NULL, 'i' },   { "mode", required_argument, NULL, 'm' },
+        { "duration", required_argument, NULL, 'd' }, { "format", required_argument, NULL, 'f' },
+        { "size", required_argument, NULL, 's' },  { "fps", required_argument, NULL, 'r' },
+        { "lock-exposure", no_argument, NULL, 'l' }, { "output", required_argument, NULL, 'o' },
+        { "overwrite", no_argument, NULL, 'w' },   { "quiet", no_argument, NULL, 'q' },
+        { "imu-rate", required_argument, NULL, 'R' }, { "queue", required_argument, NULL, 'Q' },
+        { "writer-delay-us", required_argument, NULL, 'D' }, { "sync", required_argument, NULL, 'S' },
+        { "backend", required_argument, NULL, 'b' },
+        { 0 } };
+    int c;
+    while ((c = getopt_long(argc, argv, "ho:q", opts, NULL)) != -1) {
+        if (c == 'h') {
+            usage(stdout);
+            return 1;
+        }
+        if (apply_option(a, c, optarg) < 0) {
+            if (optarg)
+                fprintf(stderr, "sunprobe record: bad value '%s'\n", optarg);
+            usage(stderr);
+            return -EINVAL;
+        }
+    }
+    if (optind != argc || !a->rec.path) {
+        fprintf(stderr, "sunprobe record: %s\n", optind != argc ? "unexpected arguments" : "-o CAPTURE is required");
+        usage(stderr);
+        return -EINVAL;
+    }
+    return 0;
+}
+
+static void print_progress(sp_recorder *rec)
+{
+    sp_recorder_stats st;
+    sp_recorder_get_stats(rec, &st);
+    fprintf(stderr, "\r%" PRIu64 " frames, %" PRIu64 " dropped, %" PRIu64 " imu samples, %.1f MB   ",
+            st.frames_written, st.frames_dropped + st.device_dropped, st.imu_samples_written,
+            (double)st.bytes_written / 1e6);
+}
+
+static void print_summary(const char *path, const sp_camera_info *ci, const sp_recorder_stats *st)
+{
+    printf("%s: %" PRIu64 " frames %s %ux%u (%.2f s), %" PRIu64 " dropped by the writer queue, %" PRIu64
+           " by the device, %" PRIu64 " imu samples (%" PRIu64 " dropped), %" PRIu64 " bytes; ended: %s\n",
+           path, st->frames_written, sp_pixfmt_name(ci->format), ci->width, ci->height, st->duration_s,
+           st->frames_dropped, st->device_dropped, st->imu_samples_written, st->imu_samples_dropped,
+           st->bytes_written, sp_recorder_end_name(st->end));
+    if (st->frames_discarded)
+        printf("%" PRIu64 " queued frames were not written after the write error\n", st->frames_discarded);
+}
+
+/* Runs an opened recorder to its end, with SIGINT/SIGTERM asking it to stop. */
+static int run(sp_recorder *rec, const record_args *a, sp_recorder_stats *st)
+{
+    struct sigaction sa, old_int, old_term;
+    memset(&sa, 0, sizeof(sa));
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    g_recorder = rec;
+    sigaction(SIGINT, &sa, &old_int);
+    sigaction(SIGTERM, &sa, &old_term);
+    int err = sp_recorder_start(rec);
+    int tty = !a->quiet && isatty(STDERR_FILENO);
+    while (err == 0 && !sp_recorder_finished(rec)) {
+        nanosleep(&(struct timespec){ 0, 200000000 }, NULL);
+        if (tty)
+            print_progress(rec);
+    }
+    if (tty)
+        fputc('\n', stderr);
+    if (err == 0)
+        err = sp_recorder_wait(rec, st);
+    sigaction(SIGINT, &old_int, NULL);
+    sigaction(SIGTERM, &old_term, NULL);
+    g_recorder = NULL;
+    return err;
+}
+
+static int open_devices(record_args *a, sp_camera **cam, sp_imu_device **imu)
+{
+    int err = sp_camera_open(cam, &a->cam);
+    if (err < 0)
+        return sp_cmd_fail("record", err, a->cam.device ? a->cam.device : "opening the first camera");
+    if (a->imu_name && strcmp(a->imu_name, "none")) {
+        a->imu.device = a->imu_name;
+        err = sp_imu_device_open(imu, &a->imu);
+        if (err < 0) {
+            sp_camera_close(cam);
+            return sp_cmd_fail("record", err, a->imu_name);
+        }
+    }
+    return 0;
+}
+
+int sp_cmd_record(int argc, char **argv)
+{
+    record_args a;
+    memset(&a, 0, sizeof(a));
+    sp_camera_default_settings(&a.cam);
+    sp_imu_device_default_settings(&a.imu);
+    sp_recorder_default_settings(&a.rec);
+    int err = parse_args(argc, argv, &a);
+    if (err)
+        return err > 0 ? SP_EXIT_OK : SP_EXIT_USAGE;
+    /* room for every queued frame plus the one being written and the one being captured:
+       then a slow disk shows as counted queue drops, not as a starved camera */
+    a.cam.pool_frames = a.rec.frame_queue + 2;
+    sp_camera *cam = NULL;
+    sp_imu_device *imu = NULL;
+    int code = open_devices(&a, &cam, &imu);
+    if (code)
+        return code;
+    a.rec.camera = cam;
+    a.rec.imu = imu;
+    sp_recorder *rec = NULL;
+    err = sp_recorder_open(&rec, &a.rec);
+    sp_recorder_stats st;
+    memset(&st, 0, sizeof(st));
+    if (err < 0) {
+        code = sp_cmd_fail("record", err, a.rec.path);
+    } else {
+        err = run(rec, &a, &st);
+        if (st.end != SP_RECORDER_RUNNING)
+            print_summary(a.rec.path, sp_camera_get_info(cam), &st);
+        if (err < 0)
+            code = sp_cmd_fail("record", err, st.end == SP_RECORDER_DEVICE_LOST ? "device lost (capture kept)"
+                                              : st.end == SP_RECORDER_DISK_FULL ? "disk full (capture kept)"
+                                                                                : "recording");
+    }
+    sp_recorder_close(&rec);
+    sp_imu_device_close(&imu);
+    sp_camera_close(&cam);
+    return code;
+}
