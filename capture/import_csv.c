@@ -194,7 +194,7 @@ int sp_csv_int64(sp_csv *c, int col, int64_t *out)
 int sp_csv_time_ns(sp_csv *c, int col_t, int col_tns, int64_t *out)
 {
     if (col_tns >= 0) {
-        int64_t v;
+        int64_t v = 0;
         int rc = sp_csv_int64(c, col_tns, &v);
         if (rc)
             return rc;

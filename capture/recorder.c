@@ -174,8 +174,6 @@ int sp_recorder_open(sp_recorder **out, const sp_recorder_settings *s)
     r->sem_ready = err == 0;
     if (err == 0)
         err = sp_capture_writer_open(&r->w, s->path, &s->writer);
-    if (err == 0)
-        err = write_start_meta(r);
     if (err < 0) {
         sp_recorder_close(&r);
         return err;
@@ -418,6 +416,12 @@ int sp_recorder_start(sp_recorder *r)
     int err = sp_camera_start(r->s.camera);
     if (err == 0 && r->s.imu && (err = sp_imu_device_start(r->s.imu)) < 0)
         (void)sp_camera_stop(r->s.camera);
+    /* the devices are streaming now, so the metadata can say what they settled on (exposure lock) */
+    if (err == 0 && (err = write_start_meta(r)) < 0) {
+        (void)sp_camera_stop(r->s.camera);
+        if (r->s.imu)
+            (void)sp_imu_device_stop(r->s.imu);
+    }
     if (err == 0 && (err = spawn(r)) < 0) {
         (void)sp_camera_stop(r->s.camera);
         if (r->s.imu)

@@ -50,8 +50,9 @@ uint32_t sp_pixfmt_min_stride(enum sp_pixfmt fmt, uint32_t width)
 {
     switch (fmt) {
     case SP_PIXFMT_GRAY8:
-    case SP_PIXFMT_NV12:
         return width;
+    case SP_PIXFMT_NV12: /* the interleaved UV row holds a full pair for an odd last column */
+        return width > UINT32_MAX - 1 ? 0 : (width + 1) & ~1u;
     case SP_PIXFMT_RGB24:
         return width > UINT32_MAX / 3 ? 0 : width * 3;
     case SP_PIXFMT_YUYV:

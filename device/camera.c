@@ -86,6 +86,7 @@ void sp_camera_default_settings(sp_camera_settings *s)
     memset(s, 0, sizeof(*s));
     s->buffers = 4;
     s->pool_frames = 8;
+    s->lock_settle_s = 0.5;
 }
 
 /* The backend named by the settings, or the first that claims the device string. */
@@ -121,7 +122,8 @@ int sp_camera_open(sp_camera **out, const sp_camera_settings *s)
         return -EINVAL;
     *out = NULL;
     if (s->width > 16384 || s->height > 16384 || !(s->fps >= 0 && s->fps <= 10000) ||
-        (unsigned)s->format >= SP_PIXFMT_COUNT || s->buffers > 32 || s->pool_frames > 1024)
+        (unsigned)s->format >= SP_PIXFMT_COUNT || s->buffers > 32 || s->pool_frames > 1024 ||
+        !(s->lock_settle_s >= 0 && s->lock_settle_s <= 60))
         return -EINVAL;
     sp_camera_settings eff = *s;
     if (!eff.buffers)

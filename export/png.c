@@ -100,13 +100,11 @@ static uint8_t *compress_rows(const uint8_t *raw, size_t n, size_t *out_n)
     return deflate_stored(raw, n, out_n);
 }
 
-int sp_png_write(const char *path, const uint8_t *pixels, uint32_t width, uint32_t height,
-                 uint32_t stride, int channels)
+/* Writes the whole PNG stream to f; 0 or a negative errno. */
+static int png_emit(FILE *f, const uint8_t *pixels, uint32_t width, uint32_t height, uint32_t stride,
+                    int channels)
 {
     static const uint8_t color_type[5] = { 0, 0, 0, 2, 6 };
-    if (!path || !pixels || width == 0 || height == 0 || (channels != 1 && channels != 3 && channels != 4) ||
-        stride < width * (uint32_t)channels)
-        return -EINVAL;
     if (!crc_table[1])
         crc_init();
     size_t row = (size_t)width * (size_t)channels;
@@ -123,13 +121,6 @@ int sp_png_write(const char *path, const uint8_t *pixels, uint32_t width, uint32
     free(raw);
     if (!z)
         return -ENOMEM;
-
-    sp_atomic_file af;
-    int ret = sp_atomic_file_open(&af, path);
-    if (ret) {
-        free(z);
-        return ret;
-    }
     static const uint8_t sig[8] = { 0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n' };
     uint8_t ihdr[13];
     put_be32(ihdr, width);
@@ -137,9 +128,51 @@ int sp_png_write(const char *path, const uint8_t *pixels, uint32_t width, uint32
     ihdr[8] = 8;
     ihdr[9] = color_type[channels];
     ihdr[10] = ihdr[11] = ihdr[12] = 0;
-    if (fwrite(sig, 1, 8, af.file) != 8 || write_chunk(af.file, "IHDR", ihdr, 13) ||
-        write_chunk(af.file, "IDAT", z, z_n) || write_chunk(af.file, "IEND", NULL, 0))
+    int ret = 0;
+    if (fwrite(sig, 1, 8, f) != 8 || write_chunk(f, "IHDR", ihdr, 13) || write_chunk(f, "IDAT", z, z_n) ||
+        write_chunk(f, "IEND", NULL, 0))
         ret = -EIO;
     free(z);
+    return ret;
+}
+
+static int png_args_ok(const uint8_t *pixels, uint32_t width, uint32_t height, uint32_t stride, int channels)
+{
+    return pixels && width && height && (channels == 1 || channels == 3 || channels == 4) &&
+           stride >= width * (uint32_t)channels;
+}
+
+int sp_png_write(const char *path, const uint8_t *pixels, uint32_t width, uint32_t height,
+                 uint32_t stride, int channels)
+{
+    if (!path || !png_args_ok(pixels, width, height, stride, channels))
+        return -EINVAL;
+    sp_atomic_file af;
+    int ret = sp_atomic_file_open(&af, path);
+    if (ret)
+        return ret;
+    ret = png_emit(af.file, pixels, width, height, stride, channels);
     return sp_atomic_file_finish(&af, ret);
+}
+
+int sp_png_encode(const uint8_t *pixels, uint32_t width, uint32_t height, uint32_t stride, int channels,
+                  uint8_t **out, size_t *out_size)
+{
+    if (!out || !out_size || !png_args_ok(pixels, width, height, stride, channels))
+        return -EINVAL;
+    char *buf = NULL;
+    size_t n = 0;
+    FILE *f = open_memstream(&buf, &n);
+    if (!f)
+        return -ENOMEM;
+    int ret = png_emit(f, pixels, width, height, stride, channels);
+    if (fclose(f) && !ret)
+        ret = -ENOMEM;
+    if (ret) {
+        free(buf);
+        return ret;
+    }
+    *out = (uint8_t *)buf;
+    *out_size = n;
+    return 0;
 }

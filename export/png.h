@@ -12,5 +12,8 @@
  */
 int sp_png_write(const char *path, const uint8_t *pixels, uint32_t width, uint32_t height,
                  uint32_t stride, int channels);
+/* The same PNG into a malloc'd buffer (*out, caller frees); 0, -EINVAL or -ENOMEM. */
+int sp_png_encode(const uint8_t *pixels, uint32_t width, uint32_t height, uint32_t stride, int channels,
+                  uint8_t **out, size_t *out_size);
 
 #endif

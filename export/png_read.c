@@ -242,7 +242,7 @@ static void convert_row(const png_info *info, const uint8_t *row, uint8_t *out)
 {
     int ch = channels_of(info->color), d = info->depth;
     for (uint32_t x = 0; x < info->width; x++, out += 4) {
-        unsigned s[4];
+        unsigned s[4] = { 0 };
         for (int c = 0; c < ch; c++)
             s[c] = sample_at(row, (size_t)x * ch + c, d);
         if (info->color == 3) {

@@ -10,6 +10,10 @@
 #include "common/atomic_file.h"
 #include "export/png.h"
 #include "export/png_read.h"
+#include "sp_config.h"
+#if HAVE_OPENIMAGEIO
+#include "export/oiio_shim.h"
+#endif
 
 /* ---- PFM ---- */
 
@@ -152,6 +156,23 @@ static int write_params(const char *dir, const sp_probe *p, const sp_probe_maps 
     return ret;
 }
 
+/* The float maps as OpenEXR too, where OpenImageIO is built (-Dopenimageio). */
+static int write_exr_maps(const char *dir, const sp_probe_maps *m)
+{
+#if HAVE_OPENIMAGEIO
+    char *occ = join(dir, "occlusion.exr"), *light = join(dir, "lighting.exr");
+    int ret = occ && light ? sp_exr_write(occ, m->occlusion, m->width, m->height, 1) : -ENOMEM;
+    if (!ret)
+        ret = sp_exr_write(light, m->lighting, m->width, m->height, 3);
+    free(occ);
+    free(light);
+    return ret;
+#else
+    (void)dir, (void)m;
+    return 0;
+#endif
+}
+
 int sp_probe_dir_write(const char *dir, const sp_probe *p)
 {
     if (!dir || !p)
@@ -183,6 +204,8 @@ int sp_probe_dir_write(const char *dir, const sp_probe *p)
         lighting_preview(&m, rgb);
         ret = sp_png_write(path[4], rgb, m.width, m.height, m.width * 3, 3);
     }
+    if (!ret)
+        ret = write_exr_maps(dir, &m);
     if (!ret) /* last: a directory with probe.json is complete */
         ret = write_params(dir, p, &m);
     for (int i = 0; i < 5; i++)

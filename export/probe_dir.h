@@ -2,7 +2,8 @@
 /*
  * A probe directory: what `sunprobe probe` writes and `sunprobe composite`
  * reads. clean_plate.png; occlusion.pfm (1 channel) and lighting.pfm (RGB), the
- * exact float maps, with .png previews; probe.json, the plane and shadow models.
+ * exact float maps, also as .exr where OpenImageIO is built, with .png
+ * previews; probe.json, the plane and shadow models.
  * PFM is the portable float map: "Pf" (gray) or "PF" (RGB), width height, -1
  * (little-endian), rows bottom to top.
  */

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: MIT
-# The test command: installs dependencies, then builds and runs the whole suite three ways —
-# a normal -Werror build, an address+undefined sanitizer build, and the core alone with every
-# optional feature disabled — and prints one line "N passed, N failed, N skipped" over all of them.
+# The test command: installs dependencies, then builds and runs the suite five ways — a normal
+# -Werror build, an address+undefined sanitizer build, the core alone with every optional feature
+# disabled, the vm suite (a real V4L2 driver under qemu) and an aarch64 cross build whose unit tests
+# run under qemu-aarch64 — and prints one line "N passed, N failed, N skipped" over all of them.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 

@@ -44,7 +44,7 @@ static void usage(FILE *out)
             "          --albedo-size ROWS (512)\n"
             "light:    --sun-elevation D (35)  --sun-azimuth D (150, from world +x towards +y)\n"
             "          --sun-intensity I (3)  --sky-intensity K (1)  --overcast\n"
-            "render:   --supersample S (2)  --shadow-size N (1024)\n"
+            "render:   --supersample S (2)  --shadow-size N (512)\n"
             "truth:    --truth DIR  --no-truth  --relit N (6)  --novel N (6)\n"
             "sheet:    --contact-sheet FILE.png  --sheet-frames N (8)  --sheet-columns C (4)\n"
             "          --sheet-at F (decomposed frame at this fraction of the capture, 0.5)\n"

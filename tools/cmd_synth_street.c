@@ -2,7 +2,7 @@
 /*
  * `sunprobe synth street`: a static camera watching a street with ground truth
  * for the scene probe. A pinhole camera above a ground plane; static occluders
- * at known depths (a lamp pole with a sign board, a pillar); an unseen wall to
+ * at known depths (a lamp pole with a sign board, a second pole); an unseen wall to
  * the left whose shadow is "pre-existing shadow"; walking figures of known
  * height (billboards with a head, torso and swinging legs); a sun casting
  * shadows of everything onto the ground, or an overcast sky with none.
@@ -14,7 +14,8 @@
  * shadow direction), PREFIX.background.png (the empty street), and 16-bit PGMs
  * PREFIX.hidden-far.pgm / PREFIX.hidden-near.pgm (per pixel, 1 + the farthest /
  * nearest foot row of the figures a static occluder hid there, 0 none) and
- * PREFIX.seen-far.pgm (1 + the farthest foot row of the figures seen there).
+ * PREFIX.seen-far.pgm (1 + the farthest foot row of the figures seen there) and
+ * PREFIX.hidden-count.pgm (figure-frames a static occluder hid there).
  * Coordinates follow the probe: pixel centres at integers.
  */
 #include <errno.h>
@@ -78,7 +79,7 @@ typedef struct scene {
     uint8_t *bg, *ground_dark, *kind, *static_shadow;
     float *depth, *gx, *gy;
     /* truth accumulators */
-    uint16_t *hidden_far, *hidden_near, *seen_far;
+    uint16_t *hidden_far, *hidden_near, *seen_far, *hidden_count;
     uint8_t *frame;
 } scene;
 
@@ -260,7 +261,7 @@ static void setup_scene(scene *s)
     s->sun_figure = s->a.overcast ? 0 : 0.6;
     s->occ[0] = (board){ 1.0, 11.0, 0.06, 0.0, 3.8, { 95, 105, 100 } };   /* lamp pole */
     s->occ[1] = (board){ 1.0, 10.97, 0.45, 1.05, 1.45, { 30, 125, 140 } }; /* sign on the pole */
-    s->occ[2] = (board){ -2.0, 9.0, 0.12, 0.0, 3.0, { 160, 125, 100 } };   /* a post */
+    s->occ[2] = (board){ -2.0, 9.0, 0.07, 0.0, 3.4, { 160, 125, 100 } };   /* a second, brown pole */
     s->wall_x = -7.0, s->wall_y0 = 0.0, s->wall_y1 = 40.0, s->wall_h = 3.0;
     make_figures(s);
 }
@@ -407,6 +408,7 @@ static void draw_figure(scene *s, const figure *f, double fx, double fy, double 
                 continue;
             if (t > (double)s->depth[i]) { /* behind a static occluder or beyond the ground: hidden */
                 if (s->kind[i] == KIND_OCCLUDER) {
+                    s->hidden_count[i] += s->hidden_count[i] < UINT16_MAX;
                     truth_min(s->hidden_far, i, foot);
                     s->hidden_near[i] = foot > s->hidden_near[i] ? foot : s->hidden_near[i];
                 }
@@ -545,11 +547,11 @@ static int write_text_file(const char *path, const char *text, size_t len)
 
 static int write_truth(const scene *s)
 {
-    static const char *const sfx[5] = { ".truth.json", ".background.png", ".hidden-far.pgm", ".hidden-near.pgm",
-                                        ".seen-far.pgm" };
-    char *p[5];
+    static const char *const sfx[6] = { ".truth.json", ".background.png", ".hidden-far.pgm", ".hidden-near.pgm",
+                                        ".seen-far.pgm", ".hidden-count.pgm" };
+    char *p[6];
     int ret = 0;
-    for (int i = 0; i < 5; i++)
+    for (int i = 0; i < 6; i++)
         if (!(p[i] = path_with(s->a.out, sfx[i])))
             ret = -ENOMEM;
     sp_strbuf b = { 0 };
@@ -565,8 +567,10 @@ static int write_truth(const scene *s)
         ret = write_pgm16(p[3], s->hidden_near, s->cam.w, s->cam.h);
     if (!ret)
         ret = write_pgm16(p[4], s->seen_far, s->cam.w, s->cam.h);
+    if (!ret)
+        ret = write_pgm16(p[5], s->hidden_count, s->cam.w, s->cam.h);
     sp_strbuf_free(&b);
-    for (int i = 0; i < 5; i++)
+    for (int i = 0; i < 6; i++)
         free(p[i]);
     return ret;
 }
@@ -580,9 +584,10 @@ static int scene_alloc(scene *s)
     s->static_shadow = calloc(n, 1), s->depth = malloc(n * sizeof(float));
     s->gx = calloc(n, sizeof(float)), s->gy = calloc(n, sizeof(float));
     s->hidden_far = calloc(n, 2), s->hidden_near = calloc(n, 2), s->seen_far = calloc(n, 2);
+    s->hidden_count = calloc(n, 2);
     s->frame = malloc(n * 3);
     return s->bg && s->ground_dark && s->kind && s->static_shadow && s->depth && s->gx && s->gy && s->hidden_far &&
-                   s->hidden_near && s->seen_far && s->frame
+                   s->hidden_near && s->seen_far && s->hidden_count && s->frame
                ? 0
                : -ENOMEM;
 }
@@ -591,6 +596,7 @@ static void scene_free(scene *s)
 {
     free(s->bg), free(s->ground_dark), free(s->kind), free(s->static_shadow), free(s->depth);
     free(s->gx), free(s->gy), free(s->hidden_far), free(s->hidden_near), free(s->seen_far), free(s->frame);
+    free(s->hidden_count);
 }
 
 static int write_meta(sp_capture_writer *w, const scene *s)
@@ -645,7 +651,7 @@ static void usage(FILE *out)
     fprintf(out, "usage: sunprobe synth street -o OUT.spcap [options]\n\n"
                  "A static camera watching a street: figures of known height walk past a lamp pole with a sign\n"
                  "and a pillar, under a sun (shadows, a wall's shadow on the left) or an overcast sky. Ground\n"
-                 "truth beside OUT: .truth.json, .background.png, .hidden-far/.hidden-near/.seen-far.pgm.\n"
+                 "truth beside OUT: .truth.json, .background.png, .hidden-far/.hidden-near/.seen-far/.hidden-count.pgm.\n"
                  "  --width W --height H   frame size (default 320x240)\n"
                  "  --fps F                frame rate (default 10)\n"
                  "  --seconds S            duration (default 40)\n"

@@ -10,6 +10,8 @@ full=(clang libclang-rt-14-dev libopencv-dev opencv-doc libopenimageio-dev libdr
       libcamera-dev libiio-dev libdlib-dev)
 pkgs=("${core[@]}")
 [ "$profile" = full ] && pkgs+=("${full[@]}")
+# export checks (tests/export, npm packages): Debian's node + npm unless a node is already installed
+if [ "$profile" = full ] && ! command -v node >/dev/null 2>&1; then pkgs+=(nodejs npm); fi
 # vm: boot Debian's kernel with vivid under qemu (kmod's depmod indexes the extracted modules)
 vm=(qemu-system-x86 busybox-static cpio kmod binutils)
 # cross: aarch64 cross compilers and qemu-user to run the unit tests

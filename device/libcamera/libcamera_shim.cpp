@@ -130,6 +130,10 @@ struct sp_lc_camera {
     uint32_t width = 0, height = 0, stride = 0;
     double fps = 0;
     bool lock_exposure = false;
+    double lock_settle_s = 0;
+    int64_t lock_at_ns = 0; /* first frame time + settle; 0 until streaming */
+    bool lock_sent = false;
+    sp_camera_info *info = nullptr; /* the wrapper's, valid until close */
     std::mutex m;
     std::condition_variable cv;
     std::deque<sp_frame *> ready;
@@ -138,6 +142,7 @@ struct sp_lc_camera {
 
     ~sp_lc_camera();
     void completed(Request *req);
+    void lock_when_settled(Request *req, uint64_t frame_ns);
     void disconnected();
     int map_buffers();
     sp_frame *copy_frame(Request *req, const FrameBuffer *fb);
@@ -297,6 +302,7 @@ extern "C" int sp_lc_open(sp_lc_camera **out, const sp_camera_settings *s, sp_ca
         return err;
     c->fps = s->fps;
     c->lock_exposure = s->lock_exposure != 0;
+    c->lock_settle_s = s->lock_settle_s;
     c->cam->requestCompleted.connect(c.get(), &sp_lc_camera::completed);
     c->cam->disconnected.connect(c.get(), &sp_lc_camera::disconnected);
     std::memset(info, 0, sizeof(*info));
@@ -307,8 +313,10 @@ extern "C" int sp_lc_open(sp_lc_camera **out, const sp_camera_settings *s, sp_ca
     info->stride = c->stride;
     info->fps = c->fps;
     const ControlInfoMap &ctl = c->cam->controls();
-    info->exposure_locked = c->lock_exposure && ctl.count(&controls::AeEnable) > 0;
+    c->lock_exposure = c->lock_exposure && ctl.count(&controls::AeEnable) > 0;
+    info->exposure_locked = c->lock_exposure; /* the lock goes out with a request once AE settled */
     info->monotonic_timestamps = 1; /* libcamera stamps buffers on CLOCK_MONOTONIC */
+    c->info = info;
     *out = c.release();
     return 0;
 }
@@ -322,10 +330,12 @@ extern "C" int sp_lc_start(sp_lc_camera *c)
         const int64_t lim[2] = { us, us };
         ctrls.set(controls::FrameDurationLimits, Span<const int64_t, 2>(lim));
     }
-    if (c->lock_exposure && info.count(&controls::AeEnable))
+    if (c->lock_exposure && c->lock_settle_s <= 0) {
         ctrls.set(controls::AeEnable, false);
-    if (c->lock_exposure && info.count(&controls::AwbEnable))
-        ctrls.set(controls::AwbEnable, false);
+        if (info.count(&controls::AwbEnable))
+            ctrls.set(controls::AwbEnable, false);
+        c->lock_sent = true;
+    }
     int err = c->cam->start(&ctrls);
     if (err < 0)
         return err;
@@ -367,6 +377,21 @@ sp_frame *sp_lc_camera::copy_frame(Request *req, const FrameBuffer *fb)
     return f;
 }
 
+/* Once the settle time has passed since the first frame, the next request carries the lock (AE/AWB off). */
+void sp_lc_camera::lock_when_settled(Request *req, uint64_t frame_ns)
+{
+    if (!lock_exposure || lock_sent)
+        return;
+    if (lock_at_ns == 0)
+        lock_at_ns = (int64_t)frame_ns + (int64_t)(lock_settle_s * 1e9);
+    if ((int64_t)frame_ns < lock_at_ns)
+        return;
+    req->controls().set(controls::AeEnable, false);
+    if (cam->controls().count(&controls::AwbEnable))
+        req->controls().set(controls::AwbEnable, false);
+    lock_sent = true;
+}
+
 /* Runs on libcamera's thread. */
 void sp_lc_camera::completed(Request *req)
 {
@@ -374,16 +399,18 @@ void sp_lc_camera::completed(Request *req)
         return;
     const FrameBuffer *fb = req->buffers().begin()->second;
     sp_frame *f = nullptr;
-    if (fb->metadata().status == FrameMetadata::FrameSuccess)
+    bool settling = lock_exposure && !lock_sent; /* frames before the lock are not delivered */
+    if (fb->metadata().status == FrameMetadata::FrameSuccess && !settling)
         f = copy_frame(req, fb);
     std::lock_guard<std::mutex> hold(m);
     if (f)
         ready.push_back(f);
-    else
+    else if (!settling)
         dropped++;
     cv.notify_one();
     if (running) {
         req->reuse(Request::ReuseBuffers);
+        lock_when_settled(req, fb->metadata().timestamp);
         cam->queueRequest(req);
     }
 }

@@ -43,6 +43,9 @@ typedef struct v4l2_ctx {
     int has_exposure, gain_cid; /* controls read per frame (0 = absent) */
     int warned_clock;
     int streaming;
+    int lock_pending;        /* lock exposure once the settle time has passed (in start) */
+    double lock_settle_s;
+    sp_camera_info *info;    /* the wrapper's, valid until close: start reports the lock there */
     uint64_t seq_high, last_seq, frames, dropped;
     uint32_t prev_seq32;
 } v4l2_ctx;
@@ -413,7 +416,6 @@ static int v4l2_open(void **out, const sp_camera_settings *s, sp_camera_info *in
     if (err == 0)
         err = negotiate_format(c, s);
     double fps = err == 0 ? negotiate_rate(c, s->fps) : 0;
-    int locked = err == 0 && s->lock_exposure ? lock_exposure(c) : 0;
     if (err == 0)
         err = setup_buffers(c, s->buffers);
     if (err == 0)
@@ -427,7 +429,10 @@ static int v4l2_open(void **out, const sp_camera_settings *s, sp_camera_info *in
     c->gain_cid = has_control(c->fd, V4L2_CID_ANALOGUE_GAIN) ? V4L2_CID_ANALOGUE_GAIN
                   : has_control(c->fd, V4L2_CID_GAIN)         ? V4L2_CID_GAIN
                                                              : 0;
-    fill_info(c, info, fps, locked);
+    fill_info(c, info, fps, 0);
+    c->info = info;
+    c->lock_pending = s->lock_exposure != 0;
+    c->lock_settle_s = s->lock_settle_s;
     *out = c;
     return 0;
 }
@@ -436,6 +441,26 @@ static int queue_buffer(v4l2_ctx *c, unsigned index)
 {
     struct v4l2_buffer b = { .type = V4L2_BUF_TYPE_VIDEO_CAPTURE, .memory = V4L2_MEMORY_MMAP, .index = index };
     return xioctl(c->fd, VIDIOC_QBUF, &b);
+}
+
+/* Streams without delivering until the automatic loops had lock_settle_s to converge, then locks them. */
+static int settle_and_lock(v4l2_ctx *c)
+{
+    int64_t until = sp_clock_monotonic_ns() + (int64_t)(c->lock_settle_s * 1e9);
+    while (sp_clock_monotonic_ns() < until) {
+        struct pollfd p = { .fd = c->fd, .events = POLLIN };
+        if (poll(&p, 1, 100) <= 0)
+            continue;
+        struct v4l2_buffer b = { .type = V4L2_BUF_TYPE_VIDEO_CAPTURE, .memory = V4L2_MEMORY_MMAP };
+        int err = xioctl(c->fd, VIDIOC_DQBUF, &b);
+        if (err == -ENODEV || err == -EPIPE || err == -ENXIO)
+            return -ENODEV;
+        if (err == 0 && (err = queue_buffer(c, b.index)) < 0)
+            return err;
+    }
+    c->info->exposure_locked = lock_exposure(c);
+    c->lock_pending = 0;
+    return 0;
 }
 
 static int v4l2_start(void *ctx)
@@ -448,11 +473,11 @@ static int v4l2_start(void *ctx)
     }
     int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
     int err = xioctl(c->fd, VIDIOC_STREAMON, &type);
-    if (err == 0) {
-        c->streaming = 1;
-        c->frames = 0;
-    }
-    return err;
+    if (err < 0)
+        return err;
+    c->streaming = 1;
+    c->frames = 0;
+    return c->lock_pending ? settle_and_lock(c) : 0;
 }
 
 static int v4l2_stop(void *ctx)

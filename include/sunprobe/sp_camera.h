@@ -39,7 +39,9 @@ typedef struct sp_camera_settings {
     enum sp_pixfmt format;  /* NONE: first supported of YUYV, NV12, MJPEG, RGB24, GRAY8 */
     uint32_t width, height; /* 0: 640x480 (the device may adjust; see sp_camera_info) */
     double fps;             /* 0: the device's default */
-    int lock_exposure;      /* lock auto exposure, gain and white balance at their current values */
+    int lock_exposure;      /* lock auto exposure, gain and white balance at the values they reach ... */
+    double lock_settle_s;   /* ... this long after streaming starts (frames before are not delivered);
+                               default 0.5, 0 locks at once */
     unsigned buffers;       /* device buffer ring; default 4 */
     unsigned pool_frames;   /* frames the consumer may hold at once; default 8 */
 } sp_camera_settings;
@@ -50,7 +52,7 @@ typedef struct sp_camera_info {
     enum sp_pixfmt format;
     uint32_t width, height, stride;
     double fps;             /* nominal rate, 0 when the device does not say */
-    int exposure_locked;    /* the lock was asked for and the device accepted it */
+    int exposure_locked;    /* the lock was asked for and the device accepted it (known after start) */
     int monotonic_timestamps; /* device stamps are CLOCK_MONOTONIC (else stamped at dequeue) */
 } sp_camera_info;
 
@@ -58,7 +60,8 @@ typedef struct sp_camera_info {
  * A camera backend. Every function gets the backend's context from open. next()
  * waits at most timeout_ms (0 = poll) and returns 0 with a frame the caller owns,
  * -EAGAIN when none came in time, -ENODEV when the device went away, SP_EOS when
- * a finite source ended; it must not block longer than asked.
+ * a finite source ended; it must not block longer than asked. The info that open
+ * fills stays valid until close; start may still update exposure_locked.
  */
 typedef struct sp_camera_ops {
     const char *name;

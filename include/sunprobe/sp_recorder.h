@@ -64,7 +64,7 @@ SP_API void sp_recorder_default_settings(sp_recorder_settings *s);
 SP_API const char *sp_recorder_end_name(sp_recorder_end end);
 /* Creates the file and writes the header; no threads yet. The caller owns *out. */
 SP_API int sp_recorder_open(sp_recorder **out, const sp_recorder_settings *s);
-/* Starts the devices and both threads. */
+/* Starts the devices, writes the opening META (devices as negotiated), starts both threads. */
 SP_API int sp_recorder_start(sp_recorder *rec);
 /* Asks both threads to finish; async-signal-safe, callable from any thread. */
 SP_API void sp_recorder_request_stop(sp_recorder *rec);

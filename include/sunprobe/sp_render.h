@@ -101,7 +101,7 @@ typedef struct sp_render_scene {
     double ks[SP_RENDER_CLUSTERS];       /* specular intensity per cluster (>= 0) */
     double shininess[SP_RENDER_CLUSTERS]; /* Blinn-Phong exponent s, clamped to [1, 1e4] */
     const float *env;                    /* SP_RENDER_ENV_FLOATS radiance values (RGB), NULL = black */
-    double sun_dir[3];       /* towards the sun, any non-zero length (normalised inside) */
+    double sun_dir[3];       /* towards the sun, any length > 1e-12 (normalised inside) */
     double sun_intensity;    /* white irradiance at normal incidence, >= 0 */
     double sun_angular_radius; /* radians; > 0 with sun_samples > 1 makes an area sun (forward only) */
     int sun_samples;         /* directions sampled over the sun disk (default 1) */
@@ -158,7 +158,7 @@ typedef struct sp_render_grads {
     double *positions;     /* 3 * mesh->n_vertices, world space */
     double ks[SP_RENDER_CLUSTERS];
     double shininess[SP_RENDER_CLUSTERS]; /* 0 where s was clamped */
-    double sun_dir[3];     /* w.r.t. the raw scene.sun_dir vector (normalisation included) */
+    double sun_dir[3];     /* w.r.t. the raw scene.sun_dir (normalisation included); shading only, not shadows */
     double sun_intensity;
     double exposure;
     double camera_R[9];    /* w.r.t. each entry of R, unconstrained */
@@ -187,9 +187,11 @@ SP_API int sp_render(sp_renderer *r, const sp_render_scene *scene, sp_render_out
 /*
  * Reverse mode: given dL/d(image) (3 * width * height floats, borrowed),
  * adds dL/d(parameter) to *grads. Must follow sp_render of the same,
- * unchanged scene (it reuses that render's triangle ids, geometry and shadow
- * map). Returns SP_EUNSUPPORTED for scenes with an area sun or fill lights
- * (forward only), -EINVAL without a preceding render of this mesh.
+ * unchanged scene (it reuses that render's triangle ids, geometry and
+ * per-sample sun/shadow terms; it never re-rasterises). May be called several
+ * times per render (e.g. for several losses). Returns SP_EUNSUPPORTED for
+ * scenes with an area sun or fill lights (forward only), -EINVAL without a
+ * preceding render of this mesh.
  */
 SP_API int sp_render_backward(sp_renderer *r, const sp_render_scene *scene, const float *dL_dimage,
                               sp_render_grads *grads);

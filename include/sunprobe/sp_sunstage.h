@@ -143,6 +143,24 @@ SP_API const float *sp_sunstage_frame_image(const sp_sunstage *ss, int i);
  * (row-major) with x_true = R x_fit. SP_ENODATA when no keyframe has truth.
  */
 SP_API int sp_sunstage_align_world(const sp_sunstage *ss, double R[9]);
+/* A new view of the fitted face for evaluation (relighting, novel views). All fields borrowed. */
+typedef struct sp_sunstage_view {
+    double fx, fy, cx, cy;     /* intrinsics of an image with the capture's size */
+    sp_quat camera_to_world;   /* in the fit's world */
+    const double *landmarks;   /* 136 capture-size pixel coordinates: the face pose is aligned to them */
+    double sun_dir[3];         /* fit world; intensity 0 = no sun */
+    double sun_intensity;
+    const float *env;          /* SP_RENDER_ENV_FLOATS, fit world; NULL = the fitted one */
+    double exposure;           /* relative to sp_sunstage_exposure_reference */
+} sp_sunstage_view;
+
+/*
+ * Renders the view at the fit resolution into rgb (W * H * 3 display values,
+ * caller-owned) and the face-skin mask into mask (W * H, may be NULL); W and H
+ * from sp_sunstage_get_frame. Returns 0 or a negative error.
+ */
+SP_API int sp_sunstage_render_view(sp_sunstage *ss, const sp_sunstage_view *v, float *rgb, float *mask);
+
 /* Exposure (exposure_us x gain) that the fit's intensities are relative to; 0 when frames carried none. */
 SP_API double sp_sunstage_exposure_reference(const sp_sunstage *ss);
 

@@ -77,7 +77,7 @@ typedef struct sp_synth_selfie_settings {
     int overcast;             /* 1: sun 0, bright grey overcast sky; default 0 */
     /* renderer */
     int supersample;          /* S x S samples per pixel; default 2 */
-    int shadow_size;          /* default 1024 */
+    int shadow_size;          /* default 512 */
     /* held-out evaluation frames (truth directory only) */
     int n_relit;              /* frames of capture poses under other suns; default 6 (0..64) */
     int n_novel;              /* frames from cameras the capture never had; default 6 (0..64) */

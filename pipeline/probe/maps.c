@@ -3,14 +3,14 @@
  * The per-pixel maps, as bounded running statistics (PROBE.md, "Maps"):
  *
  * Occlusion. An object is evidence twice. Where its refined mask M' covers a
- * pixel, the pixel was visible in front of the object: nothing there occludes
- * an object that far away (the eq. 3.1 record: the farthest bottoms seen
- * visible, vis1 <= vis2). Where a row of its upper body is interrupted by
- * background-coloured pixels, something static stood in front of it: those
- * pixels occlude objects that far away (the nearest bottoms seen hidden,
- * occ1 >= occ2). A pixel occludes objects with bottom row <= occ2 once it has
- * min_events occlusion events and no two visible events contradict it
- * (vis2 < occ2). Second-order statistics make one stray frame harmless.
+ * pixel, the pixel was visible in front of the object: whatever occludes there
+ * stands behind it (an upper bound on the occluder's bottom row; eq. 3.1 keeps
+ * exactly this record). Where its silhouette hull is interrupted by background-
+ * coloured pixels, something static stood in front of it (a lower bound).
+ * Each pixel keeps a few (bottom, count) slots per side; its value Z is the
+ * hidden bottom that contradicts the fewest events (-1, "never occluding",
+ * unless at least min_events hidden events agree), so a few stray frames
+ * cannot flip it.
  *
  * Lighting (eq. 3.3): per pixel, the running mean of the mean colours of the
  * objects whose M' covered it; divided by the mean over all objects at the end.
@@ -18,7 +18,6 @@
 #include "probe_internal.h"
 
 #include <errno.h>
-#include <stdio.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -30,11 +29,10 @@ int maps_open(probe_maps *m, uint32_t width, uint32_t height, unsigned min_event
     m->width = width;
     m->height = height;
     m->min_events = min_events ? min_events : 1;
-    m->occ1 = malloc(n * sizeof(int16_t));
-    m->occ2 = malloc(n * sizeof(int16_t));
-    m->occ_n = calloc(n, sizeof(uint16_t));
-    m->vis1 = malloc(n * sizeof(int16_t));
-    m->vis2 = malloc(n * sizeof(int16_t));
+    m->hid = calloc(n * PROBE_EVIDENCE, sizeof(int16_t));
+    m->vis = calloc(n * PROBE_EVIDENCE, sizeof(int16_t));
+    m->hid_n = calloc(n * PROBE_EVIDENCE, sizeof(uint16_t));
+    m->vis_n = calloc(n * PROBE_EVIDENCE, sizeof(uint16_t));
     m->light = calloc(n * 3, sizeof(float));
     m->light_n = calloc(n, sizeof(uint32_t));
     m->bg = calloc(n * 3, sizeof(float));
@@ -48,15 +46,13 @@ int maps_open(probe_maps *m, uint32_t width, uint32_t height, unsigned min_event
     m->span_r = malloc((size_t)height * sizeof(int32_t));
     m->col_top = malloc((size_t)width * sizeof(int32_t));
     m->span_hidden = malloc(height);
-    if (!m->occ1 || !m->occ2 || !m->occ_n || !m->vis1 || !m->vis2 || !m->light || !m->light_n || !m->bg ||
+    if (!m->hid || !m->vis || !m->hid_n || !m->vis_n || !m->light || !m->light_n || !m->bg ||
         !m->bg_n || !m->clean || !m->occlusion || !m->lighting || !m->prev_occ || !m->prev_light || !m->span_l || !m->span_r ||
         !m->col_top || !m->span_hidden) {
         maps_close(m);
         return -ENOMEM;
     }
     for (size_t i = 0; i < n; i++) {
-        m->occ1[i] = m->occ2[i] = -1;
-        m->vis1[i] = m->vis2[i] = INT16_MAX;
         m->occlusion[i] = -1.0f;
     }
     return 0;
@@ -64,11 +60,10 @@ int maps_open(probe_maps *m, uint32_t width, uint32_t height, unsigned min_event
 
 void maps_close(probe_maps *m)
 {
-    free(m->occ1);
-    free(m->occ2);
-    free(m->occ_n);
-    free(m->vis1);
-    free(m->vis2);
+    free(m->hid);
+    free(m->vis);
+    free(m->hid_n);
+    free(m->vis_n);
     free(m->light);
     free(m->light_n);
     free(m->bg);
@@ -85,26 +80,44 @@ void maps_close(probe_maps *m)
     memset(m, 0, sizeof(*m));
 }
 
+/*
+ * A few (value, count) slots per pixel and side, "space saving": a value
+ * within 2 rows of a slot joins it (the slot keeps the stronger claim: the
+ * nearer hidden bottom, the farther visible one); otherwise it takes a free
+ * slot, or replaces the weakest one, inheriting its count. Frequent values
+ * survive, stray ones do not crowd them out.
+ */
+static inline void tally(int16_t *val, uint16_t *cnt, int16_t v, int hidden)
+{
+    int weakest = 0;
+    for (int k = 0; k < PROBE_EVIDENCE; k++) {
+        if (cnt[k] && abs(val[k] - v) <= 2) {
+            val[k] = hidden ? (v > val[k] ? v : val[k]) : (v < val[k] ? v : val[k]);
+            cnt[k] += cnt[k] < UINT16_MAX;
+            return;
+        }
+        if (cnt[k] < cnt[weakest])
+            weakest = k;
+    }
+    val[weakest] = v;
+    cnt[weakest] = (uint16_t)(cnt[weakest] + (cnt[weakest] < UINT16_MAX));
+}
+
+/*
+ * A visible pixel is seen; a hidden one is inferred (a gap between an arm and
+ * the body, clothing the colour of the road), and a slow person repeats the
+ * same wrong inference frame after frame: one sighting outweighs several.
+ */
+#define VISIBLE_WEIGHT 4u
+
 static inline void seen_visible(probe_maps *m, size_t i, int16_t yb)
 {
-    if (yb < m->vis1[i]) {
-        m->vis2[i] = m->vis1[i];
-        m->vis1[i] = yb;
-    } else if (yb < m->vis2[i]) {
-        m->vis2[i] = yb;
-    }
+    tally(m->vis + i * PROBE_EVIDENCE, m->vis_n + i * PROBE_EVIDENCE, yb, 0);
 }
 
 static inline void seen_hidden(probe_maps *m, size_t i, int16_t yb)
 {
-    if (yb > m->occ1[i]) {
-        m->occ2[i] = m->occ1[i];
-        m->occ1[i] = yb;
-    } else if (yb > m->occ2[i]) {
-        m->occ2[i] = yb;
-    }
-    if (m->occ_n[i] < UINT16_MAX)
-        m->occ_n[i]++;
+    tally(m->hid + i * PROBE_EVIDENCE, m->hid_n + i * PROBE_EVIDENCE, yb, 1);
 }
 
 static inline void seen_colour(probe_maps *m, size_t i, const float col[3])
@@ -169,14 +182,41 @@ static void torso_span(const probe_maps *m, const probe_object *o, int *l, int *
 }
 
 /*
+ * A person shorter than the scale model expects there may have lost the top
+ * of the head behind an occluder: above the visible top, up to the expected
+ * height, the columns without any M' pixel (cut from top to bottom) were hidden.
+ */
+static void head_room(probe_maps *m, const probe_segment *sg, const probe_object *o, const sp_probe_plane *plane,
+                      int16_t yb)
+{
+    double expect = sp_probe_plane_height(plane, o->foot_x, o->foot_y);
+    if (!isfinite(expect) || expect <= 1.03 * o->height || expect > 1.6 * o->height)
+        return;
+    int top = (int)ceil(o->foot_y - expect + 1), l = m->span_l[o->y0], r = m->span_r[o->y0];
+    for (int y = top < 0 ? 0 : top; y < o->y0 && l >= 0; y++)
+        for (int x = l; x <= r; x++) {
+            size_t i = (size_t)y * m->width + (size_t)x;
+            if (m->col_top[x] == INT32_MAX && sg->cls[i] == PROBE_CLS_BG)
+                seen_hidden(m, i, yb);
+        }
+}
+
+/*
  * Visible evidence on M'; occlusion evidence on background-coloured pixels
  * inside the hull: in the upper body (legs leave gaps of their own), in rows
  * hidden across the whole body, or in a column with no M' pixel at all (cut
  * from top to bottom: a pole, not the space between the legs or beside an arm).
  */
-void maps_add_object(probe_maps *m, const probe_segment *sg, const probe_object *o)
+void maps_add_object(probe_maps *m, const probe_segment *sg, const probe_object *o, const sp_probe_plane *plane)
 {
     int ground = !(o->touches & PROBE_TOUCH_BOTTOM); /* a cut-off bottom says nothing about depth */
+    /*
+     * Only one upright body has a hull: a group side by side has gaps (too
+     * wide), and so has one taller than a person standing there (merged).
+     */
+    double expect = sp_probe_plane_height(plane, o->foot_x, o->foot_y);
+    int one_body = ground && o->height >= 1.4 * (o->x1 - o->x0 + 1) && !(isfinite(expect) && o->height > 1.25 * expect);
+    m->last_one_body = one_body;
     int16_t yb = (int16_t)o->foot_y;
     int upper_last = (int)floor(o->foot_y - 0.45 * o->height);
     float col[3] = { (float)o->mean_rgb[0], (float)o->mean_rgb[1], (float)o->mean_rgb[2] };
@@ -198,15 +238,77 @@ void maps_add_object(probe_maps *m, const probe_segment *sg, const probe_object 
                 seen_colour(m, i, col);
                 if (ground)
                     seen_visible(m, i, yb);
-            } else if (ground && sg->cls[i] == PROBE_CLS_BG &&
+            } else if (one_body && sg->cls[i] == PROBE_CLS_BG &&
                        (y <= upper_last || m->span_hidden[y] || m->col_top[x] == INT32_MAX)) {
                 seen_hidden(m, i, yb);
             }
         }
     }
+    if (one_body && o->person)
+        head_room(m, sg, o, plane, yb);
     for (int c = 0; c < 3; c++)
         m->light_ref[c] += o->mean_rgb[c] * o->area;
     m->light_ref_w += o->area;
+}
+
+/* Template pixel (tx, ty) laid with its corner at (x0, y0) shows the plate now: 1; outside or not a template pixel: -1. */
+static int template_missing(const probe_maps *m, const probe_segment *sg, const probe_track *k, int x0, int y0,
+                            int tx, int ty)
+{
+    int x = x0 + tx, y = y0 + ty;
+    if (!k->mask[ty * PROBE_TMPL_W + tx] || x < 0 || y < 0 || x >= (int)m->width || y >= (int)m->height)
+        return -1;
+    return sg->cls[(size_t)y * m->width + (size_t)x] == PROBE_CLS_BG;
+}
+
+/*
+ * Lines (columns or rows) of the template that are missing almost entirely
+ * and have a line at least half present on both sides: the body was cut through
+ * there. Misalignment only shaves lines off an edge.
+ */
+static void interior_cuts(const uint16_t *on, const uint16_t *miss, int n, unsigned min_on, uint8_t *cut)
+{
+    int first_present = -1, last_present = -1;
+    for (int i = 0; i < n; i++)
+        if (on[i] >= min_on && 2 * miss[i] <= on[i]) {
+            first_present = first_present < 0 ? i : first_present;
+            last_present = i;
+        }
+    for (int i = 0; i < n; i++)
+        cut[i] = on[i] >= min_on && 5 * miss[i] >= 4 * on[i] && first_present >= 0 && first_present < i &&
+                 i < last_present;
+}
+
+/*
+ * Template pixels that show the plate now were hidden, when an occluder
+ * explains them: they lie on an interior cut (a pole takes whole columns, a
+ * sign whole rows; segmentation noise leaves scattered holes, misalignment
+ * shaves the edges, neither cuts the body through).
+ */
+void maps_add_template(probe_maps *m, const probe_segment *sg, const probe_object *o, const probe_completion *c)
+{
+    const probe_track *k = c->track;
+    if (!k || !k->has_template || !m->last_one_body)
+        return;
+    int x0 = c->x - k->ax, y0 = c->y - k->th + 1;
+    uint16_t col_on[PROBE_TMPL_W] = { 0 }, col_miss[PROBE_TMPL_W] = { 0 };
+    uint16_t row_on[PROBE_TMPL_H] = { 0 }, row_miss[PROBE_TMPL_H] = { 0 };
+    for (int ty = 0; ty < k->th; ty++)
+        for (int tx = 0; tx < k->tw; tx++) {
+            int v = template_missing(m, sg, k, x0, y0, tx, ty);
+            if (v < 0)
+                continue;
+            col_on[tx]++, row_on[ty]++;
+            col_miss[tx] = (uint16_t)(col_miss[tx] + v), row_miss[ty] = (uint16_t)(row_miss[ty] + v);
+        }
+    uint8_t cut_col[PROBE_TMPL_W], cut_row[PROBE_TMPL_H];
+    interior_cuts(col_on, col_miss, k->tw, 3, cut_col);
+    interior_cuts(row_on, row_miss, k->th, 2, cut_row);
+    for (int ty = 0; ty < k->th; ty++)
+        for (int tx = 0; tx < k->tw; tx++)
+            if ((cut_col[tx] || cut_row[ty]) && template_missing(m, sg, k, x0, y0, tx, ty) == 1)
+                seen_hidden(m, (size_t)(y0 + ty) * m->width + (size_t)(x0 + tx), (int16_t)c->y);
+    (void)o;
 }
 
 void maps_add_background(probe_maps *m, const uint8_t *plate, const uint8_t *cls)
@@ -222,13 +324,39 @@ void maps_add_background(probe_maps *m, const uint8_t *plate, const uint8_t *cls
     }
 }
 
+/*
+ * Candidates are -1 and the hidden slot values. Z contradicts the hidden
+ * events nearer than it and the visible events at or nearer than it; the
+ * cheapest candidate wins, -1 on ties, and a value needs min_events agreeing
+ * hidden events (at or farther than it).
+ */
 float maps_occlusion_at(const probe_maps *m, size_t i)
 {
-    if (m->occ_n[i] < m->min_events || m->occ2[i] < 0)
-        return -1.0f;
-    if (m->vis2[i] < m->occ2[i]) /* two objects farther than the occluder were seen right there */
-        return -1.0f;
-    return (float)m->occ2[i];
+    const int16_t *hv = m->hid + i * PROBE_EVIDENCE, *vv = m->vis + i * PROBE_EVIDENCE;
+    const uint16_t *hn = m->hid_n + i * PROBE_EVIDENCE, *vn = m->vis_n + i * PROBE_EVIDENCE;
+    unsigned total = 0, best_cost;
+    for (int k = 0; k < PROBE_EVIDENCE; k++)
+        total += hn[k];
+    best_cost = total;
+    int best = -1;
+    for (int c = 0; c < PROBE_EVIDENCE; c++) {
+        if (!hn[c])
+            continue;
+        unsigned cost = 0, agree = 0;
+        for (int k = 0; k < PROBE_EVIDENCE; k++) {
+            if (hn[k] && hv[k] > hv[c])
+                cost += hn[k];
+            else
+                agree += hn[k];
+            if (vn[k] && vv[k] <= hv[c])
+                cost += VISIBLE_WEIGHT * vn[k];
+        }
+        if (agree >= m->min_events && cost < best_cost) {
+            best_cost = cost;
+            best = hv[c];
+        }
+    }
+    return (float)best;
 }
 
 static void reference_colour(const probe_maps *m, double ref[3])
@@ -251,21 +379,6 @@ void maps_finalise(probe_maps *m, const uint8_t *fallback_plate)
             m->lighting[3 * i + c] = m->light_n[i] ? (float)((double)m->light[3 * i + c] / ref[c]) : 0.0f;
         }
         m->occlusion[i] = maps_occlusion_at(m, i);
-    }
-    if (getenv("SP_PROBE_DEBUG")) {
-        size_t e1 = 0, e3 = 0, veto = 0;
-        for (size_t i = 0; i < n; i++) {
-            e1 += m->occ_n[i] >= 1;
-            e3 += m->occ_n[i] >= m->min_events;
-            veto += m->occ_n[i] >= m->min_events && m->occ2[i] >= 0 && m->vis2[i] < m->occ2[i];
-        }
-        fprintf(stderr, "DEBUG events>=1 %zu >=min %zu vetoed %zu\n", e1, e3, veto);
-        unsigned dx, dy;
-        if (sscanf(getenv("SP_PROBE_DEBUG"), "%u,%u", &dx, &dy) == 2 && dx < m->width && dy < m->height) {
-            size_t i = (size_t)dy * m->width + dx;
-            fprintf(stderr, "DEBUG (%u,%u): occ %d %d n %u vis %d %d\n", dx, dy, m->occ1[i], m->occ2[i], m->occ_n[i],
-                    m->vis1[i], m->vis2[i]);
-        }
     }
 }
 

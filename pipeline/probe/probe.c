@@ -32,6 +32,9 @@ struct sp_probe {
     probe_segment seg;
     probe_maps maps;
     probe_shadows shadows;
+    probe_tracks tracks;
+    probe_motion motion;
+    probe_completion completion[PROBE_MAX_OBJECTS];
     probe_reservoir people, holdout;
     float *recent;
     unsigned n_recent;
@@ -93,13 +96,15 @@ static int check_settings(const sp_probe_settings *s, uint32_t width, uint32_t h
     return 0;
 }
 
+/* What open allocates (PROBE.md, "Memory bound"); it never grows afterwards. */
 static size_t memory_bound(uint32_t w, uint32_t h, const sp_probe_settings *s)
 {
     size_t px = (size_t)w * h, cells = ((size_t)w / s->block + 1) * ((size_t)h / s->block + 1);
-    size_t per_px = 3 * (size_t)s->window_samples + 3 /* plate */ + 1 /* cls */ + 3 /* frame */ +
-                    10 /* occlusion */ + 16 /* lighting */ + 16 /* background */ + 3 + 4 + 12 /* final */ + 5;
-    return px * per_px + cells * 28 + (size_t)s->max_observations * 4 * (2 * PERSON_REC + 4) +
-           RECENT_MAX * PERSON_REC * 4;
+    size_t per_px = 3 * (size_t)s->window_samples + 3 /* plate */ + 3 /* frame */ + 1 /* classes */ +
+                    4 * PROBE_EVIDENCE * 2 /* occlusion slots */ + 16 /* lighting */ + 16 /* long-term plate */ +
+                    3 + 4 + 12 /* final maps */ + 5 /* checkpoint */;
+    return px * per_px + px / 8 /* motion thumbnails */ + cells * 30 + PROBE_MAX_TRACKS * sizeof(probe_track) +
+           (size_t)s->max_observations * 4 * (2 * PERSON_REC + 4) + RECENT_MAX * PERSON_REC * 4;
 }
 
 static int open_report(sp_probe *p)
@@ -123,6 +128,10 @@ static int open_parts(sp_probe *p)
         ret = maps_open(&p->maps, p->width, p->height, s->min_occlusion_events);
     if (!ret)
         ret = shadows_open(&p->shadows, s->max_observations, s->seed);
+    if (!ret)
+        ret = tracks_open(&p->tracks);
+    if (!ret)
+        ret = motion_open(&p->motion, p->width, p->height);
     if (!ret)
         ret = reservoir_open(&p->people, s->max_observations, PERSON_REC, s->seed);
     if (!ret)
@@ -193,6 +202,8 @@ void sp_probe_close(sp_probe **pp)
     segment_close(&p->seg);
     maps_close(&p->maps);
     shadows_close(&p->shadows);
+    tracks_close(&p->tracks);
+    motion_close(&p->motion);
     reservoir_close(&p->people);
     reservoir_close(&p->holdout);
     probe_hog_close(&p->hog);
@@ -233,47 +244,57 @@ static void observe_person(sp_probe *p, const probe_object *o)
 
 static void checkpoint(sp_probe *p);
 
+/*
+ * The view shifted in more than `share` of at least `min_checks` motion
+ * checks, or that share of the probed frames differs from the plate almost
+ * everywhere: a moving camera (or a light that keeps jumping). Says so.
+ */
+static int camera_moves(sp_probe *p, uint64_t min_checks, double share)
+{
+    const probe_motion *mo = &p->motion;
+    int shifted = mo->checks >= min_checks && (double)mo->moved > share * (double)mo->checks;
+    int changed = p->st.frames_probed >= 3 * min_checks &&
+                  (double)p->st.frames_moving > share * (double)p->st.frames_probed;
+    if (shifted)
+        snprintf(p->message, sizeof(p->message),
+                 "the camera moves: the whole view shifted in %llu of %llu checks; probing needs a static camera",
+                 (unsigned long long)mo->moved, (unsigned long long)mo->checks);
+    else if (changed)
+        snprintf(p->message, sizeof(p->message),
+                 "the camera moves: %llu of %llu frames differ from the clean plate over more than %.0f%% "
+                 "of the image; probing needs a static camera",
+                 (unsigned long long)p->st.frames_moving, (unsigned long long)p->st.frames_probed,
+                 100.0 * p->s.max_foreground);
+    return shifted || changed;
+}
+
 static int probe_frame(sp_probe *p, int64_t t)
 {
     p->st.frames++;
+    motion_frame(&p->motion, p->rgb, p->width);
+    if (camera_moves(p, 10, 0.8))
+        return SP_ENODATA;
     int updated = plate_offer(&p->plate, p->rgb, t);
     p->segmented = 0;
     if (!plate_ready(&p->plate))
         return 0;
     segment_frame(&p->seg, p->rgb, p->plate.median, &p->plane);
     p->segmented = 1;
-    if (getenv("SP_PROBE_DUMP") && (uint64_t)atoll(getenv("SP_PROBE_DUMP")) == p->st.frames - 1) {
-        FILE *df = fopen("/tmp/probe/cls.pgm", "wb");
-        fprintf(df, "P5\n%u %u\n255\n", p->width, p->height);
-        for (size_t i = 0; i < (size_t)p->width * p->height; i++)
-            fputc(p->seg.cls[i] * 120, df);
-        fclose(df);
-    }
     p->st.frames_probed++;
     double changed = (double)(p->seg.fg_pixels + p->seg.shadow_pixels) / ((double)p->width * p->height);
     if (changed > p->s.max_foreground) {
         /* the plate does not describe this frame: the camera moved or the light jumped */
         p->st.frames_moving++;
-        if (p->st.frames_probed >= 30 && p->st.frames_moving * 10 > p->st.frames_probed * 8) {
-            snprintf(p->message, sizeof(p->message),
-                     "the camera moves: %llu of %llu frames differ from the clean plate over more than %.0f%% "
-                     "of the image; probing needs a static camera",
-                     (unsigned long long)p->st.frames_moving, (unsigned long long)p->st.frames_probed,
-                     100.0 * p->s.max_foreground);
-            return SP_ENODATA;
-        }
-        return 0;
+        return camera_moves(p, 10, 0.8) ? SP_ENODATA : 0;
     }
     if (updated)
         maps_add_background(&p->maps, p->plate.median, p->seg.cls);
+    tracks_update(&p->tracks, &p->seg, p->st.frames - 1, &p->plane, p->completion);
     for (unsigned i = 0; i < p->seg.n_obj; i++) {
         const probe_object *o = &p->seg.obj[i];
         p->st.objects++;
-        if (getenv("SP_PROBE_OBJ"))
-            fprintf(stderr, "OBJ f%llu box %d,%d-%d,%d area %u foot %.1f,%.1f h %.1f person %d touch %d sh %u\n",
-                    (unsigned long long)p->st.frames - 1, o->x0, o->y0, o->x1, o->y1, o->area, o->foot_x, o->foot_y,
-                    o->height, o->person, o->touches, o->shadow_area);
-        maps_add_object(&p->maps, &p->seg, o);
+        maps_add_object(&p->maps, &p->seg, o, &p->plane);
+        maps_add_template(&p->maps, &p->seg, o, &p->completion[i]);
         if (is_person(p, o))
             observe_person(p, o);
     }
@@ -400,14 +421,8 @@ static int check_enough(sp_probe *p)
                  (unsigned long long)p->st.frames, p->s.window_samples, p->s.window_s);
         return SP_ENODATA;
     }
-    if (p->st.frames_moving * 2 > p->st.frames_probed) {
-        snprintf(p->message, sizeof(p->message),
-                 "the camera moves: %llu of %llu frames differ from the clean plate over more than %.0f%% "
-                 "of the image; probing needs a static camera",
-                 (unsigned long long)p->st.frames_moving, (unsigned long long)p->st.frames_probed,
-                 100.0 * p->s.max_foreground);
+    if (camera_moves(p, 2, 0.5))
         return SP_ENODATA;
-    }
     if (p->st.objects == 0) {
         snprintf(p->message, sizeof(p->message),
                  "no moving objects were seen in %llu probed frames: nothing to probe the scene with",

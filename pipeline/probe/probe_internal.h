@@ -15,6 +15,7 @@
 #define PROBE_MAX_OBJECTS 64  /* objects kept per frame (largest first) */
 #define PROBE_MAX_WIRES 32    /* median network width: window_samples rounded up to a power of two */
 #define PROBE_MAX_PAIRS 256   /* compare-exchanges of that network (Batcher, n = 32: 191) */
+#define PROBE_EVIDENCE 4      /* occlusion evidence slots per pixel and side */
 
 /* ---- clean plate: per-channel median of a ring of sampled frames (plate.c) ---- */
 
@@ -38,6 +39,20 @@ int plate_offer(probe_plate *pl, const uint8_t *rgb, int64_t t_ns);
 static inline int plate_ready(const probe_plate *pl) { return pl->filled == pl->k; }
 /* Element-wise median of `k` (3..PROBE_MAX_WIRES) byte arrays of n bytes into out: exposed for tests. */
 int probe_median_bytes(const uint8_t *const *in, unsigned k, size_t n, uint8_t *out);
+
+/* ---- camera motion check (motion.c) ---- */
+
+typedef struct probe_motion {
+    uint32_t tw, th;         /* thumbnail: a gray cell per 4x4 pixels */
+    uint8_t *cur, *prev;
+    int have_prev;
+    uint64_t frames, checks, moved;
+} probe_motion;
+
+int motion_open(probe_motion *mo, uint32_t width, uint32_t height);
+void motion_close(probe_motion *mo);
+/* Every few frames: did the whole view shift since the last check? Counts in checks / moved. */
+void motion_frame(probe_motion *mo, const uint8_t *rgb, uint32_t width);
 
 /* ---- segmentation: refined mask, shadows, components, objects (segment.c) ---- */
 
@@ -94,14 +109,48 @@ static inline int segment_in_mask(const probe_segment *sg, const probe_object *o
            sg->lab_obj[(y / sg->block) * sg->gw + x / sg->block] == o->label;
 }
 
+/* ---- tracks and silhouette templates (track.c) ---- */
+
+#define PROBE_MAX_TRACKS 32
+#define PROBE_TMPL_W 96      /* largest template: people taller or wider get none */
+#define PROBE_TMPL_H 192
+
+typedef struct probe_track {
+    int alive, has_template;
+    uint64_t last_frame;
+    double fx, fy, vx, vy;   /* foot point when last seen, velocity per frame */
+    double height;
+    uint32_t area;           /* template pixels */
+    int tw, th, ax;          /* template size, column of the foot point */
+    uint8_t mask[PROBE_TMPL_H * PROBE_TMPL_W]; /* last, see start_track */
+} probe_track;
+
+typedef struct probe_tracks {
+    probe_track *track;      /* PROBE_MAX_TRACKS */
+} probe_tracks;
+
+/* For a partly hidden person: the template to lay with its foot point at (x, y); track NULL: none. */
+typedef struct probe_completion {
+    const probe_track *track;
+    int x, y;
+} probe_completion;
+
+int tracks_open(probe_tracks *t);
+void tracks_close(probe_tracks *t);
+/*
+ * Matches this frame's objects to tracks; out[i] (sg->n_obj entries) says how
+ * to complete object i. The scale model (may be NULL) vets templates.
+ */
+void tracks_update(probe_tracks *t, const probe_segment *sg, uint64_t frame, const sp_probe_plane *plane,
+                   probe_completion *out);
+
 /* ---- maps: occlusion, lighting, long-term plate (maps.c) ---- */
 
 typedef struct probe_maps {
     uint32_t width, height;
     unsigned min_events;
-    int16_t *occ1, *occ2;    /* the two nearest (largest) bottom rows of objects seen hidden, -1 none */
-    uint16_t *occ_n;         /* occlusion events (saturating) */
-    int16_t *vis1, *vis2;    /* the two farthest (smallest) bottom rows of objects seen visible, INT16_MAX none */
+    int16_t *hid, *vis;      /* PROBE_EVIDENCE slots per pixel: bottoms of objects seen hidden / visible */
+    uint16_t *hid_n, *vis_n; /* and how many events each slot holds (0: free) */
     float *light;            /* running mean RGB of covering objects' mean colours */
     uint32_t *light_n;
     float *bg;               /* running mean RGB of the local plate where the frame is background */
@@ -116,12 +165,15 @@ typedef struct probe_maps {
     int32_t *span_l, *span_r; /* height: an object's hull per row (scratch) */
     int32_t *col_top;        /* width: its first M' row per column (scratch) */
     uint8_t *span_hidden;    /* height: the row had no M' pixel, its span was interpolated (scratch) */
+    int last_one_body;       /* the last object added looked like one body */
 } probe_maps;
 
 int maps_open(probe_maps *m, uint32_t width, uint32_t height, unsigned min_events);
 void maps_close(probe_maps *m);
-/* Adds one object's visibility, occlusion and lighting evidence. */
-void maps_add_object(probe_maps *m, const probe_segment *sg, const probe_object *o);
+/* Adds one object's visibility, occlusion and lighting evidence; the scale model (may be NULL) says how tall it should be. */
+void maps_add_object(probe_maps *m, const probe_segment *sg, const probe_object *o, const sp_probe_plane *plane);
+/* After maps_add_object(o): the hidden part of a partly hidden person, from its track's template. */
+void maps_add_template(probe_maps *m, const probe_segment *sg, const probe_object *o, const probe_completion *c);
 /* Adds the local plate at background pixels to the long-term plate. */
 void maps_add_background(probe_maps *m, const uint8_t *plate, const uint8_t *cls);
 /* Final occlusion value of pixel i from the evidence (-1: never occluding). */

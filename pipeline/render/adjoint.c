@@ -230,7 +230,7 @@ int render_backward_pass(sp_renderer *r, const sp_render_scene *sc, const float 
     ctx.sc = sc;
     ctx.geo = g;
     ctx.cam = &r->cam;
-    ctx.sm = sc->shadow_mode == SP_RENDER_SHADOW_OFF ? NULL : &r->sm;
+    ctx.sm = NULL; /* the forward's shadow lookups come from r->sun_cache */
     shade_acc acc;
     memset(&acc, 0, sizeof(acc));
     acc.g_albedo = gr->albedo;

@@ -4,7 +4,9 @@
  * sample ray (so forward and adjoint share one set of formulas), then
  * evaluates environment diffuse (SH irradiance), the sun's Lambert and
  * normalised Blinn-Phong terms with soft shadow-map visibility, and fill lights.
- * A shade_rec keeps every intermediate the adjoint needs.
+ * A shade_rec keeps every intermediate the adjoint needs; the costly part of
+ * the sun term (shadow lookup, lobe power) is also kept per sample in a
+ * sun_cache so the adjoint does not redo it.
  */
 #ifndef SUNPROBE_RENDER_SHADING_H
 #define SUNPROBE_RENDER_SHADING_H

@@ -25,7 +25,13 @@ typedef struct align_ctx {
     int n, shared, n_id, n_exp, ns, np, P;
     double *uv, *jac, *JtJ, *Jtr, *save;
     sp_face_camera cam;
+    ss_frame *one; /* a frame outside the reservoir (n = 1), or NULL */
 } align_ctx;
+
+static ss_frame *frame_at(const align_ctx *a, int fi)
+{
+    return a->one ? a->one : &a->ss->slots[a->idx[fi]];
+}
 
 static void frame_params(const align_ctx *a, const ss_frame *f, sp_face_params *p)
 {
@@ -65,7 +71,7 @@ static double evaluate(align_ctx *a, int with_jac)
     if (!col)
         return NAN;
     for (int fi = 0; fi < a->n; fi++) {
-        ss_frame *f = &ss->slots[a->idx[fi]];
+        ss_frame *f = frame_at(a, fi);
         sp_face_params p;
         frame_params(a, f, &p);
         if (sp_face_model_project_landmarks(m, &p, &a->cam, a->uv, NULL, with_jac ? a->jac : NULL) < 0) {
@@ -140,7 +146,7 @@ static void params_io(align_ctx *a, double *x, int dir)
                 x[i] = *v;
         }
     for (int fi = 0; fi < a->n; fi++) {
-        ss_frame *f = &ss->slots[a->idx[fi]];
+        ss_frame *f = frame_at(a, fi);
         double *b = x + a->ns + fi * a->np;
         for (int e = 0; e < a->np; e++) {
             double *v = e < a->n_exp ? &f->exp[e] : (e < a->n_exp + 3 ? &f->rotvec[e - a->n_exp] : &f->t_face[e - a->n_exp - 3]);
@@ -184,7 +190,7 @@ static void clamp_params(align_ctx *a)
     sp_sunstage *ss = a->ss;
     ss->scale = ss->scale < 0.7 ? 0.7 : (ss->scale > 1.4 ? 1.4 : ss->scale);
     for (int fi = 0; fi < a->n; fi++) {
-        ss_frame *f = &ss->slots[a->idx[fi]];
+        ss_frame *f = frame_at(a, fi);
         for (int e = 0; e < a->n_exp; e++)
             f->exp[e] = f->exp[e] < 0.0 ? 0.0 : (f->exp[e] > 1.0 ? 1.0 : f->exp[e]);
         f->t_face[2] = f->t_face[2] < 0.05 ? 0.05 : f->t_face[2];
@@ -236,9 +242,9 @@ static int lm_iterate(align_ctx *a, int iterations, double *cost_out)
     return 0;
 }
 
-double ss_align_landmarks(sp_sunstage *ss, const int *idx, int n, int shared, int iterations)
+static double align(sp_sunstage *ss, const int *idx, ss_frame *one, int n, int shared, int iterations)
 {
-    align_ctx a = { .ss = ss, .idx = idx, .n = n, .shared = shared };
+    align_ctx a = { .ss = ss, .idx = idx, .n = n, .shared = shared, .one = one };
     const sp_face_model *m = ss->model;
     a.n_id = (int)m->n_id;
     a.n_exp = (int)m->n_exp;
@@ -256,7 +262,7 @@ double ss_align_landmarks(sp_sunstage *ss, const int *idx, int n, int shared, in
     if (!a.uv || !a.jac || !a.JtJ || !a.Jtr || !a.save)
         goto done;
     for (int fi = 0; fi < n; fi++) {
-        ss_frame *f = &ss->slots[idx[fi]];
+        ss_frame *f = frame_at(&a, fi);
         if (f->t_face[2] == 0.0)
             init_frame(&a, f);
     }
@@ -269,7 +275,7 @@ double ss_align_landmarks(sp_sunstage *ss, const int *idx, int n, int shared, in
     /* plain RMS landmark error in pixels for the report */
     double se = 0.0;
     for (int fi = 0; fi < n; fi++) {
-        ss_frame *f = &ss->slots[idx[fi]];
+        ss_frame *f = frame_at(&a, fi);
         sp_face_params p;
         frame_params(&a, f, &p);
         sp_face_model_project_landmarks(m, &p, &a.cam, a.uv, NULL, NULL);
@@ -284,4 +290,14 @@ done:
     free(a.Jtr);
     free(a.save);
     return rms;
+}
+
+double ss_align_landmarks(sp_sunstage *ss, const int *idx, int n, int shared, int iterations)
+{
+    return align(ss, idx, NULL, n, shared, iterations);
+}
+
+double ss_align_one(sp_sunstage *ss, ss_frame *f, int iterations)
+{
+    return align(ss, NULL, f, 1, 0, iterations);
 }

@@ -390,9 +390,10 @@ static void perturb(const double d[3], double step, int k, double out[3])
 static double pattern_search(fast_ctx *c, double step, double min_step, int rounds)
 {
     double best = try_sun(c, c->sun, rounds);
+    int turn = 0;
     while (step >= min_step) {
         int improved = 0;
-        for (int k = 0; k < 8; k++) {
+        for (int k = turn & 1; k < 8; k += 2) { /* four directions, the diagonal set every other pass */
             double d[3];
             perturb(c->sun, step, k, d);
             double e = try_sun(c, d, rounds);
@@ -403,7 +404,8 @@ static double pattern_search(fast_ctx *c, double step, double min_step, int roun
             }
         }
         if (!improved)
-            step *= 0.5;
+            step *= 0.7071;
+        turn++;
     }
     return best;
 }
@@ -547,10 +549,8 @@ static void commit(fast_ctx *c)
 static int fit_sun(fast_ctx *c, sp_sunstage_callback cb, void *user)
 {
     sp_sunstage *ss = c->ss;
-    c->use_sun = 0;
-    double e_nosun = try_sun(c, c->sun, 4);
+    double e_nosun, best = INFINITY;
     c->use_sun = 1;
-    double best = INFINITY;
     c->stride = 3;
     for (int i = 0; i < 160; i++) { /* upper-hemisphere search on unshadowed shading, a third of the pixels */
         double d[3];
@@ -562,7 +562,7 @@ static int fit_sun(fast_ctx *c, sp_sunstage_callback cb, void *user)
         }
     }
     best = pattern_search(c, 0.12, 0.02, 2);
-    c->stride = 1;
+    c->stride = 2;
     best = pattern_search(c, 0.02, 0.004, 2);
     report(c, cb, user, 1, 4);
     for (int round = 0; round < 2; round++) { /* shadows from the renderer, then search again */
@@ -571,6 +571,12 @@ static int fit_sun(fast_ctx *c, sp_sunstage_callback cb, void *user)
             return ret;
         best = pattern_search(c, 0.02, 0.002, 3);
     }
+    c->stride = 1;
+    best = try_sun(c, c->sun, 3);
+    c->use_sun = 0;
+    e_nosun = try_sun(c, c->sun, 3); /* same pixels and rounds as best */
+    c->use_sun = 1;
+    try_sun(c, c->sun, 1);
     if (!(best < 0.8 * e_nosun) || !(c->x[0] > 0.0)) {
         snprintf(ss->notes, sizeof(ss->notes),
                  "overcast: a sun explains %.0f%% of the residual of a sky-only fit (need 20%%); sun, shadows and "

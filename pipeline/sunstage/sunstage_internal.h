@@ -96,6 +96,8 @@ int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const double lm[136], 
 /* ---- align.c: stage 1 ---- */
 /* Gauss-Newton (LM) on robust landmark residuals; returns RMS pixel error or a negative error. */
 double ss_align_landmarks(sp_sunstage *ss, const int *idx, int n, int shared, int iterations);
+/* The same for one frame outside the reservoir, shared parameters fixed. */
+double ss_align_one(sp_sunstage *ss, ss_frame *f, int iterations);
 
 /* ---- scene.c: rendering one frame of the current fit ---- */
 typedef struct ss_scene {

@@ -48,7 +48,7 @@ void sp_synth_selfie_default_settings(sp_synth_selfie_settings *s)
     s->sun_intensity = 3.0;
     s->sky_intensity = 1.0;
     s->supersample = 2;
-    s->shadow_size = 1024;
+    s->shadow_size = 512;
     s->n_relit = 6;
     s->n_novel = 6;
     s->seed = 1;
@@ -219,7 +219,8 @@ static int alloc_buffers(sp_synth_selfie *g)
     g->linear = malloc(px * 3 * sizeof(double));
     g->rgb = malloc(px * 3);
     g->frame_exposure = malloc(g->n_frames * sizeof(double));
-    if (!g->linear || !g->rgb || !g->frame_exposure)
+    g->bg_grid = malloc(((size_t)g->s.width / BG_STEP + 2) * ((size_t)g->s.height / BG_STEP + 2) * 3 * sizeof(double));
+    if (!g->linear || !g->rgb || !g->frame_exposure || !g->bg_grid)
         return -ENOMEM;
     for (uint64_t i = 0; i < g->n_frames; i++)
         g->frame_exposure[i] = NAN;
@@ -330,6 +331,7 @@ void sp_synth_selfie_close(sp_synth_selfie **gp)
     free(g->linear);
     free(g->rgb);
     free(g->frame_exposure);
+    free(g->bg_grid);
     sp_face_model_free(&g->own_model);
     free(g);
     *gp = NULL;
@@ -461,26 +463,43 @@ int synth_render_pose(sp_synth_selfie *g, const synth_pose *p, const double sun_
     return sp_render(g->r, &sc, out);
 }
 
+/* Environment radiance along the view ray of pixel (u, v). */
+static void ray_env(const sp_synth_selfie *g, const double R[9], const float *env, double u, double v, double rgb[3])
+{
+    double dc[3] = { (u - g->cx) / g->fx, (v - g->cy) / g->fy, 1.0 }, d[3];
+    for (int k = 0; k < 3; k++)
+        d[k] = R[k] * dc[0] + R[3 + k] * dc[1] + R[6 + k] * dc[2];
+    double n = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (int k = 0; k < 3; k++)
+        d[k] /= n; /* n >= 1: the ray's camera z is 1 and R is a rotation */
+    synth_env_lookup(env, d, rgb);
+}
+
 void synth_accumulate(const sp_synth_selfie *g, const synth_pose *p, const sp_render_outputs *o, const float *env,
                       double weight, double *lin)
 {
-    const double *R = p->cam.R;
-    for (uint32_t v = 0; v < g->s.height; v++)
-        for (uint32_t u = 0; u < g->s.width; u++) {
-            size_t i = (size_t)v * g->s.width + u;
-            double rgb[3] = { 0, 0, 0 }, bgw = 1.0 - (double)o->coverage[i];
-            if (bgw > 1e-6) {
-                double dc[3] = { (u - g->cx) / g->fx, (v - g->cy) / g->fy, 1.0 }, d[3];
-                for (int k = 0; k < 3; k++)
-                    d[k] = R[k] * dc[0] + R[3 + k] * dc[1] + R[6 + k] * dc[2];
-                double n = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-                for (int k = 0; k < 3; k++)
-                    d[k] /= n; /* n >= 1: the ray's camera z is 1 and R is a rotation */
-                synth_env_lookup(env ? env : g->env, d, rgb);
+    /* the 16x32 sky varies slowly across the image: look it up every BG_STEP pixels, interpolate between */
+    uint32_t w = g->s.width, h = g->s.height, gw = w / BG_STEP + 2, gh = h / BG_STEP + 2;
+    env = env ? env : g->env;
+    for (uint32_t j = 0; j < gh; j++)
+        for (uint32_t i = 0; i < gw; i++)
+            ray_env(g, p->cam.R, env, (double)(i * BG_STEP), (double)(j * BG_STEP), g->bg_grid + (j * gw + i) * 3);
+    for (uint32_t v = 0; v < h; v++) {
+        uint32_t j = v / BG_STEP;
+        double fy = (double)(v % BG_STEP) / BG_STEP;
+        for (uint32_t u = 0; u < w; u++) {
+            size_t px = (size_t)v * w + u;
+            double bgw = 1.0 - (double)o->coverage[px];
+            uint32_t i = u / BG_STEP;
+            double fx = (double)(u % BG_STEP) / BG_STEP;
+            const double *a = g->bg_grid + (j * gw + i) * 3, *b = a + 3, *c = a + gw * 3, *d = c + 3;
+            for (int k = 0; k < 3; k++) {
+                double bg = bgw > 1e-6 ? (1 - fy) * ((1 - fx) * a[k] + fx * b[k]) + fy * ((1 - fx) * c[k] + fx * d[k])
+                                       : 0.0;
+                lin[3 * px + (size_t)k] += weight * ((double)o->radiance[3 * px + (size_t)k] + bgw * bg);
             }
-            for (int k = 0; k < 3; k++)
-                lin[3 * i + (size_t)k] += weight * ((double)o->radiance[3 * i + (size_t)k] + bgw * rgb[k]);
         }
+    }
 }
 
 double synth_display(double x)

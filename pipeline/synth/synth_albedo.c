@@ -268,6 +268,8 @@ static double hair_weight(const paint_ctx *pc, const double f[3], const double p
     double line = pc->brow_y + 0.65;
     if (f[2] < -0.3)
         line -= 1.4 * (-0.3 - f[2]);
+    if (fabs(f[1] - line) > 0.1) /* beyond the noise's reach */
+        return f[1] > line ? 1.0 : 0.0;
     line += 0.06 * noise_at(pm, 80.0, seed + 11);
     return smoothstep(line - 0.03, line + 0.03, f[1]);
 }
@@ -296,19 +298,23 @@ static void paint_skin(const paint_ctx *pc, const double pm[3], const double f[3
     double thick_r = 0.035 + 0.03 * ar, thick_l = 0.065 - 0.03 * al; /* 21 and 22 are the inner ends */
     double wb = fmax(1.0 - smoothstep(thick_r - 0.015, thick_r + 0.015, dr),
                      1.0 - smoothstep(thick_l - 0.015, thick_l + 0.015, dl));
-    wb *= front * (0.75 + 0.25 * noise_at(pm, 1500.0, sd + 3));
-    mix3(c, lk->hair, 0.85 * clamp01(wb));
+    if (wb > 0) {
+        wb *= front * (0.75 + 0.25 * noise_at(pm, 1500.0, sd + 3));
+        mix3(c, lk->hair, 0.85 * clamp01(wb));
+    }
     /* freckles: densest over the nose bridge and upper cheeks */
     double dens = lk->freckles * 0.5 * front * fmax(gauss2(f, pc->lm[29], 0.5), 0.7 * gauss2(f, pc->cheek[0], 0.35));
     dens = fmax(dens, lk->freckles * 0.35 * front * gauss2(f, pc->cheek[1], 0.35));
-    double fr = freckle(pm, dens, sd + 20);
+    double fr = dens > 1e-4 ? freckle(pm, dens, sd + 20) : 0.0;
     const double spot[3] = { c[0] * 0.78, c[1] * 0.66, c[2] * 0.6 };
     mix3(c, spot, fr);
     double wh = hair_weight(pc, f, pm, sd);
-    double hair[3];
-    for (int k = 0; k < 3; k++)
-        hair[k] = lk->hair[k] * (1.0 + 0.2 * noise_at(pm, 700.0, sd + 4));
-    mix3(c, hair, wh);
+    if (wh > 0) {
+        double hair[3], streak = 1.0 + 0.2 * noise_at(pm, 700.0, sd + 4);
+        for (int k = 0; k < 3; k++)
+            hair[k] = lk->hair[k] * streak;
+        mix3(c, hair, wh);
+    }
 }
 
 static void paint_eye(const paint_ctx *pc, const double f[3], int side, double c[3])

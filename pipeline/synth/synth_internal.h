@@ -9,6 +9,7 @@
 #include "sunprobe/sp_synth.h"
 
 #define SYNTH_MAX_CAPS 3
+#define BG_STEP 4 /* pixels between background lookups */
 
 /* Deterministic random streams (splitmix64); separate streams keep options from shifting each other's draws. */
 enum synth_stream {
@@ -89,7 +90,7 @@ struct sp_synth_selfie {
     /* scratch */
     double *linear;         /* 3 * w * h exposed linear values */
     uint8_t *rgb;           /* 3 * w * h display bytes */
-    sp_face_params last_params;
+    double *bg_grid;        /* sky behind the head every BG_STEP pixels: (w / BG_STEP + 2) * (h / BG_STEP + 2) * 3 */
 };
 
 /* A rendering pose: camera and the head's face params. */

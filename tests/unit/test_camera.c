@@ -80,22 +80,29 @@ static void test_fake_paced(void)
     CHECK(ci->fps == 100.0 && ci->monotonic_timestamps && !strcmp(ci->desc.backend, "fake"));
     sp_frame *f = NULL;
     CHECK_EQ_INT(sp_camera_next(cam, 10, &f), -EINVAL); /* not started */
-    CHECK_EQ_INT(sp_camera_start(cam), 0);
     int64_t t0 = sp_clock_monotonic_ns(), prev = 0;
+    uint64_t prev_seq = 0, gaps = 0;
+    CHECK_EQ_INT(sp_camera_start(cam), 0);
     for (uint64_t i = 0; i < 10; i++) {
         CHECK_EQ_INT(next_frame(cam, &f), 0);
         if (!f)
             break;
-        CHECK_EQ_INT(f->sequence, i);
         CHECK(f->format == SP_PIXFMT_NV12 && f->bytes_used == 64 * 72);
-        CHECK(f->timestamp_ns >= t0 - 1000000 && f->timestamp_ns <= sp_clock_monotonic_ns());
-        if (i)
-            CHECK_NEAR((double)(f->timestamp_ns - prev), 1e7, 2.0);
+        CHECK(f->timestamp_ns >= t0 && f->timestamp_ns <= sp_clock_monotonic_ns());
+        /* a busy machine may make the paced camera skip frames; the sequence and the stamps say so alike */
+        if (i) {
+            CHECK(f->sequence > prev_seq);
+            CHECK_NEAR((double)(f->timestamp_ns - prev), 1e7 * (double)(f->sequence - prev_seq), 2.0);
+            gaps += f->sequence - prev_seq - 1;
+        } else {
+            gaps += f->sequence;
+        }
         prev = f->timestamp_ns;
+        prev_seq = f->sequence;
         CHECK(isfinite(f->exposure_us));
         sp_frame_unref(&f);
     }
-    CHECK_EQ_INT(sp_camera_dropped(cam), 0);
+    CHECK_EQ_INT(sp_camera_dropped(cam), gaps);
     sp_camera_close(&cam);
     CHECK(cam == NULL);
 }

@@ -85,6 +85,7 @@ static void test_frame_pool(void)
     sp_frame_unref(&b);
 
     CHECK_EQ_INT(sp_pixfmt_image_size(SP_PIXFMT_NV12, 4, 3, 4), 4 * 5);
+    CHECK_EQ_INT(sp_pixfmt_min_stride(SP_PIXFMT_NV12, 5), 6); /* odd width: a whole last UV pair */
     CHECK_EQ_INT(sp_pixfmt_image_size(SP_PIXFMT_YUYV, 3, 2, 6), 0); /* stride below 2*4 */
     CHECK_EQ_INT(sp_pixfmt_image_size(SP_PIXFMT_MJPEG, 3, 2, 6), 0);
     CHECK(sp_pixfmt_from_name("yuyv") == SP_PIXFMT_YUYV);

@@ -26,7 +26,7 @@ static char tmpdir[256];
 
 static const char *tmp_path(const char *name)
 {
-    static char paths[8][320];
+    static char paths[8][sizeof(tmpdir) + 300];
     static int next;
     char *p = paths[next++ % 8];
     snprintf(p, sizeof(paths[0]), "%s/%s", tmpdir, name);

@@ -173,10 +173,15 @@ static void test_stop_request(const char *dir)
     CHECK_EQ_INT(sp_recorder_open(&rec, &rs), 0);
     CHECK_EQ_INT(sp_recorder_start(rec), 0);
     CHECK_EQ_INT(sp_recorder_start(rec), -EINVAL);
-    nanosleep(&(struct timespec){ 0, 300000000 }, NULL);
+    sp_recorder_stats st;
+    for (int i = 0; i < 500; i++) { /* until something is on disk, however slow the machine */
+        sp_recorder_get_stats(rec, &st);
+        if (st.frames_written > 2)
+            break;
+        nanosleep(&(struct timespec){ 0, 10000000 }, NULL);
+    }
     CHECK(!sp_recorder_finished(rec));
     sp_recorder_request_stop(rec);
-    sp_recorder_stats st;
     CHECK_EQ_INT(sp_recorder_wait(rec, &st), 0);
     CHECK_EQ_INT(st.end, SP_RECORDER_STOPPED);
     CHECK(st.frames_written > 0);

@@ -304,7 +304,8 @@ static void affine_uv(const sp_render_scene *sc, uint32_t tri, double x, double 
         const float *p = m->positions + (size_t)m->tri_vertices[tri * 3 + k] * 3;
         double q[3];
         for (int i = 0; i < 3; i++)
-            q[i] = c->R[i * 3] * (double)p[0] + c->R[i * 3 + 1] * (double)p[1] + c->R[i * 3 + 2] * (double)p[2] + c->t[i];
+            q[i] = c->R[i * 3] * (double)p[0] + c->R[i * 3 + 1] * (double)p[1] + c->R[i * 3 + 2] * (double)p[2] +
+                   c->t[i];
         px[k] = c->fx * q[0] / q[2] + c->cx;
         py[k] = c->fy * q[1] / q[2] + c->cy;
     }

@@ -16,7 +16,9 @@
 #include <string.h>
 
 #include "check.h"
+#include "pipeline/render/shadow.h"
 #include "pipeline/render/testmesh.h"
+#include "pipeline/render/tonemap.h"
 #include "sunprobe/sp_render.h"
 
 #define W 40
@@ -352,6 +354,31 @@ static void test_forward_only_extras(world *w)
     CHECK_EQ_INT(outputs_bad(&o), 0);
 }
 
+/* The scalar pieces at their limits, directly. */
+static void test_scalar_limits(void)
+{
+    double d;
+    double xs[] = {-1e300, -1e6, -60.5, -1.0, 0.0, 1.0, 60.5, 1e6, 1e300};
+    for (size_t i = 0; i < sizeof(xs) / sizeof(xs[0]); i++) {
+        double s = shadow_sigmoid(xs[i], &d);
+        CHECK(isfinite(s) && s >= 0.0 && s <= 1.0 && isfinite(d) && d >= 0.0 && d <= 0.25);
+    }
+    CHECK(shadow_sigmoid(1e6, &d) == 1.0 && d == 0.0);
+    CHECK(shadow_sigmoid(-1e6, &d) == 0.0 && d == 0.0);
+    CHECK(shadow_sigmoid(0.0, &d) == 0.5 && d == 0.25);
+    CHECK_NEAR(shadow_sigmoid(-30.0, NULL), exp(-30.0) / (1.0 + exp(-30.0)), 1e-25);
+    double ts[] = {-1.0, 0.0, 1e-300, 1e-9, 1e-6, 0.5, 1e6, 1e300, INFINITY};
+    for (size_t i = 0; i < sizeof(ts) / sizeof(ts[0]); i++) {
+        double g = tonemap_eval(ts[i], &d);
+        CHECK(isfinite(g) && g >= 0.0 && g <= 1.0 && isfinite(d) && d >= 0.0);
+        CHECK(isfinite(tonemap_deriv(ts[i], g)));
+    }
+    CHECK(tonemap_eval(0.0, &d) == 0.0 && d == 0.0);
+    /* the toe joins the gamma curve continuously */
+    double y0 = 1e-6 / (1.0 - 1e-6);
+    CHECK_NEAR(tonemap_eval(y0 * (1.0 - 1e-12), NULL), tonemap_eval(y0 * (1.0 + 1e-12), NULL), 1e-12);
+}
+
 static void test_bad_arguments(world *w)
 {
     sp_render_scene sc;
@@ -412,6 +439,7 @@ int main(void)
     test_camera_near(&w);
     test_radiometry(&w);
     test_forward_only_extras(&w);
+    test_scalar_limits();
     test_bad_arguments(&w);
     sp_renderer_close(&w.r);
     sp_renderer_close(&w.r_ss);

@@ -199,7 +199,7 @@ static void test_end_to_end(const sp_face_model *m, enum sp_sunstage_solver solv
     set.keyframes = 8;
     set.heldout = 2;
     set.texture_size = 64;
-    set.adam_iterations = 60;
+    set.adam_iterations = 40;
     sp_sunstage *ss = NULL;
     CHECK(sp_sunstage_open(&ss, &set, m) == 0);
     CHECK(add_frames(ss, r, m, t, 8, 360.0, 0, 0.0) == 0);

@@ -6,7 +6,10 @@
  * prints wall time, sun-direction error, training and held-out PSNR, albedo
  * error (scale-aligned RMS over covered texels) and peak RSS. For Adam, also the
  * wall time at which its held-out PSNR first reached the fast solver's.
- * Relighting and novel-view PSNR against the truth directory are not measured yet.
+ * Relighting and novel-view PSNR: the truth directory's held-out frames (other suns at
+ * capture poses; cameras the capture never had) rendered from the fit (face pose aligned to
+ * the frame's landmarks, light mapped into the fit's world and scaled by the fitted/true sun
+ * intensity ratio), compared at the fit resolution on the rendered face-skin mask.
  * Usage: bench_fit [SECONDS...] [--face generic|auto] [--supersample S] [--no-adam]
  *        (default: 20 120; auto face; the synth's default supersampling)
  */
@@ -21,13 +24,16 @@
 #include <unistd.h>
 
 #include "common/clock.h"
+#include "common/json.h"
 #include "sunprobe/sp_replay.h"
 #include "sunprobe/sp_sunstage.h"
 #include "sunprobe/sp_synth.h"
 
+#define N_HELDOUT 4 /* relit and novel-view frames each */
+
 typedef struct result {
     int ok;
-    double seconds, sun_err, train, heldout, albedo_err, adam_reach_s;
+    double seconds, sun_err, train, heldout, albedo_err, adam_reach_s, relit, novel;
     int keyframes;
     long rss_kb;
 } result;
@@ -74,9 +80,193 @@ static double albedo_error(const sp_sunstage_result *r, const sp_synth_selfie_tr
     return sqrt(fmax(e, 0.0) / (double)n);
 }
 
-static int fit_child(const char *cap, enum sp_sunstage_solver solver, const sp_synth_selfie_truth *t, double target,
+static char *slurp(const char *path, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *b = n >= 0 ? malloc((size_t)n + 1) : NULL;
+    if (b && fread(b, 1, (size_t)n, f) != (size_t)n) {
+        free(b);
+        b = NULL;
+    }
+    fclose(f);
+    if (b) {
+        b[n] = 0;
+        *len = (size_t)n;
+    }
+    return b;
+}
+
+/* Binary PPM (P6, 8 bit) or PFM ("PF", bottom row first); floats into out (w * h * 3). */
+static float *read_image(const char *path, int *w, int *h)
+{
+    size_t len;
+    char *b = slurp(path, &len);
+    if (!b)
+        return NULL;
+    int pfm = b[0] == 'P' && b[1] == 'F', off = 0;
+    double maxv = 0;
+    float *out = NULL;
+    if (sscanf(b + 2, "%d %d %lf%n", w, h, &maxv, &off) == 3 && *w > 0 && *h > 0 && *w < 8192 && *h < 8192) {
+        size_t n = (size_t)*w * (size_t)*h * 3, start = 2 + (size_t)off + 1;
+        if (start + n * (pfm ? 4 : 1) <= len && (out = malloc(n * sizeof(float))))
+            for (size_t i = 0; i < n; i++) {
+                if (pfm) {
+                    size_t row = i / ((size_t)*w * 3), col = i % ((size_t)*w * 3);
+                    memcpy(&out[((size_t)*h - 1 - row) * (size_t)*w * 3 + col], b + start + i * 4, 4);
+                } else {
+                    out[i] = (float)((unsigned char)b[start + i] / maxv);
+                }
+            }
+    }
+    free(b);
+    return out;
+}
+
+/* Box-downsamples a w x h RGB image to W x H. */
+static void downsample(const float *src, int w, int h, float *dst, int W, int H)
+{
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            int x0 = x * w / W, x1 = (x + 1) * w / W, y0 = y * h / H, y1 = (y + 1) * h / H;
+            double acc[3] = { 0, 0, 0 };
+            int n = 0;
+            for (int yy = y0; yy < (y1 > y0 ? y1 : y0 + 1); yy++)
+                for (int xx = x0; xx < (x1 > x0 ? x1 : x0 + 1); xx++, n++)
+                    for (int c = 0; c < 3; c++)
+                        acc[c] += (double)src[((size_t)yy * (size_t)w + (size_t)xx) * 3 + (size_t)c];
+            for (int c = 0; c < 3; c++)
+                dst[((size_t)y * (size_t)W + (size_t)x) * 3 + (size_t)c] = (float)(acc[c] / (n ? n : 1));
+        }
+}
+
+/* Resamples a truth-world env map into the fit's world: fit direction d reads the truth at R d. */
+static void rotate_env(const float *src, const double R[9], double scale, float *dst)
+{
+    for (int i = 0; i < SP_RENDER_ENV_H; i++)
+        for (int j = 0; j < SP_RENDER_ENV_W; j++) {
+            double th = (i + 0.5) * M_PI / SP_RENDER_ENV_H, ph = (j + 0.5) * 2.0 * M_PI / SP_RENDER_ENV_W;
+            double d[3] = { sin(th) * cos(ph), sin(th) * sin(ph), cos(th) }, e[3];
+            for (int r = 0; r < 3; r++)
+                e[r] = R[r * 3] * d[0] + R[r * 3 + 1] * d[1] + R[r * 3 + 2] * d[2];
+            double th2 = acos(fmax(-1.0, fmin(1.0, e[2]))), ph2 = atan2(e[1], e[0]);
+            if (ph2 < 0)
+                ph2 += 2.0 * M_PI;
+            int ii = (int)(th2 / M_PI * SP_RENDER_ENV_H), jj = (int)(ph2 / (2.0 * M_PI) * SP_RENDER_ENV_W);
+            ii = ii < 0 ? 0 : (ii >= SP_RENDER_ENV_H ? SP_RENDER_ENV_H - 1 : ii);
+            jj = jj < 0 ? 0 : (jj >= SP_RENDER_ENV_W ? SP_RENDER_ENV_W - 1 : jj);
+            for (int c = 0; c < 3; c++)
+                dst[(i * SP_RENDER_ENV_W + j) * 3 + c] = (float)(scale * (double)src[(ii * SP_RENDER_ENV_W + jj) * 3 + c]);
+        }
+}
+
+typedef struct heldout_ctx {
+    const char *truth_dir;
+    double shutter_us;
+    const sp_synth_selfie_truth *t;
+} heldout_ctx;
+
+/* PSNR of one held-out frame; NaN when it cannot be evaluated. */
+static double eval_heldout(sp_sunstage *ss, const heldout_ctx *h, const char *stem, const double R[9])
+{
+    char path[512], err[128];
+    snprintf(path, sizeof(path), "%s/heldout/%s.json", h->truth_dir, stem);
+    size_t len;
+    char *txt = slurp(path, &len);
+    sp_json *j = NULL;
+    if (!txt || sp_json_parse(txt, len, &j, err, sizeof(err))) {
+        free(txt);
+        return NAN;
+    }
+    free(txt);
+    const sp_json *cam = sp_json_get(j, "camera");
+    double q[4], sun[3], lm[136];
+    sp_sunstage_result r;
+    sp_sunstage_get_result(ss, &r);
+    sp_sunstage_view v;
+    memset(&v, 0, sizeof(v));
+    v.fx = sp_json_number(sp_json_get(cam, "fx"), 0);
+    v.fy = sp_json_number(sp_json_get(cam, "fy"), 0);
+    v.cx = sp_json_number(sp_json_get(cam, "cx"), 0);
+    v.cy = sp_json_number(sp_json_get(cam, "cy"), 0);
+    int ok = sp_json_numbers(sp_json_get(cam, "camera_to_world"), q, 4) == 4 &&
+             sp_json_numbers(sp_json_get(sp_json_get(j, "sun"), "direction_world"), sun, 3) == 3 &&
+             sp_json_numbers(sp_json_get(j, "landmarks"), lm, 136) == 136;
+    double I = sp_json_number(sp_json_get(sp_json_get(j, "sun"), "intensity"), 0);
+    double expo = sp_json_number(sp_json_get(j, "exposure"), 1);
+    snprintf(path, sizeof(path), "%s/heldout/%s", h->truth_dir, sp_json_string(sp_json_get(j, "image"), ""));
+    char envp[512];
+    snprintf(envp, sizeof(envp), "%s/heldout/%s", h->truth_dir, sp_json_string(sp_json_get(j, "env_pfm"), ""));
+    sp_json_free(j);
+    int iw, ih, ew, eh;
+    float *img = ok ? read_image(path, &iw, &ih) : NULL, *env = ok ? read_image(envp, &ew, &eh) : NULL;
+    double psnr = NAN;
+    sp_sunstage_frame f0;
+    if (img && env && ew == SP_RENDER_ENV_W && eh == SP_RENDER_ENV_H && sp_sunstage_get_frame(ss, 0, &f0) == 0 &&
+        h->t->sun_intensity > 0.0) {
+        /* truth world -> fit world: x_fit = R^T x_true */
+        sp_quat qa = sp_quat_from_matrix(R);
+        v.camera_to_world = sp_quat_mul(sp_quat_conj(qa), (sp_quat){ q[0], q[1], q[2], q[3] });
+        for (int i = 0; i < 3; i++)
+            v.sun_dir[i] = R[i] * sun[0] + R[3 + i] * sun[1] + R[6 + i] * sun[2];
+        double k = r.sun_intensity / h->t->sun_intensity; /* fitted light units per true unit */
+        v.sun_intensity = I * k;
+        float envf[SP_RENDER_ENV_FLOATS];
+        rotate_env(env, R, k, envf);
+        v.env = envf;
+        v.landmarks = lm;
+        double ref = sp_sunstage_exposure_reference(ss);
+        v.exposure = ref > 0.0 ? h->shutter_us * expo / ref : 1.0;
+        int W = f0.width, H = f0.height;
+        float *mine = malloc(sizeof(float) * 3 * (size_t)W * (size_t)H), *mask = malloc(sizeof(float) * (size_t)W * (size_t)H);
+        float *small = malloc(sizeof(float) * 3 * (size_t)W * (size_t)H);
+        if (mine && mask && small && sp_sunstage_render_view(ss, &v, mine, mask) == 0) {
+            downsample(img, iw, ih, small, W, H);
+            double se = 0.0, m = 0.0;
+            for (int p = 0; p < W * H; p++)
+                if (mask[p] > 0.0f)
+                    for (int c = 0; c < 3; c++, m += 1.0) {
+                        double d = (double)mine[p * 3 + c] - (double)small[p * 3 + c];
+                        se += d * d;
+                    }
+            psnr = m > 0.0 && se > 0.0 ? -10.0 * log10(se / m) : (double)NAN;
+        }
+        free(mine);
+        free(mask);
+        free(small);
+    }
+    free(img);
+    free(env);
+    return psnr;
+}
+
+/* Mean PSNR (pooled through the MSE) over the held-out frames of one kind. */
+static double eval_kind(sp_sunstage *ss, const heldout_ctx *h, const char *kind, int n)
+{
+    double R[9], se = 0.0;
+    int m = 0;
+    if (!h->truth_dir || sp_sunstage_align_world(ss, R))
+        return NAN;
+    for (int k = 0; k < n; k++) {
+        char stem[64];
+        snprintf(stem, sizeof(stem), "%s_%02d", kind, k);
+        double p = eval_heldout(ss, h, stem, R);
+        if (isfinite(p)) {
+            se += pow(10.0, -p / 10.0);
+            m++;
+        }
+    }
+    return m ? -10.0 * log10(se / m) : (double)NAN;
+}
+
+static int fit_child(const char *cap, enum sp_sunstage_solver solver, const heldout_ctx *h, double target,
                      result *res)
 {
+    const sp_synth_selfie_truth *t = h->t;
     sp_sunstage_settings set;
     sp_sunstage_default_settings(&set);
     set.solver = solver;
@@ -114,12 +304,14 @@ static int fit_child(const char *cap, enum sp_sunstage_solver solver, const sp_s
     res->albedo_err = albedo_error(&r, t);
     res->adam_reach_s = cb.reach;
     res->keyframes = r.n_frames;
+    res->relit = eval_kind(ss, h, "relit", N_HELDOUT);
+    res->novel = eval_kind(ss, h, "view", N_HELDOUT);
 done:
     sp_sunstage_close(&ss);
     return ret;
 }
 
-static int run_fit(const char *cap, enum sp_sunstage_solver solver, const sp_synth_selfie_truth *t, double target,
+static int run_fit(const char *cap, enum sp_sunstage_solver solver, const heldout_ctx *t, double target,
                    result *res)
 {
     int fd[2];
@@ -153,6 +345,7 @@ static void print_row(const char *name, double dur, const result *r)
            "  peak RSS %6.1f MB",
            name, dur, r->keyframes, r->seconds, r->sun_err, r->train, r->heldout, r->albedo_err,
            (double)r->rss_kb / 1024.0);
+    printf("  relit %6.2f dB  novel %6.2f dB", r->relit, r->novel);
     if (r->adam_reach_s >= 0.0)
         printf("  reached fast's held-out PSNR at %.1f s", r->adam_reach_s);
     printf("\n");
@@ -169,24 +362,25 @@ static int bench_one(double duration, int generic, int supersample, int adam)
     s.imu.turn_duration_s = duration - s.imu.still_before_s - s.imu.still_after_s;
     if (s.imu.turn_duration_s < 1.0)
         s.imu.turn_duration_s = 1.0;
-    s.n_relit = s.n_novel = 0;
+    s.n_relit = s.n_novel = N_HELDOUT;
     sp_synth_selfie *g = NULL;
     int ret = sp_synth_selfie_open(&g, &s);
     if (ret)
         return ret;
-    char cap[256];
+    char cap[256], truth[256];
     snprintf(cap, sizeof(cap), "/tmp/bench_fit_%d_%.0f.spcap", (int)getpid(), duration);
+    snprintf(truth, sizeof(truth), "/tmp/bench_fit_%d_%.0f.truth", (int)getpid(), duration);
     int64_t t0 = sp_clock_monotonic_ns();
     sp_synth_selfie_report rep;
-    if (!(ret = sp_synth_selfie_write(g, cap, NULL, &rep))) {
+    if (!(ret = sp_synth_selfie_write(g, cap, truth, &rep))) {
         printf("capture: %.0f s, %llu frames, %.1f MB, synthesised in %.1f s\n", duration,
                (unsigned long long)rep.frames, (double)rep.capture_bytes / 1e6,
                (double)(sp_clock_monotonic_ns() - t0) * 1e-9);
-        const sp_synth_selfie_truth *t = sp_synth_selfie_get_truth(g);
+        heldout_ctx t = { truth, s.shutter_s * 1e6, sp_synth_selfie_get_truth(g) };
         result fast, ad;
-        if (!(ret = run_fit(cap, SP_SUNSTAGE_SOLVER_FAST, t, INFINITY, &fast))) {
+        if (!(ret = run_fit(cap, SP_SUNSTAGE_SOLVER_FAST, &t, INFINITY, &fast))) {
             print_row("fast", duration, &fast);
-            if (adam && !(ret = run_fit(cap, SP_SUNSTAGE_SOLVER_ADAM, t, fast.heldout, &ad))) {
+            if (adam && !(ret = run_fit(cap, SP_SUNSTAGE_SOLVER_ADAM, &t, fast.heldout, &ad))) {
                 print_row("adam", duration, &ad);
                 if (ad.adam_reach_s >= 0.0)
                     printf("adam/fast time to the same held-out PSNR: %.1fx\n", ad.adam_reach_s / fast.seconds);
@@ -196,6 +390,10 @@ static int bench_one(double duration, int generic, int supersample, int adam)
         }
     }
     unlink(cap);
+    char cmd[300];
+    snprintf(cmd, sizeof(cmd), "rm -rf %s", truth);
+    if (system(cmd) == -1)
+        fprintf(stderr, "bench_fit: cannot remove %s\n", truth);
     sp_synth_selfie_close(&g);
     return ret;
 }

@@ -1,16 +1,19 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: MIT
-# vm suite helper: walks a capture's chunks (layout in capture/FORMAT.md) and checks that its gyro
-# samples carry the rate of turn the uhid sensor hub reported (x 10, y -20, z 30 deg/s), are in
-# time order, and lie on the frames' clock (their span overlaps the frames' span).
-# usage: check_imu.py CAPTURE
+# vm suite helper: walks a capture's chunks (layout in capture/FORMAT.md) and checks
+#   --gain: every frame carries the camera's gain (read per frame from the V4L2 control), and it
+#           stayed constant (the exposure lock holds);
+#   --gyro: gyro samples carry the rate of turn the uhid sensor hub reported (x 10, y -20, z 30 deg/s),
+#           are in time order, and lie on the frames' clock (their span overlaps the frames' span).
+# usage: check_capture.py [--gain] [--gyro] CAPTURE
 import math
 import struct
 import sys
 
-data = open(sys.argv[1], "rb").read()
+want_gain, want_gyro = "--gain" in sys.argv, "--gyro" in sys.argv
+data = open(sys.argv[-1], "rb").read()
 pos = struct.unpack_from("<I", data, 12)[0]
-frames, gyro, problems = [], [], []
+frames, gains, gyro, problems = [], [], [], []
 while pos + 32 <= len(data):
     sync, ctype, _flags, size, _crc, ts = struct.unpack_from("<IHHIIq", data, pos)
     if sync != 0x4B43538A:
@@ -19,6 +22,7 @@ while pos + 32 <= len(data):
     payload = data[pos + 32:pos + 32 + size]
     if ctype == 2:
         frames.append(ts)
+        gains.append(struct.unpack_from("<f", payload, 36)[0])
     elif ctype == 3:
         rec_size, count = struct.unpack_from("<II", payload, 0)
         for i in range(count):
@@ -27,14 +31,23 @@ while pos + 32 <= len(data):
                 gyro.append((t, x, y, z))
     pos += 32 + size
 
+if want_gain:
+    if not gains or any(math.isnan(g) for g in gains):
+        problems.append("frames without a gain value")
+    elif len(set(gains)) != 1:
+        problems.append("gain changed while locked: %s" % sorted(set(gains))[:5])
+    else:
+        print("gain %g on all %d frames" % (gains[0], len(gains)))
 want = [math.radians(v) for v in (10.0, -20.0, 30.0)]
-if len(gyro) < 50:
+if not want_gyro:
+    gyro = None
+elif len(gyro) < 50:
     problems.append("only %d gyro samples" % len(gyro))
-for t, x, y, z in gyro:
+for t, x, y, z in gyro or []:
     if any(abs(a - b) > 1e-3 for a, b in zip((x, y, z), want)):
         problems.append("gyro sample %.4f %.4f %.4f rad/s, expected %.4f %.4f %.4f" % (x, y, z, *want))
         break
-if any(b[0] < a[0] for a, b in zip(gyro, gyro[1:])):
+if gyro and any(b[0] < a[0] for a, b in zip(gyro, gyro[1:])):
     problems.append("gyro timestamps go backwards")
 if frames and gyro:
     f0, f1, g0, g1 = min(frames), max(frames), gyro[0][0], gyro[-1][0]

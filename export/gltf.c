@@ -1,0 +1,508 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * sp_export_face: reads a face directory and writes a binary glTF 2.0 asset
+ * (JSON + one BIN chunk holding geometry or its Draco buffer and the images),
+ * or hands over to the OBJ / Draco writers. Mappings: export/EXPORT.md.
+ */
+#include "sunprobe/sp_export.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/atomic_file.h"
+#include "common/jpeg.h"
+#include "common/json.h"
+#include "export/draco_shim.h"
+#include "export/gltf_internal.h"
+#include "export/png.h"
+#include "sp_config.h"
+
+#define MOD "export"
+
+void sp_export_default_settings(sp_export_settings *s)
+{
+    if (!s)
+        return;
+    memset(s, 0, sizeof(*s));
+    s->format = SP_EXPORT_GLB;
+    s->draco = HAVE_DRACO ? 1 : 0;
+    s->jpeg_quality = 90;
+    s->position_bits = 14;
+    s->normal_bits = 10;
+    s->uv_bits = 12;
+    s->write_env = 1;
+}
+
+/* The binary chunk under construction: 4-byte aligned views. */
+typedef struct bin_buf {
+    uint8_t *data;
+    size_t len, cap;
+    int n_views;
+    sp_strbuf views; /* JSON of "bufferViews" entries */
+} bin_buf;
+
+/* Appends a buffer view; returns its index or a negative error. target 0 = none. */
+static int bin_add(bin_buf *b, const void *p, size_t n, int target)
+{
+    size_t start = (b->len + 3) & ~(size_t)3;
+    if (start + n > b->cap) {
+        size_t cap = (start + n) * 2 + 1024;
+        uint8_t *d = realloc(b->data, cap);
+        if (!d)
+            return -ENOMEM;
+        b->data = d;
+        b->cap = cap;
+    }
+    memset(b->data + b->len, 0, start - b->len);
+    memcpy(b->data + start, p, n);
+    b->len = start + n;
+    sp_strbuf_printf(&b->views, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu", b->n_views ? "," : "",
+                     start, n);
+    if (target)
+        sp_strbuf_printf(&b->views, ",\"target\":%d", target);
+    sp_strbuf_printf(&b->views, "}");
+    return b->n_views++;
+}
+
+typedef struct export_ctx {
+    const sp_export_settings *set;
+    const char *face_dir, *out_path;
+    sp_face_asset asset;
+    sp_gltf_geom geom;
+    sp_export_textures tex;
+    int specular_off;
+    char left_out[512]; /* JSON array body of what was left out and why */
+    char env_name[256]; /* basename of the .hdr beside the output, "" if none */
+    sp_export_stats st;
+} export_ctx;
+
+static void note_left_out(export_ctx *c, const char *what)
+{
+    size_t n = strlen(c->left_out);
+    snprintf(c->left_out + n, sizeof(c->left_out) - n, "%s\"%s\"", n ? "," : "", what);
+}
+
+/* Reads the manifest's own flags the public reader does not carry: specular left out. */
+static int read_flags(export_ctx *c)
+{
+    char path[4096], err[128];
+    if ((size_t)snprintf(path, sizeof(path), "%s/manifest.json", c->face_dir) >= sizeof(path))
+        return -ENAMETOOLONG;
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return -errno;
+    char *buf = malloc(1 << 20);
+    size_t n = buf ? fread(buf, 1, 1 << 20, f) : 0;
+    fclose(f);
+    if (!buf)
+        return -ENOMEM;
+    sp_json *root = NULL;
+    int ret = sp_json_parse(buf, n, &root, err, sizeof(err));
+    free(buf);
+    if (ret)
+        return ret;
+    const sp_json *spec = sp_json_get(root, "specular");
+    const char *keys[] = { "left_out", "dropped", "disabled" };
+    for (size_t k = 0; k < sizeof(keys) / sizeof(keys[0]); k++)
+        if (sp_json_number(sp_json_get(spec, keys[k]), 0.0) != 0.0)
+            c->specular_off = 1;
+    sp_json_free(root);
+    double sum = 0.0;
+    for (int i = 0; i < SP_RENDER_CLUSTERS; i++)
+        sum += c->asset.ks[i] > 0.0 ? c->asset.ks[i] : 0.0;
+    if (!(sum > 0.0))
+        c->specular_off = 1;
+    return 0;
+}
+
+static int embed_image(bin_buf *b, const sp_export_image *im, int jpeg, int quality, sp_strbuf *images)
+{
+    uint8_t *data = NULL;
+    size_t n = 0;
+    int ret;
+    sp_jpeg_buffer jb = { 0 };
+    if (jpeg) {
+        ret = sp_jpeg_encode_rgb24(im->pixels, (uint32_t)im->width, (uint32_t)im->height,
+                                   (uint32_t)(im->width * 3), quality, &jb);
+        data = jb.data;
+        n = jb.size;
+    } else {
+        ret = sp_png_encode(im->pixels, (uint32_t)im->width, (uint32_t)im->height,
+                            (uint32_t)(im->width * im->channels), im->channels, &data, &n);
+    }
+    int view = ret ? ret : bin_add(b, data, n, 0);
+    if (jpeg)
+        sp_jpeg_buffer_free(&jb);
+    else
+        free(data);
+    if (view < 0)
+        return view;
+    sp_strbuf_printf(images, "%s{\"bufferView\":%d,\"mimeType\":\"image/%s\"}", images->len ? "," : "", view,
+                     jpeg ? "jpeg" : "png");
+    return 0;
+}
+
+/*
+ * Accessors 0..3 (POSITION, NORMAL, TEXCOORD_0, indices), 4 = TANGENT when the
+ * material has a normal map, and the primitive's Draco extension, if any.
+ */
+static int add_geometry(export_ctx *c, bin_buf *b, sp_strbuf *acc, sp_strbuf *draco_ext)
+{
+    const sp_gltf_geom *g = &c->geom;
+    uint32_t nv = g->n_vertices, ni = g->n_triangles * 3;
+    int tangents = c->tex.has_normal, n_acc = tangents ? 5 : 4;
+    int views[5] = { -1, -1, -1, -1, -1 };
+    c->st.raw_geometry_bytes = (size_t)nv * (tangents ? 48 : 32) + (size_t)ni * 4;
+    if (c->set->draco) {
+#if HAVE_DRACO
+        sp_draco_out d;
+        int ret = sp_draco_encode_mesh(g->positions, g->normals, g->uvs, tangents ? g->tangents : NULL, nv,
+                                       g->indices, g->n_triangles,
+                                       c->set->position_bits, c->set->normal_bits, c->set->uv_bits, &d);
+        int view = ret ? ret : bin_add(b, d.data, d.size, 0);
+        if (view < 0) {
+            sp_draco_out_free(&d);
+            return view;
+        }
+        nv = d.n_points;
+        ni = d.n_faces * 3;
+        c->st.geometry_bytes = d.size;
+        char tan[32] = "";
+        if (tangents)
+            snprintf(tan, sizeof(tan), ",\"TANGENT\":%d", d.id_tangent);
+        sp_strbuf_printf(draco_ext, "\"extensions\":{\"KHR_draco_mesh_compression\":{\"bufferView\":%d,"
+                                    "\"attributes\":{\"POSITION\":%d,\"NORMAL\":%d,\"TEXCOORD_0\":%d%s}}},",
+                         view, d.id_position, d.id_normal, d.id_uv, tan);
+        sp_draco_out_free(&d);
+#else
+        return SP_EDISABLED;
+#endif
+    } else {
+        views[0] = bin_add(b, g->positions, (size_t)nv * 12, 34962);
+        views[1] = bin_add(b, g->normals, (size_t)nv * 12, 34962);
+        views[2] = bin_add(b, g->uvs, (size_t)nv * 8, 34962);
+        views[3] = bin_add(b, g->indices, (size_t)ni * 4, 34963);
+        views[4] = tangents ? bin_add(b, g->tangents, (size_t)nv * 16, 34962) : 0;
+        for (int k = 0; k < 5; k++)
+            if (views[k] < 0)
+                return views[k];
+        c->st.geometry_bytes = c->st.raw_geometry_bytes;
+    }
+    c->st.vertices = nv;
+    c->st.triangles = ni / 3;
+    static const char *types[5] = { "VEC3", "VEC3", "VEC2", "SCALAR", "VEC4" };
+    for (int k = 0; k < n_acc; k++) {
+        sp_strbuf_printf(acc, "%s{", k ? "," : "");
+        if (views[k] >= 0)
+            sp_strbuf_printf(acc, "\"bufferView\":%d,", views[k]);
+        sp_strbuf_printf(acc, "\"componentType\":%d,\"count\":%u,\"type\":\"%s\"", k == 3 ? 5125 : 5126,
+                         k == 3 ? ni : nv, types[k]);
+        if (k == 0)
+            sp_strbuf_printf(acc, ",\"min\":[%.9g,%.9g,%.9g],\"max\":[%.9g,%.9g,%.9g]", (double)g->min[0],
+                             (double)g->min[1], (double)g->min[2], (double)g->max[0], (double)g->max[1],
+                             (double)g->max[2]);
+        sp_strbuf_printf(acc, "}");
+    }
+    return 0;
+}
+
+/* Images, textures and the one material. */
+static int add_material(export_ctx *c, bin_buf *b, sp_strbuf *mat, sp_strbuf *texs, sp_strbuf *images)
+{
+    const sp_export_textures *t = &c->tex;
+    int ret = embed_image(b, &t->albedo, c->set->jpeg, c->set->jpeg_quality, images);
+    int n_img = 1, spec_i = -1, norm_i = -1;
+    if (!ret && t->has_specular && !(ret = embed_image(b, &t->spec_rough, 0, 0, images)))
+        spec_i = n_img++;
+    if (!ret && t->has_normal && !(ret = embed_image(b, &t->normal, 0, 0, images)))
+        norm_i = n_img++;
+    if (ret)
+        return ret;
+    for (int i = 0; i < n_img; i++)
+        sp_strbuf_printf(texs, "%s{\"sampler\":0,\"source\":%d}", i ? "," : "", i);
+    sp_strbuf_printf(mat, "{\"name\":\"skin\",\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0},"
+                          "\"metallicFactor\":0,\"roughnessFactor\":1");
+    if (spec_i >= 0)
+        sp_strbuf_printf(mat, ",\"metallicRoughnessTexture\":{\"index\":%d}", spec_i);
+    sp_strbuf_printf(mat, "}");
+    if (norm_i >= 0)
+        sp_strbuf_printf(mat, ",\"normalTexture\":{\"index\":%d}", norm_i);
+    if (spec_i >= 0)
+        sp_strbuf_printf(mat, ",\"extensions\":{\"KHR_materials_specular\":{\"specularTexture\":{\"index\":%d}}}",
+                         spec_i);
+    else
+        sp_strbuf_printf(mat, ",\"extensions\":{\"KHR_materials_specular\":{\"specularFactor\":0}}");
+    sp_strbuf_printf(mat, "}");
+    return 0;
+}
+
+/* Quaternion (x, y, z, w) turning the node's +z onto d (unit), so the light shines along -d. */
+static void rotation_to(const double d[3], double q[4])
+{
+    double w = 1.0 + d[2];
+    if (w < 1e-9) {
+        q[0] = 1.0, q[1] = q[2] = q[3] = 0.0;
+        return;
+    }
+    double v[4] = { -d[1], d[0], 0.0, w }, n = sqrt(v[0] * v[0] + v[1] * v[1] + w * w);
+    for (int k = 0; k < 4; k++)
+        q[k] = v[k] / n;
+}
+
+static int sun_direction(const export_ctx *c, double g[3])
+{
+    const double *s = c->asset.sun_dir;
+    double n = sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+    if (!(c->asset.sun_intensity > 0.0) || !isfinite(c->asset.sun_intensity) || !(n > 1e-12) || !isfinite(n))
+        return 0;
+    double w[3] = { s[0] / n, s[1] / n, s[2] / n };
+    sp_gltf_from_world(w, g);
+    return 1;
+}
+
+static void add_extras(const export_ctx *c, sp_strbuf *j)
+{
+    sp_strbuf_printf(j, "\"extras\":{\"sunprobe\":{\"source\":\"face directory\",\"frame\":\"fit world rotated to "
+                        "y up: (x, y, z) -> (x, z, -y), metres\",\"left_out\":[%s],\"specular_clusters\":{\"ks\":[",
+                     c->left_out);
+    for (int i = 0; i < SP_RENDER_CLUSTERS; i++) {
+        sp_strbuf_printf(j, i ? "," : "");
+        sp_strbuf_json_number(j, c->asset.ks[i]);
+    }
+    sp_strbuf_printf(j, "],\"shininess\":[");
+    for (int i = 0; i < SP_RENDER_CLUSTERS; i++) {
+        sp_strbuf_printf(j, i ? "," : "");
+        sp_strbuf_json_number(j, c->asset.shininess[i]);
+    }
+    sp_strbuf_printf(j, "]},\"sun_intensity_fit_units\":");
+    sp_strbuf_json_number(j, c->asset.sun_intensity);
+    sp_strbuf_printf(j, ",\"lux_per_fit_unit\":1");
+    if (c->env_name[0]) {
+        sp_strbuf_printf(j, ",\"environment_map\":{\"uri\":");
+        sp_strbuf_json_string(j, c->env_name);
+        sp_strbuf_printf(j, ",\"projection\":\"equirectangular\",\"width\":%d,\"height\":%d,\"row0\":\"straight "
+                            "up (+y)\",\"column0_azimuth\":\"+x, towards -z\",\"units\":\"radiance, fit units\"}",
+                         SP_RENDER_ENV_W, SP_RENDER_ENV_H);
+    }
+    sp_strbuf_printf(j, "}}");
+}
+
+static void add_scene(const export_ctx *c, sp_strbuf *j, int draco)
+{
+    double g[3];
+    int sun = sun_direction(c, g);
+    sp_strbuf_printf(j, "\"asset\":{\"version\":\"2.0\",\"generator\":\"sunprobe %s\",", sp_version());
+    add_extras(c, j);
+    sp_strbuf_printf(j, "},\"extensionsUsed\":[\"KHR_materials_specular\"%s%s]", sun ? ",\"KHR_lights_punctual\"" : "",
+                     draco ? ",\"KHR_draco_mesh_compression\"" : "");
+    if (draco)
+        sp_strbuf_printf(j, ",\"extensionsRequired\":[\"KHR_draco_mesh_compression\"]");
+    sp_strbuf_printf(j, ",\"scene\":0,\"scenes\":[{\"name\":\"face\",\"nodes\":[0%s]}],"
+                        "\"nodes\":[{\"name\":\"face\",\"mesh\":0}",
+                     sun ? ",1" : "");
+    if (sun) {
+        double q[4];
+        rotation_to(g, q);
+        sp_strbuf_printf(j, ",{\"name\":\"sun\",\"rotation\":[%.9g,%.9g,%.9g,%.9g],\"extensions\":"
+                            "{\"KHR_lights_punctual\":{\"light\":0}}}]",
+                         q[0], q[1], q[2], q[3]);
+        sp_strbuf_printf(j, ",\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"name\":\"sun\",\"type\":"
+                            "\"directional\",\"color\":[1,1,1],\"intensity\":");
+        sp_strbuf_json_number(j, c->asset.sun_intensity);
+        sp_strbuf_printf(j, "}]}}");
+    } else {
+        sp_strbuf_printf(j, "]");
+    }
+}
+
+static int write_glb(const char *path, const sp_strbuf *json, const bin_buf *b, size_t *total)
+{
+    size_t jl = (json->len + 3) & ~(size_t)3, bl = (b->len + 3) & ~(size_t)3;
+    size_t len = 12 + 8 + jl + 8 + bl;
+    if (len > 0xffffffffu)
+        return -EFBIG;
+    uint32_t hdr[5] = { 0x46546C67u, 2u, (uint32_t)len, (uint32_t)jl, 0x4E4F534Au };
+    uint32_t bh[2] = { (uint32_t)bl, 0x004E4942u };
+    static const char spaces[4] = { ' ', ' ', ' ', ' ' }, zeros[4] = { 0 };
+    sp_atomic_file af;
+    int ret = sp_atomic_file_open(&af, path);
+    if (ret)
+        return ret;
+    if (fwrite(hdr, 4, 5, af.file) != 5 || fwrite(json->data, 1, json->len, af.file) != json->len ||
+        fwrite(spaces, 1, jl - json->len, af.file) != jl - json->len || fwrite(bh, 4, 2, af.file) != 2 ||
+        fwrite(b->data, 1, b->len, af.file) != b->len || fwrite(zeros, 1, bl - b->len, af.file) != bl - b->len)
+        ret = -EIO;
+    *total = len;
+    return sp_atomic_file_finish(&af, ret);
+}
+
+static int export_glb(export_ctx *c)
+{
+    bin_buf b = { 0 };
+    sp_strbuf acc = { 0 }, draco_ext = { 0 }, mat = { 0 }, texs = { 0 }, images = { 0 }, j = { 0 };
+    int ret = add_geometry(c, &b, &acc, &draco_ext);
+    if (!ret)
+        ret = add_material(c, &b, &mat, &texs, &images);
+    if (!ret) {
+        sp_strbuf_printf(&j, "{");
+        add_scene(c, &j, c->set->draco);
+        sp_strbuf_printf(&j, ",\"meshes\":[{\"name\":\"face\",\"primitives\":[{%s\"attributes\":{\"POSITION\":0,"
+                             "\"NORMAL\":1,\"TEXCOORD_0\":2%s},\"indices\":3,\"material\":0,\"mode\":4}]}]",
+                         draco_ext.data ? draco_ext.data : "", c->tex.has_normal ? ",\"TANGENT\":4" : "");
+        sp_strbuf_printf(&j, ",\"materials\":[%s],\"textures\":[%s],\"images\":[%s]", mat.data, texs.data,
+                         images.data);
+        sp_strbuf_printf(&j, ",\"samplers\":[{\"magFilter\":9729,\"minFilter\":9729,\"wrapS\":33071,"
+                             "\"wrapT\":33071}],\"accessors\":[%s],\"bufferViews\":[%s],"
+                             "\"buffers\":[{\"byteLength\":%zu}]}",
+                         acc.data, b.views.data, (b.len + 3) & ~(size_t)3);
+        ret = j.failed || acc.failed || mat.failed || texs.failed || images.failed || b.views.failed ||
+                      draco_ext.failed ? -ENOMEM : 0;
+    }
+    if (!ret)
+        ret = write_glb(c->out_path, &j, &b, &c->st.total_bytes);
+    free(b.data);
+    sp_strbuf_free(&b.views);
+    sp_strbuf_free(&acc);
+    sp_strbuf_free(&draco_ext);
+    sp_strbuf_free(&mat);
+    sp_strbuf_free(&texs);
+    sp_strbuf_free(&images);
+    sp_strbuf_free(&j);
+    return ret;
+}
+
+static int export_drc(export_ctx *c)
+{
+#if HAVE_DRACO
+    const sp_gltf_geom *g = &c->geom;
+    sp_draco_out d;
+    int ret = sp_draco_encode_mesh(g->positions, g->normals, g->uvs, NULL, g->n_vertices, g->indices, g->n_triangles,
+                                   c->set->position_bits, c->set->normal_bits, c->set->uv_bits, &d);
+    if (ret)
+        return ret;
+    sp_atomic_file af;
+    ret = sp_atomic_file_open(&af, c->out_path);
+    if (!ret) {
+        if (fwrite(d.data, 1, d.size, af.file) != d.size)
+            ret = -EIO;
+        ret = sp_atomic_file_finish(&af, ret);
+    }
+    c->st.raw_geometry_bytes = (size_t)g->n_vertices * 32 + (size_t)g->n_triangles * 12;
+    c->st.geometry_bytes = c->st.total_bytes = d.size;
+    c->st.vertices = d.n_points;
+    c->st.triangles = d.n_faces;
+    sp_draco_out_free(&d);
+    return ret;
+#else
+    (void)c;
+    return SP_EDISABLED;
+#endif
+}
+
+static int check_settings(const sp_export_settings *s)
+{
+    if (s->format < SP_EXPORT_GLB || s->format > SP_EXPORT_DRC || s->position_bits < 1 || s->position_bits > 30 ||
+        s->normal_bits < 1 || s->normal_bits > 30 || s->uv_bits < 1 || s->uv_bits > 30 ||
+        (s->texture_size != 0 && (s->texture_size < 16 || s->texture_size > 8192)) || s->jpeg_quality < 1 ||
+        s->jpeg_quality > 100)
+        return -EINVAL;
+    if (!HAVE_DRACO && (s->format == SP_EXPORT_DRC || (s->format == SP_EXPORT_GLB && s->draco))) {
+        sp_log(SP_LOG_ERROR, MOD, "Draco compression needs a build with -Ddraco=enabled (or use --no-draco)");
+        return SP_EDISABLED;
+    }
+    if (s->format == SP_EXPORT_GLB && s->jpeg && !sp_jpeg_available()) {
+        sp_log(SP_LOG_ERROR, MOD, "JPEG textures need a build with -Djpeg=enabled");
+        return SP_EDISABLED;
+    }
+    return 0;
+}
+
+/* out_path without its extension + ".env.hdr"; env_name gets the basename. */
+static int write_env(export_ctx *c)
+{
+    char path[4096];
+    const char *slash = strrchr(c->out_path, '/'), *dot = strrchr(c->out_path, '.');
+    size_t stem = dot && (!slash || dot > slash) ? (size_t)(dot - c->out_path) : strlen(c->out_path);
+    if (stem + 9 > sizeof(path))
+        return -ENAMETOOLONG;
+    snprintf(path, sizeof(path), "%.*s.env.hdr", (int)stem, c->out_path);
+    int ret = sp_hdr_write(path, c->asset.env, SP_RENDER_ENV_W, SP_RENDER_ENV_H);
+    if (ret) {
+        sp_log(SP_LOG_ERROR, MOD, "cannot write %s: %s", path, sp_strerror(ret));
+        return ret;
+    }
+    const char *base = strrchr(path, '/');
+    base = base ? base + 1 : path;
+    size_t n = strlen(base);
+    if (n >= sizeof(c->env_name))
+        return -ENAMETOOLONG;
+    memcpy(c->env_name, base, n + 1);
+    return 0;
+}
+
+static int prepare(export_ctx *c)
+{
+    int ret = sp_face_dir_read(&c->asset, c->face_dir);
+    if (ret) {
+        sp_log(SP_LOG_ERROR, MOD, "%s: not a readable face directory: %s", c->face_dir, sp_strerror(ret));
+        return ret;
+    }
+    if ((ret = read_flags(c)))
+        return ret;
+    if ((ret = sp_gltf_geom_build(&c->geom, &c->asset.mesh))) {
+        sp_log(SP_LOG_ERROR, MOD, "%s: mesh is unusable (NaN, bad index or empty): %s", c->face_dir,
+               sp_strerror(ret));
+        return ret;
+    }
+    if ((ret = sp_export_textures_build(&c->tex, &c->asset, c->set->texture_size, c->specular_off)))
+        return ret;
+    if (!c->tex.has_specular)
+        note_left_out(c, "specular texture: specular left out of the fit");
+    if (!c->tex.has_normal)
+        note_left_out(c, "normal map: displacement is zero");
+    double g[3];
+    if (!sun_direction(c, g))
+        note_left_out(c, "sun light: no sun in the fit");
+    else
+        c->st.has_sun = 1;
+    c->st.has_specular_texture = c->tex.has_specular;
+    c->st.has_normal_map = c->tex.has_normal;
+    return c->set->write_env && c->set->format != SP_EXPORT_DRC ? write_env(c) : 0;
+}
+
+int sp_export_face(const char *face_dir, const char *out_path, const sp_export_settings *settings,
+                   sp_export_stats *stats)
+{
+    if (!face_dir || !out_path || !settings || !out_path[0])
+        return -EINVAL;
+    int ret = check_settings(settings);
+    if (ret)
+        return ret;
+    export_ctx *c = calloc(1, sizeof(*c));
+    if (!c)
+        return -ENOMEM;
+    c->set = settings;
+    c->face_dir = face_dir;
+    c->out_path = out_path;
+    ret = prepare(c);
+    if (!ret) {
+        if (settings->format == SP_EXPORT_GLB)
+            ret = export_glb(c);
+        else if (settings->format == SP_EXPORT_DRC)
+            ret = export_drc(c);
+        else
+            ret = sp_export_write_obj(out_path, &c->asset, &c->geom, &c->tex, &c->st);
+        if (ret)
+            sp_log(SP_LOG_ERROR, MOD, "cannot write %s: %s", out_path, sp_strerror(ret));
+    }
+    if (!ret && stats)
+        *stats = c->st;
+    sp_export_textures_free(&c->tex);
+    sp_gltf_geom_free(&c->geom);
+    sp_face_asset_free(&c->asset);
+    free(c);
+    return ret;
+}

@@ -1,0 +1,54 @@
+/* SPDX-License-Identifier: MIT */
+/* Shared pieces of the face exporter (gltf*.c): glTF-ready geometry, baked textures, writers. */
+#ifndef SUNPROBE_EXPORT_GLTF_INTERNAL_H
+#define SUNPROBE_EXPORT_GLTF_INTERNAL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "sunprobe/sp_export.h"
+#include "sunprobe/sp_sunstage.h"
+
+/* One glTF vertex per distinct (position, UV) corner pair; glTF frame (y up), glTF UVs (v down). */
+typedef struct sp_gltf_geom {
+    uint32_t n_vertices, n_triangles;
+    float *positions, *normals, *uvs; /* 3, 3, 2 floats per vertex; owned */
+    float *tangents;                  /* 4 per vertex (xyz along +u, w = handedness for +v up); owned */
+    uint32_t *indices;                /* 3 per triangle; owned */
+    float min[3], max[3];             /* position bounds */
+} sp_gltf_geom;
+
+/* Fit world (z up) to glTF (y up): (x, y, z) -> (x, z, -y), a proper rotation. */
+void sp_gltf_from_world(const double w[3], double g[3]);
+/* SP_ECORRUPT for a mesh with NaN/Inf or bad indices, -ENOMEM. */
+int sp_gltf_geom_build(sp_gltf_geom *g, const sp_mesh *m);
+void sp_gltf_geom_free(sp_gltf_geom *g);
+
+typedef struct sp_export_image {
+    int width, height, channels; /* packed rows, row 0 = top */
+    uint8_t *pixels;             /* owned */
+} sp_export_image;
+
+typedef struct sp_export_textures {
+    sp_export_image albedo;    /* RGB, sRGB-encoded */
+    sp_export_image spec_rough; /* RGBA: G = roughness, B = metallic 0, A = specular strength */
+    sp_export_image normal;    /* RGB tangent-space normal map */
+    int has_specular, has_normal;
+} sp_export_textures;
+
+/* size: longest edge (0 = as fitted); specular_off: leave the specular texture out. */
+int sp_export_textures_build(sp_export_textures *t, const sp_face_asset *a, int size, int specular_off);
+void sp_export_textures_free(sp_export_textures *t);
+/* Blinn-Phong exponent -> glTF roughness (EXPORT.md): alpha = sqrt(2 / (s + 2)), roughness = sqrt(alpha). */
+double sp_export_roughness(double shininess);
+/* Cluster specular intensity -> KHR_materials_specular strength in [0, 1] (EXPORT.md). */
+double sp_export_specular(double ks);
+
+/* Radiance RGBE (.hdr), run-length-free scanlines, written atomically. rgb: w*h*3 linear floats, row 0 = top. */
+int sp_hdr_write(const char *path, const float *rgb, int width, int height);
+
+/* Writes the OBJ + MTL + PNG variant (gltf_obj.c). */
+int sp_export_write_obj(const char *out_path, const sp_face_asset *a, const sp_gltf_geom *g,
+                        const sp_export_textures *t, sp_export_stats *st);
+
+#endif

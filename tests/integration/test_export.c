@@ -1,0 +1,458 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * sunprobe export: a face-directory fixture (the generic head in the manifest
+ * format facedir.c writes), then GLB structure, --no-draco geometry, OBJ, DRC,
+ * the documented mappings, and bad input. `test_export SUNPROBE fixture DIR
+ * [flat|ict]` only writes the fixture (for tests/export/test_export_node.sh).
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "check.h"
+#include "common/json.h"
+#include "export/gltf_internal.h"
+#include "sp_config.h"
+#include "sunprobe/sp_export.h"
+#include "sunprobe/sp_face_model.h"
+
+static int write_file(const char *dir, const char *name, const void *p, size_t n)
+{
+    char path[4096];
+    snprintf(path, sizeof(path), "%s/%s", dir, name);
+    FILE *f = fopen(path, "wb");
+    if (!f)
+        return -errno;
+    int ok = fwrite(p, 1, n, f) == n;
+    return fclose(f) == 0 && ok ? 0 : -EIO;
+}
+
+static int write_mesh(const char *dir, const sp_mesh *m)
+{
+    size_t n = 20 + 4 * (3 * (size_t)m->n_vertices + 2 * (size_t)m->n_uvs + 6 * (size_t)m->n_triangles);
+    uint8_t *b = malloc(n);
+    if (!b)
+        return -ENOMEM;
+    uint32_t c[3] = { m->n_vertices, m->n_uvs, m->n_triangles };
+    memcpy(b, "SPFMESH1", 8);
+    memcpy(b + 8, c, 12);
+    uint8_t *p = b + 20;
+    for (uint32_t i = 0; i < m->n_vertices; i++) { /* model frame (y up) placed 0.5 m in front, world z up */
+        float w[3] = { m->positions[i * 3], 0.5f - m->positions[i * 3 + 2], m->positions[i * 3 + 1] };
+        memcpy(p + 12 * (size_t)i, w, 12);
+    }
+    p += 12 * (size_t)m->n_vertices;
+    memcpy(p, m->uvs, 8 * (size_t)m->n_uvs);
+    memcpy(p += 8 * (size_t)m->n_uvs, m->tri_vertices, 12 * (size_t)m->n_triangles);
+    memcpy(p + 12 * (size_t)m->n_triangles, m->tri_uvs, 12 * (size_t)m->n_triangles);
+    int ret = write_file(dir, "mesh.bin", b, n);
+    free(b);
+    return ret;
+}
+
+static int write_maps(const char *dir, int tw, int th, int flat)
+{
+    size_t nt = (size_t)tw * (size_t)th;
+    float *alb = malloc(nt * 12), *disp = malloc(nt * 4), env[SP_RENDER_ENV_FLOATS];
+    int ret = alb && disp ? 0 : -ENOMEM;
+    for (size_t i = 0; !ret && i < nt; i++) {
+        double u = (double)(i % (size_t)tw) / tw, v = (double)(i / (size_t)tw) / th;
+        alb[i * 3] = (float)(0.5 + 0.3 * u);
+        alb[i * 3 + 1] = (float)(0.35 + 0.2 * v);
+        alb[i * 3 + 2] = 0.3f;
+        disp[i] = flat ? 0.0f : (float)(0.0005 * sin(20.0 * u) * cos(14.0 * v));
+    }
+    for (int i = 0; i < SP_RENDER_ENV_FLOATS; i++)
+        env[i] = (float)(0.2 + 0.8 * (i / 3 / SP_RENDER_ENV_W < SP_RENDER_ENV_H / 2 ? 1.0 : 0.1));
+    if (!ret)
+        ret = write_file(dir, "albedo.f32", alb, nt * 12);
+    if (!ret)
+        ret = write_file(dir, "displacement.f32", disp, nt * 4);
+    if (!ret)
+        ret = write_file(dir, "env.f32", env, sizeof(env));
+    free(alb);
+    free(disp);
+    return ret;
+}
+
+/* The manifest keys facedir.c writes (and facedir_read.c needs). */
+static int write_manifest(const char *dir, const sp_face_model *m, int tw, int th, int flat)
+{
+    char buf[4096];
+    int n = snprintf(buf, sizeof(buf),
+                     "{\"format\":\"sunprobe-face\",\"version\":1,\"model\":\"%s\",\"solver\":\"fast\",\n"
+                     "\"mesh\":\"mesh.obj\",\"mesh_binary\":\"mesh.bin\",\"n_vertices\":%u,\"n_triangles\":%u,\n"
+                     "\"textures\":{\"width\":%d,\"height\":%d,\"albedo\":\"albedo.f32\",\"albedo_png\":\"albedo.png\","
+                     "\"displacement\":\"displacement.f32\",\"clusters\":\"clusters.u8\",\"cluster_width\":%u,"
+                     "\"cluster_height\":%u},\n\"specular\":{\"ks\":[%s],\"shininess\":[10,20,30,40,50,60,70,80,"
+                     "90,100]},\n\"lighting\":{\"sun_direction\":[0.3,-0.8,0.5],\"sun_intensity\":%s,"
+                     "\"sun_dropped\":false,\"lighting_unobservable\":false,\"notes\":\"\",\"env\":\"env.f32\","
+                     "\"env_height\":16,\"env_width\":32,\"yaw_range_deg\":300},\n"
+                     "\"cameras\":\"cameras.json\"}\n",
+                     m->source, m->mesh.n_vertices, m->mesh.n_triangles, tw, th, m->cluster_width,
+                     m->cluster_height,
+                     flat ? "0,0,0,0,0,0,0,0,0,0" : "0.01,0.02,0.03,0.04,0.05,0.02,0.02,0.02,0.02,0.02",
+                     flat ? "0" : "2.5");
+    const char *cams = "{\"frames\":[\n {\"sequence\":0,\"timestamp_ns\":0,\"heldout\":false,\"width\":128,"
+                       "\"height\":128,\"intrinsics\":[150,150,64,64],\"camera_to_world_wxyz\":[0.7071068,"
+                       "0.7071068,0,0]}\n]}\n";
+    int ret = write_file(dir, "manifest.json", buf, (size_t)n);
+    return ret ? ret : write_file(dir, "cameras.json", cams, strlen(cams));
+}
+
+/*
+ * flat: zero displacement, zero specular, no sun (everything that can be left out).
+ * ict: the ICT model (or the generic head when its data is missing) with 256^2 maps, for size figures.
+ */
+static int make_fixture_model(const char *dir, int flat, int ict)
+{
+    sp_face_model m;
+    int ret = ict ? sp_face_model_load_default(&m) : sp_face_model_generic(&m);
+    if (ret)
+        return ret;
+    const int tw = ict ? 256 : 64, th = tw;
+    mkdir(dir, 0755);
+    if (!ret)
+        ret = write_mesh(dir, &m.mesh);
+    if (!ret)
+        ret = write_maps(dir, tw, th, flat);
+    if (!ret)
+        ret = write_file(dir, "clusters.u8", m.cluster_map, (size_t)m.cluster_width * m.cluster_height);
+    if (!ret)
+        ret = write_manifest(dir, &m, tw, th, flat);
+    sp_face_model_free(&m);
+    return ret;
+}
+
+static int make_fixture(const char *dir, int flat)
+{
+    return make_fixture_model(dir, flat, 0);
+}
+
+typedef struct glb {
+    uint8_t *file;
+    size_t size;
+    sp_json *json;
+    const uint8_t *bin;
+    size_t bin_size;
+} glb;
+
+static uint8_t *slurp(const char *path, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    fseek(f, 0, SEEK_END);
+    long len = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    uint8_t *b = len > 0 ? malloc((size_t)len + 1) : NULL;
+    if (b && fread(b, 1, (size_t)len, f) != (size_t)len) {
+        free(b);
+        b = NULL;
+    }
+    fclose(f);
+    *n = b ? (size_t)len : 0;
+    return b;
+}
+
+static int glb_read(glb *g, const char *path)
+{
+    memset(g, 0, sizeof(*g));
+    g->file = slurp(path, &g->size);
+    if (!g->file || g->size < 28)
+        return -1;
+    uint32_t h[5], bh[2];
+    memcpy(h, g->file, 20);
+    CHECK(h[0] == 0x46546C67u && h[1] == 2 && h[2] == g->size && h[4] == 0x4E4F534Au);
+    CHECK(h[3] % 4 == 0 && 20 + (size_t)h[3] + 8 <= g->size);
+    if (20 + (size_t)h[3] + 8 > g->size)
+        return -1;
+    char err[128];
+    if (sp_json_parse((const char *)g->file + 20, h[3], &g->json, err, sizeof(err))) {
+        fprintf(stderr, "GLB JSON: %s\n", err);
+        return -1;
+    }
+    memcpy(bh, g->file + 20 + h[3], 8);
+    CHECK(bh[1] == 0x004E4942u && 28 + (size_t)h[3] + bh[0] == g->size);
+    g->bin = g->file + 28 + h[3];
+    g->bin_size = bh[0];
+    return 0;
+}
+
+static void glb_free(glb *g)
+{
+    sp_json_free(g->json);
+    free(g->file);
+}
+
+/* Pointer into BIN for accessor k (plain accessors only), checking its size. */
+static const uint8_t *accessor_data(const glb *g, int k, size_t elem, uint32_t *count)
+{
+    const sp_json *a = sp_json_at(sp_json_get(g->json, "accessors"), (size_t)k);
+    const sp_json *v = sp_json_at(sp_json_get(g->json, "bufferViews"),
+                                  (size_t)sp_json_number(sp_json_get(a, "bufferView"), 1e9));
+    *count = (uint32_t)sp_json_number(sp_json_get(a, "count"), 0);
+    size_t off = (size_t)sp_json_number(sp_json_get(v, "byteOffset"), 0);
+    size_t len = (size_t)sp_json_number(sp_json_get(v, "byteLength"), 0);
+    if (!v || len != elem * *count || off + len > g->bin_size)
+        return NULL;
+    return g->bin + off;
+}
+
+static int has_string(const sp_json *arr, const char *s)
+{
+    for (size_t i = 0; arr && i < arr->count; i++)
+        if (!strcmp(sp_json_string(sp_json_at(arr, i), ""), s))
+            return 1;
+    return 0;
+}
+
+/* Every glTF triangle corner is the original mesh corner in the y-up frame, with flipped v. */
+static void check_plain_geometry(const glb *g, const sp_mesh *m)
+{
+    uint32_t np, nu, ni;
+    const uint8_t *pos = accessor_data(g, 0, 12, &np), *uv = accessor_data(g, 2, 8, &nu);
+    const uint8_t *idx = accessor_data(g, 3, 4, &ni);
+    CHECK(pos && uv && idx && np == nu && ni == m->n_triangles * 3);
+    if (!pos || !uv || !idx || ni != m->n_triangles * 3)
+        return;
+    int bad = 0;
+    for (uint32_t c = 0; c < ni; c++) {
+        uint32_t i;
+        float p[3], t[2];
+        memcpy(&i, idx + 4 * (size_t)c, 4);
+        if (i >= np) {
+            bad++;
+            continue;
+        }
+        memcpy(p, pos + 12 * (size_t)i, 12);
+        memcpy(t, uv + 8 * (size_t)i, 8);
+        const float *w = m->positions + 3 * (size_t)m->tri_vertices[c], *u = m->uvs + 2 * (size_t)m->tri_uvs[c];
+        bad += p[0] != w[0] || p[1] != w[2] || p[2] != -w[1] || t[0] != u[0] || t[1] != 1.0f - u[1];
+    }
+    CHECK_MSG(bad == 0, "%d corners differ from the face mesh", bad);
+}
+
+static void check_material(const glb *g, int full)
+{
+    const sp_json *mat = sp_json_at(sp_json_get(g->json, "materials"), 0);
+    const sp_json *spec = sp_json_get(sp_json_get(mat, "extensions"), "KHR_materials_specular");
+    CHECK(sp_json_get(sp_json_get(mat, "pbrMetallicRoughness"), "baseColorTexture") != NULL);
+    CHECK((sp_json_get(mat, "normalTexture") != NULL) == full);
+    CHECK(spec != NULL && (sp_json_get(spec, "specularTexture") != NULL) == full);
+    const sp_json *left = sp_json_get(sp_json_get(sp_json_get(sp_json_get(g->json, "asset"), "extras"), "sunprobe"),
+                                      "left_out");
+    CHECK(left && left->count == (full ? 0u : 3u));
+    const sp_json *lights = sp_json_get(sp_json_get(sp_json_get(g->json, "extensions"), "KHR_lights_punctual"),
+                                        "lights");
+    CHECK((lights != NULL) == full);
+    if (!full)
+        return;
+    CHECK_NEAR(sp_json_number(sp_json_get(sp_json_at(lights, 0), "intensity"), 0), 2.5, 1e-9);
+    double q[4];
+    CHECK(sp_json_numbers(sp_json_get(sp_json_at(sp_json_get(g->json, "nodes"), 1), "rotation"), q, 4) == 4);
+    /* the node's +z (towards the sun) = q applied to (0,0,1): third column of the rotation matrix */
+    double x = q[0], y = q[1], z = q[2], w = q[3];
+    double col[3] = { 2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y) };
+    double n = sqrt(0.3 * 0.3 + 0.8 * 0.8 + 0.5 * 0.5);
+    CHECK_NEAR(col[0], 0.3 / n, 1e-6);
+    CHECK_NEAR(col[1], 0.5 / n, 1e-6);
+    CHECK_NEAR(col[2], 0.8 / n, 1e-6);
+}
+
+static void check_mappings(void)
+{
+    CHECK_NEAR(sp_export_roughness(0.0), 1.0, 1e-12);
+    CHECK_NEAR(sp_export_roughness(2.0), pow(0.5, 0.25), 1e-12);
+    CHECK_NEAR(sp_export_roughness(98.0), sqrt(sqrt(0.02)), 1e-12);
+    double prev = 2.0;
+    const double s[] = { 0.0, 1.0, 10.0, 100.0, 1e4, 1e300, INFINITY };
+    for (size_t i = 0; i < sizeof(s) / sizeof(s[0]); i++) {
+        double r = sp_export_roughness(s[i]);
+        CHECK(isfinite(r) && r > 0.0 && r <= 1.0 && r <= prev);
+        prev = r;
+    }
+    CHECK(isfinite(sp_export_roughness(NAN)) && isfinite(sp_export_roughness(-5.0)));
+    CHECK(sp_export_specular(NAN) == 0.0 && sp_export_specular(-1.0) == 0.0);
+    CHECK_NEAR(sp_export_specular(0.02), 0.5, 1e-12);
+    CHECK(sp_export_specular(1e300) == 1.0 && sp_export_specular(INFINITY) == 1.0);
+}
+
+static int count_prefix(const char *path, const char *prefix)
+{
+    size_t n;
+    char *t = (char *)slurp(path, &n);
+    if (!t)
+        return -1;
+    t[n] = 0;
+    int c = 0;
+    size_t pl = strlen(prefix);
+    for (char *l = t; l && *l; l = strchr(l, '\n') ? strchr(l, '\n') + 1 : NULL)
+        c += !strncmp(l, prefix, pl);
+    free(t);
+    return c;
+}
+
+static int exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0;
+}
+
+static void check_formats(const char *tmp, const char *face, const char *flat)
+{
+    char out[4096];
+    sp_export_settings s;
+    sp_export_stats st;
+    sp_face_asset a;
+    CHECK(sp_face_dir_read(&a, face) == 0);
+    glb g;
+    sp_export_default_settings(&s);
+    s.draco = 0;
+    snprintf(out, sizeof(out), "%s/plain.glb", tmp);
+    CHECK(sp_export_face(face, out, &s, &st) == 0 && st.has_normal_map && st.has_specular_texture && st.has_sun);
+    if (glb_read(&g, out) == 0) {
+        check_plain_geometry(&g, &a.mesh);
+        check_material(&g, 1);
+        CHECK(sp_json_get(g.json, "extensionsRequired") == NULL);
+    }
+    glb_free(&g);
+    snprintf(out, sizeof(out), "%s/plain.env.hdr", tmp);
+    size_t n;
+    uint8_t *hdr = slurp(out, &n);
+    CHECK(hdr && n > 16 * 32 * 4 && !memcmp(hdr, "#?RADIANCE\n", 11));
+    free(hdr);
+    snprintf(out, sizeof(out), "%s/flat.glb", tmp);
+    CHECK(sp_export_face(flat, out, &s, &st) == 0 && !st.has_normal_map && !st.has_specular_texture && !st.has_sun);
+    if (glb_read(&g, out) == 0)
+        check_material(&g, 0);
+    glb_free(&g);
+    s.format = SP_EXPORT_OBJ;
+    snprintf(out, sizeof(out), "%s/face.obj", tmp);
+    CHECK(sp_export_face(face, out, &s, &st) == 0);
+    CHECK(count_prefix(out, "v ") == (int)st.vertices && count_prefix(out, "f ") == (int)a.mesh.n_triangles);
+    snprintf(out, sizeof(out), "%s/face.mtl", tmp);
+    CHECK(count_prefix(out, "map_Kd face_albedo.png") == 1 && count_prefix(out, "norm face_normal.png") == 1);
+    snprintf(out, sizeof(out), "%s/face_albedo.png", tmp);
+    CHECK(exists(out));
+    if (HAVE_DRACO) {
+        sp_export_default_settings(&s);
+        snprintf(out, sizeof(out), "%s/draco.glb", tmp);
+        CHECK(sp_export_face(face, out, &s, &st) == 0 && st.triangles == a.mesh.n_triangles);
+        CHECK(st.geometry_bytes > 0 && st.geometry_bytes < st.raw_geometry_bytes / 3);
+        printf("geometry: %zu bytes raw, %zu bytes Draco; asset %zu bytes\n", st.raw_geometry_bytes,
+               st.geometry_bytes, st.total_bytes);
+        if (glb_read(&g, out) == 0) {
+            CHECK(has_string(sp_json_get(g.json, "extensionsRequired"), "KHR_draco_mesh_compression"));
+            const sp_json *acc = sp_json_at(sp_json_get(g.json, "accessors"), 3);
+            CHECK(sp_json_number(sp_json_get(acc, "count"), 0) == 3.0 * a.mesh.n_triangles);
+            check_material(&g, 1);
+        }
+        glb_free(&g);
+        s.format = SP_EXPORT_DRC;
+        snprintf(out, sizeof(out), "%s/face.drc", tmp);
+        CHECK(sp_export_face(face, out, &s, &st) == 0);
+        uint8_t *d = slurp(out, &n);
+        CHECK(d && n == st.total_bytes && !memcmp(d, "DRACO", 5));
+        free(d);
+    } else {
+        sp_export_default_settings(&s);
+        CHECK(s.draco == 0);
+        s.draco = 1;
+        snprintf(out, sizeof(out), "%s/nodraco.glb", tmp);
+        CHECK(sp_export_face(face, out, &s, &st) == SP_EDISABLED && !exists(out));
+    }
+    sp_face_asset_free(&a);
+}
+
+static void patch(const char *dir, const char *name, size_t off, const void *p, size_t n)
+{
+    char path[4096];
+    snprintf(path, sizeof(path), "%s/%s", dir, name);
+    FILE *f = fopen(path, "r+b");
+    CHECK(f && fseek(f, (long)off, SEEK_SET) == 0 && fwrite(p, 1, n, f) == n);
+    if (f)
+        fclose(f);
+}
+
+static int run_cli(const char *exe, const char *args)
+{
+    char cmd[8192];
+    snprintf(cmd, sizeof(cmd), "'%s' export %s >/dev/null 2>&1", exe, args);
+    int st = system(cmd);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+static void check_bad_input(const char *exe, const char *tmp, const char *face)
+{
+    char dir[512], out[512], path[1024], args[4096];
+    sp_export_settings s;
+    sp_export_default_settings(&s);
+    s.draco = 0;
+    snprintf(out, sizeof(out), "%s/bad.glb", tmp);
+    const float nan = NAN;
+    snprintf(dir, sizeof(dir), "%s/nan-mesh", tmp);
+    CHECK(make_fixture(dir, 0) == 0);
+    patch(dir, "mesh.bin", 24, &nan, 4);
+    CHECK(sp_export_face(dir, out, &s, NULL) == SP_ECORRUPT && !exists(out));
+    snprintf(args, sizeof(args), "'%s' -o '%s' --no-draco", dir, out);
+    CHECK_EQ_INT(run_cli(exe, args), 2);
+    snprintf(dir, sizeof(dir), "%s/nan-disp", tmp);
+    CHECK(make_fixture(dir, 0) == 0);
+    patch(dir, "displacement.f32", 400, &nan, 4);
+    CHECK(sp_export_face(dir, out, &s, NULL) == SP_ECORRUPT && !exists(out));
+    snprintf(dir, sizeof(dir), "%s/no-albedo", tmp);
+    CHECK(make_fixture(dir, 0) == 0);
+    snprintf(path, sizeof(path), "%s/albedo.f32", dir);
+    CHECK(unlink(path) == 0);
+    CHECK(sp_export_face(dir, out, &s, NULL) == -ENOENT && !exists(out));
+    snprintf(dir, sizeof(dir), "%s/short-clusters", tmp);
+    CHECK(make_fixture(dir, 0) == 0);
+    snprintf(path, sizeof(path), "%s/clusters.u8", dir);
+    CHECK(truncate(path, 100) == 0);
+    CHECK(sp_export_face(dir, out, &s, NULL) == SP_ETRUNCATED && !exists(out));
+    snprintf(args, sizeof(args), "'%s' -o '%s'", dir, out);
+    CHECK_EQ_INT(run_cli(exe, args), 2);
+    snprintf(path, sizeof(path), "%s/no-such-dir/x.glb", tmp);
+    CHECK(sp_export_face(face, path, &s, NULL) == -ENOENT && !exists(path));
+    snprintf(args, sizeof(args), "'%s' -o '%s' --no-draco", face, path);
+    CHECK_EQ_INT(run_cli(exe, args), 3);
+    CHECK_EQ_INT(run_cli(exe, ""), 1);
+    snprintf(args, sizeof(args), "'%s' -o x --format fbx", face);
+    CHECK_EQ_INT(run_cli(exe, args), 1);
+    s.position_bits = 0;
+    CHECK(sp_export_face(face, out, &s, NULL) == -EINVAL);
+    CHECK(sp_export_face(NULL, out, &s, NULL) == -EINVAL && sp_export_face(face, NULL, &s, NULL) == -EINVAL);
+    snprintf(args, sizeof(args), "ls -a '%s' | grep -q '\\.tmp\\.'", tmp);
+    CHECK_MSG(system(args) != 0, "a temporary file was left behind in %s", tmp);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc >= 4 && !strcmp(argv[2], "fixture"))
+        return make_fixture_model(argv[3], argc >= 5 && !strcmp(argv[4], "flat"),
+                                  argc >= 5 && !strcmp(argv[4], "ict")) ? 1 : 0;
+    if (argc < 2) {
+        fprintf(stderr, "usage: test_export SUNPROBE [fixture DIR [flat]]\n");
+        return 99;
+    }
+    sp_log_set_level(SP_LOG_ERROR);
+    char tmp[] = "/tmp/sp-export-XXXXXX", face[64], flat[64];
+    CHECK(mkdtemp(tmp) != NULL);
+    snprintf(face, sizeof(face), "%s/face", tmp);
+    snprintf(flat, sizeof(flat), "%s/flat", tmp);
+    CHECK(make_fixture(face, 0) == 0 && make_fixture(flat, 1) == 0);
+    check_mappings();
+    check_formats(tmp, face, flat);
+    check_bad_input(argv[1], tmp, face);
+    char cmd[128];
+    snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmp);
+    if (system(cmd) != 0)
+        fprintf(stderr, "could not remove %s\n", tmp);
+    return check_exit();
+}

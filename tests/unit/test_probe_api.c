@@ -1,0 +1,228 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The probe end to end on frames drawn here: a textured background, a pole in
+ * front of everything, walkers at three depths whose heights follow h = y / 2,
+ * some passing behind the pole. Checks the clean plate, that the pole occludes
+ * the far walkers and not the near one, the scale model, the overcast verdict
+ * on a scene without shadows, removal, the report; then bad input (too short,
+ * moving camera, nothing moving) and API misuse.
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "check.h"
+#include "sp_config.h"
+#include "sunprobe/sp_probe.h"
+
+enum { W = 160, H = 120, POLE_X0 = 80, POLE_X1 = 83 };
+
+static uint8_t background[W * H * 3];
+
+static void make_background(void)
+{
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            uint8_t *p = background + (y * W + x) * 3;
+            int v = 110 + (int)(10 * sin(x * 0.3) * cos(y * 0.2));
+            p[0] = (uint8_t)v, p[1] = (uint8_t)(v - 4), p[2] = (uint8_t)(v - 10);
+            if (x >= POLE_X0 && x <= POLE_X1 && y >= 10 && y <= 105)
+                p[0] = 40, p[1] = 60, p[2] = 50;
+        }
+}
+
+/* A walker: a body and a head, colours unlike the ground; foot row y, height y / 2. */
+static void draw_walker(uint8_t *img, double xc, int foot, const uint8_t rgb[3])
+{
+    int h = foot / 2, half = h / 6;
+    for (int y = foot - h + 1; y <= foot; y++)
+        for (int x = (int)xc - half; x <= (int)xc + half; x++) {
+            if (x < 0 || x >= W)
+                continue;
+            int head = y < foot - h + h / 6;
+            if (head && abs(x - (int)xc) > half / 2)
+                continue;
+            if (x >= POLE_X0 && x <= POLE_X1 && y >= 10 && y <= 105 && foot < 105)
+                continue; /* the pole stands in front of anyone whose feet are above its base */
+            memcpy(img + (y * W + x) * 3, head ? (const uint8_t[3]){ 220, 180, 150 } : rgb, 3);
+        }
+}
+
+static void make_frame(uint8_t *img, int f)
+{
+    static const uint8_t red[3] = { 200, 30, 40 }, blue[3] = { 30, 60, 200 }, yellow[3] = { 230, 210, 20 };
+    memcpy(img, background, sizeof(background));
+    draw_walker(img, fmod(f * 1.5, 200) - 20, 60, red);           /* far, passes behind */
+    draw_walker(img, 180 - fmod(f * 1.2 + 60, 200), 80, yellow);  /* middle, passes behind */
+    draw_walker(img, fmod(f * 2.0 + 100, 220) - 30, 110, blue);   /* near, passes in front */
+}
+
+static void base_settings(sp_probe_settings *s)
+{
+    sp_probe_default_settings(s);
+    s->checkpoint_frames = 20;
+}
+
+static void test_scene(void)
+{
+    char prefix[] = "/tmp/sp-probe-api-XXXXXX";
+    int fd = mkstemp(prefix);
+    CHECK(fd >= 0);
+    close(fd);
+    sp_probe_settings s;
+    base_settings(&s);
+    s.report_prefix = prefix;
+    sp_probe *p = NULL;
+    CHECK(sp_probe_open(&p, W, H, &s) == 0);
+    static uint8_t img[W * H * 3], out[W * H * 3];
+    sp_probe_plane pl;
+    CHECK(sp_probe_get_plane(p, &pl) == -EAGAIN);
+    for (int f = 0; f < 600; f++) {
+        make_frame(img, f);
+        CHECK(sp_probe_push_rgb(p, img, W * 3, (int64_t)f * 100000000) == 0);
+        if (f == 400) { /* removal: the walkers replaced by the plate */
+            CHECK(sp_probe_empty_frame(p, out, W * 3) == 0);
+            long diff = 0;
+            for (int i = 0; i < W * H * 3; i++)
+                diff += abs(out[i] - background[i]);
+            CHECK_MSG(diff < W * H * 3 / 50, "emptied frame differs by %ld", diff);
+        }
+    }
+    CHECK(sp_probe_finish(p) == 0);
+    sp_probe_maps m;
+    sp_probe_shadow sh;
+    sp_probe_stats st;
+    CHECK(sp_probe_get_maps(p, &m) == 0 && sp_probe_get_plane(p, &pl) == 0 && sp_probe_get_shadow(p, &sh) == 0);
+    CHECK(sp_probe_get_stats(p, &st) == 0 && st.people > 100 && st.memory_bytes > 0);
+    /* the pole hides the far walkers (feet at rows 60, 80) and not the near one (110) */
+    int pole = 0, hides = 0, lets_near = 0;
+    for (int y = 45; y <= 70; y++)
+        for (int x = POLE_X0; x <= POLE_X1; x++) {
+            float z = m.occlusion[y * W + x];
+            pole++;
+            hides += z >= 78;
+            lets_near += z < 110;
+        }
+    CHECK_MSG(hides >= pole * 8 / 10, "pole hides the walkers at %d of %d pixels", hides, pole);
+    CHECK_MSG(lets_near == pole, "%d of %d", lets_near, pole);
+    int open = 0, wrong = 0;
+    for (int y = 40; y <= 100; y++)
+        for (int x = 10; x < 70; x++, open++)
+            wrong += m.occlusion[y * W + x] >= 0;
+    CHECK_MSG(wrong <= open / 50, "%d of %d open pixels marked occluding", wrong, open);
+    long diff = 0;
+    for (int i = 0; i < W * H * 3; i++)
+        diff += abs(m.clean_plate[i] - background[i]);
+    CHECK_MSG(diff < W * H * 3 / 100, "clean plate differs by %ld", diff);
+    CHECK(m.lighting[(50 * W + 20) * 3] > 0);
+    CHECK_EQ_INT(pl.status, SP_PROBE_PLANE_OK);
+    CHECK_MSG(fabs(sp_probe_plane_height(&pl, 60, 90) - 45) < 4.5, "h(60, 90) = %f", sp_probe_plane_height(&pl, 60, 90));
+    CHECK(!sh.present && strstr(sh.note, "overcast") != NULL);
+    CHECK(sp_probe_push_rgb(p, img, W * 3, INT64_MAX) == -EALREADY);
+    sp_probe_close(&p);
+    CHECK(p == NULL);
+    char csv[64];
+    snprintf(csv, sizeof(csv), "%s.csv", prefix);
+    FILE *f = fopen(csv, "r");
+    int lines = 0, c;
+    while (f && (c = fgetc(f)) != EOF)
+        lines += c == '\n';
+    if (f)
+        fclose(f);
+    CHECK_MSG(lines > 20, "%d report lines", lines);
+    unlink(csv);
+    snprintf(csv, sizeof(csv), "%s.svg", prefix);
+    CHECK(access(csv, F_OK) == 0);
+    unlink(csv);
+    unlink(prefix);
+}
+
+static int run_frames(int kind, int n, char *msg, size_t msg_size)
+{
+    sp_probe_settings s;
+    base_settings(&s);
+    sp_probe *p = NULL;
+    int ret = sp_probe_open(&p, W, H, &s);
+    static uint8_t img[W * H * 3];
+    for (int f = 0; !ret && f < n; f++) {
+        if (kind == 0)
+            make_frame(img, f);
+        else if (kind == 1) /* the camera pans over a busy panorama: the whole picture slides */
+            for (int y = 0; y < H; y++)
+                for (int x = 0; x < W; x++)
+                    memset(img + (y * W + x) * 3, (int)(((unsigned)(x + 5 * f) * 2654435761u ^ (unsigned)y * 40503u) >> 24), 3);
+        else
+            memcpy(img, background, sizeof(img));
+        ret = sp_probe_push_rgb(p, img, W * 3, (int64_t)f * 100000000);
+    }
+    if (!ret)
+        ret = sp_probe_finish(p);
+    snprintf(msg, msg_size, "%s", sp_probe_message(p));
+    sp_probe_close(&p);
+    return ret;
+}
+
+static void test_bad_input(void)
+{
+    char msg[400];
+    CHECK(run_frames(0, 3, msg, sizeof(msg)) == SP_ENODATA);
+    CHECK_MSG(strstr(msg, "too short") != NULL, "%s", msg);
+    CHECK(run_frames(1, 200, msg, sizeof(msg)) == SP_ENODATA);
+    CHECK_MSG(strstr(msg, "camera moves") != NULL, "%s", msg);
+    CHECK(run_frames(2, 200, msg, sizeof(msg)) == SP_ENODATA);
+    CHECK_MSG(strstr(msg, "no moving objects") != NULL, "%s", msg);
+}
+
+static void test_misuse(void)
+{
+    sp_probe_settings s;
+    sp_probe *p = NULL;
+    base_settings(&s);
+    s.window_samples = 8;
+    CHECK(sp_probe_open(&p, W, H, &s) == -EINVAL && !p);
+    base_settings(&s);
+    s.block = 1;
+    CHECK(sp_probe_open(&p, W, H, &s) == -EINVAL);
+    base_settings(&s);
+    s.window_s = NAN;
+    CHECK(sp_probe_open(&p, W, H, &s) == -EINVAL);
+    base_settings(&s);
+    s.shadow_min_ratio = 0.9;
+    CHECK(sp_probe_open(&p, W, H, &s) == -EINVAL);
+    base_settings(&s);
+    CHECK(sp_probe_open(&p, 8, H, &s) == -EINVAL);
+    CHECK(sp_probe_open(NULL, W, H, &s) == -EINVAL);
+    s.detector = SP_PROBE_DETECT_HOG;
+#if HAVE_OPENCV
+    CHECK(sp_probe_open(&p, W, H, &s) == 0);
+    sp_probe_close(&p);
+#else
+    CHECK(sp_probe_open(&p, W, H, &s) == SP_EDISABLED);
+#endif
+    base_settings(&s);
+    CHECK(sp_probe_open(&p, W, H, &s) == 0);
+    static uint8_t img[W * H * 3];
+    CHECK(sp_probe_push_rgb(p, img, W * 3 - 1, 0) == -EINVAL);
+    CHECK(sp_probe_push_rgb(p, img, W * 3, 1000) == 0);
+    CHECK(sp_probe_push_rgb(p, img, W * 3, 999) == -EINVAL); /* time going backwards */
+    uint8_t out[W * H * 3];
+    CHECK(sp_probe_empty_frame(p, out, W * 3) == -EAGAIN); /* no plate yet */
+    sp_probe_maps m;
+    CHECK(sp_probe_get_maps(p, &m) == -EAGAIN);
+    sp_probe_close(&p);
+    sp_probe_close(&p);
+    sp_probe_close(NULL);
+    CHECK(strlen(sp_probe_message(NULL)) > 0);
+}
+
+int main(void)
+{
+    make_background();
+    test_scene();
+    test_bad_input();
+    test_misuse();
+    return check_exit();
+}

@@ -1,0 +1,238 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Scene-probe numerics: the median sorting network against a sort, the
+ * clean plate in bounded memory, the robust scale-model fit (outliers,
+ * degenerate inputs that must say what cannot be estimated, extremes), the
+ * reservoir, and the plane/shadow JSON round trip with its error cases.
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "check.h"
+#include "pipeline/probe/probe_internal.h"
+
+static uint64_t rng = 12345;
+
+static unsigned rnd(unsigned n)
+{
+    return (unsigned)(probe_rand(&rng) % n);
+}
+
+static int cmp_u8(const void *a, const void *b)
+{
+    return *(const uint8_t *)a - *(const uint8_t *)b;
+}
+
+/* Every width 1..32 on random, constant and extreme data, including a tail shorter than a block. */
+static void test_median_network(void)
+{
+    enum { N = 1000 };
+    static uint8_t data[32][N], out[N];
+    const uint8_t *in[32];
+    for (unsigned k = 1; k <= 32; k++) {
+        for (unsigned mode = 0; mode < 3; mode++) {
+            for (unsigned j = 0; j < k; j++) {
+                for (unsigned i = 0; i < N; i++)
+                    data[j][i] = mode == 0 ? (uint8_t)rnd(256) : mode == 1 ? 77 : (rnd(2) ? 255 : 0);
+                in[j] = data[j];
+            }
+            CHECK(probe_median_bytes(in, k, N, out) == 0);
+            int bad = 0;
+            for (unsigned i = 0; i < N; i++) {
+                uint8_t v[32];
+                for (unsigned j = 0; j < k; j++)
+                    v[j] = data[j][i];
+                qsort(v, k, 1, cmp_u8);
+                bad += out[i] != v[k / 2];
+            }
+            CHECK_MSG(bad == 0, "k=%u mode=%u: %d wrong medians", k, mode, bad);
+        }
+    }
+    CHECK(probe_median_bytes(in, 0, N, out) == -EINVAL);
+    CHECK(probe_median_bytes(in, 33, N, out) == -EINVAL);
+}
+
+/* A square crosses a static background: once the ring is full the plate is the background exactly. */
+static void test_plate(void)
+{
+    enum { W = 40, H = 30 };
+    probe_plate pl;
+    CHECK(plate_open(&pl, W, H, 5, 1000000000) == 0);
+    static uint8_t bg[W * H * 3], frame[W * H * 3];
+    for (unsigned i = 0; i < sizeof(bg); i++)
+        bg[i] = (uint8_t)(i * 7 % 251);
+    int updates = 0;
+    for (int f = 0; f < 30; f++) {
+        memcpy(frame, bg, sizeof(frame));
+        for (int y = 10; y < 20; y++)
+            for (int x = 4 * f - 20; x < 4 * f - 14; x++) /* over any pixel for less than a sample */
+                if (x >= 0 && x < W)
+                    memset(frame + (y * W + x) * 3, 255, 3);
+        updates += plate_offer(&pl, frame, (int64_t)f * 100000000); /* 10 fps, sample every 200 ms */
+    }
+    CHECK(plate_ready(&pl));
+    CHECK_MSG(updates >= 8 && updates <= 12, "%d plate updates", updates);
+    CHECK(memcmp(pl.median, bg, sizeof(bg)) == 0);
+    plate_close(&pl);
+    CHECK(plate_open(&pl, W, H, 2, 1000) == -EINVAL);
+    CHECK(plate_open(&pl, W, H, 5, 0) == -EINVAL);
+}
+
+/* h = a x + b y + c on a grid, a share of wild outliers; n records of {x, y, h}. */
+static unsigned make_plane_obs(float *rec, unsigned n, double a, double b, double c, double outliers)
+{
+    for (unsigned i = 0; i < n; i++) {
+        double x = 20 + rnd(600), y = 150 + rnd(400), h = a * x + b * y + c;
+        if (rnd(1000) < outliers * 1000)
+            h *= 0.3 + 1.5 * rnd(1000) / 1000.0; /* groups, bags, half-hidden people */
+        else
+            h *= 1.0 + 0.06 * ((double)rnd(1000) / 1000.0 - 0.5); /* people differ a little */
+        rec[3 * i] = (float)x, rec[3 * i + 1] = (float)y, rec[3 * i + 2] = (float)h;
+    }
+    return n;
+}
+
+static void test_plane_robust(void)
+{
+    static float rec[3 * 2000];
+    sp_probe_plane pl = { 0 };
+    uint64_t r = 7;
+    unsigned n = make_plane_obs(rec, 2000, 0.01, 0.3, -20, 0.3);
+    plane_fit(rec, n, 3, 768, 576, &r, &pl);
+    CHECK_EQ_INT(pl.status, SP_PROBE_PLANE_OK);
+    double err = 0;
+    for (int x = 100; x <= 700; x += 200)
+        for (int y = 200; y <= 550; y += 50) {
+            double truth = 0.01 * x + 0.3 * y - 20, h = sp_probe_plane_height(&pl, x, y);
+            err = fmax(err, fabs(h - truth) / truth);
+        }
+    CHECK_MSG(err < 0.02, "max relative error %.4f with 30%% outliers", err);
+    CHECK(pl.n_inliers > 1200 && pl.n_inliers < 1700);
+    CHECK(pl.residual_rel > 0 && pl.residual_rel < 0.03);
+    CHECK(plane_median_error(&pl, rec, n, 3) < 0.03);
+}
+
+static void test_plane_degenerate(void)
+{
+    static float rec[3 * 100];
+    sp_probe_plane pl = { 0 };
+    uint64_t r = 9;
+    plane_fit(rec, 0, 3, 640, 480, &r, &pl);
+    CHECK_EQ_INT(pl.status, SP_PROBE_PLANE_NONE);
+    CHECK(strstr(pl.note, "cannot be estimated") != NULL);
+    CHECK(isnan(sp_probe_plane_height(&pl, 100, 100)));
+
+    /* one person, seen many times at (nearly) one spot */
+    for (int i = 0; i < 50; i++)
+        rec[3 * i] = 300.0f + (float)(i % 3), rec[3 * i + 1] = 400.0f, rec[3 * i + 2] = 120.0f + (float)(i % 2);
+    plane_fit(rec, 50, 3, 640, 480, &r, &pl);
+    CHECK_EQ_INT(pl.status, SP_PROBE_PLANE_ONE_POINT);
+    CHECK_NEAR(sp_probe_plane_height(&pl, 301, 400), 120.5, 1.0);
+    CHECK(isnan(sp_probe_plane_height(&pl, 100, 100))); /* far from where anyone stood */
+    CHECK(strstr(pl.note, "cannot be estimated") != NULL);
+
+    /* everyone on one image row: the height along it is known, across it not */
+    for (int i = 0; i < 60; i++) {
+        double x = 50 + 9 * i;
+        rec[3 * i] = (float)x, rec[3 * i + 1] = 300.0f, rec[3 * i + 2] = (float)(80 + 0.05 * x);
+    }
+    plane_fit(rec, 60, 3, 640, 480, &r, &pl);
+    CHECK_EQ_INT(pl.status, SP_PROBE_PLANE_LINE);
+    CHECK_NEAR(sp_probe_plane_height(&pl, 400, 300), 100.0, 0.5);
+    CHECK(isnan(sp_probe_plane_height(&pl, 400, 100)));
+    CHECK(fabs(pl.line_dy) < 1e-6 && fabs(fabs(pl.line_dx) - 1) < 1e-6);
+
+    /* two observations only */
+    plane_fit(rec, 2, 3, 640, 480, &r, &pl);
+    CHECK_EQ_INT(pl.status, SP_PROBE_PLANE_ONE_POINT);
+}
+
+/* Extremes: zero and negative heights, the largest image, huge coordinates: never NaN, never garbage. */
+static void test_plane_extremes(void)
+{
+    static float rec[3 * 64];
+    sp_probe_plane pl = { 0 };
+    uint64_t r = 3;
+    for (int i = 0; i < 64; i++)
+        rec[3 * i] = (float)(i * 200), rec[3 * i + 1] = (float)(i * 150 % 16000), rec[3 * i + 2] = 0.0f;
+    plane_fit(rec, 64, 3, 16384, 16384, &r, &pl);
+    CHECK(pl.status == SP_PROBE_PLANE_NONE || isfinite(pl.a + pl.b + pl.c));
+    for (int i = 0; i < 64; i++)
+        rec[3 * i + 2] = -5.0f;
+    plane_fit(rec, 64, 3, 16384, 16384, &r, &pl);
+    CHECK(pl.status == SP_PROBE_PLANE_NONE || isfinite(pl.a + pl.b + pl.c));
+    CHECK(isnan(sp_probe_plane_height(&pl, NAN, 3)));
+    CHECK(isnan(sp_probe_plane_height(NULL, 3, 3)));
+    double A[9] = { 1, 2, 3, 2, 4, 6, 1, 1, 1 }, b[3] = { 1, 2, 3 }, x[3];
+    CHECK(probe_solve3(A, b, x) == -1); /* singular */
+    double I[9] = { 1e-300, 0, 0, 0, 1e-300, 0, 0, 0, 1e-300 };
+    CHECK(probe_solve3(I, b, x) == 0 && isfinite(x[0]));
+}
+
+static void test_reservoir(void)
+{
+    probe_reservoir res;
+    CHECK(reservoir_open(&res, 100, 2, 5) == 0);
+    unsigned late = 0;
+    for (int i = 0; i < 10000; i++) {
+        float rec[2] = { (float)i, 1.0f };
+        reservoir_add(&res, rec);
+    }
+    CHECK_EQ_INT(res.n, 100);
+    CHECK(res.seen == 10000);
+    for (unsigned i = 0; i < res.n; i++)
+        late += res.v[2 * i] >= 5000.0f;
+    CHECK_MSG(late > 30 && late < 70, "%u of 100 kept from the second half", late); /* uniform: about 50 */
+    reservoir_close(&res);
+    CHECK(reservoir_open(&res, 0, 2, 5) == -EINVAL);
+}
+
+static void test_params_json(void)
+{
+    sp_probe_plane pl = { .status = SP_PROBE_PLANE_OK, .a = 0.0123, .b = 0.3456, .c = -7.5, .n_observations = 321,
+                          .n_inliers = 300, .residual_rel = 0.041, .holdout_n = 17, .holdout_error_rel = NAN };
+    snprintf(pl.note, sizeof(pl.note), "a \"quoted\" note\nwith a newline");
+    sp_probe_shadow sh = { .present = 1, .ox = { 0.5, 0.1, -0.2 }, .oy = { 0.8, 0, -0.7 }, .ratio = { 0.4, 0.42, 0.5 },
+                           .n_shadows = 40, .n_candidates = 50, .direction_spread_deg = 12 };
+    char *json = NULL;
+    CHECK(sp_probe_params_to_json(&pl, &sh, 320, 240, &json) == 0);
+    sp_probe_plane p2;
+    sp_probe_shadow s2;
+    uint32_t w = 0, h = 0;
+    CHECK(json && sp_probe_params_from_json(json, strlen(json), &p2, &s2, &w, &h) == 0);
+    CHECK(w == 320 && h == 240);
+    CHECK(p2.status == SP_PROBE_PLANE_OK && p2.a == pl.a && p2.b == pl.b && p2.c == pl.c);
+    CHECK(p2.n_inliers == 300 && isnan(p2.holdout_error_rel) && !strcmp(p2.note, pl.note));
+    CHECK(s2.present && s2.ox[2] == -0.2 && s2.oy[0] == 0.8 && s2.ratio[1] == 0.42);
+    free(json);
+
+    static const char *const bad[] = {
+        "{}",
+        "{\"format\":\"other\",\"width\":3,\"height\":3}",
+        "{\"format\":\"sunprobe-probe\",\"width\":0,\"height\":3,\"plane\":{},\"shadow\":{}}",
+        "{\"format\":\"sunprobe-probe\",\"width\":3,\"height\":3,\"plane\":{\"status\":\"weird\",\"line\":[0,0,0,0]},"
+        "\"shadow\":{\"present\":false,\"ox\":[0,0,0],\"oy\":[0,0,0],\"ratio\":[0,0,0]}}",
+        "{\"format\":\"sunprobe-probe\",\"width\":3,\"height\":3,\"plane\":{\"status\":\"ok\",\"a\":null,\"b\":1,\"c\":1,"
+        "\"line\":[0,0,0,0]},\"shadow\":{\"present\":false,\"ox\":[0,0,0],\"oy\":[0,0,0],\"ratio\":[0,0,0]}}",
+        "{\"format\":\"sunprobe-probe\",\"width\":3,\"height\":3,\"plane\":{\"status\":\"none\",\"line\":[0,0,0,0]},"
+        "\"shadow\":{\"present\":true,\"ox\":[0,0,0],\"oy\":[0,0,0],\"ratio\":[null,0,0]}}",
+        "not json",
+    };
+    for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++)
+        CHECK_MSG(sp_probe_params_from_json(bad[i], strlen(bad[i]), &p2, &s2, &w, &h) == SP_ECORRUPT, "bad[%zu]", i);
+    CHECK(sp_probe_params_to_json(NULL, &sh, 1, 1, &json) == -EINVAL);
+}
+
+int main(void)
+{
+    test_median_network();
+    test_plate();
+    test_plane_robust();
+    test_plane_degenerate();
+    test_plane_extremes();
+    test_reservoir();
+    test_params_json();
+    return check_exit();
+}

@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
+# Builds a release tree and runs the benchmarks; each prints medians and the ratio against its
+# named baseline in the same run. Usage: tools/bench/run.sh [replay|record|render|probe|fit ...]
+# (default: all). Scratch captures are cached in ${SP_BENCH_DIR:-/tmp/sp-bench}.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+build=${SP_BENCH_BUILD:-build-bench}
+[ -f "$build/build.ninja" ] || meson setup "$build" -Dbuildtype=release >/dev/null
+ninja -C "$build" >/dev/null
+dir=${SP_BENCH_DIR:-/tmp/sp-bench}
+mkdir -p "$dir"
+which=("$@")
+[ ${#which[@]} -gt 0 ] || which=(replay record render probe fit)
+for b in "${which[@]}"; do
+    exe="$build/tools/bench/bench_$b"
+    if [ ! -x "$exe" ]; then
+        echo "bench $b: not built in this configuration (missing optional feature?)"
+        continue
+    fi
+    echo "== bench_$b"
+    case $b in
+        replay) "$exe" "$dir" ;;
+        *) "$exe" ;;
+    esac
+done
