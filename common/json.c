@@ -429,6 +429,17 @@ void sp_strbuf_json_number(sp_strbuf *b, double v)
         sp_strbuf_append(b, "null", 4);
 }
 
+void sp_strbuf_json_numbers(sp_strbuf *b, const double *v, int n)
+{
+    sp_strbuf_append(b, "[", 1);
+    for (int i = 0; i < n; i++) {
+        if (i)
+            sp_strbuf_append(b, ",", 1);
+        sp_strbuf_json_number(b, v[i]);
+    }
+    sp_strbuf_append(b, "]", 1);
+}
+
 void sp_strbuf_free(sp_strbuf *b)
 {
     free(b->data);

@@ -56,6 +56,8 @@ void sp_strbuf_append(sp_strbuf *b, const char *s, size_t n);
 void sp_strbuf_json_string(sp_strbuf *b, const char *s);
 /* Appends a number, or null when it is not finite (JSON has no NaN). */
 void sp_strbuf_json_number(sp_strbuf *b, double v);
+/* Appends a JSON array of n numbers (non-finite ones as null). */
+void sp_strbuf_json_numbers(sp_strbuf *b, const double *v, int n);
 void sp_strbuf_free(sp_strbuf *b);
 
 #endif

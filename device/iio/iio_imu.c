@@ -21,6 +21,7 @@
 
 #include "common/clock.h"
 #include "device/iio/iio_scan.h"
+#include "device/node_scan.h"
 
 #define SYSFS_ROOT "/sys/bus/iio/devices"
 #define MAX_DEVICES 32
@@ -135,28 +136,9 @@ static int read_chan_attr(const char *dir, const char *type, char axis, const ch
 
 /* ---- enumeration ---- */
 
-static int cmp_int(const void *a, const void *b)
-{
-    int x = *(const int *)a, y = *(const int *)b;
-    return (x > y) - (x < y);
-}
-
 static size_t list_devices(int *nums, size_t max)
 {
-    DIR *d = opendir(SYSFS_ROOT);
-    if (!d)
-        return 0;
-    size_t n = 0;
-    struct dirent *e;
-    while ((e = readdir(d)) && n < max) {
-        int num;
-        char tail;
-        if (sscanf(e->d_name, "iio:device%d%c", &num, &tail) == 1 && num >= 0)
-            nums[n++] = num;
-    }
-    closedir(d);
-    qsort(nums, n, sizeof(int), cmp_int);
-    return n;
+    return sp_scan_numbered_entries(SYSFS_ROOT, "iio:device", nums, max);
 }
 
 static void append_word(char *list, size_t size, const char *word)

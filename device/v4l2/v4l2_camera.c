@@ -8,7 +8,6 @@
  */
 #include "device/backends.h"
 
-#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <inttypes.h>
@@ -25,6 +24,7 @@
 
 #include "common/clock.h"
 #include "device/v4l2/v4l2_formats.h"
+#include "device/node_scan.h"
 
 #define MAX_BUFFERS 32
 #define MAX_NODES 64
@@ -73,29 +73,10 @@ static int is_capture_node(int fd, struct v4l2_capability *cap)
     return (c & V4L2_CAP_VIDEO_CAPTURE) && (c & V4L2_CAP_STREAMING);
 }
 
-static int cmp_node(const void *a, const void *b)
-{
-    int x = *(const int *)a, y = *(const int *)b;
-    return (x > y) - (x < y);
-}
-
 /* Numbers N of /dev/videoN, sorted. */
 static size_t list_nodes(int *nodes, size_t max)
 {
-    DIR *d = opendir("/dev");
-    if (!d)
-        return 0;
-    size_t n = 0;
-    struct dirent *e;
-    while ((e = readdir(d)) && n < max) {
-        int num;
-        char tail;
-        if (sscanf(e->d_name, "video%d%c", &num, &tail) == 1 && num >= 0)
-            nodes[n++] = num;
-    }
-    closedir(d);
-    qsort(nodes, n, sizeof(int), cmp_node);
-    return n;
+    return sp_scan_numbered_entries("/dev", "video", nodes, max);
 }
 
 static void fill_desc(sp_camera_desc *d, const char *path, const struct v4l2_capability *cap)

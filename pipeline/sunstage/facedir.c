@@ -92,17 +92,6 @@ static int write_mesh(const sp_sunstage *ss, const char *dir, const float *pos)
     return ret;
 }
 
-static void json_array(sp_strbuf *b, const double *v, int n)
-{
-    sp_strbuf_append(b, "[", 1);
-    for (int i = 0; i < n; i++) {
-        if (i)
-            sp_strbuf_append(b, ",", 1);
-        sp_strbuf_json_number(b, v[i]);
-    }
-    sp_strbuf_append(b, "]", 1);
-}
-
 static int write_cameras(const sp_sunstage *ss, const char *dir)
 {
     sp_strbuf b = { 0 };
@@ -119,15 +108,15 @@ static int write_cameras(const sp_sunstage *ss, const char *dir)
         sp_strbuf_printf(&b, "\"capture_pixels_per_pixel\":");
         sp_strbuf_json_number(&b, f.scale_to_capture);
         sp_strbuf_printf(&b, ",\"intrinsics\":");
-        json_array(&b, k, 4);
+        sp_strbuf_json_numbers(&b, k, 4);
         sp_strbuf_printf(&b, ",\"camera_to_world_wxyz\":");
-        json_array(&b, q, 4);
+        sp_strbuf_json_numbers(&b, q, 4);
         sp_strbuf_printf(&b, ",\"face_rotvec\":");
-        json_array(&b, f.rotvec, 3);
+        sp_strbuf_json_numbers(&b, f.rotvec, 3);
         sp_strbuf_printf(&b, ",\"face_t\":");
-        json_array(&b, f.t, 3);
+        sp_strbuf_json_numbers(&b, f.t, 3);
         sp_strbuf_printf(&b, ",\"expression\":");
-        json_array(&b, f.exp, (int)ss->model->n_exp);
+        sp_strbuf_json_numbers(&b, f.exp, (int)ss->model->n_exp);
         sp_strbuf_printf(&b, "}");
     }
     sp_strbuf_printf(&b, "\n]}\n");
@@ -139,7 +128,7 @@ static int write_cameras(const sp_sunstage *ss, const char *dir)
 static void manifest_lighting(const sp_sunstage *ss, sp_strbuf *b)
 {
     sp_strbuf_printf(b, "\"lighting\":{\"sun_direction\":");
-    json_array(b, ss->sun_dir, 3);
+    sp_strbuf_json_numbers(b, ss->sun_dir, 3);
     sp_strbuf_printf(b, ",\"sun_intensity\":");
     sp_strbuf_json_number(b, ss->sun_dropped || ss->unobservable ? 0.0 : ss->sun_I);
     sp_strbuf_printf(b, ",\"sun_dropped\":%s,\"lighting_unobservable\":%s,\"notes\":",
@@ -167,13 +156,13 @@ static int write_manifest(const sp_sunstage *ss, const char *dir)
                          "\"cluster_width\":%u,\"cluster_height\":%u},\n",
                      ss->tw, ss->th, ss->model->cluster_width, ss->model->cluster_height);
     sp_strbuf_printf(&b, "\"specular\":{\"ks\":");
-    json_array(&b, ss->ks, SP_RENDER_CLUSTERS);
+    sp_strbuf_json_numbers(&b, ss->ks, SP_RENDER_CLUSTERS);
     sp_strbuf_printf(&b, ",\"shininess\":");
-    json_array(&b, ss->shin, SP_RENDER_CLUSTERS);
+    sp_strbuf_json_numbers(&b, ss->shin, SP_RENDER_CLUSTERS);
     sp_strbuf_printf(&b, "},\n");
     manifest_lighting(ss, &b);
     sp_strbuf_printf(&b, "\"identity\":");
-    json_array(&b, ss->id, (int)ss->model->n_id);
+    sp_strbuf_json_numbers(&b, ss->id, (int)ss->model->n_id);
     sp_strbuf_printf(&b, ",\"scale\":");
     sp_strbuf_json_number(&b, ss->scale);
     sp_strbuf_printf(&b, ",\n\"cameras\":\"cameras.json\",\"fit\":{\"train_psnr\":");

@@ -102,17 +102,6 @@ static int write_pfm(const char *dir, const char *name, const float *rgb, int w,
     return ret;
 }
 
-static void json_array(sp_strbuf *b, const double *v, int n)
-{
-    sp_strbuf_append(b, "[", 1);
-    for (int i = 0; i < n; i++) {
-        if (i)
-            sp_strbuf_append(b, ",", 1);
-        sp_strbuf_json_number(b, v[i]);
-    }
-    sp_strbuf_append(b, "]", 1);
-}
-
 static void json_farray(sp_strbuf *b, const float *v, int n)
 {
     sp_strbuf_append(b, "[", 1);
@@ -142,17 +131,17 @@ static void json_camera(sp_strbuf *b, const synth_pose *p)
     double pos[3] = { p->cam_pos.x, p->cam_pos.y, p->cam_pos.z };
     sp_strbuf_printf(b, "\"camera\":{\"fx\":%.17g,\"fy\":%.17g,\"cx\":%.17g,\"cy\":%.17g,\"R\":", p->cam.fx, p->cam.fy,
                      p->cam.cx, p->cam.cy);
-    json_array(b, p->cam.R, 9);
+    sp_strbuf_json_numbers(b, p->cam.R, 9);
     sp_strbuf_printf(b, ",\"t\":");
-    json_array(b, p->cam.t, 3);
+    sp_strbuf_json_numbers(b, p->cam.t, 3);
     sp_strbuf_printf(b, ",\"camera_to_world\":");
-    json_array(b, q, 4);
+    sp_strbuf_json_numbers(b, q, 4);
     sp_strbuf_printf(b, ",\"position\":");
-    json_array(b, pos, 3);
+    sp_strbuf_json_numbers(b, pos, 3);
     sp_strbuf_printf(b, "},\"head\":{\"rotvec\":");
-    json_array(b, p->rotvec, 3);
+    sp_strbuf_json_numbers(b, p->rotvec, 3);
     sp_strbuf_printf(b, ",\"t\":");
-    json_array(b, p->t, 3);
+    sp_strbuf_json_numbers(b, p->t, 3);
     sp_strbuf_printf(b, ",\"s\":1}");
 }
 
@@ -182,7 +171,7 @@ static int write_frames(sp_synth_selfie *g, const char *dir)
         sp_strbuf_printf(&b, ",");
         json_camera(&b, &p);
         sp_strbuf_printf(&b, ",\"sun_dir_camera\":");
-        json_array(&b, ft.sun_dir_camera, 3);
+        sp_strbuf_json_numbers(&b, ft.sun_dir_camera, 3);
         sp_strbuf_printf(&b, "}");
     }
     sp_strbuf_printf(&b, "\n]}\n");
@@ -282,9 +271,9 @@ static int heldout_json(sp_synth_selfie *g, const char *dir, const heldout *h, c
                      (unsigned long long)h->frame, g->s.width, g->s.height, g->initial_exposure);
     json_camera(&b, &h->pose);
     sp_strbuf_printf(&b, ",\"sun\":{\"direction_world\":");
-    json_array(&b, h->sun, 3);
+    sp_strbuf_json_numbers(&b, h->sun, 3);
     sp_strbuf_printf(&b, ",\"direction_camera\":");
-    json_array(&b, sc, 3);
+    sp_strbuf_json_numbers(&b, sc, 3);
     sp_strbuf_printf(&b, ",\"intensity\":%.17g},\"env_pfm\":", h->sun_intensity);
     sp_strbuf_json_string(&b, env);
     sp_strbuf_printf(&b, ",\"landmarks\":");
@@ -401,23 +390,23 @@ static void manifest_face(sp_strbuf *b, const sp_synth_selfie *g)
     sp_strbuf_json_string(b, m->source);
     sp_strbuf_printf(b, ",\"n_vertices\":%u,\"n_triangles\":%u,\"identity\":", m->mesh.n_vertices,
                      m->mesh.n_triangles);
-    json_array(b, g->id, (int)m->n_id);
+    sp_strbuf_json_numbers(b, g->id, (int)m->n_id);
     sp_strbuf_printf(b, ",\"expression_names\":[");
     for (uint32_t k = 0; k < m->n_exp; k++) {
         sp_strbuf_printf(b, "%s", k ? "," : "");
         sp_strbuf_json_string(b, sp_face_model_exp_name(m, k));
     }
     sp_strbuf_printf(b, "],\"expression\":");
-    json_array(b, g->exp, (int)m->n_exp);
+    sp_strbuf_json_numbers(b, g->exp, (int)m->n_exp);
     sp_strbuf_printf(b, ",\"scale\":1,\"model_center\":");
-    json_array(b, g->center, 3);
+    sp_strbuf_json_numbers(b, g->center, 3);
     const synth_look *lk = &g->look;
     sp_strbuf_printf(b, ",\"render_caps\":%d,\"look\":{\"skin_tone\":%.17g,\"skin\":", g->n_caps, lk->tone);
-    json_array(b, lk->skin, 3);
+    sp_strbuf_json_numbers(b, lk->skin, 3);
     sp_strbuf_printf(b, ",\"hair\":");
-    json_array(b, lk->hair, 3);
+    sp_strbuf_json_numbers(b, lk->hair, 3);
     sp_strbuf_printf(b, ",\"iris\":");
-    json_array(b, lk->iris, 3);
+    sp_strbuf_json_numbers(b, lk->iris, 3);
     sp_strbuf_printf(b, ",\"freckles\":%.17g,\"redness\":%.17g}},\n", lk->freckles, lk->redness);
 }
 
@@ -437,7 +426,7 @@ static void manifest_lighting(sp_strbuf *b, const sp_synth_selfie *g, const file
 {
     const sp_synth_selfie_settings *s = &g->s;
     sp_strbuf_printf(b, "\"lighting\":{\"sun\":{\"direction_world\":");
-    json_array(b, g->sun_dir, 3);
+    sp_strbuf_json_numbers(b, g->sun_dir, 3);
     sp_strbuf_printf(b, ",\"elevation_deg\":%.17g,\"azimuth_deg\":%.17g,\"intensity\":%.17g,\"angular_radius\":0},"
                         "\"sky\":{\"model\":\"%s\",\"intensity\":%.17g,\"ground_albedo\":%.17g},\"env_pfm\":\"env.pfm\","
                         "\"env_png\":\"%s\",\"env_layout\":\"%d rows x %d columns, row i: polar angle from +z, "
@@ -460,11 +449,11 @@ static void manifest_motion(sp_strbuf *b, const sp_synth_selfie *g)
                      m->heading_deg, m->pitch_deg, m->arm_radius_m, m->wobble_deg, g->s.camera_height_m,
                      g->s.head_wobble_deg);
     sp_strbuf_printf(b, "\"imu\":{\"rate_hz\":%.17g,\"imu_to_camera\":", m->rate_hz);
-    json_array(b, q, 4);
+    sp_strbuf_json_numbers(b, q, 4);
     sp_strbuf_printf(b, ",\"gyro_noise\":%.17g,\"gyro_bias\":", m->gyro_noise);
-    json_array(b, gb, 3);
+    sp_strbuf_json_numbers(b, gb, 3);
     sp_strbuf_printf(b, ",\"accel_noise\":%.17g,\"accel_bias\":", m->accel_noise);
-    json_array(b, ab, 3);
+    sp_strbuf_json_numbers(b, ab, 3);
     sp_strbuf_printf(b, ",\"gyro_range\":%.17g,\"seed\":%llu},\n", m->gyro_range, (unsigned long long)m->seed);
 }
 

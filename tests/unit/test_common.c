@@ -8,6 +8,7 @@
 #include "common/crc32c.h"
 #include "common/json.h"
 #include "common/report.h"
+#include "device/node_scan.h"
 #include "sunprobe/sp_frame.h"
 #include "sunprobe/sp_math.h"
 
@@ -158,6 +159,35 @@ static void test_report(void)
     CHECK_EQ_INT(sp_report_open(&r, prefix, "x", names, 0, 0), -EINVAL);
 }
 
+static void test_node_scan(void)
+{
+    char dir[] = "/tmp/sp-nodes-XXXXXX", path[80];
+    CHECK(mkdtemp(dir) != NULL);
+    static const char *names[] = { "video12", "video0", "video", "videoX", "video3a", "iio:device2", "video-1" };
+    for (size_t i = 0; i < sizeof(names) / sizeof(names[0]); i++) {
+        snprintf(path, sizeof(path), "%s/%s", dir, names[i]);
+        FILE *f = fopen(path, "w");
+        CHECK(f != NULL);
+        if (f)
+            fclose(f);
+    }
+    int nums[4] = { -9, -9, -9, -9 };
+    CHECK_EQ_INT(sp_scan_numbered_entries(dir, "video", nums, 4), 2);
+    CHECK_EQ_INT(nums[0], 0);
+    CHECK_EQ_INT(nums[1], 12);
+    CHECK_EQ_INT(sp_scan_numbered_entries(dir, "iio:device", nums, 4), 1);
+    CHECK_EQ_INT(nums[0], 2);
+    CHECK_EQ_INT(sp_scan_numbered_entries("/nonexistent-sp-dir", "video", nums, 4), 0);
+    snprintf(path, sizeof(path), "rm -rf %s", dir);
+    CHECK(system(path) == 0);
+
+    sp_strbuf b = { 0 };
+    double v[3] = { 1.5, NAN, -2 };
+    sp_strbuf_json_numbers(&b, v, 3);
+    CHECK(b.data && strcmp(b.data, "[1.5,null,-2]") == 0);
+    sp_strbuf_free(&b);
+}
+
 int main(void)
 {
     test_crc32c();
@@ -165,5 +195,6 @@ int main(void)
     test_frame_pool();
     test_quat();
     test_report();
+    test_node_scan();
     return check_exit();
 }
