@@ -7,7 +7,8 @@ set -euo pipefail
 profile=${1:-full}
 core=(meson ninja-build pkg-config gcc g++ python3 zlib1g-dev libjpeg62-turbo-dev)
 full=(clang libclang-rt-14-dev libopencv-dev opencv-doc libopenimageio-dev libdraco-dev libeigen3-dev
-      libcamera-dev libiio-dev libdlib-dev)
+      libcamera-dev libiio-dev libdlib-dev
+      chromium) # chromium: the face viewer's headless test (tests/export/test_viewer.sh)
 pkgs=("${core[@]}")
 [ "$profile" = full ] && pkgs+=("${full[@]}")
 # export checks (tests/export, npm packages): Debian's node + npm unless a node is already installed
