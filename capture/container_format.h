@@ -136,4 +136,25 @@ int spc_pwrite_full(int fd, const void *buf, size_t len, uint64_t offset);
 /* fsync of the directory holding path, so a new name is durable. */
 int spc_sync_parent_dir(const char *path);
 
+/*
+ * Replay's copy-free path. get_dst is called for a FRAME chunk whose chunk and
+ * frame headers checked out (fc->data is NULL: nothing read yet; head->payload
+ * holds only the frame header). It returns 0 with *dst pointing at
+ * fc->data_size writable bytes, -EAGAIN to leave the chunk unread for a later
+ * call, or an error. It may be called again for another chunk (or the same one
+ * re-read) before spc_reader_next_direct returns, when a payload fails its CRC.
+ */
+typedef struct spc_frame_sink {
+    int (*get_dst)(void *user, const sp_chunk *head, const sp_frame_chunk *fc, uint8_t **dst);
+    void *user;
+} spc_frame_sink;
+
+/*
+ * sp_capture_reader_next, except that a FRAME chunk's pixel data may be read
+ * straight into the sink's memory and CRC-checked there. *direct = 1 then, and
+ * the chunk's payload is NULL (payload_size is still the whole payload's);
+ * otherwise the chunk is as sp_capture_reader_next returns it.
+ */
+int spc_reader_next_direct(sp_capture_reader *r, sp_chunk *chunk, const spc_frame_sink *sink, int *direct);
+
 #endif

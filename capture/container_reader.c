@@ -1,8 +1,12 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * .spcap reader: pread-based, one reusable payload buffer bounded by
- * max_chunk_size, so memory stays flat on multi-GB files. Also the payload views
- * and the header checks shared with recovery. Layout: capture/FORMAT.md.
+ * .spcap reader: pread-based, one reusable buffer bounded by max_chunk_size
+ * plus a read-ahead window, so memory stays flat on multi-GB files. Each read
+ * also fetches the bytes after the chunk, so the next header and small chunks
+ * (IMU, metadata) come from memory: about one syscall per frame. Replay can
+ * have pixel data read straight into its frames (spc_reader_next_direct).
+ * Also the payload views and the header checks shared with recovery.
+ * Layout: capture/FORMAT.md.
  */
 #include "sunprobe/sp_capture.h"
 
@@ -12,6 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/uio.h>
 #include <unistd.h>
 
 #include "capture/container_format.h"
@@ -19,6 +24,7 @@
 
 #define SCAN_WINDOW (64u << 10)
 #define MIN_BUFFER (4u << 10)
+#define READ_AHEAD (64u << 10) /* read past each chunk: the next headers and small chunks */
 
 struct sp_capture_reader {
     int fd;
@@ -27,8 +33,10 @@ struct sp_capture_reader {
     uint64_t header_size;   /* offset of the first chunk */
     uint64_t pos;           /* offset of the next chunk to read */
     int ended;              /* an END chunk was returned */
-    uint8_t *buf;           /* payload of the last chunk returned */
+    uint8_t *buf;           /* file bytes [win_off, win_off + win_len): the last payload and read-ahead */
     size_t buf_cap;
+    uint64_t win_off;
+    size_t win_len;
     uint8_t *scan;          /* resynchronisation window, allocated on first use */
     uint64_t corrupt_count;
     uint64_t first_corrupt;
@@ -190,6 +198,8 @@ int sp_capture_reader_open(sp_capture_reader **out, const char *path, const sp_c
     r->first_corrupt = UINT64_MAX;
     r->fd = open(path, O_RDONLY | O_CLOEXEC);
     int err = r->fd < 0 ? -errno : refresh_size(r);
+    if (err == 0) /* mostly read front to back: ask for a larger kernel read-ahead (advice only) */
+        (void)posix_fadvise(r->fd, 0, 0, POSIX_FADV_SEQUENTIAL);
     if (err == 0)
         err = read_header(r);
     if (err < 0) {
@@ -218,15 +228,17 @@ const sp_capture_info *sp_capture_reader_info(const sp_capture_reader *r)
     return r ? &r->info : NULL;
 }
 
+/* Grows buf to hold need bytes, keeping its contents; never beyond the largest chunk plus the read-ahead. */
 static int reserve(sp_capture_reader *r, size_t need)
 {
     if (need <= r->buf_cap)
         return 0;
+    size_t limit = (size_t)r->s.max_chunk_size + SPC_CHUNK_HDR_SIZE + READ_AHEAD;
     size_t cap = r->buf_cap ? r->buf_cap : MIN_BUFFER;
     while (cap < need)
         cap *= 2;
-    if (cap > r->s.max_chunk_size)
-        cap = need > MIN_BUFFER ? need : MIN_BUFFER;
+    if (cap > limit)
+        cap = need > limit ? need : limit;
     uint8_t *p = realloc(r->buf, cap);
     if (!p)
         return -ENOMEM;
@@ -236,47 +248,188 @@ static int reserve(sp_capture_reader *r, size_t need)
 }
 
 /*
- * Reads and checks the chunk at `off`. Returns 0, SP_EOS (at the end of the
- * file), SP_ETRUNCATED, SP_ECORRUPT or an I/O error. *extent is set to the
- * chunk's total size when its header checked out (so a bad payload can be
- * stepped over), else 0.
+ * Makes buf hold the file from `off` on, at least `need` bytes unless the file
+ * ends first, reading READ_AHEAD more when it has to read. Returns how many
+ * bytes from off are held, at *at, or a negative errno.
  */
-static int read_chunk_at(sp_capture_reader *r, uint64_t off, sp_chunk *c, uint64_t *extent)
+static int64_t window(sp_capture_reader *r, uint64_t off, size_t need, const uint8_t **at)
+{
+    size_t keep = 0;
+    if (off >= r->win_off && off - r->win_off <= r->win_len) {
+        size_t skip = (size_t)(off - r->win_off);
+        keep = r->win_len - skip;
+        *at = r->buf + skip;
+        if (keep >= need)
+            return (int64_t)keep;
+        memmove(r->buf, r->buf + skip, keep); /* at most the read-ahead: the rest follows it */
+    }
+    size_t want = need + READ_AHEAD;
+    int err = reserve(r, want);
+    if (err < 0)
+        return err;
+    r->win_off = off;
+    r->win_len = keep;
+    *at = r->buf;
+    int64_t n = spc_pread_full(r->fd, r->buf + keep, want - keep, off + keep);
+    if (n < 0)
+        return n;
+    r->win_len += (size_t)n;
+    return (int64_t)r->win_len;
+}
+
+static void drop_window(sp_capture_reader *r)
+{
+    r->win_len = 0;
+}
+
+/* The chunk header at `off` (in the window afterwards): 0, SP_EOS, SP_ETRUNCATED, SP_ECORRUPT or an error. */
+static int read_header_at(sp_capture_reader *r, uint64_t off, spc_chunk_header *h, uint64_t *extent)
 {
     *extent = 0;
     if (!available(r, off, 1))
         return SP_EOS;
-    uint8_t hb[SPC_CHUNK_HDR_SIZE];
-    int64_t n = spc_pread_full(r->fd, hb, sizeof(hb), off);
+    const uint8_t *at;
+    int64_t n = window(r, off, SPC_CHUNK_HDR_SIZE, &at);
     if (n < 0)
         return (int)n;
-    if (n < (int64_t)sizeof(hb))
+    if (n < (int64_t)SPC_CHUNK_HDR_SIZE)
         return SP_ETRUNCATED;
-    spc_chunk_header h;
-    if (spc_parse_chunk_header(hb, &h) < 0)
+    if (spc_parse_chunk_header(at, h) < 0)
         return SP_ECORRUPT;
-    *extent = SPC_CHUNK_HDR_SIZE + (uint64_t)h.payload_size;
-    if (h.payload_size > r->s.max_chunk_size)
+    *extent = SPC_CHUNK_HDR_SIZE + (uint64_t)h->payload_size;
+    if (h->payload_size > r->s.max_chunk_size)
         return SP_ECORRUPT;
     if (!available(r, off, *extent))
         return SP_ETRUNCATED;
-    int err = reserve(r, h.payload_size);
-    if (err < 0)
-        return err;
-    n = spc_pread_full(r->fd, r->buf, h.payload_size, off + SPC_CHUNK_HDR_SIZE);
+    return 0;
+}
+
+static void fill_chunk(sp_chunk *c, const spc_chunk_header *h, uint64_t off, const uint8_t *payload)
+{
+    c->type = h->type;
+    c->flags = h->flags;
+    c->timestamp_ns = h->timestamp_ns;
+    c->offset = off;
+    c->payload_size = h->payload_size;
+    c->payload = payload;
+}
+
+/* The whole chunk in buf: header, then payload, CRC checked. */
+static int read_buffered(sp_capture_reader *r, uint64_t off, const spc_chunk_header *h, sp_chunk *c)
+{
+    const uint8_t *at;
+    int64_t n = window(r, off, SPC_CHUNK_HDR_SIZE + (size_t)h->payload_size, &at);
     if (n < 0)
         return (int)n;
-    if (n < (int64_t)h.payload_size)
+    if (n < (int64_t)(SPC_CHUNK_HDR_SIZE + (uint64_t)h->payload_size))
         return SP_ETRUNCATED; /* the file shrank under us */
-    if (sp_crc32c(0, r->buf, h.payload_size) != h.payload_crc)
+    const uint8_t *payload = at + SPC_CHUNK_HDR_SIZE;
+    if (sp_crc32c(0, payload, h->payload_size) != h->payload_crc)
         return SP_ECORRUPT;
-    c->type = h.type;
-    c->flags = h.flags;
-    c->timestamp_ns = h.timestamp_ns;
-    c->offset = off;
-    c->payload_size = h.payload_size;
-    c->payload = r->buf;
+    fill_chunk(c, h, off, payload);
     return 0;
+}
+
+/* Reads len bytes at off into dst and what follows into the window, one preadv per pass. */
+static int read_into(sp_capture_reader *r, uint8_t *dst, size_t len, uint64_t off)
+{
+    size_t got = 0;
+    r->win_len = 0;
+    while (got < len) {
+        struct iovec iov[2] = { { dst + got, len - got }, { r->buf, READ_AHEAD } };
+        ssize_t n = preadv(r->fd, iov, 2, (off_t)(off + got));
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n < 0)
+            return -errno;
+        if (n == 0)
+            return SP_ETRUNCATED; /* the file shrank under us */
+        if ((size_t)n > len - got) {
+            r->win_off = off + len;
+            r->win_len = (size_t)n - (len - got);
+        }
+        got = (size_t)n > len - got ? len : got + (size_t)n;
+    }
+    return 0;
+}
+
+/*
+ * A FRAME chunk with its pixel data read into the caller's memory. Returns 1
+ * when this path does not apply (the caller reads the chunk into buf instead).
+ */
+static int read_direct(sp_capture_reader *r, uint64_t off, const spc_chunk_header *h, sp_chunk *c,
+                       const spc_frame_sink *sink)
+{
+    size_t size = h->payload_size;
+    const uint8_t *at;
+    int64_t n = window(r, off, SPC_CHUNK_HDR_SIZE + (size < SPC_FRAME_HDR_SIZE ? size : SPC_FRAME_HDR_SIZE), &at);
+    if (n < 0)
+        return (int)n;
+    const uint8_t *payload = at + SPC_CHUNK_HDR_SIZE;
+    size_t held = (size_t)n - SPC_CHUNK_HDR_SIZE, hs = size >= 4 && held >= 4 ? spc_get32(payload) : 0;
+    sp_frame_chunk fc;
+    sp_chunk head = { 0 };
+    fill_chunk(&head, h, off, payload);
+    /* headers that do not check out (or do not fit the window) take the ordinary path and fail there */
+    if (hs == 0 || hs > held || sp_chunk_parse_frame(&head, &fc) != 0)
+        return 1;
+    fc.data = NULL;
+    uint8_t *dst = NULL;
+    int err = sink->get_dst(sink->user, &head, &fc, &dst);
+    if (err)
+        return err;
+    size_t in_win = held - hs < fc.data_size ? held - hs : fc.data_size;
+    uint32_t crc = sp_crc32c(0, payload, hs);
+    memcpy(dst, payload + hs, in_win);
+    err = read_into(r, dst + in_win, fc.data_size - in_win, off + SPC_CHUNK_HDR_SIZE + hs + in_win);
+    if (err)
+        return err;
+    if (sp_crc32c(crc, dst, fc.data_size) != h->payload_crc)
+        return SP_ECORRUPT;
+    fill_chunk(c, h, off, NULL);
+    return 0;
+}
+
+/*
+ * Reads and checks the chunk at `off`. Returns 0, SP_EOS (at the end of the
+ * file), SP_ETRUNCATED, SP_ECORRUPT or an I/O error. *extent is set to the
+ * chunk's total size when its header checked out (so a bad payload can be
+ * stepped over), else 0. With a sink, a FRAME chunk's pixel data may go to the
+ * sink's memory (*direct = 1; c->payload is then NULL).
+ */
+static int read_chunk_once(sp_capture_reader *r, uint64_t off, sp_chunk *c, uint64_t *extent,
+                           const spc_frame_sink *sink, int *direct)
+{
+    spc_chunk_header h = { 0 };
+    *direct = 0;
+    int err = read_header_at(r, off, &h, extent);
+    if (err)
+        return err;
+    if (sink && h.type == SP_CHUNK_FRAME) {
+        err = read_direct(r, off, &h, c, sink);
+        if (err != 1) {
+            *direct = err == 0;
+            return err;
+        }
+    }
+    return read_buffered(r, off, &h, c);
+}
+
+static int read_chunk_at(sp_capture_reader *r, uint64_t off, sp_chunk *c, uint64_t *extent,
+                         const spc_frame_sink *sink, int *direct)
+{
+    int cached = off >= r->win_off && off - r->win_off < r->win_len;
+    int err = read_chunk_once(r, off, c, extent, sink, direct);
+    /*
+     * Bytes held from an earlier read may be stale: a writer that failed
+     * mid-chunk truncates the torn tail and writes it again. Failures seen in
+     * held bytes are checked once more against the file itself.
+     */
+    if (cached && (err == SP_ECORRUPT || err == SP_ETRUNCATED)) {
+        drop_window(r);
+        err = read_chunk_once(r, off, c, extent, sink, direct);
+    }
+    return err;
 }
 
 /* Offset of the next chunk header at or after `from` whose sync word and CRC check out, or UINT64_MAX. */
@@ -310,15 +463,14 @@ static void note_corrupt(sp_capture_reader *r, uint64_t off)
         r->first_corrupt = off;
 }
 
-int sp_capture_reader_next(sp_capture_reader *r, sp_chunk *chunk)
+static int next_chunk(sp_capture_reader *r, sp_chunk *chunk, const spc_frame_sink *sink, int *direct)
 {
-    if (!r || !chunk)
-        return -EINVAL;
     for (;;) {
+        *direct = 0;
         if (r->ended)
             return SP_EOS;
         uint64_t extent;
-        int err = read_chunk_at(r, r->pos, chunk, &extent);
+        int err = read_chunk_at(r, r->pos, chunk, &extent, sink, direct);
         if (err == 0) {
             r->pos += SPC_CHUNK_HDR_SIZE + chunk->payload_size;
             if (chunk->type == SP_CHUNK_INDEX)
@@ -343,6 +495,21 @@ int sp_capture_reader_next(sp_capture_reader *r, sp_chunk *chunk)
         }
         r->pos = next;
     }
+}
+
+int sp_capture_reader_next(sp_capture_reader *r, sp_chunk *chunk)
+{
+    if (!r || !chunk)
+        return -EINVAL;
+    int direct;
+    return next_chunk(r, chunk, NULL, &direct);
+}
+
+int spc_reader_next_direct(sp_capture_reader *r, sp_chunk *chunk, const spc_frame_sink *sink, int *direct)
+{
+    if (!r || !chunk || !sink || !sink->get_dst || !direct)
+        return -EINVAL;
+    return next_chunk(r, chunk, sink, direct);
 }
 
 uint64_t sp_capture_reader_corrupt_count(const sp_capture_reader *r)
@@ -453,8 +620,9 @@ int sp_capture_reader_seek(sp_capture_reader *r, int64_t timestamp_ns)
     seek_best best = { 0 };
     sp_chunk c;
     uint64_t extent;
+    int direct;
     for (uint64_t off = r->last_index; off != 0;) {
-        if (read_chunk_at(r, off, &c, &extent) < 0)
+        if (read_chunk_at(r, off, &c, &extent, NULL, &direct) < 0)
             break; /* a damaged index only makes the seek land earlier */
         off = scan_index(&c, r->header_size, timestamp_ns, &best);
     }

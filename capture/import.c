@@ -22,6 +22,7 @@
 #include "capture/import_csv.h"
 #include "capture/import_internal.h"
 #include "capture/opencv_shim.h"
+#include "common/file_util.h"
 #include "common/jpeg.h"
 #include "common/json.h"
 #include "sp_config.h"
@@ -49,7 +50,7 @@ typedef struct import_ctx {
     sp_json *meta_root;      /* the user's META JSON, or NULL */
     sp_capture_meta meta;
     sp_capture_writer *writer;
-    char *partial;
+    sp_partial partial;      /* the output while it is written */
     uint8_t *file_buf;
     size_t file_cap, file_size;
     uint8_t *rgb;
@@ -310,7 +311,7 @@ static int write_batch(import_ctx *c)
         return 0;
     int rc = sp_capture_write_imu(c->writer, c->batch, c->nbatch);
     if (rc)
-        return FAIL(c, rc, "%s: writing IMU samples: %s", c->partial, sp_strerror(rc));
+        return FAIL(c, rc, "%s: writing IMU samples: %s", c->partial.path, sp_strerror(rc));
     c->rep->imu_samples += c->nbatch;
     c->rep->imu_chunks++;
     c->nbatch = 0;
@@ -348,7 +349,7 @@ static int write_meta(import_ctx *c, uint32_t w, uint32_t h)
     if (!rc)
         rc = sp_capture_write_meta(c->writer, 0, b.data, b.len);
     sp_strbuf_free(&b);
-    return rc ? FAIL(c, rc, "%s: writing metadata: %s", c->partial, sp_strerror(rc)) : 0;
+    return rc ? FAIL(c, rc, "%s: writing metadata: %s", c->partial.path, sp_strerror(rc)) : 0;
 }
 
 /* ---- the run ---- */
@@ -429,20 +430,17 @@ static int choose_fps(import_ctx *c)
 
 static int open_output(import_ctx *c)
 {
-    size_t n = strlen(c->s->output) + sizeof(".partial");
-    c->partial = malloc(n);
-    if (!c->partial)
-        return -ENOMEM;
-    snprintf(c->partial, n, "%s.partial", c->s->output);
+    int rc = sp_partial_file_open(&c->partial, c->s->output);
+    if (rc)
+        return rc;
     sp_capture_writer_settings ws;
     sp_capture_writer_default_settings(&ws);
     ws.sync = SP_SYNC_NONE; /* a conversion: one sync at the end is enough */
     ws.overwrite = 1;       /* a .partial left by an interrupted run is garbage */
-    int rc = sp_capture_writer_open(&c->writer, c->partial, &ws);
+    rc = sp_capture_writer_open(&c->writer, c->partial.path, &ws);
     if (rc) {
-        rc = FAIL(c, rc, "%s: cannot create: %s", c->partial, sp_strerror(rc));
-        free(c->partial); /* nothing of ours to remove */
-        c->partial = NULL;
+        rc = FAIL(c, rc, "%s: cannot create: %s", c->partial.path, sp_strerror(rc));
+        sp_partial_forget(&c->partial); /* nothing of ours to remove */
     }
     return rc;
 }
@@ -501,7 +499,7 @@ static int import_frames(import_ctx *c)
         if (rc)
             return rc;
         if ((rc = sp_capture_write_frame(c->writer, &f)) != 0)
-            return FAIL(c, rc, "%s: writing frame %llu: %s", c->partial, (unsigned long long)c->index,
+            return FAIL(c, rc, "%s: writing frame %llu: %s", c->partial.path, (unsigned long long)c->index,
                         sp_strerror(rc));
         c->rep->last_frame_ns = f.timestamp_ns;
         c->rep->frames = ++c->index;
@@ -515,33 +513,14 @@ static int import_frames(import_ctx *c)
     return flush_imu(c, INT64_MAX); /* IMU samples after the last frame are kept too */
 }
 
-static int rename_into_place(import_ctx *c)
-{
-    const char *out = c->s->output;
-    if (!c->s->overwrite) {
-        if (renameat2(AT_FDCWD, c->partial, AT_FDCWD, out, RENAME_NOREPLACE) == 0)
-            return 0;
-        if (errno != EINVAL && errno != ENOSYS) /* file systems without RENAME_NOREPLACE: check, then rename */
-            return -errno;
-        if (access(out, F_OK) == 0)
-            return -EEXIST;
-    }
-    return rename(c->partial, out) == 0 ? 0 : -errno;
-}
-
 static int finish_output(import_ctx *c)
 {
     int rc = sp_capture_writer_close(&c->writer);
     if (rc)
-        return FAIL(c, rc, "%s: finishing the capture: %s", c->partial, sp_strerror(rc));
-    rc = rename_into_place(c);
+        return FAIL(c, rc, "%s: finishing the capture: %s", c->partial.path, sp_strerror(rc));
+    rc = sp_partial_file_commit(&c->partial, c->s->overwrite ? SP_PARTIAL_REPLACE : 0);
     if (rc)
-        return FAIL(c, rc, "%s: cannot rename to %s: %s", c->partial, c->s->output, sp_strerror(rc));
-    free(c->partial);
-    c->partial = NULL;
-    rc = spc_sync_parent_dir(c->s->output);
-    if (rc) /* the capture is complete; only the durability of its name is in doubt */
-        sp_log(SP_LOG_WARN, "import", "%s: syncing its directory: %s", c->s->output, sp_strerror(rc));
+        return FAIL(c, rc, "%s: cannot rename to %s: %s", c->partial.path, c->s->output, sp_strerror(rc));
     return 0;
 }
 
@@ -549,9 +528,7 @@ static void cleanup(import_ctx *c)
 {
     if (c->writer)
         sp_capture_writer_close(&c->writer);
-    if (c->partial && unlink(c->partial) != 0 && errno != ENOENT)
-        sp_log(SP_LOG_WARN, "import", "%s: could not remove: %s", c->partial, strerror(errno));
-    free(c->partial);
+    sp_partial_file_abort(&c->partial); /* a no-op after the commit */
 #if HAVE_OPENCV
     sp_cv_video_close(&c->video);
 #endif

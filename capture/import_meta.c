@@ -7,26 +7,21 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/file_util.h"
+
 #define MAX_META_FILE (1u << 20)
 
 static int read_text(const char *path, char **out, size_t *len, char *msg, size_t msg_size)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        int rc = -errno;
+    void *buf = NULL;
+    int rc = sp_read_whole_file(path, MAX_META_FILE, &buf, len);
+    if (rc == -EFBIG)
+        return sp_import_fail(msg, msg_size, rc, "%s: larger than 1 MiB", path);
+    if (rc == -ENOMEM || rc == -EIO)
+        return sp_import_fail(msg, msg_size, rc, "%s: %s", path, sp_strerror(rc));
+    if (rc)
         return sp_import_fail(msg, msg_size, rc, "%s: cannot open: %s", path, sp_strerror(rc));
-    }
-    char *buf = malloc(MAX_META_FILE + 1);
-    size_t n = buf ? fread(buf, 1, MAX_META_FILE + 1, f) : 0;
-    int rc = !buf ? -ENOMEM : ferror(f) ? -EIO : n > MAX_META_FILE ? -EFBIG : 0;
-    fclose(f);
-    if (rc) {
-        free(buf);
-        return sp_import_fail(msg, msg_size, rc, "%s: %s", path, rc == -EFBIG ? "larger than 1 MiB" : sp_strerror(rc));
-    }
-    buf[n] = 0;
-    *out = buf;
-    *len = n;
+    *out = buf; /* NUL-terminated */
     return 0;
 }
 

@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "capture/container_format.h"
 #include "common/clock.h"
 #include "sunprobe/sp_capture.h"
 
@@ -38,6 +39,7 @@ typedef struct replay {
     int eof;
     int have_chunk; /* `chunk` was read but not yet turned into events (pool was full) */
     sp_chunk chunk;
+    sp_frame *inflight; /* the frame the reader fills for `chunk` (copy-free path), or NULL */
     pending current; /* the event handed out last: its buffers live until the next call */
     int64_t pace_wall0, pace_t0;
     sp_replay_stats stats;
@@ -114,6 +116,33 @@ static int get_frame(replay *r, size_t size, sp_frame **out)
     return sp_frame_pool_get(r->pool, out);
 }
 
+static void describe_frame(sp_frame *f, const sp_frame_chunk *fc, int64_t timestamp_ns)
+{
+    f->bytes_used = fc->data_size;
+    f->format = fc->format;
+    f->width = fc->width;
+    f->height = fc->height;
+    f->stride = fc->stride;
+    f->stream_id = fc->stream_id;
+    f->sequence = fc->sequence;
+    f->exposure_us = fc->exposure_us;
+    f->gain = fc->gain;
+    f->timestamp_ns = timestamp_ns;
+}
+
+/* Queues a frame event; the frame's reference moves to the heap (or is dropped on failure). */
+static int push_frame_event(replay *r, sp_frame *f, int64_t t)
+{
+    pending p = { .t = t, .type = SP_EVENT_FRAME, .frame = f };
+    int ret = heap_push(r, &p);
+    if (ret)
+        sp_frame_unref(&f);
+    else
+        r->stats.frames++;
+    return ret;
+}
+
+/* A FRAME chunk read into the reader's buffer: copied into a pool frame. */
 static int push_frame(replay *r, const sp_chunk *c)
 {
     sp_frame_chunk fc;
@@ -124,22 +153,23 @@ static int push_frame(replay *r, const sp_chunk *c)
     if ((ret = get_frame(r, fc.data_size, &f)))
         return ret;
     memcpy(f->data, fc.data, fc.data_size);
-    f->bytes_used = fc.data_size;
-    f->format = fc.format;
-    f->width = fc.width;
-    f->height = fc.height;
-    f->stride = fc.stride;
-    f->stream_id = fc.stream_id;
-    f->sequence = fc.sequence;
-    f->exposure_us = fc.exposure_us;
-    f->gain = fc.gain;
-    f->timestamp_ns = c->timestamp_ns;
-    pending p = { .t = c->timestamp_ns, .type = SP_EVENT_FRAME, .frame = f };
-    if ((ret = heap_push(r, &p)))
-        sp_frame_unref(&f);
-    else
-        r->stats.frames++;
-    return ret;
+    describe_frame(f, &fc, c->timestamp_ns);
+    return push_frame_event(r, f, c->timestamp_ns);
+}
+
+/* The reader's sink: pixel data goes straight into a pool frame (-EAGAIN when the pool is empty). */
+static int frame_dst(void *user, const sp_chunk *head, const sp_frame_chunk *fc, uint8_t **dst)
+{
+    replay *r = user;
+    sp_frame_unref(&r->inflight); /* filled for a payload that then failed its CRC */
+    sp_frame *f = NULL;
+    int ret = get_frame(r, fc->data_size, &f);
+    if (ret)
+        return ret;
+    describe_frame(f, fc, head->timestamp_ns);
+    r->inflight = f;
+    *dst = f->data;
+    return 0;
 }
 
 static int push_imu(replay *r, const sp_chunk *c)
@@ -202,6 +232,11 @@ static int push_side(replay *r, const sp_chunk *c)
 
 static int push_chunk(replay *r, const sp_chunk *c)
 {
+    if (r->inflight) { /* read by the copy-free path: the frame is complete and checked */
+        sp_frame *f = r->inflight;
+        r->inflight = NULL;
+        return push_frame_event(r, f, c->timestamp_ns);
+    }
     switch (c->type) {
     case SP_CHUNK_FRAME:
         return push_frame(r, c);
@@ -224,7 +259,13 @@ static int push_chunk(replay *r, const sp_chunk *c)
 static int fill_one(replay *r)
 {
     if (!r->have_chunk) {
-        int ret = sp_capture_reader_next(r->reader, &r->chunk);
+        spc_frame_sink sink = { .get_dst = frame_dst, .user = r };
+        int direct = 0;
+        int ret = spc_reader_next_direct(r->reader, &r->chunk, &sink, &direct);
+        if (!direct)
+            sp_frame_unref(&r->inflight); /* left from a frame that failed its CRC, if any */
+        if (ret == -EAGAIN)
+            return ret; /* pool empty: the chunk stays unread until frames come back */
         if (ret == SP_EOS || ret == SP_ETRUNCATED) {
             r->stats.truncated = ret == SP_ETRUNCATED;
             if (r->stats.truncated)
@@ -332,6 +373,7 @@ static void replay_close(void *ctx)
     if (!r)
         return;
     pending_free(&r->current);
+    sp_frame_unref(&r->inflight);
     while (r->heap_len) {
         pending p = heap_pop(r);
         pending_free(&p);

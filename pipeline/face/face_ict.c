@@ -14,8 +14,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
+#include "common/file_util.h"
 #include "face_internal.h"
 #include "mesh_decimate.h"
 #include "obj_reader.h"
@@ -62,12 +62,6 @@ const char *sp_face_ict_dir(void)
     if (env && env[0])
         return env;
     return SP_ICT_FACEKIT_DEFAULT_DIR;
-}
-
-static int join(char *buf, size_t n, const char *dir, const char *name)
-{
-    int w = snprintf(buf, n, "%s/%s", dir, name);
-    return w < 0 || (size_t)w >= n ? -ENAMETOOLONG : 0;
 }
 
 /* ---- the neutral mesh: crop, triangulate, scale ---- */
@@ -264,7 +258,7 @@ static int read_mode(const char *dir, const char *name, const obj_data *neutral,
                      double head_radius, float *dst)
 {
     char path[4096], err_text[160];
-    int err = join(path, sizeof(path), dir, name);
+    int err = sp_path_join(path, sizeof(path), dir, name);
     obj_data o;
     if (!err)
         err = obj_read_file(path, 1, &o, err_text, sizeof(err_text));
@@ -299,8 +293,7 @@ static int read_mode(const char *dir, const char *name, const obj_data *neutral,
 static int file_exists(const char *dir, const char *name)
 {
     char path[4096];
-    struct stat st;
-    return join(path, sizeof(path), dir, name) == 0 && stat(path, &st) == 0 && S_ISREG(st.st_mode);
+    return sp_path_join(path, sizeof(path), dir, name) == 0 && sp_is_regular_file(path);
 }
 
 static uint32_t count_identity_files(const char *dir, uint32_t max)
@@ -353,7 +346,7 @@ static int read_modes(sp_face_model *m, const char *dir, const obj_data *neutral
 static int load_neutral(const char *dir, obj_data *o)
 {
     char path[4096], err_text[160];
-    int err = join(path, sizeof(path), dir, "generic_neutral_mesh.obj");
+    int err = sp_path_join(path, sizeof(path), dir, "generic_neutral_mesh.obj");
     if (!err)
         err = obj_read_file(path, 0, o, err_text, sizeof(err_text));
     if (err == -ENOENT || err == -ENOTDIR)

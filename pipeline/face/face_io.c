@@ -10,10 +10,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
-#include "common/atomic_file.h"
 #include "common/crc32c.h"
+#include "common/file_util.h"
 #include "face_internal.h"
 
 #define MAGIC "SPFACEMD"
@@ -140,12 +139,7 @@ int sp_face_model_write(const sp_face_model *model, const char *path)
         put_u64(buf + off + 8, bytes);
         off += SECTION_HEAD + bytes;
     }
-    sp_atomic_file af;
-    err = sp_atomic_file_open(&af, path);
-    if (!err) {
-        int st = fwrite(buf, 1, total, af.file) == total ? 0 : -EIO;
-        err = sp_atomic_file_finish(&af, st);
-    }
+    err = sp_write_whole_file_atomic(path, buf, total);
     free(buf);
     return err;
 }
@@ -243,40 +237,14 @@ int sp_face_model_read_memory(sp_face_model *model, const void *data, size_t siz
     return err;
 }
 
-static int slurp(const char *path, uint8_t **out, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return -errno;
-    struct stat st;
-    int err = 0;
-    if (fstat(fileno(f), &st) != 0)
-        err = -errno;
-    else if (st.st_size < 0 || (size_t)st.st_size > MAX_FILE)
-        err = -EFBIG;
-    uint8_t *buf = err ? NULL : malloc((size_t)st.st_size + 1);
-    if (!err && !buf)
-        err = -ENOMEM;
-    if (!err && fread(buf, 1, (size_t)st.st_size, f) != (size_t)st.st_size)
-        err = -EIO;
-    fclose(f);
-    if (err) {
-        free(buf);
-        return err;
-    }
-    *out = buf;
-    *size = (size_t)st.st_size;
-    return 0;
-}
-
 int sp_face_model_read(sp_face_model *model, const char *path)
 {
     if (!model || !path)
         return -EINVAL;
     memset(model, 0, sizeof(*model));
-    uint8_t *buf = NULL;
+    void *buf = NULL;
     size_t size = 0;
-    int err = slurp(path, &buf, &size);
+    int err = sp_read_whole_file(path, MAX_FILE, &buf, &size);
     if (err)
         return err;
     err = sp_face_model_read_memory(model, buf, size);

@@ -12,6 +12,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "common/file_util.h"
 #include "face_internal.h"
 
 void sp_face_load_default_settings(sp_face_load_settings *settings)
@@ -26,45 +27,26 @@ void sp_face_load_default_settings(sp_face_load_settings *settings)
 static int neutral_stat(const char *dir, struct stat *st)
 {
     char path[4096];
-    int n = snprintf(path, sizeof(path), "%s/generic_neutral_mesh.obj", dir);
-    return n > 0 && (size_t)n < sizeof(path) && stat(path, st) == 0 && S_ISREG(st->st_mode);
-}
-
-static int make_dirs(const char *dir)
-{
-    char tmp[4096];
-    int n = snprintf(tmp, sizeof(tmp), "%s", dir);
-    if (n <= 0 || (size_t)n >= sizeof(tmp))
-        return -ENAMETOOLONG;
-    for (char *p = tmp + 1; *p; p++)
-        if (*p == '/') {
-            *p = 0;
-            if (mkdir(tmp, 0755) != 0 && errno != EEXIST)
-                return -errno;
-            *p = '/';
-        }
-    return mkdir(tmp, 0755) != 0 && errno != EEXIST ? -errno : 0;
+    return sp_path_join(path, sizeof(path), dir, "generic_neutral_mesh.obj") == 0 && stat(path, st) == 0 &&
+           S_ISREG(st->st_mode);
 }
 
 /* $XDG_CACHE_HOME/sunprobe or ~/.cache/sunprobe, created if needed; 0 and the file path, or an error. */
 static int default_cache_path(char *buf, size_t n, uint32_t target)
 {
     const char *xdg = getenv("XDG_CACHE_HOME"), *home = getenv("HOME");
-    char dir[4096];
-    int w;
+    char dir[4096], name[64];
+    int err;
     if (xdg && xdg[0] == '/')
-        w = snprintf(dir, sizeof(dir), "%s/sunprobe", xdg);
+        err = sp_path_join(dir, sizeof(dir), xdg, "sunprobe");
     else if (home && home[0])
-        w = snprintf(dir, sizeof(dir), "%s/.cache/sunprobe", home);
+        err = sp_path_join(dir, sizeof(dir), home, ".cache/sunprobe");
     else
         return -ENOENT;
-    if (w <= 0 || (size_t)w >= sizeof(dir))
-        return -ENAMETOOLONG;
-    int err = make_dirs(dir);
-    if (err)
-        return err;
-    w = snprintf(buf, n, "%s/face-ict-%u.spface", dir, target);
-    return w > 0 && (size_t)w < n ? 0 : -ENAMETOOLONG;
+    if (!err)
+        err = sp_mkdir_p(dir, 0755);
+    snprintf(name, sizeof(name), "face-ict-%u.spface", target);
+    return err ? err : sp_path_join(buf, n, dir, name);
 }
 
 static int load_ict(sp_face_model *model, const sp_face_load_settings *s, const char *dir, const struct stat *st)

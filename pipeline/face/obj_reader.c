@@ -13,8 +13,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
+#include "common/file_util.h"
 #include "sunprobe/sp_common.h"
 
 #define MAX_POLY 64
@@ -315,21 +315,11 @@ int obj_read_file(const char *path, int positions_only, obj_data *out, char *err
     if (!path || !out)
         return -EINVAL;
     memset(out, 0, sizeof(*out));
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return -errno;
-    struct stat st;
-    int rc = fstat(fileno(f), &st) != 0 ? -errno : 0;
-    if (!rc && (st.st_size < 0 || (size_t)st.st_size > MAX_OBJ_BYTES))
-        rc = -EFBIG;
-    char *buf = rc ? NULL : malloc((size_t)st.st_size + 1);
-    if (!rc && !buf)
-        rc = -ENOMEM;
-    if (!rc && fread(buf, 1, (size_t)st.st_size, f) != (size_t)st.st_size)
-        rc = -EIO;
-    fclose(f);
+    void *buf = NULL;
+    size_t size = 0;
+    int rc = sp_read_whole_file(path, MAX_OBJ_BYTES, &buf, &size);
     if (!rc)
-        rc = obj_parse(buf, (size_t)st.st_size, positions_only, out, err, err_size);
+        rc = obj_parse(buf, size, positions_only, out, err, err_size);
     free(buf);
     return rc;
 }

@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "common/clock.h"
+#include "common/file_util.h"
 #include "common/jpeg.h"
 #include "common/json.h"
 #include "common/progress.h"
@@ -268,13 +269,12 @@ int synth_write_capture(sp_synth_selfie *g, const char *path, const char *truth_
         return SP_EDISABLED;
     }
     synth_rng_init(&c.ae, g->s.seed, SYNTH_STREAM_AE, 0);
-    size_t n = strlen(path) + 16;
-    char *partial = malloc(n);
-    if (!partial)
-        return -ENOMEM;
-    snprintf(partial, n, "%s.partial", path);
+    sp_partial partial;
+    int ret = sp_partial_file_open(&partial, path);
+    if (ret)
+        return ret;
     int64_t t0 = sp_clock_monotonic_ns();
-    int ret = run(&c, partial, truth_rel);
+    ret = run(&c, partial.path, truth_rel);
     if (c.w) {
         rep->capture_bytes = sp_capture_writer_bytes(c.w);
         int cr = sp_capture_writer_close(&c.w);
@@ -282,11 +282,9 @@ int synth_write_capture(sp_synth_selfie *g, const char *path, const char *truth_
     }
     sp_fake_imu_close(&c.imu);
     sp_jpeg_buffer_free(&c.jpg);
-    if (!ret && rename(partial, path) != 0)
-        ret = -errno;
-    if (ret)
-        unlink(partial);
-    free(partial);
+    if (!ret)
+        ret = sp_partial_file_commit(&partial, SP_PARTIAL_REPLACE);
+    sp_partial_file_abort(&partial); /* after a failure; a no-op after the commit */
     rep->frames = g->n_frames;
     rep->imu_samples = c.imu_count;
     rep->seconds = (double)(sp_clock_monotonic_ns() - t0) * 1e-9;

@@ -14,7 +14,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "common/atomic_file.h"
+#include "common/file_util.h"
 #include "common/json.h"
 
 #define DEG (M_PI / 180.0)
@@ -23,24 +23,12 @@ static const char *const cluster_names[SP_RENDER_CLUSTERS] = {
     "forehead", "nose", "left_cheek", "right_cheek", "chin", "lips", "left_eye", "right_eye", "jaw_neck", "other",
 };
 
-static char *join(const char *dir, const char *name)
-{
-    size_t n = strlen(dir) + strlen(name) + 2;
-    char *p = malloc(n);
-    if (p)
-        snprintf(p, n, "%s/%s", dir, name);
-    return p;
-}
-
 static int write_bytes(const char *dir, const char *name, const void *data, size_t size)
 {
-    char *path = join(dir, name);
+    char *path = sp_path_join_alloc(dir, name);
     if (!path)
         return -ENOMEM;
-    sp_atomic_file af;
-    int ret = sp_atomic_file_open(&af, path);
-    if (!ret)
-        ret = sp_atomic_file_finish(&af, fwrite(data, 1, size, af.file) == size ? 0 : -EIO);
+    int ret = sp_write_whole_file_atomic(path, data, size);
     free(path);
     return ret;
 }
@@ -57,7 +45,7 @@ int synth_write_image(const sp_synth_selfie *g, const char *dir, const char *ste
 {
     if (g->s.write_image) {
         snprintf(name, name_size, "%s.png", stem);
-        char *path = join(dir, name);
+        char *path = sp_path_join_alloc(dir, name);
         if (!path)
             return -ENOMEM;
         int ret = g->s.write_image(path, px, w, h, w * (uint32_t)channels, channels);
@@ -317,10 +305,10 @@ static int write_heldout(sp_synth_selfie *g, const char *hdir, const heldout *h,
 
 static int write_heldouts(sp_synth_selfie *g, const char *dir, sp_strbuf *list, uint64_t *count)
 {
-    char *hdir = join(dir, "heldout");
+    char *hdir = sp_path_join_alloc(dir, "heldout");
     if (!hdir)
         return -ENOMEM;
-    int ret = (mkdir(hdir, 0777) == 0 || errno == EEXIST) ? 0 : -errno;
+    int ret = sp_mkdir_p(hdir, 0777);
     heldout *h = malloc(sizeof(*h));
     if (!h)
         ret = ret ? ret : -ENOMEM;

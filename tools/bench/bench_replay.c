@@ -2,7 +2,8 @@
 /*
  * Replay benchmarks. (1) Throughput: a 720p YUYV capture replayed through the
  * null stage, median of 5, against the baseline of reading the same file with
- * plain read() calls. (2) Memory: peak RSS replaying a 1-minute and a 10-minute
+ * plain read() calls; wall time and this thread's CPU time (steadier on a
+ * shared machine) are both reported. (2) Memory: peak RSS replaying a 1-minute and a 10-minute
  * capture (160x120 YUYV, 30 fps, 200 Hz IMU), each in a fresh child process.
  * Usage: bench_replay [WORKDIR]   (default /tmp/sp-bench); captures are cached there.
  */
@@ -14,6 +15,7 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "common/clock.h"
@@ -100,6 +102,14 @@ static int read_all(const char *path)
     return n < 0 ? -errno : 0;
 }
 
+static int64_t thread_cpu_ns(void)
+{
+    struct timespec ts;
+    if (clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts) != 0)
+        return 0;
+    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+}
+
 static int cmp_double(const void *a, const void *b)
 {
     double x = *(const double *)a, y = *(const double *)b;
@@ -119,23 +129,28 @@ static int bench_throughput(const char *dir)
     if (make_capture(path, 1280, 720, 10.0))
         return 1;
     read_all(path); /* warm the page cache so both measure the same thing */
-    double t_replay[RUNS], t_read[RUNS];
+    double t_replay[RUNS], t_read[RUNS], c_replay[RUNS], c_read[RUNS];
     uint64_t frames = 0;
     for (int i = 0; i < RUNS; i++) {
-        int64_t t0 = sp_clock_monotonic_ns();
+        int64_t t0 = sp_clock_monotonic_ns(), c0 = thread_cpu_ns();
         if (read_all(path))
             return 1;
-        int64_t t1 = sp_clock_monotonic_ns();
+        int64_t t1 = sp_clock_monotonic_ns(), c1 = thread_cpu_ns();
         if (replay_all(path, &frames))
             return 1;
-        int64_t t2 = sp_clock_monotonic_ns();
+        int64_t t2 = sp_clock_monotonic_ns(), c2 = thread_cpu_ns();
         t_read[i] = (double)(t1 - t0) * 1e-9;
         t_replay[i] = (double)(t2 - t1) * 1e-9;
+        c_read[i] = (double)(c1 - c0) * 1e-9;
+        c_replay[i] = (double)(c2 - c1) * 1e-9;
     }
     double mr = median(t_replay, RUNS), mb = median(t_read, RUNS);
+    double cr = median(c_replay, RUNS), cb = median(c_read, RUNS);
     printf("replay 1280x720 YUYV, %llu frames: median %.3f s = %.0f frames/s; baseline read(): median %.3f s = "
            "%.0f frames/s; replay/baseline time ratio %.2f\n", (unsigned long long)frames, mr,
            (double)frames / mr, mb, (double)frames / mb, mr / mb);
+    printf("  thread CPU time: replay median %.3f s = %.0f frames/s; read() median %.3f s; ratio %.2f\n", cr,
+           cr > 0 ? (double)frames / cr : 0.0, cb, cb > 0 ? cr / cb : 0.0);
     return 0;
 }
 
