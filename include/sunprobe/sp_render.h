@@ -49,7 +49,23 @@ typedef struct sp_renderer_settings {
     double far_plane;       /* and above which (default 1e4 m) */
     /* Capacity hints so the first frames do not allocate; a larger mesh grows the buffers once. */
     uint32_t max_vertices, max_triangles;
+    /*
+     * SP_RENDER_SKIP_* bits: per-pixel decomposition buffers sp_render does not
+     * fill (their sp_render_outputs pointers are then NULL), saving their
+     * clearing and accumulation. Default 0: every buffer (the original behaviour).
+     * image, radiance, coverage and the per-sample buffers are always written.
+     */
+    unsigned skip_outputs;
 } sp_renderer_settings;
+
+#define SP_RENDER_SKIP_DIFFUSE 0x01u
+#define SP_RENDER_SKIP_SPECULAR 0x02u
+#define SP_RENDER_SKIP_AMBIENT 0x04u
+#define SP_RENDER_SKIP_FILL 0x08u
+#define SP_RENDER_SKIP_VISIBILITY 0x10u
+#define SP_RENDER_SKIP_NORMAL 0x20u
+#define SP_RENDER_SKIP_ALBEDO 0x40u
+#define SP_RENDER_SKIP_DECOMPOSITION 0x7fu /* all of the above */
 
 /* A borrowed float texture: width * height * channels values, row 0 at the top (v = 1). */
 typedef struct sp_render_texture {
@@ -125,6 +141,8 @@ typedef struct sp_render_scene {
  * samples with 0 where no triangle covers a sample (so they are premultiplied
  * by coverage). Per-sample buffers are sample_width * sample_height, the
  * supersampled grid (the same as pixels when supersample is 1).
+ * diffuse .. albedo are NULL when settings.skip_outputs skips them and after
+ * sp_render_fit_l2.
  */
 typedef struct sp_render_outputs {
     int width, height;
@@ -207,6 +225,32 @@ SP_API void sp_render_grads_zero(sp_render_grads *grads, const sp_render_scene *
  */
 SP_API int sp_render_l2_loss(const float *image, const float *target, const float *mask, int width,
                              int height, double *loss, float *dL_dimage);
+
+/*
+ * Fused fitting step: render + masked L2 loss + adjoint in one sweep, the
+ * fast path for fitting loops. Equivalent to
+ *
+ *     sp_render(r, scene, &o);
+ *     sp_render_l2_loss(o.image, target, mask, width, height, loss, dL);
+ *     sp_render_backward(r, scene, dL, grads);
+ *
+ * with the same loss (bit for bit) and the same gradients up to rounding
+ * (~1e-7 relative: the classic backward reads float copies of the forward's
+ * shadow and lobe terms, the fused one their double originals). It shades
+ * each sample once and differentiates it while its surface reconstruction is
+ * still at hand, and writes no decomposition buffers.
+ *
+ * target (3 * width * height floats) and mask (width * height, NULL = all
+ * ones) are borrowed and fixed by the caller (unlike o.coverage, which
+ * changes with the render). grads: added to, as in sp_render_backward; NULL
+ * computes only the loss. out (may be NULL) receives image, radiance,
+ * coverage and the per-sample buffers; diffuse, specular, ambient, fill,
+ * visibility, normal and albedo are NULL. sp_render_backward may follow it
+ * (e.g. for a second loss). Returns 0, -EINVAL (bad arguments or scene),
+ * -ENOMEM, or SP_EUNSUPPORTED for an area sun or fill lights (nothing done).
+ */
+SP_API int sp_render_fit_l2(sp_renderer *r, const sp_render_scene *scene, const float *target, const float *mask,
+                            double *loss, sp_render_grads *grads, sp_render_outputs *out);
 
 #ifdef __cplusplus
 }

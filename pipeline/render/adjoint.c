@@ -110,8 +110,15 @@ void shade_backward(const shade_ctx *ctx, const shade_rec *rec, const double gc[
     sample_grad sg;
     memset(&sg, 0, sizeof(sg));
     /* ambient: a / pi * E(n), E from the SH irradiance */
-    double gE[3], dEdn[3][3], E[3], y[ENV_SH_N];
-    env_irradiance(&ctx->sh, rec->n, E, dEdn, y);
+    double gE[3], dEdn_own[3][3], E_own[3], y_own[ENV_SH_N];
+    const double(*dEdn)[3] = rec->dEdn;
+    const double *E = rec->E, *y = rec->y;
+    if (!rec->have_dE) { /* the classic backward: the forward kept only E */
+        env_irradiance(&ctx->sh, rec->n, E_own, dEdn_own, y_own);
+        dEdn = (const double(*)[3])dEdn_own;
+        E = E_own;
+        y = y_own;
+    }
     for (int c = 0; c < 3; c++) {
         sg.a[c] += gc[c] * E[c] / SHADE_PI;
         gE[c] = gc[c] * rec->a[c] / SHADE_PI;
@@ -135,13 +142,13 @@ void shade_backward(const shade_ctx *ctx, const shade_rec *rec, const double gc[
 }
 
 /* dL/d(per-sample linear radiance) for pixel i: tone map and exposure; adds to the exposure gradient. */
-static int pixel_adjoint(const sp_renderer *r, const sp_render_scene *sc, const float *dL, size_t i, double gc[3],
+int render_pixel_adjoint(const sp_renderer *r, const sp_render_scene *sc, const float dl[3], size_t i, double gc[3],
                          double *g_exposure)
 {
     double e = sc->exposure, any = 0.0;
     double inv_s2 = 1.0 / (double)(r->set.supersample * r->set.supersample);
     for (int c = 0; c < 3; c++) {
-        double g = (double)dL[i * 3 + (size_t)c];
+        double g = (double)dl[c];
         if (g == 0.0) {
             gc[c] = 0.0;
             continue;
@@ -163,7 +170,7 @@ static void samples_backward(sp_renderer *r, const shade_ctx *ctx, const float *
         for (int px = 0; px < r->set.width; px++) {
             size_t i = (size_t)py * (size_t)r->set.width + (size_t)px;
             double gc[3];
-            if (!pixel_adjoint(r, ctx->sc, dL, i, gc, g_exposure))
+            if (!render_pixel_adjoint(r, ctx->sc, dL + i * 3, i, gc, g_exposure))
                 continue;
             for (int j = 0; j < S; j++)
                 for (int k = 0; k < S; k++) {
@@ -219,35 +226,49 @@ static void scalars_backward(const shade_ctx *ctx, const shade_acc *acc, sp_rend
     gr->sun_intensity += acc->g_I;
 }
 
-int render_backward_pass(sp_renderer *r, const sp_render_scene *sc, const float *dL, sp_render_grads *gr)
+void render_backward_begin(sp_renderer *r, const sp_render_scene *sc, sp_render_grads *gr, shade_ctx *ctx,
+                           shade_acc *acc)
 {
     render_geom *g = &r->geo;
     size_t nv3 = (size_t)sc->mesh->n_vertices * 3;
     memset(g->g_pd, 0, nv3 * sizeof(double));
     memset(g->g_nd, 0, nv3 * sizeof(double));
     memset(g->g_xc, 0, nv3 * sizeof(double));
-    shade_ctx ctx = r->ctx;
-    ctx.sc = sc;
-    ctx.geo = g;
-    ctx.cam = &r->cam;
-    ctx.sm = NULL; /* the forward's shadow lookups come from r->sun_cache */
-    shade_acc acc;
-    memset(&acc, 0, sizeof(acc));
-    acc.g_albedo = gr->albedo;
-    acc.g_pd = g->g_pd;
-    acc.g_nd = g->g_nd;
-    acc.g_xc = g->g_xc;
-    double g_exposure = 0.0;
-    samples_backward(r, &ctx, dL, &acc, &g_exposure);
+    *ctx = r->ctx;
+    ctx->sc = sc;
+    ctx->geo = g;
+    ctx->cam = &r->cam;
+    ctx->sm = NULL; /* the forward's shadow lookups come from r->sun_cache (classic) or the sample record */
+    memset(acc, 0, sizeof(*acc));
+    acc->g_albedo = gr->albedo;
+    acc->g_pd = g->g_pd;
+    acc->g_nd = g->g_nd;
+    acc->g_xc = g->g_xc;
+}
+
+void render_backward_finish(sp_renderer *r, const sp_render_scene *sc, const shade_ctx *ctx, const shade_acc *acc,
+                            double g_exposure, sp_render_grads *gr)
+{
+    render_geom *g = &r->geo;
     gr->exposure += g_exposure;
-    camera_backward(r, sc, &acc, gr);
+    camera_backward(r, sc, acc, gr);
     if (gr->positions || gr->displacement)
         geom_backward(g, sc->mesh, &sc->displacement, gr->positions, sc->displacement.data ? gr->displacement : NULL);
     if (gr->env) {
         double gL[3][ENV_SH_N];
-        env_weights_backward(acc.gY, gL);
+        env_weights_backward(acc->gY, gL);
         env_project_backward(r->env_basis, gL, gr->env);
     }
-    scalars_backward(&ctx, &acc, gr);
+    scalars_backward(ctx, acc, gr);
+}
+
+int render_backward_pass(sp_renderer *r, const sp_render_scene *sc, const float *dL, sp_render_grads *gr)
+{
+    shade_ctx ctx;
+    shade_acc acc;
+    render_backward_begin(r, sc, gr, &ctx, &acc);
+    double g_exposure = 0.0;
+    samples_backward(r, &ctx, dL, &acc, &g_exposure);
+    render_backward_finish(r, sc, &ctx, &acc, g_exposure, gr);
     return 0;
 }

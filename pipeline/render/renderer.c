@@ -65,6 +65,7 @@ void sp_renderer_close(sp_renderer **pr)
     free(r->radiance64);
     free(r->image64);
     free(r->sun_cache);
+    free(r->recs);
     free(r->tri_id);
     free(r->shadow_texel);
     free(r->env_basis);
@@ -112,6 +113,7 @@ static int alloc_buffers(sp_renderer *r)
     ok &= (r->depth = calloc(r->nsamp, sizeof(float))) != NULL;
     ok &= (r->tri_id = calloc(r->nsamp, sizeof(int32_t))) != NULL;
     ok &= (r->sun_cache = calloc(r->nsamp, sizeof(sun_cache))) != NULL;
+    ok &= (r->recs = calloc((size_t)r->set.supersample * (size_t)r->set.supersample, sizeof(shade_rec))) != NULL;
     ok &= (r->shadow_texel = calloc(r->nsamp, sizeof(int32_t))) != NULL;
     ok &= (r->env_basis = calloc((size_t)ENV_TEXELS * ENV_SH_N, sizeof(double))) != NULL;
     return ok ? 0 : -ENOMEM;
@@ -278,7 +280,7 @@ static void setup_frame(sp_renderer *r, const sp_render_scene *sc, int n_sun)
 }
 
 /* The shadow map for direction l: NULL when off; the previous one for REUSE (unless force). */
-static const shadow_map *prepare_shadow(sp_renderer *r, const sp_render_scene *sc, const double l[3], int force)
+const shadow_map *render_prepare_shadow(sp_renderer *r, const sp_render_scene *sc, const double l[3], int force)
 {
     if (sc->shadow_mode == SP_RENDER_SHADOW_OFF)
         return NULL;
@@ -296,14 +298,29 @@ static const shadow_map *prepare_shadow(sp_renderer *r, const sp_render_scene *s
     return &r->sm;
 }
 
+/* The decomposition buffer if the settings ask for it, else NULL. */
+static float *wanted(const sp_renderer *r, float *buf, unsigned bit)
+{
+    return (r->set.skip_outputs & bit) ? NULL : buf;
+}
+
 static void clear_pixels(sp_renderer *r)
 {
     size_t n3 = r->npix * 3;
-    float *rgb[] = {r->diffuse, r->specular, r->ambient, r->fill, r->normal, r->albedo};
+    r->out_diffuse = wanted(r, r->diffuse, SP_RENDER_SKIP_DIFFUSE);
+    r->out_specular = wanted(r, r->specular, SP_RENDER_SKIP_SPECULAR);
+    r->out_ambient = wanted(r, r->ambient, SP_RENDER_SKIP_AMBIENT);
+    r->out_fill = wanted(r, r->fill, SP_RENDER_SKIP_FILL);
+    r->out_visibility = wanted(r, r->visibility, SP_RENDER_SKIP_VISIBILITY);
+    r->out_normal = wanted(r, r->normal, SP_RENDER_SKIP_NORMAL);
+    r->out_albedo = wanted(r, r->albedo, SP_RENDER_SKIP_ALBEDO);
+    float *rgb[] = {r->out_diffuse, r->out_specular, r->out_ambient, r->out_fill, r->out_normal, r->out_albedo};
     for (size_t i = 0; i < sizeof(rgb) / sizeof(rgb[0]); i++)
-        memset(rgb[i], 0, n3 * sizeof(float));
+        if (rgb[i])
+            memset(rgb[i], 0, n3 * sizeof(float));
     memset(r->radiance64, 0, n3 * sizeof(double));
-    memset(r->visibility, 0, r->npix * sizeof(float));
+    if (r->out_visibility)
+        memset(r->visibility, 0, r->npix * sizeof(float));
     memset(r->coverage, 0, r->npix * sizeof(float));
     for (size_t s = 0; s < r->nsamp; s++)
         r->shadow_texel[s] = -1;
@@ -312,12 +329,16 @@ static void clear_pixels(sp_renderer *r)
 static void accumulate_base(sp_renderer *r, size_t p, const shade_rec *rec, double w)
 {
     for (int c = 0; c < 3; c++) {
-        r->radiance64[p * 3 + (size_t)c] += w * (rec->amb[c] + rec->fill[c]);
-        r->ambient[p * 3 + (size_t)c] += to_float(w * rec->amb[c]);
-        if (rec->fill[c] != 0.0)
-            r->fill[p * 3 + (size_t)c] += to_float(w * rec->fill[c]);
-        r->normal[p * 3 + (size_t)c] += to_float(w * rec->n[c]);
-        r->albedo[p * 3 + (size_t)c] += to_float(w * rec->a[c]);
+        size_t i = p * 3 + (size_t)c;
+        r->radiance64[i] += w * (rec->amb[c] + rec->fill[c]);
+        if (r->out_ambient)
+            r->out_ambient[i] += to_float(w * rec->amb[c]);
+        if (rec->fill[c] != 0.0 && r->out_fill)
+            r->out_fill[i] += to_float(w * rec->fill[c]);
+        if (r->out_normal)
+            r->out_normal[i] += to_float(w * rec->n[c]);
+        if (r->out_albedo)
+            r->out_albedo[i] += to_float(w * rec->a[c]);
     }
     r->coverage[p] += (float)w;
 }
@@ -325,11 +346,15 @@ static void accumulate_base(sp_renderer *r, size_t p, const shade_rec *rec, doub
 static void accumulate_sun(sp_renderer *r, size_t p, const shade_rec *rec, double w, double wv)
 {
     for (int c = 0; c < 3; c++) {
-        r->radiance64[p * 3 + (size_t)c] += w * (rec->diff[c] + rec->spec);
-        r->diffuse[p * 3 + (size_t)c] += to_float(w * rec->diff[c]);
-        r->specular[p * 3 + (size_t)c] += to_float(w * rec->spec);
+        size_t i = p * 3 + (size_t)c;
+        r->radiance64[i] += w * (rec->diff[c] + rec->spec);
+        if (r->out_diffuse)
+            r->out_diffuse[i] += to_float(w * rec->diff[c]);
+        if (r->out_specular)
+            r->out_specular[i] += to_float(w * rec->spec);
     }
-    r->visibility[p] += to_float(wv * rec->V);
+    if (r->out_visibility)
+        r->out_visibility[p] += to_float(wv * rec->V);
 }
 
 /* One sweep over covered samples; PASS_SUN adds the sun from direction l with irradiance I. */
@@ -379,7 +404,7 @@ static void area_sun(sp_renderer *r, const sp_render_scene *sc, int n)
         for (int k = 0; k < 3; k++)
             dir[k] = cos(rho) * l[k] + sin(rho) * (cos(phi) * basis.e1[k] + sin(phi) * basis.e2[k]);
         v3_normalize(dir, u);
-        const shadow_map *sm = prepare_shadow(r, sc, u, 1);
+        const shadow_map *sm = render_prepare_shadow(r, sc, u, 1);
         shade_pass(r, PASS_SUN, u, r->ctx.sun_I, sm, 1.0 / (double)n);
     }
     r->sm.valid = 0; /* the last sample's map is not the sun's: REUSE must re-render */
@@ -411,45 +436,63 @@ const double *render_image_f64(const sp_renderer *r)
     return r ? r->image64 : NULL;
 }
 
-static void fill_outputs(const sp_renderer *r, sp_render_outputs *out)
+void render_fill_outputs(const sp_renderer *r, sp_render_outputs *out)
 {
     *out = (sp_render_outputs){
         .width = r->set.width, .height = r->set.height, .sample_width = r->sw, .sample_height = r->sh,
-        .image = r->image, .radiance = r->radiance, .diffuse = r->diffuse, .specular = r->specular,
-        .ambient = r->ambient, .fill = r->fill, .visibility = r->visibility, .normal = r->normal,
-        .albedo = r->albedo, .coverage = r->coverage, .tri_id = r->tri_id, .bary = r->bary,
-        .depth = r->depth, .shadow_texel = r->shadow_texel,
+        .image = r->image, .radiance = r->radiance, .diffuse = r->out_diffuse, .specular = r->out_specular,
+        .ambient = r->out_ambient, .fill = r->out_fill, .visibility = r->out_visibility,
+        .normal = r->out_normal, .albedo = r->out_albedo, .coverage = r->coverage, .tri_id = r->tri_id,
+        .bary = r->bary, .depth = r->depth, .shadow_texel = r->shadow_texel,
     };
+}
+
+int render_begin(sp_renderer *r, const sp_render_scene *sc, int need_backward, int *n_sun)
+{
+    int err = validate_scene(sc);
+    if (!err)
+        err = ensure_capacity(r, sc->mesh);
+    if (err)
+        return err;
+    *n_sun = sun_sample_count(r, sc);
+    if (need_backward && (*n_sun != 1 || sc->n_lights != 0)) {
+        sp_log(SP_LOG_ERROR, MODULE, "no gradients for an area sun or fill lights (forward only)");
+        return SP_EUNSUPPORTED;
+    }
+    geom_forward(&r->geo, sc->mesh, &sc->displacement, sc->camera.R, sc->camera.t);
+    setup_frame(r, sc, *n_sun);
+    raster_camera_draw(&r->cam, r->geo.xc, sc->mesh, r->tri_id, r->depth, r->bary, r->geo.tri_k);
+    return 0;
+}
+
+void render_end(sp_renderer *r, const sp_render_scene *sc, int n_sun)
+{
+    r->last_mesh = sc->mesh;
+    r->last_nv = sc->mesh->n_vertices;
+    r->last_nt = sc->mesh->n_triangles;
+    r->have_render = 1;
+    r->backward_ok = n_sun == 1 && sc->n_lights == 0;
 }
 
 int sp_render(sp_renderer *r, const sp_render_scene *sc, sp_render_outputs *out)
 {
     if (!r || !sc || !out)
         return -EINVAL;
-    int err = validate_scene(sc);
-    if (!err)
-        err = ensure_capacity(r, sc->mesh);
+    int n_sun = 1;
+    int err = render_begin(r, sc, 0, &n_sun);
     if (err)
         return err;
-    int n_sun = sun_sample_count(r, sc);
-    geom_forward(&r->geo, sc->mesh, &sc->displacement, sc->camera.R, sc->camera.t);
-    setup_frame(r, sc, n_sun);
-    raster_camera_draw(&r->cam, r->geo.xc, sc->mesh, r->tri_id, r->depth, r->bary, r->geo.tri_k);
     clear_pixels(r);
     if (n_sun == 1) {
-        r->ctx.sm = prepare_shadow(r, sc, r->ctx.sun_l, 0);
+        r->ctx.sm = render_prepare_shadow(r, sc, r->ctx.sun_l, 0);
         shade_pass(r, PASS_BASE | PASS_SUN, r->ctx.sun_l, r->ctx.sun_I, r->ctx.sm, 1.0);
     } else {
         shade_pass(r, PASS_BASE, r->ctx.sun_l, 0.0, NULL, 0.0);
         area_sun(r, sc, n_sun);
     }
     resolve(r, sc);
-    fill_outputs(r, out);
-    r->last_mesh = sc->mesh;
-    r->last_nv = sc->mesh->n_vertices;
-    r->last_nt = sc->mesh->n_triangles;
-    r->have_render = 1;
-    r->backward_ok = n_sun == 1 && sc->n_lights == 0;
+    render_fill_outputs(r, out);
+    render_end(r, sc, n_sun);
     return 0;
 }
 

@@ -51,12 +51,21 @@ int shade_geometry(const shade_ctx *ctx, int sx, int sy, int32_t tri, shade_rec 
     rec->nl = 0.0;
     rec->V = 1.0;
     rec->spec_on = 0;
+    rec->have_dE = 0;
     return 1;
 }
 
 void shade_ambient(const shade_ctx *ctx, shade_rec *rec)
 {
     env_irradiance(&ctx->sh, rec->n, rec->E, NULL, NULL);
+    for (int c = 0; c < 3; c++)
+        rec->amb[c] = rec->a[c] / SHADE_PI * rec->E[c];
+}
+
+void shade_ambient_full(const shade_ctx *ctx, shade_rec *rec)
+{
+    env_irradiance(&ctx->sh, rec->n, rec->E, rec->dEdn, rec->y);
+    rec->have_dE = 1;
     for (int c = 0; c < 3; c++)
         rec->amb[c] = rec->a[c] / SHADE_PI * rec->E[c];
 }

@@ -65,6 +65,8 @@ typedef struct shade_rec {
     double a[3];
     int cluster;                   /* -1: no specular */
     double E[3];                   /* SH irradiance */
+    int have_dE;                   /* dEdn and y hold E's derivative and basis (shade_ambient_full) */
+    double dEdn[3][3], y[ENV_SH_N];
     /* sun */
     double nl, V;
     shadow_sample shadow;
@@ -78,6 +80,8 @@ typedef struct shade_rec {
 int shade_geometry(const shade_ctx *ctx, int sx, int sy, int32_t tri, shade_rec *rec);
 /* Ambient (environment) term into rec->amb. */
 void shade_ambient(const shade_ctx *ctx, shade_rec *rec);
+/* The same, also keeping dE/dn and the SH basis for shade_backward (the fused path). */
+void shade_ambient_full(const shade_ctx *ctx, shade_rec *rec);
 /* Fill lights into rec->fill (unshadowed). */
 void shade_fill(const shade_ctx *ctx, shade_rec *rec);
 /*

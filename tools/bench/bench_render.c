@@ -1,17 +1,29 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Renderer benchmark: one 224 x 224 frame of a ~10k-triangle sphere head
- * (displacement, 10 specular clusters, SH sky, shadowed sun), forward render
- * plus the adjoint of an L2 loss, single thread. Prints the median of RUNS
- * timed runs (after one warm-up) for forward, backward and their total, in ms,
- * as wall time and as thread CPU time (the latter is robust to other jobs).
- * Usage: bench_render [supersample]   (default 1)
+ * (displacement, 10 specular clusters, SH sky, shadowed sun, shadow map
+ * rendered every frame), forward render plus the adjoint of an L2 loss,
+ * single thread, two ways:
+ *  - classic: sp_render (all output buffers) + sp_render_l2_loss +
+ *    sp_render_backward, timed as forward (render) and backward (loss + adjoint);
+ *  - fit: the fused sp_render_fit_l2 (render + loss + adjoint in one sweep,
+ *    no decomposition buffers), timed as one call.
+ * Both use the same scene, target, mask (the coverage of the warm-up render)
+ * and gradient groups. Prints the median of RUNS timed runs (after one
+ * warm-up) as wall time and as thread CPU time (the latter is robust to other
+ * jobs), the ratio, and user-space instruction counts where the kernel allows
+ * perf counters. Usage: bench_render [supersample]   (default 1)
  */
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#ifdef __linux__
+#include <linux/perf_event.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
 
 #include "common/clock.h"
 #include "pipeline/render/testmesh.h"
@@ -27,6 +39,35 @@ static int64_t cpu_ns(void)
     struct timespec ts;
     clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
     return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+}
+
+/* User-space instruction counter of this thread, -1 where unavailable. */
+static int instr_open(void)
+{
+#ifdef __linux__
+    struct perf_event_attr a;
+    memset(&a, 0, sizeof(a));
+    a.type = PERF_TYPE_HARDWARE;
+    a.size = sizeof(a);
+    a.config = PERF_COUNT_HW_INSTRUCTIONS;
+    a.exclude_kernel = 1;
+    a.exclude_hv = 1;
+    return (int)syscall(SYS_perf_event_open, &a, 0, -1, -1, 0);
+#else
+    return -1;
+#endif
+}
+
+static double instr_read(int fd)
+{
+#ifdef __linux__
+    long long v = 0;
+    if (fd >= 0 && read(fd, &v, sizeof(v)) == (ssize_t)sizeof(v))
+        return (double)v;
+#else
+    (void)fd;
+#endif
+    return 0.0;
 }
 
 static int cmp_double(const void *a, const void *b)
@@ -102,45 +143,90 @@ int main(int argc, char **argv)
     for (int i = 0; i < SIZE * SIZE * 3; i++)
         target[i] = 0.5f;
     sp_render_grads g = {.albedo = g_alb, .displacement = g_disp, .env = g_env, .positions = g_pos};
-    double tf[RUNS], tb[RUNS], tt[RUNS], cf[RUNS], cb[RUNS], ct[RUNS];
-    int covered = 0;
-    for (int run = -1; run < RUNS; run++) {
+    double tf[RUNS], tb[RUNS], tt[RUNS], cf[RUNS], cb[RUNS], ct[RUNS], in_f[RUNS], in_b[RUNS];
+    double tfit[RUNS], cfit[RUNS], in_fit[RUNS], loss_classic = 0.0, loss_fit = 0.0;
+    float *mask = calloc(SIZE * SIZE, sizeof(float));
+    int covered = 0, ifd = instr_open();
+    for (int run = -1; run < RUNS; run++) { /* classic: render, then loss + adjoint */
         sp_render_outputs o;
-        double loss;
         int64_t t0 = sp_clock_monotonic_ns(), c0 = cpu_ns();
-        int err = sp_render(r, &sc, &o);
+        double i0 = instr_read(ifd);
+        int err = mask ? sp_render(r, &sc, &o) : -1;
+        double i1 = instr_read(ifd);
         int64_t t1 = sp_clock_monotonic_ns(), c1 = cpu_ns();
         if (!err)
-            err = sp_render_l2_loss(o.image, target, o.coverage, SIZE, SIZE, &loss, dl);
-        sp_render_grads_zero(&g, &sc);
-        int64_t t2 = sp_clock_monotonic_ns(), c2 = cpu_ns();
+            err = sp_render_l2_loss(o.image, target, o.coverage, SIZE, SIZE, &loss_classic, dl);
+        double i2 = instr_read(ifd);
         if (!err)
             err = sp_render_backward(r, &sc, dl, &g);
+        double i3 = instr_read(ifd);
         int64_t t3 = sp_clock_monotonic_ns(), c3 = cpu_ns();
+        sp_render_grads_zero(&g, &sc);
         if (err) {
-            fprintf(stderr, "bench_render: %s\n", sp_strerror(err));
+            fprintf(stderr, "bench_render: classic failed\n");
             return 1;
         }
         if (run < 0) {
             for (int i = 0; i < SIZE * SIZE; i++)
                 covered += o.coverage[i] > 0.0f;
+            memcpy(mask, o.coverage, sizeof(float) * SIZE * SIZE);
             continue;
         }
         tf[run] = (double)(t1 - t0) * 1e-6;
-        tb[run] = (double)(t3 - t2) * 1e-6;
+        tb[run] = (double)(t3 - t1) * 1e-6;
         tt[run] = tf[run] + tb[run];
         cf[run] = (double)(c1 - c0) * 1e-6;
-        cb[run] = (double)(c3 - c2) * 1e-6;
+        cb[run] = (double)(c3 - c1) * 1e-6;
         ct[run] = cf[run] + cb[run];
+        in_f[run] = i1 - i0;
+        in_b[run] = i3 - i2 + (i2 - i1);
     }
-    printf("bench_render: %dx%d, supersample %d, %u triangles, %d covered pixels, shadow map %d^2\n", SIZE, SIZE,
-           ss, head.n_triangles, covered, set.shadow_size);
-    printf("median of %d (wall):       forward %.2f ms, backward %.2f ms, total %.2f ms\n", RUNS,
+    for (int run = -1; run < RUNS; run++) { /* fit: the fused call */
+        sp_render_outputs o;
+        int64_t t0 = sp_clock_monotonic_ns(), c0 = cpu_ns();
+        double i0 = instr_read(ifd);
+        int err = sp_render_fit_l2(r, &sc, target, mask, &loss_fit, &g, &o);
+        double i1 = instr_read(ifd);
+        int64_t t1 = sp_clock_monotonic_ns(), c1 = cpu_ns();
+        sp_render_grads_zero(&g, &sc);
+        if (err) {
+            fprintf(stderr, "bench_render: fit: %s\n", sp_strerror(err));
+            return 1;
+        }
+        if (run >= 0) {
+            tfit[run] = (double)(t1 - t0) * 1e-6;
+            cfit[run] = (double)(c1 - c0) * 1e-6;
+            in_fit[run] = i1 - i0;
+        }
+    }
+    printf("bench_render: %dx%d, supersample %d, %u triangles, %d covered pixels, shadow map %d^2 (every frame)\n",
+           SIZE, SIZE, ss, head.n_triangles, covered, set.shadow_size);
+    printf("classic = sp_render (all outputs) + sp_render_l2_loss + sp_render_backward; "
+           "fit = fused sp_render_fit_l2\n");
+    printf("classic median of %d (wall):       forward %.2f ms, backward %.2f ms, total %.2f ms\n", RUNS,
            median(tf, RUNS), median(tb, RUNS), median(tt, RUNS));
-    printf("median of %d (thread CPU): forward %.2f ms, backward %.2f ms, total %.2f ms\n", RUNS,
-           median(cf, RUNS), median(cb, RUNS), median(ct, RUNS));
+    double classic_cpu = median(ct, RUNS), fit_cpu = median(cfit, RUNS);
+    printf("classic median of %d (thread CPU): forward %.2f ms, backward %.2f ms, total %.2f ms\n", RUNS,
+           median(cf, RUNS), median(cb, RUNS), classic_cpu);
     /* median() sorted the arrays: element 0 is the fastest run */
-    printf("fastest run (thread CPU):  forward %.2f ms, backward %.2f ms, total %.2f ms\n", cf[0], cb[0], ct[0]);
+    printf("classic fastest (thread CPU):      forward %.2f ms, backward %.2f ms, total %.2f ms\n", cf[0], cb[0],
+           ct[0]);
+    printf("fit median of %d (wall):           total %.2f ms\n", RUNS, median(tfit, RUNS));
+    printf("fit median of %d (thread CPU):     total %.2f ms (fastest %.2f ms)\n", RUNS, fit_cpu, cfit[0]);
+    printf("ratio classic / fit (thread CPU median): %.2f\n", fit_cpu > 0.0 ? classic_cpu / fit_cpu : 0.0);
+    if (ifd >= 0)
+        printf("instructions (user, median): classic forward %.1f M, backward %.1f M, total %.1f M; fit %.1f M\n",
+               median(in_f, RUNS) * 1e-6, median(in_b, RUNS) * 1e-6,
+               (median(in_f, RUNS) + median(in_b, RUNS)) * 1e-6, median(in_fit, RUNS) * 1e-6);
+    else
+        printf("instructions: perf counters unavailable here (try valgrind --tool=callgrind)\n");
+    printf("loss classic %.17g, fit %.17g (%s)\n", loss_classic, loss_fit,
+           loss_classic == loss_fit ? "identical" : "DIFFERENT");
+#ifdef __linux__
+    if (ifd >= 0)
+        close(ifd);
+#endif
+    free(mask);
     sp_renderer_close(&r);
     sp_mesh_free(&head);
     free(albedo);

@@ -1,0 +1,173 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The fused fitting step (sp_render_fit_l2): one sweep over pixels that
+ * shades a pixel's samples, resolves and tone-maps the pixel, takes the
+ * pixel-local L2 loss and its gradient, and runs the adjoint of the samples
+ * while their surface reconstruction is still in the sample records. Compared
+ * with sp_render + sp_render_l2_loss + sp_render_backward it saves the second
+ * surface reconstruction and SH evaluation per sample, the decomposition
+ * buffers and two full-image sweeps. The arithmetic and its order match the
+ * classic path, so the loss is bit-identical.
+ */
+#include "sunprobe/sp_render.h"
+
+#include <errno.h>
+#include <float.h>
+#include <math.h>
+#include <string.h>
+
+#include "pipeline/render/adjoint.h"
+#include "pipeline/render/render_internal.h"
+#include "pipeline/render/tonemap.h"
+#include "pipeline/render/vec3.h"
+
+typedef struct fused_state {
+    const float *target, *mask;
+    double norm;           /* max(sum of the mask, 1e-12), as sp_render_l2_loss */
+    double bg_img[3], bg_deriv[3]; /* display value of an uncovered pixel and its tone-map slope */
+    double inv_s2;         /* 1 / S^2 */
+    double loss_sum;
+    double g_exposure;
+    shade_ctx ctx;         /* adjoint's copy of the frame constants */
+    shade_acc acc;
+    int want_grads;
+} fused_state;
+
+/* Shades the S x S samples of pixel (px, py) into r->recs; returns how many; adds them to rad and coverage. */
+static int shade_pixel(sp_renderer *r, int px, int py, double rad[3])
+{
+    const shade_ctx *ctx = &r->ctx;
+    int S = r->set.supersample, n = 0;
+    double w = 1.0 / (double)(S * S);
+    size_t p = (size_t)py * (size_t)r->set.width + (size_t)px;
+    r->coverage[p] = 0.0f;
+    for (int j = 0; j < S; j++)
+        for (int k = 0; k < S; k++) {
+            int sx = px * S + k, sy = py * S + j;
+            size_t s = (size_t)sy * (size_t)r->sw + (size_t)sx;
+            r->shadow_texel[s] = -1;
+            shade_rec *rec = r->recs + n;
+            if (r->tri_id[s] < 0) {
+                r->depth[s] = 0.0f;
+                continue;
+            }
+            if (!shade_geometry(ctx, sx, sy, r->tri_id[s], rec)) { /* degenerate hit: uncovered, as sp_render */
+                r->tri_id[s] = -1;
+                r->depth[s] = 0.0f;
+                continue;
+            }
+            shade_ambient_full(ctx, rec);
+            shade_sun(ctx, rec, ctx->sun_l, ctx->sun_I, ctx->sm, r->sun_cache + s);
+            r->shadow_texel[s] = rec->shadow.texel;
+            for (int c = 0; c < 3; c++) { /* the order of sp_render's accumulate_base / accumulate_sun */
+                rad[c] += w * (rec->amb[c] + rec->fill[c]);
+                rad[c] += w * (rec->diff[c] + rec->spec);
+            }
+            r->coverage[p] += (float)w;
+            n++;
+        }
+    return n;
+}
+
+/*
+ * Resolves pixel p from its sample sum, adds its loss term and returns
+ * dL/d(display value) in dl and the tone map's slope at the pixel in tm_d.
+ */
+static void resolve_pixel(sp_renderer *r, const sp_render_scene *sc, fused_state *st, size_t p, double rad[3],
+                          float dl[3], double tm_d[3])
+{
+    double bgw = 1.0 - (double)r->coverage[p];
+    double m = st->mask ? (double)st->mask[p] : 1.0;
+    for (int c = 0; c < 3; c++) {
+        size_t i = p * 3 + (size_t)c;
+        if (bgw > 0.0)
+            rad[c] += bgw * sc->background[c];
+        r->radiance64[i] = rad[c];
+        if (bgw == 1.0) {
+            r->image64[i] = st->bg_img[c];
+            tm_d[c] = st->bg_deriv[c];
+        } else {
+            r->image64[i] = tonemap_eval(sc->exposure * rad[c], &tm_d[c]);
+        }
+        r->radiance[i] = to_float(rad[c]);
+        r->image[i] = to_float(r->image64[i]);
+        double d = (double)r->image[i] - (double)st->target[i];
+        st->loss_sum += m * d * d; /* sp_render_l2_loss's order: the same sum bit for bit */
+        dl[c] = to_float(2.0 * m * d / st->norm);
+    }
+}
+
+/* render_pixel_adjoint with the slope the forward tone map returned (the same formula, no second pass). */
+static int pixel_grad(const sp_render_scene *sc, const fused_state *st, const float dl[3], const double rad[3],
+                      const double tm_d[3], double gc[3], double *g_exposure)
+{
+    double e = sc->exposure, any = 0.0;
+    for (int c = 0; c < 3; c++) {
+        double g = (double)dl[c];
+        gc[c] = 0.0;
+        if (g == 0.0)
+            continue;
+        double gx = g * tm_d[c];
+        *g_exposure += gx * rad[c];
+        gc[c] = gx * e * st->inv_s2;
+        any += fabs(gc[c]);
+    }
+    return any > 0.0;
+}
+
+static void fused_sweep(sp_renderer *r, const sp_render_scene *sc, fused_state *st)
+{
+    for (int py = 0; py < r->set.height; py++)
+        for (int px = 0; px < r->set.width; px++) {
+            size_t p = (size_t)py * (size_t)r->set.width + (size_t)px;
+            double rad[3] = {0.0, 0.0, 0.0}, gc[3], tm_d[3];
+            float dl[3];
+            int n = shade_pixel(r, px, py, rad);
+            resolve_pixel(r, sc, st, p, rad, dl, tm_d);
+            if (!st->want_grads || !pixel_grad(sc, st, dl, rad, tm_d, gc, &st->g_exposure))
+                continue;
+            for (int k = 0; k < n; k++)
+                shade_backward(&st->ctx, r->recs + k, gc, &st->acc);
+        }
+}
+
+static int fit_args_ok(const sp_renderer *r, const sp_render_scene *sc, const float *target, const double *loss)
+{
+    return r && sc && target && loss;
+}
+
+int sp_render_fit_l2(sp_renderer *r, const sp_render_scene *sc, const float *target, const float *mask,
+                     double *loss, sp_render_grads *grads, sp_render_outputs *out)
+{
+    if (!fit_args_ok(r, sc, target, loss))
+        return -EINVAL;
+    int n_sun = 1;
+    int err = render_begin(r, sc, 1, &n_sun);
+    if (err)
+        return err;
+    fused_state st;
+    memset(&st, 0, sizeof(st));
+    st.target = target;
+    st.mask = mask;
+    double msum = 0.0;
+    for (size_t p = 0; p < r->npix; p++)
+        msum += mask ? (double)mask[p] : 1.0;
+    st.norm = msum > 1e-12 ? msum : 1e-12;
+    for (int c = 0; c < 3; c++)
+        st.bg_img[c] = tonemap_eval(sc->exposure * sc->background[c], &st.bg_deriv[c]);
+    st.inv_s2 = 1.0 / (double)(r->set.supersample * r->set.supersample);
+    r->ctx.sm = render_prepare_shadow(r, sc, r->ctx.sun_l, 0);
+    r->out_diffuse = r->out_specular = r->out_ambient = r->out_fill = NULL;
+    r->out_visibility = r->out_normal = r->out_albedo = NULL;
+    st.want_grads = grads != NULL;
+    if (grads)
+        render_backward_begin(r, sc, grads, &st.ctx, &st.acc);
+    fused_sweep(r, sc, &st);
+    if (grads)
+        render_backward_finish(r, sc, &st.ctx, &st.acc, st.g_exposure, grads);
+    *loss = st.loss_sum / st.norm;
+    if (out)
+        render_fill_outputs(r, out);
+    render_end(r, sc, n_sun);
+    return 0;
+}
