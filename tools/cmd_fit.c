@@ -45,6 +45,9 @@ static void fit_usage(FILE *out)
                  "  --iterations N         Adam steps (default 300)\n"
                  "  --time-budget S        stop the photometric stage after S seconds\n"
                  "  --min-rotation DEG     below this camera-yaw range lighting is unobservable (default 90)\n"
+                 "  --silhouette W         silhouette loss weight per outline vertex (default 0.5; 0 = off)\n"
+                 "  --refine N             fast solver: photometric refinement steps of geometry and\n"
+                 "                         displacement, kept if the held-out PSNR rises (default 20; 0 = off)\n"
                  "  --no-dlib              never run the dlib detector\n"
                  "  --dlib-model PATH      shape_predictor_68_face_landmarks.dat location\n"
                  "  --report PREFIX        error against run time: PREFIX.csv and PREFIX.svg\n"
@@ -82,7 +85,8 @@ static int parse_fit(int argc, char **argv, fit_args *a)
         { "time-budget", required_argument, NULL, 'b' }, { "min-rotation", required_argument, NULL, 'r' },
         { "no-dlib", no_argument, NULL, 'n' },        { "dlib-model", required_argument, NULL, 'd' },
         { "report", required_argument, NULL, 'R' },   { "no-progress", no_argument, NULL, 'P' },
-        { "face", required_argument, NULL, 'f' },
+        { "face", required_argument, NULL, 'f' },     { "silhouette", required_argument, NULL, 'S' },
+        { "refine", required_argument, NULL, 'F' },
         { 0 },
     };
     int c, bad = 0;
@@ -102,6 +106,8 @@ static int parse_fit(int argc, char **argv, fit_args *a)
         case 'b': bad = parse_double(optarg, 0, 1e6, &a->set.time_budget_s); break;
         case 'r': bad = parse_double(optarg, 0, 360, &a->set.min_rotation_deg); break;
         case 'n': a->set.use_dlib = 0; break;
+        case 'S': bad = parse_double(optarg, 0, 100, &a->set.silhouette_weight); break;
+        case 'F': bad = parse_int(optarg, 0, 10000, &a->set.refine_steps); break;
         case 'd': a->set.dlib_model = optarg; break;
         case 'R': a->report = optarg; break;
         case 'P': a->progress = 0; break;
@@ -294,10 +300,11 @@ static void print_summary(const sp_sunstage *ss)
     sp_sunstage_get_result(ss, &r);
     sp_sunstage_get_counts(ss, &c);
     printf("fit: %llu frames (%llu dark, %llu saturated, %llu blurred, %llu no face, %llu no orientation "
-           "skipped); %d keyframes + %d held out over %.0f deg of yaw\n",
+           "skipped; %llu thinned while the IMU filter initialised); %d keyframes + %d held out over %.0f deg of yaw\n",
            (unsigned long long)c.frames, (unsigned long long)c.skipped_dark, (unsigned long long)c.skipped_saturated,
            (unsigned long long)c.skipped_blurred, (unsigned long long)c.skipped_no_face,
-           (unsigned long long)c.skipped_no_orientation, c.keyframes, c.heldout, r.yaw_range_deg);
+           (unsigned long long)c.skipped_no_orientation, (unsigned long long)c.thinned_early, c.keyframes, c.heldout,
+           r.yaw_range_deg);
     printf("fit: sun (%.3f, %.3f, %.3f) intensity %.3f%s%s; train PSNR %.2f dB, held-out %.2f dB; %.1f s\n",
            r.sun_dir[0], r.sun_dir[1], r.sun_dir[2], r.sun_intensity, r.sun_dropped ? " [dropped: overcast]" : "",
            r.lighting_unobservable ? " [lighting unobservable]" : "", r.train_psnr, r.heldout_psnr, r.seconds);

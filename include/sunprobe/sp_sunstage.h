@@ -38,6 +38,10 @@ typedef struct sp_sunstage_settings {
     double blur_ratio;      /* skip frames sharper than this fraction of the running mean (default 0.35) */
     const char *dlib_model; /* shape predictor path; NULL = /usr/share/dlib/... Borrowed. */
     int use_dlib;           /* 1: detect landmarks when a frame carries none (default 1) */
+    double silhouette_weight; /* silhouette loss per outline vertex, px^2 (landmarks: 1); 0 = off (default 0.5) */
+    int refine_steps;       /* fast solver: Adam steps refining pose, expression, shape and displacement
+                               photometrically after the solve, kept only if the held-out PSNR rises;
+                               0 = off (default 20) */
 } sp_sunstage_settings;
 
 /* What the front end kept and skipped. */
@@ -46,6 +50,7 @@ typedef struct sp_sunstage_counts {
     uint64_t skipped_dark, skipped_saturated, skipped_blurred, skipped_no_face, skipped_no_orientation;
     uint64_t accepted;  /* passed every check (then competed for a reservoir slot) */
     int keyframes, heldout; /* slots filled */
+    uint64_t thinned_early; /* waited for the orientation filter to initialise; dropped as the nearest in time to a kept one */
 } sp_sunstage_counts;
 
 /* Progress of the fit, passed to the callback (borrowed for the call). */
@@ -171,6 +176,15 @@ SP_API double sp_sunstage_exposure_reference(const sp_sunstage *ss);
  */
 SP_API int sp_face_dir_write(const sp_sunstage *ss, const char *dir);
 
+/* What a fit left out (manifest "left_out"); a renderer or exporter should not use those parts. */
+enum sp_face_left_out {
+    SP_FACE_LEFT_OUT_SUN = 1u << 0,          /* no sun (overcast or lighting unobservable) */
+    SP_FACE_LEFT_OUT_SHADOWS = 1u << 1,      /* no cast shadows (they come with the sun) */
+    SP_FACE_LEFT_OUT_SPECULAR = 1u << 2,     /* no specular term: ks is 0 */
+    SP_FACE_LEFT_OUT_DISPLACEMENT = 1u << 3, /* displacement map not fitted (all zero) */
+    SP_FACE_LEFT_OUT_ENVIRONMENT = 1u << 4,  /* sky not resolved: a neutral constant light */
+};
+
 typedef struct sp_face_asset {
     sp_mesh mesh;              /* placed in the fit's world (z up) as in keyframe 0, metres; owned */
     int tex_width, tex_height;
@@ -182,6 +196,8 @@ typedef struct sp_face_asset {
     double sun_dir[3], sun_intensity;
     sp_render_camera camera;   /* keyframe 0's camera */
     int width, height;
+    unsigned left_out;         /* SP_FACE_LEFT_OUT_* bits */
+    int left_out_inferred;     /* 1: an old manifest without "left_out"; bits inferred from ks, sun and maps */
 } sp_face_asset;
 
 SP_API int sp_face_dir_read(sp_face_asset *asset, const char *dir);

@@ -14,6 +14,7 @@
 #include <errno.h>
 #include <math.h>
 #include <stdlib.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "common/clock.h"
@@ -74,6 +75,8 @@ typedef struct adam_ctx {
     adam_vec albedo, disp, env, sun, logI, ks, logs, id, scale;
     adam_vec frame[64]; /* exp, rotvec, t per frame */
     double logI_x, logs_x[SP_RENDER_CLUSTERS];
+    int no_sun; /* lighting unobservable or overcast: sun, its shadows and specular stay off */
+    int refine; /* geometry and displacement only (after the fast solver): appearance and light frozen */
     double *gpos, *gcam, *gid, *gexp;
     float *dimg, *mask;
 } adam_ctx;
@@ -132,6 +135,47 @@ static double landmark_loss(adam_ctx *a, const ss_frame *f, const sp_face_params
                     gshared[m->n_id] += g;
             }
         }
+    free(jac);
+    return L;
+}
+
+/* Silhouette loss of frame f (outline re-chosen at the current pose), adding its gradient to the face grads. */
+static double silhouette_loss(adam_ctx *a, ss_frame *f, const sp_face_params *p, double *gshared, double *gframe)
+{
+    sp_sunstage *ss = a->ss;
+    const sp_face_model *m = ss->model;
+    const double W_SIL = W_LM * ss->set.silhouette_weight; /* relative to the landmarks, as in stage 1 */
+    if (!f->sil_ok || !f->sil || !(W_SIL > 0.0))
+        return 0.0;
+    uint32_t nc = sp_face_model_n_params(m);
+    int cap = 2 * ss->H;
+    uint32_t *idx = malloc(sizeof(uint32_t) * (size_t)cap);
+    double *r = malloc(sizeof(double) * (size_t)cap), *jac = malloc(sizeof(double) * (size_t)cap * nc);
+    sp_face_camera cam;
+    sp_face_camera_init(&cam, ss->fx, ss->fy, ss->cx, ss->cy);
+    double L = 0.0;
+    int n = idx && r && jac ? ss_silhouette_vertices(m, p, &cam, ss->H, idx, cap, a->gcam) : 0;
+    if (n > 0 && ss_silhouette_residuals(m, p, &cam, idx, n, f->sil, ss->W, ss->H, r, jac) == 0)
+        for (int j = 0; j < n; j++) {
+            if (r[j] >= SS_SIL_MAX) { /* truncated: constant cost, no pull */
+                L += W_SIL * SS_SIL_HUBER * (2.0 * SS_SIL_MAX - SS_SIL_HUBER);
+                continue;
+            }
+            double h = r[j] > SS_SIL_HUBER;
+            L += W_SIL * (h ? SS_SIL_HUBER * (2.0 * r[j] - SS_SIL_HUBER) : r[j] * r[j]);
+            double dr = W_SIL * (h ? 2.0 * SS_SIL_HUBER : 2.0 * r[j]);
+            for (uint32_t k = 0; k < nc; k++) {
+                double g = dr * jac[(size_t)j * nc + k];
+                if (k < m->n_id)
+                    gshared[k] += g;
+                else if (k < m->n_id + m->n_exp + 6)
+                    gframe[k - m->n_id] += g;
+                else
+                    gshared[m->n_id] += g;
+            }
+        }
+    free(idx);
+    free(r);
     free(jac);
     return L;
 }
@@ -196,6 +240,7 @@ static int frame_step(adam_ctx *a, int fi, double *loss)
     double gsh[256];
     memset(gsh, 0, sizeof(gsh));
     L += landmark_loss(a, f, &p, gsh, gf);
+    L += silhouette_loss(a, f, &p, gsh, gf); /* uses gcam as scratch: the face adjoint is done with it */
     for (uint32_t k = 0; k < m->n_id && k < 255; k++)
         a->id.g[k] += gsh[k];
     a->scale.g[0] += gsh[m->n_id < 255 ? m->n_id : 255];
@@ -246,19 +291,32 @@ static void apply(adam_ctx *a, int t, int total)
     sp_sunstage *ss = a->ss;
     const sp_face_model *m = ss->model;
     double decay = t > total * 2 / 3 ? 0.3 : 1.0;
-    int geo = t > total / 4;
-    adam_update(&a->albedo, NULL, ss->albedo, 0.02 * decay, t, 0.0, 4.0);
-    adam_update(&a->env, NULL, ss->env, 0.02 * decay, t, 0.0, 1e3);
-    adam_update(&a->sun, ss->sun_dir, NULL, 0.03 * decay, t, -2.0, 2.0);
-    double n = sqrt(ss->sun_dir[0] * ss->sun_dir[0] + ss->sun_dir[1] * ss->sun_dir[1] + ss->sun_dir[2] * ss->sun_dir[2]);
-    for (int k = 0; k < 3; k++)
-        ss->sun_dir[k] = n > 1e-9 ? ss->sun_dir[k] / n : (k == 2);
-    adam_update(&a->logI, &a->logI_x, NULL, 0.03 * decay, t, -10.0, 5.0);
-    ss->sun_I = exp(a->logI_x);
-    adam_update(&a->ks, ss->ks, NULL, 0.01 * decay, t, 0.0, 10.0);
-    adam_update(&a->logs, a->logs_x, NULL, 0.03 * decay, t, 0.0, log(SP_RENDER_SHININESS_MAX));
-    for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
-        ss->shin[k] = exp(a->logs_x[k]);
+    int geo = a->refine || t > total / 4;
+    if (a->refine) {
+        memset(a->albedo.g, 0, sizeof(double) * a->albedo.n);
+        memset(a->env.g, 0, sizeof(double) * a->env.n);
+    } else {
+        adam_update(&a->albedo, NULL, ss->albedo, 0.02 * decay, t, 0.0, 4.0);
+        adam_update(&a->env, NULL, ss->env, 0.02 * decay, t, 0.0, 1e3);
+    }
+    if (a->no_sun || a->refine) { /* the sun's unknowns stay where they are: no sun, no specular */
+        memset(a->sun.g, 0, sizeof(double) * 3);
+        a->logI.g[0] = 0.0;
+        memset(a->ks.g, 0, sizeof(double) * a->ks.n);
+        memset(a->logs.g, 0, sizeof(double) * a->logs.n);
+    } else {
+        adam_update(&a->sun, ss->sun_dir, NULL, 0.03 * decay, t, -2.0, 2.0);
+        double n = sqrt(ss->sun_dir[0] * ss->sun_dir[0] + ss->sun_dir[1] * ss->sun_dir[1] +
+                        ss->sun_dir[2] * ss->sun_dir[2]);
+        for (int k = 0; k < 3; k++)
+            ss->sun_dir[k] = n > 1e-9 ? ss->sun_dir[k] / n : (k == 2);
+        adam_update(&a->logI, &a->logI_x, NULL, 0.03 * decay, t, -10.0, 5.0);
+        ss->sun_I = exp(a->logI_x);
+        adam_update(&a->ks, ss->ks, NULL, 0.01 * decay, t, 0.0, 10.0);
+        adam_update(&a->logs, a->logs_x, NULL, 0.03 * decay, t, 0.0, log(SP_RENDER_SHININESS_MAX));
+        for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
+            ss->shin[k] = exp(a->logs_x[k]);
+    }
     if (!geo) {
         for (size_t i = 0; i < a->disp.n; i++)
             a->disp.g[i] = 0.0;
@@ -268,9 +326,10 @@ static void apply(adam_ctx *a, int t, int total)
             memset(a->frame[fi].g, 0, sizeof(double) * a->frame[fi].n);
         return;
     }
+    double gl = a->refine ? 0.1 * decay : decay; /* refinement: small steps around a converged fit */
     adam_update(&a->disp, NULL, ss->disp, 2e-5 * decay, t, -0.005, 0.005);
-    adam_update(&a->id, ss->id, NULL, 0.01 * decay, t, -5.0, 5.0);
-    adam_update(&a->scale, &ss->scale, NULL, 0.001 * decay, t, 0.7, 1.4);
+    adam_update(&a->id, ss->id, NULL, 0.01 * gl, t, -5.0, 5.0);
+    adam_update(&a->scale, &ss->scale, NULL, 0.001 * gl, t, 0.7, 1.4);
     for (int fi = 0; fi < a->nf; fi++) {
         ss_frame *f = &ss->slots[a->idx[fi]];
         double x[64];
@@ -278,7 +337,7 @@ static void apply(adam_ctx *a, int t, int total)
         memcpy(x, f->exp, sizeof(double) * ne);
         memcpy(x + ne, f->rotvec, sizeof(f->rotvec));
         memcpy(x + ne + 3, f->t_face, sizeof(f->t_face));
-        adam_update(&a->frame[fi], x, NULL, 1e-3 * decay, t, -1e3, 1e3);
+        adam_update(&a->frame[fi], x, NULL, 1e-3 * gl, t, -1e3, 1e3);
         for (uint32_t k = 0; k < ne; k++)
             f->exp[k] = x[k] < 0.0 ? 0.0 : (x[k] > 1.0 ? 1.0 : x[k]);
         memcpy(f->rotvec, x + ne, sizeof(f->rotvec));
@@ -298,7 +357,7 @@ static int adam_alloc(adam_ctx *a)
     for (int fi = 0; fi < a->nf; fi++)
         ret |= adam_vec_init(&a->frame[fi], (m->n_exp < 52 ? m->n_exp : 52) + 6);
     a->gpos = malloc(sizeof(double) * 3 * m->mesh.n_vertices);
-    a->gcam = malloc(sizeof(double) * 3 * m->mesh.n_vertices);
+    a->gcam = malloc(sizeof(double) * 6 * m->mesh.n_vertices); /* 6: silhouette scratch too */
     a->gid = calloc(m->n_id + 1, sizeof(double));
     a->gexp = calloc(m->n_exp + 1, sizeof(double));
     a->dimg = malloc(sizeof(float) * (size_t)ss->W * (size_t)ss->H * 3);
@@ -367,23 +426,114 @@ int ss_fit_adam(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
     int ret = ss_scene_open(&a->sc, ss);
     if (!ret)
         ret = adam_alloc(a);
+    if (!ret && !ss->unobservable)
+        ret = ss_fast_overcast_check(ss); /* the fast solver's decision, the same code: sets sun_dropped */
     if (!ret) {
+        a->no_sun = ss->unobservable || ss->sun_dropped;
         double d[3] = { 0.3, 0.3, 0.9 }; /* a generic high sun: the reference has no search */
         memcpy(ss->sun_dir, d, sizeof(d));
-        ss->sun_I = ss->unobservable ? 0.0 : 2.0;
+        ss->sun_I = a->no_sun ? 0.0 : 2.0;
         a->logI_x = log(2.0);
         for (int k = 0; k < SP_RENDER_CLUSTERS; k++) {
-            ss->ks[k] = ss->unobservable ? 0.0 : 0.05;
+            ss->ks[k] = a->no_sun ? 0.0 : 0.05;
             ss->shin[k] = 16.0;
             a->logs_x[k] = log(16.0);
         }
         ret = adam_loop(a, cb, user);
-        if (ss->unobservable)
+        if (a->no_sun)
             ss->sun_I = 0.0;
     }
     adam_free(a);
     free(a);
     sp_log(SP_LOG_INFO, MOD, "adam: sun (%.3f %.3f %.3f) I %.3f, train %.2f dB", ss->sun_dir[0], ss->sun_dir[1],
            ss->sun_dir[2], ss->sun_I, ss->train_psnr);
+    return ret;
+}
+
+/* Per-frame geometry, shared shape and displacement: saved or restored (dir = 1). */
+typedef struct geo_state {
+    double *v;
+    float *disp;
+} geo_state;
+
+static void geo_io(sp_sunstage *ss, const int *idx, int nf, geo_state *g, int dir)
+{
+    const sp_face_model *m = ss->model;
+    double *p = g->v;
+    for (int fi = 0; fi < nf; fi++) {
+        ss_frame *f = &ss->slots[idx[fi]];
+        double *fields[3] = { f->exp, f->rotvec, f->t_face };
+        size_t sizes[3] = { m->n_exp, 3, 3 };
+        for (int k = 0; k < 3; k++) {
+            memcpy(dir ? fields[k] : p, dir ? p : fields[k], sizeof(double) * sizes[k]);
+            p += sizes[k];
+        }
+    }
+    memcpy(dir ? ss->id : p, dir ? p : ss->id, sizeof(double) * m->n_id);
+    p += m->n_id;
+    memcpy(dir ? &ss->scale : p, dir ? p : &ss->scale, sizeof(double));
+    size_t nt = (size_t)ss->tw * (size_t)ss->th;
+    memcpy(dir ? ss->disp : g->disp, dir ? g->disp : ss->disp, sizeof(float) * nt);
+}
+
+static int refine_loop(adam_ctx *a, int steps)
+{
+    for (int t = 1; t <= steps; t++) {
+        double loss = 0.0;
+        for (int fi = 0; fi < a->nf; fi++) {
+            int ret = frame_step(a, fi, &loss);
+            if (ret)
+                return ret;
+        }
+        regularisers(a);
+        apply(a, t, steps);
+    }
+    return 0;
+}
+
+int ss_refine_geometry(sp_sunstage *ss, int steps)
+{
+    adam_ctx *a = calloc(1, sizeof(*a));
+    if (!a)
+        return -ENOMEM;
+    a->ss = ss;
+    a->nf = ss_list_frames(ss, 0, a->idx, 64);
+    a->refine = 1;
+    a->no_sun = 1; /* the sun's unknowns stay as the fast solver left them */
+    const sp_face_model *m = ss->model;
+    geo_state g = { malloc(sizeof(double) * ((size_t)a->nf * (m->n_exp + 6) + m->n_id + 1)),
+                    malloc(sizeof(float) * (size_t)ss->tw * (size_t)ss->th) };
+    int ret = g.v && g.disp ? ss_scene_open(&a->sc, ss) : -ENOMEM;
+    if (!ret)
+        ret = adam_alloc(a);
+    double tr0 = NAN, ho0 = NAN, tr1 = NAN, ho1 = NAN;
+    if (!ret) {
+        geo_io(ss, a->idx, a->nf, &g, 0);
+        ss_evaluate(ss, &a->sc, &tr0, &ho0);
+        ret = refine_loop(a, steps);
+    }
+    if (!ret) {
+        ss_evaluate(ss, &a->sc, &tr1, &ho1);
+        /* keep it only where it pays off: the held-out PSNR (training when there is none) must rise, training not fall */
+        int have_ho = isfinite(ho0) && isfinite(ho1);
+        int better = (have_ho ? ho1 > ho0 + 0.05 : tr1 > tr0 + 0.05) && !(tr1 < tr0 - 0.05);
+        if (!better) {
+            geo_io(ss, a->idx, a->nf, &g, 1);
+            snprintf(ss->disp_note, sizeof(ss->disp_note),
+                     "photometric refinement of geometry and displacement (%d steps) did not pay off (train %.2f -> "
+                     "%.2f dB, held-out %.2f -> %.2f dB): reverted",
+                     steps, tr0, tr1, ho0, ho1);
+            sp_log(SP_LOG_INFO, MOD, "%s", ss->disp_note);
+        } else {
+            ss->train_psnr = tr1;
+            ss->heldout_psnr = ho1;
+            sp_log(SP_LOG_INFO, MOD, "photometric refinement (%d steps): train %.2f -> %.2f dB, held-out %.2f -> %.2f dB",
+                   steps, tr0, tr1, ho0, ho1);
+        }
+    }
+    adam_free(a);
+    free(a);
+    free(g.v);
+    free(g.disp);
     return ret;
 }

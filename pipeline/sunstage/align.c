@@ -26,6 +26,10 @@ typedef struct align_ctx {
     double *uv, *jac, *JtJ, *Jtr, *save;
     sp_face_camera cam;
     ss_frame *one; /* a frame outside the reservoir (n = 1), or NULL */
+    int use_sil, sil_cap;
+    uint32_t *sil_idx; /* n * sil_cap outline vertices, chosen at each Jacobian evaluation */
+    int *sil_n;
+    double *sil_r, *sil_jac, *sil_work;
 } align_ctx;
 
 static ss_frame *frame_at(const align_ctx *a, int fi)
@@ -54,6 +58,42 @@ static double lm_weight(int k, double du, double dv)
 static double huber_cost(double r)
 {
     return r > HUBER_PX ? HUBER_PX * (2.0 * r - HUBER_PX) : r * r;
+}
+
+/* Silhouette residuals of frame fi (outline re-chosen when with_jac), added to cost and normal equations. */
+static double silhouette_term(align_ctx *a, int fi, ss_frame *f, const sp_face_params *p, const int *col,
+                              int with_jac)
+{
+    const sp_face_model *m = a->ss->model;
+    const double W_SIL = a->ss->set.silhouette_weight; /* px^2 per outline vertex */
+    if (!a->use_sil || !f->sil_ok || !f->sil || !(W_SIL > 0.0))
+        return 0.0;
+    uint32_t *idx = a->sil_idx + (size_t)fi * (size_t)a->sil_cap;
+    if (with_jac)
+        a->sil_n[fi] = ss_silhouette_vertices(m, p, &a->cam, a->ss->H, idx, a->sil_cap, a->sil_work);
+    int n = a->sil_n[fi];
+    if (n <= 0 || ss_silhouette_residuals(m, p, &a->cam, idx, n, f->sil, a->ss->W, a->ss->H, a->sil_r,
+                                          with_jac ? a->sil_jac : NULL))
+        return 0.0;
+    uint32_t nc = sp_face_model_n_params(m);
+    double cost = 0.0;
+    for (int j = 0; j < n; j++) {
+        double r = a->sil_r[j], rc = r < SS_SIL_MAX ? r : SS_SIL_MAX;
+        cost += W_SIL * (rc > SS_SIL_HUBER ? SS_SIL_HUBER * (2.0 * rc - SS_SIL_HUBER) : rc * rc);
+        if (!with_jac || r >= SS_SIL_MAX)
+            continue; /* truncated: an outlier has no pull */
+        double w = W_SIL * (r > SS_SIL_HUBER ? SS_SIL_HUBER / r : 1.0);
+        const double *J = a->sil_jac + (size_t)j * nc;
+        for (uint32_t i = 0; i < nc; i++) {
+            if (col[i] < 0 || J[i] == 0.0)
+                continue;
+            a->Jtr[col[i]] += w * J[i] * r;
+            for (uint32_t k = 0; k < nc; k++)
+                if (col[k] >= 0)
+                    a->JtJ[(size_t)col[i] * (size_t)a->P + (size_t)col[k]] += w * J[i] * J[k];
+        }
+    }
+    return cost;
 }
 
 /* Robust cost of every frame plus priors; jac != NULL also accumulates the normal equations. */
@@ -107,6 +147,7 @@ static double evaluate(align_ctx *a, int with_jac)
                 }
             }
         }
+        cost += silhouette_term(a, fi, f, &p, col, with_jac);
         for (int e = 0; e < a->n_exp; e++) {
             cost += W_EXP * f->exp[e] * f->exp[e];
             if (with_jac) {
@@ -205,7 +246,10 @@ static int lm_iterate(align_ctx *a, int iterations, double *cost_out)
         return -ENOMEM;
     double *b = A + (size_t)a->P * (size_t)a->P, *x0 = b + a->P;
     for (int it = 0; it < iterations && isfinite(cost); it++) {
-        evaluate(a, 1);
+        double jc = evaluate(a, 1); /* the silhouette outline is re-chosen here: its cost is the reference */
+        if (!isfinite(jc))
+            break;
+        cost = jc;
         params_io(a, x0, 0);
         int accepted = 0;
         for (int tries = 0; tries < 8 && !accepted; tries++) {
@@ -242,6 +286,24 @@ static int lm_iterate(align_ctx *a, int iterations, double *cost_out)
     return 0;
 }
 
+/* Buffers of the silhouette term; 1 when some frame has a skin-mask boundary and memory was found. */
+static int sil_alloc(align_ctx *a)
+{
+    const sp_face_model *m = a->ss->model;
+    int any = 0;
+    for (int fi = 0; fi < a->n; fi++)
+        any |= frame_at(a, fi)->sil_ok;
+    if (!any)
+        return 0;
+    a->sil_cap = 2 * a->ss->H;
+    a->sil_idx = malloc(sizeof(uint32_t) * (size_t)a->sil_cap * (size_t)a->n);
+    a->sil_n = calloc((size_t)a->n, sizeof(int));
+    a->sil_r = malloc(sizeof(double) * (size_t)a->sil_cap);
+    a->sil_jac = malloc(sizeof(double) * (size_t)a->sil_cap * sp_face_model_n_params(m));
+    a->sil_work = malloc(sizeof(double) * 6 * m->mesh.n_vertices);
+    return a->sil_idx && a->sil_n && a->sil_r && a->sil_jac && a->sil_work;
+}
+
 static double align(sp_sunstage *ss, const int *idx, ss_frame *one, int n, int shared, int iterations)
 {
     align_ctx a = { .ss = ss, .idx = idx, .n = n, .shared = shared, .one = one };
@@ -268,6 +330,10 @@ static double align(sp_sunstage *ss, const int *idx, ss_frame *one, int n, int s
     }
     double cost;
     int ret = lm_iterate(&a, iterations, &cost);
+    if (!ret && !one && sil_alloc(&a)) { /* landmarks first, then landmarks + silhouette from a close start */
+        a.use_sil = 1;
+        ret = lm_iterate(&a, iterations / 2 > 4 ? iterations / 2 : 4, &cost);
+    }
     if (ret) {
         rms = ret;
         goto done;
@@ -289,6 +355,11 @@ done:
     free(a.JtJ);
     free(a.Jtr);
     free(a.save);
+    free(a.sil_idx);
+    free(a.sil_n);
+    free(a.sil_r);
+    free(a.sil_jac);
+    free(a.sil_work);
     return rms;
 }
 

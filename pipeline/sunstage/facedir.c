@@ -140,6 +140,46 @@ static void manifest_lighting(const sp_sunstage *ss, sp_strbuf *b)
     sp_strbuf_printf(b, "},\n");
 }
 
+/* "left_out": [{"part":..., "reason":...}] so readers need not infer it from zeros. */
+static void manifest_left_out(const sp_sunstage *ss, sp_strbuf *b)
+{
+    const char *part[5], *why[5];
+    int n = 0;
+    const char *light = ss->unobservable ? "lighting unobservable: too little camera rotation (see lighting.notes)"
+                                         : "overcast: the sun does not explain the shading (see lighting.notes)";
+    if (ss->unobservable || ss->sun_dropped || !(ss->sun_I > 0.0)) {
+        part[n] = "sun";
+        why[n++] = light;
+        part[n] = "shadows";
+        why[n++] = "no sun, so no cast shadows";
+    }
+    double ks = 0.0;
+    for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
+        ks += ss->ks[k] > 0.0 ? ss->ks[k] : 0.0;
+    if (!(ks > 0.0)) {
+        why[n] = n > 0 ? "no sun to reflect" : "the fitted specular intensity is zero in every cluster";
+        part[n++] = "specular";
+    }
+    size_t nt = (size_t)ss->tw * (size_t)ss->th, nz = 0;
+    for (size_t i = 0; i < nt; i++)
+        nz += ss->disp[i] != 0.0f;
+    if (!nz) {
+        part[n] = "displacement";
+        why[n++] = ss->disp_note[0] ? ss->disp_note : "displacement map not fitted";
+    }
+    if (ss->unobservable) {
+        part[n] = "environment";
+        why[n++] = "lighting unobservable: the sky is a neutral constant";
+    }
+    sp_strbuf_printf(b, "\"left_out\":[");
+    for (int i = 0; i < n; i++) {
+        sp_strbuf_printf(b, "%s{\"part\":\"%s\",\"reason\":", i ? "," : "", part[i]);
+        sp_strbuf_json_string(b, why[i]);
+        sp_strbuf_printf(b, "}");
+    }
+    sp_strbuf_printf(b, "],\n");
+}
+
 static int write_manifest(const sp_sunstage *ss, const char *dir)
 {
     sp_strbuf b = { 0 };
@@ -161,6 +201,7 @@ static int write_manifest(const sp_sunstage *ss, const char *dir)
     sp_strbuf_json_numbers(&b, ss->shin, SP_RENDER_CLUSTERS);
     sp_strbuf_printf(&b, "},\n");
     manifest_lighting(ss, &b);
+    manifest_left_out(ss, &b);
     sp_strbuf_printf(&b, "\"identity\":");
     sp_strbuf_json_numbers(&b, ss->id, (int)ss->model->n_id);
     sp_strbuf_printf(&b, ",\"scale\":");
@@ -172,10 +213,12 @@ static int write_manifest(const sp_sunstage *ss, const char *dir)
     sp_strbuf_printf(&b, ",\"seconds\":");
     sp_strbuf_json_number(&b, ss->seconds);
     sp_strbuf_printf(&b, ",\"frames\":%llu,\"keyframes\":%d,\"heldout\":%d,\"skipped\":{\"dark\":%llu,"
-                         "\"saturated\":%llu,\"blurred\":%llu,\"no_face\":%llu,\"no_orientation\":%llu}}}\n",
+                         "\"saturated\":%llu,\"blurred\":%llu,\"no_face\":%llu,\"no_orientation\":%llu},"
+                         "\"thinned_early\":%llu}}\n",
                      (unsigned long long)c.frames, c.keyframes, c.heldout, (unsigned long long)c.skipped_dark,
                      (unsigned long long)c.skipped_saturated, (unsigned long long)c.skipped_blurred,
-                     (unsigned long long)c.skipped_no_face, (unsigned long long)c.skipped_no_orientation);
+                     (unsigned long long)c.skipped_no_face, (unsigned long long)c.skipped_no_orientation,
+                     (unsigned long long)c.thinned_early);
     int ret = write_text(dir, "manifest.json", &b);
     sp_strbuf_free(&b);
     return ret;

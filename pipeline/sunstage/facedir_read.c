@@ -172,6 +172,41 @@ static int read_manifest(sp_face_asset *a, const char *dir, sp_json **root)
     return 0;
 }
 
+/* "left_out" of the manifest into bits; 0 when the manifest has the list, SP_ENODATA for an old manifest. */
+static int read_left_out(sp_face_asset *a, const sp_json *root)
+{
+    static const char *names[] = { "sun", "shadows", "specular", "displacement", "environment" };
+    const sp_json *list = sp_json_get(root, "left_out");
+    if (!list)
+        return SP_ENODATA;
+    const sp_json *e;
+    for (size_t i = 0; (e = sp_json_at(list, i)); i++) {
+        const char *part = sp_json_string(sp_json_get(e, "part"), "");
+        for (unsigned k = 0; k < sizeof(names) / sizeof(names[0]); k++)
+            if (!strcmp(part, names[k]))
+                a->left_out |= 1u << k;
+    }
+    return 0;
+}
+
+/* Old manifests: what was left out, from zeros (no sun, ks = 0, flat displacement). */
+static void infer_left_out(sp_face_asset *a)
+{
+    double ks = 0.0;
+    for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
+        ks += a->ks[k] > 0.0 ? a->ks[k] : 0.0;
+    if (!(a->sun_intensity > 0.0))
+        a->left_out |= SP_FACE_LEFT_OUT_SUN | SP_FACE_LEFT_OUT_SHADOWS;
+    if (!(ks > 0.0))
+        a->left_out |= SP_FACE_LEFT_OUT_SPECULAR;
+    int flat = 1;
+    for (size_t i = 0; flat && i < (size_t)a->tex_width * (size_t)a->tex_height; i++)
+        flat = a->displacement[i] == 0.0f;
+    if (flat)
+        a->left_out |= SP_FACE_LEFT_OUT_DISPLACEMENT;
+    a->left_out_inferred = 1;
+}
+
 int sp_face_dir_read(sp_face_asset *a, const char *dir)
 {
     if (!a || !dir)
@@ -181,6 +216,8 @@ int sp_face_dir_read(sp_face_asset *a, const char *dir)
     int ret = read_manifest(a, dir, &root);
     if (!ret)
         ret = read_maps(a, dir, sp_json_get(root, "textures"));
+    if (!ret && read_left_out(a, root))
+        infer_left_out(a);
     sp_json_free(root);
     if (!ret)
         ret = read_mesh(a, dir);

@@ -47,6 +47,7 @@ typedef struct fast_ctx {
     double *num, *den; /* per texel * 3 */
     double x[NL];     /* lighting unknowns */
     int use_sun, use_spec;
+    int decide_only; /* stop after the sun search and the overcast decision */
     size_t stride; /* observation subsampling while searching (1 = all) */
     double sun[3];
 } fast_ctx;
@@ -546,6 +547,31 @@ static void commit(fast_ctx *c)
         }
 }
 
+#define FAST_PHASES 8 /* rows reported: sphere, 2 pattern searches, 2 shadow rounds, sun, solve, refinement */
+
+/*
+ * A report row at a phase boundary: the state at the current sun, committed;
+ * the loss is the solver's own weighted cost per channel (about the display
+ * MSE, no rendering), the held-out PSNR is rendered (held-out frames only).
+ */
+static void checkpoint(fast_ctx *c, sp_sunstage_callback cb, void *user, int phase)
+{
+    if (!cb)
+        return;
+    sp_sunstage *ss = c->ss;
+    size_t stride = c->stride;
+    try_sun(c, c->sun, 2);
+    commit(c);
+    c->stride = 1;
+    double loss = c->n ? cost(c) / (3.0 * (double)c->n) : (double)NAN;
+    c->stride = stride;
+    double ho = NAN;
+    ss_evaluate(ss, &c->sc, NULL, &ho);
+    sp_sunstage_progress p = { "photometric", phase, FAST_PHASES,
+                               (double)(sp_clock_monotonic_ns() - ss->t0) * 1e-9, loss, ho };
+    cb(user, &p);
+}
+
 static int fit_sun(fast_ctx *c, sp_sunstage_callback cb, void *user)
 {
     sp_sunstage *ss = c->ss;
@@ -561,15 +587,18 @@ static int fit_sun(fast_ctx *c, sp_sunstage_callback cb, void *user)
             memcpy(c->sun, d, sizeof(d));
         }
     }
+    checkpoint(c, cb, user, 1);
     best = pattern_search(c, 0.12, 0.02, 2);
+    checkpoint(c, cb, user, 2);
     c->stride = 2;
     best = pattern_search(c, 0.02, 0.004, 2);
-    report(c, cb, user, 1, 4);
+    checkpoint(c, cb, user, 3);
     for (int round = 0; round < 2; round++) { /* shadows from the renderer, then search again */
         int ret = update_visibility(c);
         if (ret)
             return ret;
         best = pattern_search(c, 0.02, 0.002, 3);
+        checkpoint(c, cb, user, 4 + round);
     }
     c->stride = 1;
     best = try_sun(c, c->sun, 3);
@@ -610,25 +639,38 @@ static int fast_run(fast_ctx *c, sp_sunstage_callback cb, void *user)
     } else if ((ret = fit_sun(c, cb, user))) {
         return ret;
     }
+    if (c->decide_only)
+        return 0;
     if (c->use_sun) {
         try_sun(c, c->sun, 4);
+        commit(c);
+        report(c, cb, user, 6, FAST_PHASES);
         if ((ret = fit_specular(c)))
             return ret;
         alternate(c, 4, 3);
     }
     commit(c);
-    report(c, cb, user, 4, 4);
+    report(c, cb, user, 7, FAST_PHASES);
+    if (ss->set.refine_steps > 0) {
+        if ((ret = ss_refine_geometry(ss, ss->set.refine_steps)))
+            return ret;
+        report(c, cb, user, 8, FAST_PHASES);
+    } else {
+        snprintf(ss->disp_note, sizeof(ss->disp_note),
+                 "the fast solver keeps the stage-1 geometry (photometric refinement off: refine_steps = 0)");
+    }
     sp_log(SP_LOG_INFO, MOD, "fast solver: %zu observations, sun (%.3f %.3f %.3f) I %.3f, train %.2f dB", c->n,
            ss->sun_dir[0], ss->sun_dir[1], ss->sun_dir[2], ss->sun_I, ss->train_psnr);
     return 0;
 }
 
-int ss_fit_fast(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
+static int fast_main(sp_sunstage *ss, sp_sunstage_callback cb, void *user, int decide_only)
 {
     fast_ctx c;
     memset(&c, 0, sizeof(c));
     c.ss = ss;
     c.stride = 1;
+    c.decide_only = decide_only;
     c.nf = ss_list_frames(ss, 0, c.idx, 64);
     size_t nt = (size_t)ss->tw * (size_t)ss->th * 3;
     int ret = ss_scene_open(&c.sc, ss);
@@ -650,5 +692,25 @@ int ss_fit_fast(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
     free(c.envb);
     free(c.num);
     free(c.den);
+    return ret;
+}
+
+int ss_fit_fast(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
+{
+    return fast_main(ss, cb, user, 0);
+}
+
+int ss_fast_overcast_check(sp_sunstage *ss)
+{
+    size_t n = (size_t)ss->tw * (size_t)ss->th * 3;
+    float *keep = malloc(sizeof(float) * n);
+    if (!keep)
+        return -ENOMEM;
+    memcpy(keep, ss->albedo, sizeof(float) * n);
+    int ret = fast_main(ss, NULL, NULL, 1);
+    memcpy(ss->albedo, keep, sizeof(float) * n);
+    free(keep);
+    sp_log(SP_LOG_INFO, MOD, "overcast check (fast solver's sun search): %s",
+           ss->sun_dropped ? "overcast, sun dropped" : "a sun is needed");
     return ret;
 }

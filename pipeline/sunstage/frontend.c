@@ -148,6 +148,42 @@ static ss_pending *free_pending(sp_sunstage *ss)
     return NULL;
 }
 
+/* 1 when pending frames wait only because the orientation filter has not initialised yet. */
+static int waiting_for_init(sp_sunstage *ss)
+{
+    sp_orientation_stats st;
+    return !ss->orient || (sp_orientation_get_stats(ss->orient, &st) == 0 && !st.initialized);
+}
+
+/*
+ * Ring full before the filter initialised: rather than dropping the oldest
+ * frame (it would get no orientation), drop the less sharp of the two pending
+ * frames closest in time, so the ring thins out evenly over the start of the
+ * capture; once initialised, the filter's history (states from before its
+ * initialisation, re-levelled) gives every kept frame its orientation.
+ */
+static void thin_pending(sp_sunstage *ss)
+{
+    ss_pending *drop = NULL;
+    int64_t best = INT64_MAX;
+    for (int i = 0; i < SS_PENDING; i++) {
+        ss_pending *a = &ss->pend[i], *next = NULL;
+        if (!a->used)
+            continue;
+        for (int j = 0; j < SS_PENDING; j++) /* the next pending frame in time */
+            if (ss->pend[j].used && ss->pend[j].t > a->t && (!next || ss->pend[j].t < next->t))
+                next = &ss->pend[j];
+        if (next && next->t - a->t < best) {
+            best = next->t - a->t;
+            drop = a->score < next->score ? a : next;
+        }
+    }
+    if (drop) {
+        drop->used = 0;
+        ss->counts.thinned_early++;
+    }
+}
+
 int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t)
 {
     int ret;
@@ -163,7 +199,10 @@ int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t)
         return ret;
     ss_pending *p = free_pending(ss);
     if (!p) {
-        ss_frontend_resolve(ss, 2); /* ring full: decide the oldest now */
+        if (waiting_for_init(ss))
+            thin_pending(ss);
+        else
+            ss_frontend_resolve(ss, 2); /* ring full: decide the oldest now */
         if (!(p = free_pending(ss)))
             return -ENOSPC;
     }

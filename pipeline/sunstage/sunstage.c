@@ -27,6 +27,8 @@ void sp_sunstage_default_settings(sp_sunstage_settings *s)
     s->min_rotation_deg = 90.0;
     s->blur_ratio = 0.35;
     s->use_dlib = 1;
+    s->silhouette_weight = 0.5;
+    s->refine_steps = 20;
 }
 
 static int check_settings(const sp_sunstage_settings *s)
@@ -35,7 +37,9 @@ static int check_settings(const sp_sunstage_settings *s)
         return -EINVAL;
     if (s->fit_width < 16 || s->fit_width > 1024 || s->texture_size < 8 || s->texture_size > 2048)
         return -EINVAL;
-    if (s->adam_iterations < 0 || !(s->time_budget_s >= 0.0) || !(s->blur_ratio >= 0.0))
+    if (s->adam_iterations < 0 || !(s->time_budget_s >= 0.0) || !(s->blur_ratio >= 0.0) ||
+        !(s->silhouette_weight >= 0.0 && s->silhouette_weight <= 100.0) || s->refine_steps < 0 ||
+        s->refine_steps > 10000)
         return -EINVAL;
     if (s->solver != SP_SUNSTAGE_SOLVER_FAST && s->solver != SP_SUNSTAGE_SOLVER_ADAM)
         return -EINVAL;
@@ -106,6 +110,7 @@ void sp_sunstage_close(sp_sunstage **pss)
     for (int i = 0; ss->slots && i < ss->n_slots; i++) {
         free(ss->slots[i].rgb);
         free(ss->slots[i].exp);
+        free(ss->slots[i].sil);
     }
     free(ss->slots);
     free(ss->id);
@@ -258,6 +263,11 @@ int sp_sunstage_fit(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
                  ss->yaw_range, ss->set.min_rotation_deg);
         sp_log(SP_LOG_WARN, MOD, "%s", ss->notes);
     }
+    int nsil = ss->set.silhouette_weight > 0.0 ? ss_silhouette_prepare(ss) : 0;
+    if (nsil < 0)
+        return nsil;
+    sp_log(SP_LOG_INFO, MOD, "silhouette: skin-mask boundary found in %d of %d frames", nsil,
+           sp_sunstage_n_frames(ss));
     double rms = ss_align_landmarks(ss, idx, n, 1, 30);
     if (rms < 0)
         return (int)rms;

@@ -31,6 +31,8 @@ typedef struct ss_frame {
     sp_quat truth_q;
     double *exp;        /* n_exp */
     double rotvec[3], t_face[3];
+    float *sil;         /* W * H distance (px) to the skin-mask boundary, NULL when not computed */
+    int sil_ok;         /* the mask was found: the silhouette loss applies to this frame */
 } ss_frame;
 
 /* A frame waiting in the pending ring. */
@@ -76,6 +78,7 @@ struct sp_sunstage {
     double sun_dir[3], sun_I;
     int sun_dropped, unobservable, fitted;
     char notes[512];
+    char disp_note[160];        /* why the displacement map stays zero, "" when fitted */
     double yaw_range, train_psnr, heldout_psnr, seconds;
     int64_t t0;
 };
@@ -98,6 +101,24 @@ int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const double lm[136], 
 double ss_align_landmarks(sp_sunstage *ss, const int *idx, int n, int shared, int iterations);
 /* The same for one frame outside the reservoir, shared parameters fixed. */
 double ss_align_one(sp_sunstage *ss, ss_frame *f, int iterations);
+
+/* ---- silhouette.c: silhouette loss (stage 1 and the Adam solver) ---- */
+#define SS_SIL_HUBER 1.0 /* px: quadratic below, linear above */
+#define SS_SIL_MAX 6.0   /* px: outline vertices farther than this from the mask boundary are ignored (outliers) */
+/* Distance (px) to the boundary of the frame's skin mask into dist (w * h); boundary pixel count or negative. */
+int ss_silhouette_target(const float *rgb, int w, int h, const double lm[136], float *dist);
+/*
+ * Outline vertices of the face skin at params (camera frame, cam at identity):
+ * per image row the leftmost and rightmost face-mask vertex, kept when seen at a
+ * grazing angle. idx (cap >= 2) gets up to cap indices; work: 6 * n_vertices doubles.
+ */
+int ss_silhouette_vertices(const sp_face_model *m, const sp_face_params *p, const sp_face_camera *cam, int h,
+                           uint32_t *idx, int cap, double *work);
+/* r[j] = dist at the projection of vertex idx[j]; jac (n x n_params, may be NULL) its derivatives. */
+int ss_silhouette_residuals(const sp_face_model *m, const sp_face_params *p, const sp_face_camera *cam,
+                            const uint32_t *idx, int n, const float *dist, int w, int h, double *r, double *jac);
+/* Fills every used slot's distance map (allocated once per slot). */
+int ss_silhouette_prepare(sp_sunstage *ss);
 
 /* ---- scene.c: rendering one frame of the current fit ---- */
 typedef struct ss_scene {
@@ -122,6 +143,19 @@ int ss_evaluate(sp_sunstage *ss, ss_scene *sc, double *train, double *heldout);
 /* ---- fast.c / adam.c: stage 2 ---- */
 int ss_fit_fast(sp_sunstage *ss, sp_sunstage_callback cb, void *user);
 int ss_fit_adam(sp_sunstage *ss, sp_sunstage_callback cb, void *user);
+/*
+ * The fast solver's overcast decision alone (its sun search and sky-only
+ * comparison, the same code): sets ss->sun_dropped and the note; leaves the
+ * albedo and lighting state as they were. For the Adam solver.
+ */
+int ss_fast_overcast_check(sp_sunstage *ss);
+/*
+ * Photometric refinement after the fast solver (adam.c): Adam steps on per-frame
+ * pose and expression, shared shape and the displacement map with albedo and
+ * lighting fixed; kept only when the held-out PSNR rises (else reverted, with
+ * the reason in ss->disp_note).
+ */
+int ss_refine_geometry(sp_sunstage *ss, int steps);
 
 /* ---- lsq.c: small dense solves ---- */
 /* Solves (A + lambda diag) x = b in place of b for symmetric positive A (n x n, row-major); -EDOM if singular. */

@@ -1,0 +1,457 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Silhouette loss. Target: the boundary of a per-frame skin mask (pixels whose
+ * chroma matches the skin inside the landmark outline, the connected part
+ * around the nose), as a Euclidean distance transform. Model: the projected
+ * outline of the face-skin vertices (per image row, the leftmost and rightmost
+ * vertex, kept when it is seen at a grazing angle, i.e. on the occluding
+ * contour). Residual per outline vertex: the distance map at its projection
+ * (bilinear, so the gradient is analytic), with the projection's Jacobian with
+ * respect to the face parameters.
+ */
+#include "pipeline/sunstage/sunstage_internal.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define SIL_FAR 1e10f
+#define SIL_REACH 1.6  /* the skin mask may reach this far beyond the landmark outline (neck, ears)... */
+#define SIL_LEAK 0.15  /* ...with at most this fraction of its pixels, else it leaked into the background */
+#define SIL_GRAZING 0.35 /* |cos| between vertex normal and view ray below this: on the contour */
+
+/* Felzenszwalb-Huttenlocher 1-D squared distance transform of f (n) into d; v, z work arrays. */
+static void dt1d(const float *f, int n, float *d, int *v, float *z)
+{
+    int k = 0;
+    v[0] = 0;
+    z[0] = -SIL_FAR;
+    z[1] = SIL_FAR;
+    for (int q = 1; q < n; q++) {
+        float s;
+        for (;;) {
+            int p = v[k];
+            s = ((f[q] + (float)(q * q)) - (f[p] + (float)(p * p))) / (float)(2 * (q - p));
+            if (s <= z[k] && k > 0)
+                k--;
+            else
+                break;
+        }
+        if (s <= z[k]) { /* k == 0 and the new parabola dominates */
+            v[0] = q;
+            z[0] = -SIL_FAR;
+            z[1] = SIL_FAR;
+            continue;
+        }
+        k++;
+        v[k] = q;
+        z[k] = s;
+        z[k + 1] = SIL_FAR;
+    }
+    k = 0;
+    for (int q = 0; q < n; q++) {
+        while (z[k + 1] < (float)q)
+            k++;
+        float dq = (float)(q - v[k]);
+        d[q] = dq * dq + f[v[k]];
+    }
+}
+
+/* Euclidean distance (pixels) to the nearest seed (dist[i] == 0 on entry, else SIL_FAR), in place. */
+static int edt(float *dist, int w, int h)
+{
+    int n = w > h ? w : h;
+    float *f = malloc(sizeof(float) * (size_t)n * 3 + sizeof(float));
+    int *v = malloc(sizeof(int) * (size_t)n);
+    if (!f || !v) {
+        free(f);
+        free(v);
+        return -ENOMEM;
+    }
+    float *d = f + n, *z = d + n;
+    for (int x = 0; x < w; x++) {
+        for (int y = 0; y < h; y++)
+            f[y] = dist[(size_t)y * (size_t)w + (size_t)x];
+        dt1d(f, h, d, v, z);
+        for (int y = 0; y < h; y++)
+            dist[(size_t)y * (size_t)w + (size_t)x] = d[y];
+    }
+    for (int y = 0; y < h; y++) {
+        float *row = dist + (size_t)y * (size_t)w;
+        memcpy(f, row, sizeof(float) * (size_t)w);
+        dt1d(f, w, d, v, z);
+        for (int x = 0; x < w; x++)
+            row[x] = sqrtf(fmaxf(d[x], 0.0f));
+    }
+    free(f);
+    free(v);
+    return 0;
+}
+
+static int inside_outline(const double lm[136], double x, double y);
+
+/* Point in the polygon through landmarks (jaw 0..16, brows 26..17), scaled by k about the nose tip, by ray crossing. */
+static int inside_scaled(const double lm[136], double k, double x, double y)
+{
+    x = lm[60] + (x - lm[60]) / k;
+    y = lm[61] + (y - lm[61]) / k;
+    return inside_outline(lm, x, y);
+}
+
+static int inside_outline(const double lm[136], double x, double y)
+{
+    static const int order[27] = { 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13,
+                                   14, 15, 16, 26, 25, 24, 23, 22, 21, 20, 19, 18, 17 };
+    int in = 0;
+    for (int i = 0, j = 26; i < 27; j = i++) {
+        double xi = lm[2 * order[i]], yi = lm[2 * order[i] + 1], xj = lm[2 * order[j]], yj = lm[2 * order[j] + 1];
+        if ((yi > y) != (yj > y) && x < (xj - xi) * (y - yi) / (yj - yi) + xi)
+            in = !in;
+    }
+    return in;
+}
+
+static void chroma(const float *p, double c[2])
+{
+    double s = (double)p[0] + (double)p[1] + (double)p[2] + 1e-6;
+    c[0] = (double)p[0] / s;
+    c[1] = (double)p[1] / s;
+}
+
+/* Mean (pass 0) or covariance (pass 1, given the mean) of the chroma inside the landmark outline; pixel count. */
+static int outline_stats(const float *rgb, int w, int h, const double lm[136], int pass, double m[2], double S[3])
+{
+    int n = 0;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            const float *p = rgb + ((size_t)y * (size_t)w + (size_t)x) * 3;
+            if (!inside_outline(lm, x, y) || (double)(p[0] + p[1] + p[2]) < 0.15)
+                continue;
+            double c[2];
+            chroma(p, c);
+            n++;
+            if (pass == 0) {
+                m[0] += c[0];
+                m[1] += c[1];
+            } else {
+                double a = c[0] - m[0], b = c[1] - m[1];
+                S[0] += a * a;
+                S[1] += a * b;
+                S[2] += b * b;
+            }
+        }
+    return n;
+}
+
+/* Skin mask: chroma within 3 sigma of the skin inside the landmark outline. Returns 0 or SP_ENODATA. */
+static int skin_mask(const float *rgb, int w, int h, const double lm[136], uint8_t *mask)
+{
+    double m[2] = { 0, 0 }, S[3] = { 0, 0, 0 };
+    int n = outline_stats(rgb, w, h, lm, 0, m, S);
+    if (n < 20)
+        return SP_ENODATA;
+    m[0] /= n;
+    m[1] /= n;
+    outline_stats(rgb, w, h, lm, 1, m, S);
+    for (int k = 0; k < 3; k++)
+        S[k] /= n;
+    /* a floor on the spread: flat-shaded synthetic skin would otherwise give a zero covariance */
+    S[0] += 1e-4;
+    S[2] += 1e-4;
+    double det = S[0] * S[2] - S[1] * S[1];
+    if (!(det > 0.0))
+        return SP_ENODATA;
+    for (int i = 0; i < w * h; i++) {
+        const float *p = rgb + (size_t)i * 3;
+        double c[2];
+        chroma(p, c);
+        double a = c[0] - m[0], b = c[1] - m[1];
+        double d2 = (S[2] * a * a - 2.0 * S[1] * a * b + S[0] * b * b) / det;
+        mask[i] = d2 < 9.0 && (double)(p[0] + p[1] + p[2]) >= 0.15;
+    }
+    return 0;
+}
+
+/* Keeps the 4-connected part of mask that contains (sx, sy); stack holds w * h ints. */
+static void keep_component(uint8_t *mask, int w, int h, int sx, int sy, int *stack)
+{
+    if (sx < 0 || sy < 0 || sx >= w || sy >= h || !mask[sy * w + sx]) {
+        memset(mask, 0, (size_t)w * (size_t)h);
+        return;
+    }
+    int top = 0;
+    stack[top++] = sy * w + sx;
+    mask[sy * w + sx] = 2;
+    while (top > 0) {
+        int i = stack[--top], x = i % w, y = i / w;
+        int nb[4] = { x > 0 ? i - 1 : -1, x < w - 1 ? i + 1 : -1, y > 0 ? i - w : -1, y < h - 1 ? i + w : -1 };
+        for (int k = 0; k < 4; k++)
+            if (nb[k] >= 0 && mask[nb[k]] == 1) {
+                mask[nb[k]] = 2;
+                stack[top++] = nb[k];
+            }
+    }
+    for (int i = 0; i < w * h; i++)
+        mask[i] = mask[i] == 2;
+}
+
+int ss_silhouette_target(const float *rgb, int w, int h, const double lm[136], float *dist)
+{
+    if (!rgb || !lm || !dist || w < 4 || h < 4)
+        return -EINVAL;
+    uint8_t *mask = malloc((size_t)w * (size_t)h);
+    int *stack = malloc(sizeof(int) * (size_t)w * (size_t)h);
+    int ret = mask && stack ? skin_mask(rgb, w, h, lm, mask) : -ENOMEM;
+    if (!ret) {
+        keep_component(mask, w, h, (int)lround(lm[60]), (int)lround(lm[61]), stack); /* nose tip */
+        /* a mask that leaks far beyond the face (skin-coloured background) has no usable outline */
+        int in = 0, out = 0;
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < w; x++)
+                if (mask[y * w + x]) {
+                    if (inside_scaled(lm, SIL_REACH, x, y))
+                        in++;
+                    else
+                        out++;
+                }
+        if (out > SIL_LEAK * (in + out))
+            ret = SP_ENODATA;
+    }
+    if (!ret) {
+        int nb = 0;
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < w; x++) {
+                int i = y * w + x;
+                /* boundary: a mask pixel next to a non-mask pixel; the image border is not a silhouette */
+                int b = mask[i] && x > 0 && y > 0 && x < w - 1 && y < h - 1 &&
+                        (!mask[i - 1] || !mask[i + 1] || !mask[i - w] || !mask[i + w]);
+                dist[i] = b ? 0.0f : SIL_FAR;
+                nb += b;
+            }
+        ret = nb >= 8 ? edt(dist, w, h) : SP_ENODATA;
+        if (!ret)
+            ret = nb;
+    }
+    free(mask);
+    free(stack);
+    return ret;
+}
+
+/* Area-weighted vertex normals of camera-frame positions v into nrm (3 * n_vertices). */
+static void vertex_normals(const sp_mesh *mesh, const double *v, double *nrm)
+{
+    memset(nrm, 0, sizeof(double) * 3 * mesh->n_vertices);
+    for (uint32_t t = 0; t < mesh->n_triangles; t++) {
+        const uint32_t *tri = mesh->tri_vertices + (size_t)t * 3;
+        const double *a = v + (size_t)tri[0] * 3, *b = v + (size_t)tri[1] * 3, *c = v + (size_t)tri[2] * 3;
+        double e1[3] = { b[0] - a[0], b[1] - a[1], b[2] - a[2] }, e2[3] = { c[0] - a[0], c[1] - a[1], c[2] - a[2] };
+        double n[3] = { e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0] };
+        for (int k = 0; k < 3; k++)
+            for (int d = 0; d < 3; d++)
+                nrm[(size_t)tri[k] * 3 + (size_t)d] += n[d];
+    }
+}
+
+int ss_silhouette_vertices(const sp_face_model *m, const sp_face_params *p, const sp_face_camera *cam, int h,
+                           uint32_t *idx, int cap, double *work)
+{
+    if (!m || !p || !cam || !idx || !work || h < 1 || cap < 1)
+        return -EINVAL;
+    uint32_t nv = m->mesh.n_vertices;
+    double *v = work, *nrm = work + (size_t)nv * 3;
+    int ret = sp_face_model_eval(m, p, v);
+    if (ret)
+        return ret;
+    vertex_normals(&m->mesh, v, nrm);
+    /* per row: leftmost (slot 2y) and rightmost (2y + 1) face-skin vertex; idx doubles as the table */
+    int rows = cap / 2 < h ? cap / 2 : h;
+    double *ext = malloc(sizeof(double) * 2 * (size_t)rows);
+    if (!ext)
+        return -ENOMEM;
+    for (int r = 0; r < rows; r++) {
+        idx[2 * r] = idx[2 * r + 1] = UINT32_MAX;
+        ext[2 * r] = INFINITY;
+        ext[2 * r + 1] = -INFINITY;
+    }
+    for (uint32_t i = 0; i < nv; i++) {
+        const double *x = v + (size_t)i * 3;
+        if (!m->face_mask[i] || !(x[2] > 1e-6))
+            continue;
+        double u = cam->fx * x[0] / x[2] + cam->cx, y = cam->fy * x[1] / x[2] + cam->cy;
+        int r = (int)floor(y);
+        if (r < 0 || r >= rows)
+            continue;
+        if (u < ext[2 * r]) {
+            ext[2 * r] = u;
+            idx[2 * r] = i;
+        }
+        if (u > ext[2 * r + 1]) {
+            ext[2 * r + 1] = u;
+            idx[2 * r + 1] = i;
+        }
+    }
+    free(ext);
+    int n = 0;
+    for (int k = 0; k < 2 * rows; k++) {
+        uint32_t i = idx[k];
+        if (i == UINT32_MAX)
+            continue;
+        const double *x = v + (size_t)i * 3, *nn = nrm + (size_t)i * 3;
+        double ln = sqrt(nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]);
+        double lx = sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+        if (!(ln > 0.0) || !(lx > 0.0))
+            continue;
+        double c = (nn[0] * x[0] + nn[1] * x[1] + nn[2] * x[2]) / (ln * lx);
+        if (fabs(c) < SIL_GRAZING && (n == 0 || idx[n - 1] != i))
+            idx[n++] = i;
+    }
+    return n;
+}
+
+/* Bilinear sample of the distance map and its image gradient; clamps to the border. */
+static double sample(const float *d, int w, int h, double u, double v, double *du, double *dv)
+{
+    u = u < 0.0 ? 0.0 : (u > w - 1.001 ? w - 1.001 : u);
+    v = v < 0.0 ? 0.0 : (v > h - 1.001 ? h - 1.001 : v);
+    int x = (int)u, y = (int)v;
+    double fx = u - x, fy = v - y;
+    const float *p = d + (size_t)y * (size_t)w + (size_t)x;
+    double a = p[0], b = p[1], c = p[w], e = p[w + 1];
+    *du = (1.0 - fy) * (b - a) + fy * (e - c);
+    *dv = (1.0 - fx) * (c - a) + fx * (e - b);
+    return (1.0 - fy) * ((1.0 - fx) * a + fx * b) + fy * ((1.0 - fx) * c + fx * e);
+}
+
+/* dR/dr_k for the rotation vector r (Gallego and Yezzi's closed form), into dR[k][9]. */
+static void rotation_derivatives(const double r[3], double dR[3][9])
+{
+    double R[9];
+    ss_rotvec_to_matrix(r, R);
+    double th2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+    for (int k = 0; k < 3; k++) {
+        double S[9];
+        if (th2 < 1e-16) { /* at identity: dR/dr_k = [e_k]x */
+            double e[3] = { k == 0, k == 1, k == 2 };
+            double M[9] = { 0, -e[2], e[1], e[2], 0, -e[0], -e[1], e[0], 0 };
+            memcpy(dR[k], M, sizeof(M));
+            continue;
+        }
+        double ie[3] = { (k == 0) - R[k], (k == 1) - R[3 + k], (k == 2) - R[6 + k] }; /* (I - R) e_k */
+        double c[3] = { r[1] * ie[2] - r[2] * ie[1], r[2] * ie[0] - r[0] * ie[2], r[0] * ie[1] - r[1] * ie[0] };
+        double a[3] = { r[k] * r[0] + c[0], r[k] * r[1] + c[1], r[k] * r[2] + c[2] };
+        double M[9] = { 0, -a[2], a[1], a[2], 0, -a[0], -a[1], a[0], 0 };
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                S[i * 3 + j] = (M[i * 3] * R[j] + M[i * 3 + 1] * R[3 + j] + M[i * 3 + 2] * R[6 + j]) / th2;
+        memcpy(dR[k], S, sizeof(S));
+    }
+}
+
+/* Model-frame position of vertex i (mean + identity + expression). */
+static void model_point(const sp_face_model *m, const sp_face_params *p, uint32_t i, double x[3])
+{
+    size_t nv = m->mesh.n_vertices;
+    for (int d = 0; d < 3; d++)
+        x[d] = (double)m->mesh.positions[(size_t)i * 3 + (size_t)d];
+    for (uint32_t k = 0; p->id && k < m->n_id; k++)
+        for (int d = 0; d < 3; d++)
+            x[d] += p->id[k] * (double)m->id_basis[((size_t)k * nv + i) * 3 + (size_t)d];
+    for (uint32_t k = 0; p->exp && k < m->n_exp; k++)
+        for (int d = 0; d < 3; d++)
+            x[d] += p->exp[k] * (double)m->exp_basis[((size_t)k * nv + i) * 3 + (size_t)d];
+}
+
+static void mat_vec(const double M[9], const double x[3], double y[3])
+{
+    for (int i = 0; i < 3; i++)
+        y[i] = M[i * 3] * x[0] + M[i * 3 + 1] * x[1] + M[i * 3 + 2] * x[2];
+}
+
+/* Jacobian row of the residual: g (du, dv) through the projection, into row (n_params). */
+static void jacobian_row(const sp_face_model *m, const sp_face_params *p, const sp_face_camera *cam, uint32_t i,
+                         const double R[9], const double dR[3][9], const double X[3], double gu, double gv,
+                         double *row)
+{
+    size_t nv = m->mesh.n_vertices;
+    double iz = 1.0 / X[2];
+    /* dr/dX for the camera-frame point */
+    double g[3] = { gu * cam->fx * iz, gv * cam->fy * iz, -(gu * cam->fx * X[0] + gv * cam->fy * X[1]) * iz * iz };
+    double gR[3]; /* s R^T g: the gradient with respect to a model-frame offset */
+    for (int d = 0; d < 3; d++)
+        gR[d] = p->s * (R[d] * g[0] + R[3 + d] * g[1] + R[6 + d] * g[2]);
+    uint32_t c = 0;
+    for (uint32_t k = 0; k < m->n_id; k++, c++) {
+        const float *b = m->id_basis + ((size_t)k * nv + i) * 3;
+        row[c] = gR[0] * (double)b[0] + gR[1] * (double)b[1] + gR[2] * (double)b[2];
+    }
+    for (uint32_t k = 0; k < m->n_exp; k++, c++) {
+        const float *b = m->exp_basis + ((size_t)k * nv + i) * 3;
+        row[c] = gR[0] * (double)b[0] + gR[1] * (double)b[1] + gR[2] * (double)b[2];
+    }
+    double x[3], Rx[3];
+    model_point(m, p, i, x);
+    for (int k = 0; k < 3; k++, c++) {
+        double y[3];
+        mat_vec(dR[k], x, y);
+        row[c] = p->s * (g[0] * y[0] + g[1] * y[1] + g[2] * y[2]);
+    }
+    for (int k = 0; k < 3; k++, c++)
+        row[c] = g[k];
+    mat_vec(R, x, Rx);
+    row[c] = g[0] * Rx[0] + g[1] * Rx[1] + g[2] * Rx[2];
+}
+
+int ss_silhouette_residuals(const sp_face_model *m, const sp_face_params *p, const sp_face_camera *cam,
+                            const uint32_t *idx, int n, const float *dist, int w, int h, double *r, double *jac)
+{
+    if (!m || !p || !cam || (!idx && n > 0) || !dist || !r || n < 0 || w < 2 || h < 2)
+        return -EINVAL;
+    double R[9], dR[3][9];
+    ss_rotvec_to_matrix(p->rotvec, R);
+    if (jac)
+        rotation_derivatives(p->rotvec, dR);
+    uint32_t nc = sp_face_model_n_params(m);
+    for (int j = 0; j < n; j++) {
+        double x[3], X[3];
+        model_point(m, p, idx[j], x);
+        mat_vec(R, x, X);
+        for (int d = 0; d < 3; d++)
+            X[d] = p->s * X[d] + p->t[d];
+        double *row = jac ? jac + (size_t)j * nc : NULL;
+        if (!(X[2] > 1e-6)) { /* behind the camera: no residual, no gradient */
+            r[j] = 0.0;
+            if (row)
+                memset(row, 0, sizeof(double) * nc);
+            continue;
+        }
+        double u = cam->fx * X[0] / X[2] + cam->cx, v = cam->fy * X[1] / X[2] + cam->cy, gu, gv;
+        r[j] = sample(dist, w, h, u, v, &gu, &gv);
+        if (u <= 0.0 || u >= w - 1.001)
+            gu = 0.0; /* clamped: flat outside */
+        if (v <= 0.0 || v >= h - 1.001)
+            gv = 0.0;
+        if (row)
+            jacobian_row(m, p, cam, idx[j], R, dR, X, gu, gv, row);
+    }
+    return 0;
+}
+
+int ss_silhouette_prepare(sp_sunstage *ss)
+{
+    int found = 0;
+    for (int i = 0; ss->slots && i < ss->n_slots; i++) {
+        ss_frame *f = &ss->slots[i];
+        f->sil_ok = 0;
+        if (!f->used)
+            continue;
+        if (!f->sil && !(f->sil = malloc(sizeof(float) * (size_t)ss->W * (size_t)ss->H)))
+            return -ENOMEM;
+        int ret = ss_silhouette_target(f->rgb, ss->W, ss->H, f->lm, f->sil);
+        if (ret == -ENOMEM)
+            return ret;
+        f->sil_ok = ret > 0;
+        found += f->sil_ok;
+    }
+    return found;
+}
