@@ -12,6 +12,7 @@
 #include <getopt.h>
 #include <inttypes.h>
 #include <math.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -316,6 +317,14 @@ static int put_in_place(const probe_args *a, const char *partial)
 
 /* ---- streaming ---- */
 
+/* The signal that asked us to stop (SIGINT, SIGTERM), 0 while none did: checked once per frame. */
+static volatile sig_atomic_t interrupted;
+
+static void on_signal(int sig)
+{
+    interrupted = sig;
+}
+
 typedef struct run_state {
     const probe_args *a;
     const char *dir;
@@ -371,7 +380,7 @@ static int stream(run_state *rs, uint64_t total)
     sp_progress bar;
     sp_progress_start(&bar, "probe", total, rs->a->quiet ? 0 : -1);
     sp_event ev;
-    while ((ret = sp_source_next(src, &ev)) == 0) {
+    while (!interrupted && (ret = sp_source_next(src, &ev)) == 0) {
         if (ev.type == SP_EVENT_FRAME)
             ret = on_frame(rs, ev.frame);
         sp_event_release(&ev);
@@ -419,10 +428,13 @@ static int run(probe_args *a, const capture_facts *facts, const char *dir)
     int64_t t0 = sp_clock_monotonic_ns();
     ret = rs.rgb ? stream(&rs, a->max_frames && a->max_frames < facts->frames ? a->max_frames : facts->frames)
                  : -ENOMEM;
-    if (!ret)
+    if (!ret && !interrupted)
         ret = sp_probe_finish(rs.probe);
     int code = SP_EXIT_OK;
-    if (ret == SP_ENODATA) {
+    if (interrupted) { /* a read cut short by the signal is no capture error */
+        fprintf(stderr, "sunprobe probe: interrupted after %" PRIu64 " frames; nothing written\n", rs.index);
+        code = 128 + (int)interrupted;
+    } else if (ret == SP_ENODATA) {
         fprintf(stderr, "sunprobe probe: %s: %s\n", a->capture, sp_probe_message(rs.probe));
         code = SP_EXIT_BAD_INPUT;
     } else if (ret) {
@@ -455,10 +467,18 @@ int sp_cmd_probe(int argc, char **argv)
         a.s.holdout_from = (int64_t)(facts.frames / 2);
     if ((code = check_output(&a)))
         return code;
+    /* from here on Ctrl-C ends the frame loop and the normal abort path removes the partial directory */
+    struct sigaction sa = { .sa_handler = on_signal }, old_int, old_term;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, &old_int);
+    sigaction(SIGTERM, &sa, &old_term);
     char partial[4096], report[4200];
     snprintf(partial, sizeof(partial), "%s.partial.%ld", a.out, (long)getpid());
-    if (mkdir(partial, 0755) != 0)
+    if (mkdir(partial, 0755) != 0) {
+        sigaction(SIGINT, &old_int, NULL);
+        sigaction(SIGTERM, &old_term, NULL);
         return sp_cmd_fail("probe", -errno, partial);
+    }
     snprintf(report, sizeof(report), "%s/convergence", partial);
     a.s.report_prefix = report;
     size_t n_truth = 0;
@@ -466,10 +486,14 @@ int sp_cmd_probe(int argc, char **argv)
     a.s.truth = truth, a.s.n_truth = n_truth;
     code = run(&a, &facts, partial);
     free(truth);
+    if (code == SP_EXIT_OK && interrupted) /* after the last frame: the final directory is left as it was */
+        code = 128 + (int)interrupted;
     int ret = code == SP_EXIT_OK ? put_in_place(&a, partial) : 0;
     if (ret)
         code = sp_cmd_fail("probe", ret, a.out);
     if (code != SP_EXIT_OK)
         remove_dir(partial);
+    sigaction(SIGINT, &old_int, NULL);
+    sigaction(SIGTERM, &old_term, NULL);
     return code;
 }

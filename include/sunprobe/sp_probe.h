@@ -50,7 +50,7 @@ typedef struct sp_probe_settings {
     unsigned block;           /* coarse cell for morphology and components, pixels, 2..15, default 4 */
     unsigned min_object_px;   /* smallest object, refined-mask pixels; default 0: width * height / 4000, >= 16 */
     enum sp_probe_detector detector; /* default SP_PROBE_DETECT_SHAPE */
-    unsigned min_occlusion_events; /* occlusion evidence needed before a pixel occludes, default 2 */
+    unsigned min_occlusion_events; /* occlusion evidence needed before a pixel occludes, default 1 */
     int64_t holdout_from;     /* frames from this index test the scale model instead of fitting it; -1: none (default) */
     unsigned max_observations; /* reservoir of person observations for the fits, default 4096 */
     unsigned checkpoint_frames; /* frames between rows of the convergence report, default 25 */

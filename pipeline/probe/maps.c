@@ -81,15 +81,18 @@ void maps_close(probe_maps *m)
 }
 
 /*
- * A few (value, count) slots per pixel and side, "space saving": a value
- * within 2 rows of a slot joins it (the slot keeps the stronger claim: the
- * nearer hidden bottom, the farther visible one); otherwise it takes a free
- * slot, or replaces the weakest one, inheriting its count. Frequent values
- * survive, stray ones do not crowd them out.
+ * A few (value, count) slots per pixel and side. A value within 2 rows of a
+ * slot joins it (the slot keeps the stronger claim: the nearer hidden bottom,
+ * the farther visible one). Otherwise a hidden value takes a free slot or
+ * replaces the weakest one, inheriting its count ("space saving": frequent
+ * values survive, stray ones do not crowd them out); a visible value takes a
+ * free slot or replaces the nearest one, if it is farther: the farthest
+ * sightings bound the occluder's bottom, and on a busy road the many near
+ * ones would otherwise push them out and leave a stray hidden event unopposed.
  */
 static inline void tally(int16_t *val, uint16_t *cnt, int16_t v, int hidden)
 {
-    int weakest = 0;
+    int weakest = 0, nearest = 0;
     for (int k = 0; k < PROBE_EVIDENCE; k++) {
         if (cnt[k] && abs(val[k] - v) <= 2) {
             val[k] = hidden ? (v > val[k] ? v : val[k]) : (v < val[k] ? v : val[k]);
@@ -98,6 +101,15 @@ static inline void tally(int16_t *val, uint16_t *cnt, int16_t v, int hidden)
         }
         if (cnt[k] < cnt[weakest])
             weakest = k;
+        if (!cnt[k] || (cnt[nearest] && val[k] > val[nearest]))
+            nearest = k;
+    }
+    if (!hidden) { /* sightings: the farthest ones bound the occluder, so the nearest one goes first */
+        if (cnt[nearest] && v > val[nearest])
+            return;
+        val[nearest] = v;
+        cnt[nearest] = 1;
+        return;
     }
     val[weakest] = v;
     cnt[weakest] = (uint16_t)(cnt[weakest] + (cnt[weakest] < UINT16_MAX));
@@ -262,8 +274,8 @@ static int template_missing(const probe_maps *m, const probe_segment *sg, const 
 }
 
 /*
- * Lines (columns or rows) of the template that are missing almost entirely
- * and have a line at least half present on both sides: the body was cut through
+ * Lines (columns or rows) of the template that are at least half missing and
+ * have a line at least half present on both sides: the body was cut through
  * there. Misalignment only shaves lines off an edge.
  */
 static void interior_cuts(const uint16_t *on, const uint16_t *miss, int n, unsigned min_on, uint8_t *cut)
@@ -275,7 +287,7 @@ static void interior_cuts(const uint16_t *on, const uint16_t *miss, int n, unsig
             last_present = i;
         }
     for (int i = 0; i < n; i++)
-        cut[i] = on[i] >= min_on && 5 * miss[i] >= 4 * on[i] && first_present >= 0 && first_present < i &&
+        cut[i] = on[i] >= min_on && 2 * miss[i] >= on[i] && first_present >= 0 && first_present < i &&
                  i < last_present;
 }
 
@@ -328,7 +340,11 @@ void maps_add_background(probe_maps *m, const uint8_t *plate, const uint8_t *cls
  * Candidates are -1 and the hidden slot values. Z contradicts the hidden
  * events nearer than it and the visible events at or nearer than it; the
  * cheapest candidate wins, -1 on ties, and a value needs min_events agreeing
- * hidden events (at or farther than it).
+ * hidden events (at or farther than it). A hidden value that sightings right
+ * there refute (a body that far or farther was seen over the pixel) is a wrong
+ * depth, not a claim against a smaller Z: a figure in front of a sign, its
+ * shirt the sign's colour, must not outvote the figures seen hidden behind it.
+ * It still counts against -1: something did hide part of a body there.
  */
 float maps_occlusion_at(const probe_maps *m, size_t i)
 {
@@ -339,13 +355,20 @@ float maps_occlusion_at(const probe_maps *m, size_t i)
         total += hn[k];
     best_cost = total;
     int best = -1;
+    uint8_t refuted[PROBE_EVIDENCE];
+    for (int k = 0; k < PROBE_EVIDENCE; k++) {
+        unsigned seen_nearer = 0; /* bodies seen right there standing as far as or farther than the hidden one */
+        for (int j = 0; j < PROBE_EVIDENCE; j++)
+            seen_nearer += vn[j] && vv[j] <= hv[k] ? vn[j] : 0;
+        refuted[k] = hn[k] && VISIBLE_WEIGHT * seen_nearer >= hn[k];
+    }
     for (int c = 0; c < PROBE_EVIDENCE; c++) {
         if (!hn[c])
             continue;
         unsigned cost = 0, agree = 0;
         for (int k = 0; k < PROBE_EVIDENCE; k++) {
             if (hn[k] && hv[k] > hv[c])
-                cost += hn[k];
+                cost += refuted[k] ? 0 : hn[k];
             else
                 agree += hn[k];
             if (vn[k] && vv[k] <= hv[c])

@@ -66,7 +66,7 @@ void sp_probe_default_settings(sp_probe_settings *s)
     s->block = 4;
     s->min_object_px = 0; /* automatic: width * height / 4000, at least 16 */
     s->detector = SP_PROBE_DETECT_SHAPE;
-    s->min_occlusion_events = 2;
+    s->min_occlusion_events = 1;
     s->holdout_from = -1;
     s->max_observations = 4096;
     s->checkpoint_frames = 25;

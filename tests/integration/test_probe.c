@@ -196,8 +196,11 @@ static void check_occlusion(const sp_probe_dir *d)
            "%.4f of %zu pixels where figures were seen would wrongly hide them\n",
            recall, n, recall3, n3, false_rate, n_seen);
     CHECK_MSG(n > 500, "%zu occluder pixels in the truth", n);
-    /* the issue asks for 0.90; this method reaches about 0.8 here (README of the probe: limits) */
-    CHECK_MSG(recall >= 0.75, "occluder recall %.3f", recall);
+    /*
+     * the issue asks for 0.90; this scene (seed 1) gives 0.86, seeds 1-6 0.81-0.95 (median 0.89):
+     * PROBE.md, limits. The bound keeps the gain over the 0.79 of the 2-event, space-saving map.
+     */
+    CHECK_MSG(recall >= 0.82, "occluder recall %.3f", recall);
     CHECK_MSG(false_rate <= 0.01, "false occluder rate %.4f", false_rate);
     free(far), free(cnt), free(seen);
 }
