@@ -75,9 +75,9 @@ static void bary_backward(const shade_ctx *ctx, const shade_rec *rec, const samp
         v3_axpy(rec->lam[i], g_m, acc->g_nd + v * 3);
         dot += rec->lam[i] * g_lam[i];
     }
-    double gw[3];
+    double gw[3], inv_wsum = 1.0 / rec->wsum;
     for (int j = 0; j < 3; j++)
-        gw[j] = (g_lam[j] - dot) / rec->wsum;
+        gw[j] = (g_lam[j] - dot) * inv_wsum;
     /* w0 = [d, B, C], w1 = [d, C, A], w2 = [d, A, B] */
     const double *A = g->xc + (size_t)rec->vi[0] * 3, *B = g->xc + (size_t)rec->vi[1] * 3,
                  *C = g->xc + (size_t)rec->vi[2] * 3, *d = rec->d;
@@ -99,10 +99,10 @@ static void bary_backward(const shade_ctx *ctx, const shade_rec *rec, const samp
     v3_axpy(gw[2], k + 6, gd);
     /* d = ((u - cx) / fx, (v - cy) / fy, 1) */
     const raster_camera *cam = ctx->cam;
-    acc->g_fx -= gd[0] * d[0] / cam->fx;
-    acc->g_cx -= gd[0] / cam->fx;
-    acc->g_fy -= gd[1] * d[1] / cam->fy;
-    acc->g_cy -= gd[1] / cam->fy;
+    acc->g_fx -= gd[0] * d[0] * cam->inv_fx;
+    acc->g_cx -= gd[0] * cam->inv_fx;
+    acc->g_fy -= gd[1] * d[1] * cam->inv_fy;
+    acc->g_cy -= gd[1] * cam->inv_fy;
 }
 
 void shade_backward(const shade_ctx *ctx, const shade_rec *rec, const double gc[3], shade_acc *acc)

@@ -25,6 +25,8 @@ typedef struct fused_state {
     const float *target, *mask;
     double norm;           /* max(sum of the mask, 1e-12), as sp_render_l2_loss */
     double bg_img[3], bg_deriv[3]; /* display value of an uncovered pixel and its tone-map slope */
+    double bg_rad[3];      /* its radiance, 0 + 1 * background as resolve_pixel sums it */
+    float bg_rad_f[3], bg_img_f[3]; /* the float outputs of the above */
     double inv_s2;         /* 1 / S^2 */
     double loss_sum;
     double g_exposure;
@@ -115,6 +117,31 @@ static int pixel_grad(const sp_render_scene *sc, const fused_state *st, const fl
     return any > 0.0;
 }
 
+/*
+ * resolve_pixel + pixel_grad for a pixel without covered samples (about half
+ * of a portrait frame): the radiance, display value and slope are the
+ * background's, precomputed once; only the loss term and the exposure
+ * gradient depend on the pixel. Same arithmetic as the general path.
+ */
+static void background_pixel(sp_renderer *r, fused_state *st, size_t p)
+{
+    double m = st->mask ? (double)st->mask[p] : 1.0;
+    for (int c = 0; c < 3; c++) {
+        size_t i = p * 3 + (size_t)c;
+        r->radiance64[i] = st->bg_rad[c];
+        r->image64[i] = st->bg_img[c];
+        r->radiance[i] = st->bg_rad_f[c];
+        r->image[i] = st->bg_img_f[c];
+        double d = (double)st->bg_img_f[c] - (double)st->target[i];
+        st->loss_sum += m * d * d;
+        if (!st->want_grads)
+            continue;
+        double g = (double)to_float(2.0 * m * d / st->norm);
+        if (g != 0.0)
+            st->g_exposure += g * st->bg_deriv[c] * st->bg_rad[c];
+    }
+}
+
 static void fused_sweep(sp_renderer *r, const sp_render_scene *sc, fused_state *st)
 {
     for (int py = 0; py < r->set.height; py++)
@@ -123,6 +150,10 @@ static void fused_sweep(sp_renderer *r, const sp_render_scene *sc, fused_state *
             double rad[3] = {0.0, 0.0, 0.0}, gc[3], tm_d[3];
             float dl[3];
             int n = shade_pixel(r, px, py, rad);
+            if (n == 0) {
+                background_pixel(r, st, p);
+                continue;
+            }
             resolve_pixel(r, sc, st, p, rad, dl, tm_d);
             if (!st->want_grads || !pixel_grad(sc, st, dl, rad, tm_d, gc, &st->g_exposure))
                 continue;
@@ -153,8 +184,12 @@ int sp_render_fit_l2(sp_renderer *r, const sp_render_scene *sc, const float *tar
     for (size_t p = 0; p < r->npix; p++)
         msum += mask ? (double)mask[p] : 1.0;
     st.norm = msum > 1e-12 ? msum : 1e-12;
-    for (int c = 0; c < 3; c++)
-        st.bg_img[c] = tonemap_eval(sc->exposure * sc->background[c], &st.bg_deriv[c]);
+    for (int c = 0; c < 3; c++) {
+        st.bg_rad[c] = 0.0 + 1.0 * sc->background[c];
+        st.bg_img[c] = tonemap_eval(sc->exposure * st.bg_rad[c], &st.bg_deriv[c]);
+        st.bg_rad_f[c] = to_float(st.bg_rad[c]);
+        st.bg_img_f[c] = to_float(st.bg_img[c]);
+    }
     st.inv_s2 = 1.0 / (double)(r->set.supersample * r->set.supersample);
     r->ctx.sm = render_prepare_shadow(r, sc, r->ctx.sun_l, 0);
     r->out_diffuse = r->out_specular = r->out_ambient = r->out_fill = NULL;

@@ -24,8 +24,9 @@ int shade_geometry(const shade_ctx *ctx, int sx, int sy, int32_t tri, shade_rec 
     v3_zero(rec->p);
     v3_zero(rec->m);
     rec->uv[0] = rec->uv[1] = 0.0;
+    double inv_wsum = 1.0 / rec->wsum; /* finite and nonzero: checked above */
     for (int i = 0; i < 3; i++) {
-        double l = rec->w[i] / rec->wsum;
+        double l = rec->w[i] * inv_wsum;
         rec->lam[i] = l;
         v3_axpy(l, g->pd + (size_t)rec->vi[i] * 3, rec->p);
         v3_axpy(l, g->nd + (size_t)rec->vi[i] * 3, rec->m);

@@ -206,8 +206,15 @@ void shadow_eval(const shadow_map *m, double k, double b, const double p[3], sha
     int ix = ifloor(q[0]), iy = ifloor(q[1]);
     double fx = q[0] - (double)ix, fy = q[1] - (double)iy;
     double empty = f->offset + SHADOW_EMPTY_DEPTH;
-    double d00 = tap(m, ix, iy, empty), d10 = tap(m, ix + 1, iy, empty);
-    double d01 = tap(m, ix, iy + 1, empty), d11 = tap(m, ix + 1, iy + 1, empty);
+    double d00, d10, d01, d11;
+    if (ix >= 0 && iy >= 0 && ix + 1 < n && iy + 1 < n) { /* the usual case: one bounds test for all four */
+        const float *row = m->depth + (size_t)iy * (size_t)n + (size_t)ix;
+        d00 = (double)row[0], d10 = (double)row[1];
+        d01 = (double)row[n], d11 = (double)row[n + 1];
+    } else {
+        d00 = tap(m, ix, iy, empty), d10 = tap(m, ix + 1, iy, empty);
+        d01 = tap(m, ix, iy + 1, empty), d11 = tap(m, ix + 1, iy + 1, empty);
+    }
     double ds = (1.0 - fy) * ((1.0 - fx) * d00 + fx * d10) + fy * ((1.0 - fx) * d01 + fx * d11);
     double dsdx = (1.0 - fy) * (d10 - d00) + fy * (d11 - d01);
     double dsdy = (1.0 - fx) * (d01 - d00) + fx * (d11 - d10);
@@ -217,6 +224,7 @@ void shadow_eval(const shadow_map *m, double k, double b, const double p[3], sha
     /* dz/dp = k (-l / r - b (dsdx e1 + dsdy e2) scale); dV/dz = -sigmoid'(z) */
     double gz = -dsig * k;
     double gs = -gz * b * f->scale;
+    double gzr = -gz / f->r; /* one division for the three components */
     for (int i = 0; i < 3; i++)
-        out->dVdp[i] = -gz * f->l[i] / f->r + gs * (dsdx * f->e1[i] + dsdy * f->e2[i]);
+        out->dVdp[i] = gzr * f->l[i] + gs * (dsdx * f->e1[i] + dsdy * f->e2[i]);
 }
