@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "common/atomic_file.h"
+#include "common/file_util.h"
 #include "common/jpeg.h"
 #include "common/json.h"
 #include "export/draco_shim.h"
@@ -67,55 +68,73 @@ static int bin_add(bin_buf *b, const void *p, size_t n, int target)
     return b->n_views++;
 }
 
+/* The parts a face can leave out, in SP_FACE_LEFT_OUT_* bit order. */
+#define N_PARTS 5
+static const char *const part_names[N_PARTS] = { "sun", "shadows", "specular", "displacement", "environment" };
+
 typedef struct export_ctx {
     const sp_export_settings *set;
     const char *face_dir, *out_path;
     sp_face_asset asset;
     sp_gltf_geom geom;
     sp_export_textures tex;
-    int specular_off;
-    char left_out[512]; /* JSON array body of what was left out and why */
-    char env_name[256]; /* basename of the .hdr beside the output, "" if none */
+    char *reasons[N_PARTS]; /* the manifest's reason per left-out part (owned), NULL if none */
+    sp_strbuf left_out;     /* JSON array body of what was left out, why, and what the export omitted */
+    char env_name[256];     /* basename of the .hdr beside the output, "" if none */
     sp_export_stats st;
 } export_ctx;
 
-static void note_left_out(export_ctx *c, const char *what)
+/* Appends {"part":..., "reason":..., "omitted":...} to the extras' left_out list. */
+static void note_left_out(export_ctx *c, const char *part, const char *reason, const char *omitted)
 {
-    size_t n = strlen(c->left_out);
-    snprintf(c->left_out + n, sizeof(c->left_out) - n, "%s\"%s\"", n ? "," : "", what);
+    sp_strbuf_printf(&c->left_out, "%s{\"part\":", c->left_out.len ? "," : "");
+    sp_strbuf_json_string(&c->left_out, part);
+    sp_strbuf_printf(&c->left_out, ",\"reason\":");
+    sp_strbuf_json_string(&c->left_out, reason);
+    sp_strbuf_printf(&c->left_out, ",\"omitted\":");
+    sp_strbuf_json_string(&c->left_out, omitted);
+    sp_strbuf_printf(&c->left_out, "}");
 }
 
-/* Reads the manifest's own flags the public reader does not carry: specular left out. */
-static int read_flags(export_ctx *c)
+/* The fit's reasons from the manifest's "left_out" list (the reader keeps only the bits). */
+static int read_reasons(export_ctx *c)
 {
     char path[4096], err[128];
-    if ((size_t)snprintf(path, sizeof(path), "%s/manifest.json", c->face_dir) >= sizeof(path))
-        return -ENAMETOOLONG;
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return -errno;
-    char *buf = malloc(1 << 20);
-    size_t n = buf ? fread(buf, 1, 1 << 20, f) : 0;
-    fclose(f);
-    if (!buf)
-        return -ENOMEM;
+    int ret = sp_path_join(path, sizeof(path), c->face_dir, "manifest.json");
+    void *buf = NULL;
+    size_t n = 0;
+    if (ret || (ret = sp_read_whole_file(path, (size_t)1 << 24, &buf, &n)))
+        return ret == -EFBIG ? SP_ECORRUPT : ret;
     sp_json *root = NULL;
-    int ret = sp_json_parse(buf, n, &root, err, sizeof(err));
+    ret = sp_json_parse(buf, n, &root, err, sizeof(err));
     free(buf);
     if (ret)
         return ret;
-    const sp_json *spec = sp_json_get(root, "specular");
-    const char *keys[] = { "left_out", "dropped", "disabled" };
-    for (size_t k = 0; k < sizeof(keys) / sizeof(keys[0]); k++)
-        if (sp_json_number(sp_json_get(spec, keys[k]), 0.0) != 0.0)
-            c->specular_off = 1;
+    const sp_json *list = sp_json_get(root, "left_out"), *e;
+    for (size_t i = 0; (e = sp_json_at(list, i)); i++) {
+        const char *part = sp_json_string(sp_json_get(e, "part"), "");
+        const char *why = sp_json_string(sp_json_get(e, "reason"), "");
+        for (int k = 0; k < N_PARTS; k++)
+            if (!strcmp(part, part_names[k]) && !c->reasons[k] && why[0] && !(c->reasons[k] = strdup(why)))
+                ret = -ENOMEM;
+    }
     sp_json_free(root);
-    double sum = 0.0;
-    for (int i = 0; i < SP_RENDER_CLUSTERS; i++)
-        sum += c->asset.ks[i] > 0.0 ? c->asset.ks[i] : 0.0;
-    if (!(sum > 0.0))
-        c->specular_off = 1;
-    return 0;
+    return ret;
+}
+
+/* Why part k is out: the fit's words, or what the reader inferred for an old manifest. */
+static const char *reason_for(const export_ctx *c, int k)
+{
+    static const char *const inferred[N_PARTS] = {
+        "old manifest without a left_out list: inferred from sun_dropped, lighting_unobservable or zero intensity",
+        "old manifest without a left_out list: no sun, so no cast shadows",
+        "old manifest without a left_out list: inferred from a specular flag or ks = 0 in every cluster",
+        "old manifest without a left_out list: inferred from an all-zero displacement map",
+        "old manifest without a left_out list: inferred from lighting_unobservable",
+    };
+    if (c->reasons[k])
+        return c->reasons[k];
+    return c->asset.left_out_inferred ? inferred[k] : "left out by the fit (no reason given)";
 }
 
 static int embed_image(bin_buf *b, const sp_export_image *im, int jpeg, int quality, sp_strbuf *images)
@@ -256,7 +275,8 @@ static int sun_direction(const export_ctx *c, double g[3])
 {
     const double *s = c->asset.sun_dir;
     double n = sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
-    if (!(c->asset.sun_intensity > 0.0) || !isfinite(c->asset.sun_intensity) || !(n > 1e-12) || !isfinite(n))
+    if ((c->asset.left_out & SP_FACE_LEFT_OUT_SUN) || !(c->asset.sun_intensity > 0.0) ||
+        !isfinite(c->asset.sun_intensity) || !(n > 1e-12) || !isfinite(n))
         return 0;
     double w[3] = { s[0] / n, s[1] / n, s[2] / n };
     sp_gltf_from_world(w, g);
@@ -266,8 +286,9 @@ static int sun_direction(const export_ctx *c, double g[3])
 static void add_extras(const export_ctx *c, sp_strbuf *j)
 {
     sp_strbuf_printf(j, "\"extras\":{\"sunprobe\":{\"source\":\"face directory\",\"frame\":\"fit world rotated to "
-                        "y up: (x, y, z) -> (x, z, -y), metres\",\"left_out\":[%s],\"specular_clusters\":{\"ks\":[",
-                     c->left_out);
+                        "y up: (x, y, z) -> (x, z, -y), metres\",\"left_out\":[%s],\"left_out_inferred\":%s,"
+                        "\"specular_clusters\":{\"ks\":[",
+                     c->left_out.data ? c->left_out.data : "", c->asset.left_out_inferred ? "true" : "false");
     for (int i = 0; i < SP_RENDER_CLUSTERS; i++) {
         sp_strbuf_printf(j, i ? "," : "");
         sp_strbuf_json_number(j, c->asset.ks[i]);
@@ -443,6 +464,25 @@ static int write_env(export_ctx *c)
     return 0;
 }
 
+/* One extras entry per part the fit left out, plus the sun light when its values are unusable. */
+static void note_parts(export_ctx *c)
+{
+    static const char *const omitted[N_PARTS] = {
+        "sun light (KHR_lights_punctual)",
+        "nothing: glTF has no shadow switch (without a sun light there is nothing to cast them)",
+        "specular texture (KHR_materials_specular.specularFactor 0, roughness 1)",
+        "normal map and TANGENT",
+        "environment map (STEM.env.hdr and extras.environment_map)",
+    };
+    for (int k = 0; k < N_PARTS; k++)
+        if (c->asset.left_out & (1u << k))
+            note_left_out(c, part_names[k], reason_for(c, k), omitted[k]);
+    double g[3];
+    if (!(c->asset.left_out & SP_FACE_LEFT_OUT_SUN) && !sun_direction(c, g))
+        note_left_out(c, "sun", "the sun's direction or intensity is zero, NaN or Inf", omitted[0]);
+    c->st.has_sun = sun_direction(c, g);
+}
+
 static int prepare(export_ctx *c)
 {
     int ret = sp_face_dir_read(&c->asset, c->face_dir);
@@ -450,27 +490,23 @@ static int prepare(export_ctx *c)
         sp_log(SP_LOG_ERROR, MOD, "%s: not a readable face directory: %s", c->face_dir, sp_strerror(ret));
         return ret;
     }
-    if ((ret = read_flags(c)))
+    if ((ret = read_reasons(c)))
         return ret;
     if ((ret = sp_gltf_geom_build(&c->geom, &c->asset.mesh))) {
         sp_log(SP_LOG_ERROR, MOD, "%s: mesh is unusable (NaN, bad index or empty): %s", c->face_dir,
                sp_strerror(ret));
         return ret;
     }
-    if ((ret = sp_export_textures_build(&c->tex, &c->asset, c->set->texture_size, c->specular_off)))
+    if ((ret = sp_export_textures_build(&c->tex, &c->asset, c->set->texture_size, c->asset.left_out)))
         return ret;
-    if (!c->tex.has_specular)
-        note_left_out(c, "specular texture: specular left out of the fit");
-    if (!c->tex.has_normal)
-        note_left_out(c, "normal map: displacement is zero");
-    double g[3];
-    if (!sun_direction(c, g))
-        note_left_out(c, "sun light: no sun in the fit");
-    else
-        c->st.has_sun = 1;
+    note_parts(c);
+    if (c->left_out.failed)
+        return -ENOMEM;
     c->st.has_specular_texture = c->tex.has_specular;
     c->st.has_normal_map = c->tex.has_normal;
-    return c->set->write_env && c->set->format != SP_EXPORT_DRC ? write_env(c) : 0;
+    int env = c->set->write_env && c->set->format != SP_EXPORT_DRC &&
+              !(c->asset.left_out & SP_FACE_LEFT_OUT_ENVIRONMENT);
+    return env ? write_env(c) : 0;
 }
 
 int sp_export_face(const char *face_dir, const char *out_path, const sp_export_settings *settings,
@@ -501,6 +537,9 @@ int sp_export_face(const char *face_dir, const char *out_path, const sp_export_s
     if (!ret && stats)
         *stats = c->st;
     sp_export_textures_free(&c->tex);
+    sp_strbuf_free(&c->left_out);
+    for (int k = 0; k < N_PARTS; k++)
+        free(c->reasons[k]);
     sp_gltf_geom_free(&c->geom);
     sp_face_asset_free(&c->asset);
     free(c);

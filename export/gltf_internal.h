@@ -36,8 +36,12 @@ typedef struct sp_export_textures {
     int has_specular, has_normal;
 } sp_export_textures;
 
-/* size: longest edge (0 = as fitted); specular_off: leave the specular texture out. */
-int sp_export_textures_build(sp_export_textures *t, const sp_face_asset *a, int size, int specular_off);
+/*
+ * size: longest edge (0 = as fitted). left_out: SP_FACE_LEFT_OUT_* bits of the
+ * face (sp_face_asset.left_out): SPECULAR leaves the specular texture out,
+ * DISPLACEMENT the normal map.
+ */
+int sp_export_textures_build(sp_export_textures *t, const sp_face_asset *a, int size, unsigned left_out);
 void sp_export_textures_free(sp_export_textures *t);
 /* Blinn-Phong exponent -> glTF roughness (EXPORT.md): alpha = sqrt(2 / (s + 2)), roughness = sqrt(alpha). */
 double sp_export_roughness(double shininess);

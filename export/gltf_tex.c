@@ -141,20 +141,17 @@ static int bake_normal(sp_export_image *im, const sp_face_asset *a, int w, int h
     return ret;
 }
 
-static int displacement_state(const sp_face_asset *a)
+/* The map is used only when the fit kept it, but NaN or Inf anywhere means a corrupt directory either way. */
+static int check_displacement(const sp_face_asset *a)
 {
     size_t n = (size_t)a->tex_width * (size_t)a->tex_height;
-    int nonzero = 0;
-    for (size_t i = 0; i < n; i++) {
+    for (size_t i = 0; i < n; i++)
         if (!isfinite(a->displacement[i]))
             return SP_ECORRUPT;
-        if (fabsf(a->displacement[i]) > 1e-9f)
-            nonzero = 1;
-    }
-    return nonzero;
+    return 0;
 }
 
-int sp_export_textures_build(sp_export_textures *t, const sp_face_asset *a, int size, int specular_off)
+int sp_export_textures_build(sp_export_textures *t, const sp_face_asset *a, int size, unsigned left_out)
 {
     if (!t || !a || size < 0)
         return -EINVAL;
@@ -167,16 +164,16 @@ int sp_export_textures_build(sp_export_textures *t, const sp_face_asset *a, int 
         w = w < 1 ? 1 : w;
         h = h < 1 ? 1 : h;
     }
-    int disp = displacement_state(a);
-    if (disp < 0) {
+    int ret = check_displacement(a);
+    if (ret) {
         sp_log(SP_LOG_ERROR, MOD, "displacement map holds NaN or Inf");
-        return disp;
+        return ret;
     }
-    int ret = bake_albedo(&t->albedo, a, w, h);
-    t->has_specular = !specular_off;
+    ret = bake_albedo(&t->albedo, a, w, h);
+    t->has_specular = !(left_out & SP_FACE_LEFT_OUT_SPECULAR);
     if (!ret && t->has_specular)
         ret = bake_spec(&t->spec_rough, a, w, h);
-    t->has_normal = disp;
+    t->has_normal = !(left_out & SP_FACE_LEFT_OUT_DISPLACEMENT);
     if (!ret && t->has_normal)
         ret = bake_normal(&t->normal, a, w, h);
     if (ret)

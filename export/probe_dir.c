@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "common/atomic_file.h"
+#include "common/file_util.h"
 #include "export/png.h"
 #include "export/png_read.h"
 #include "sp_config.h"
@@ -101,15 +102,6 @@ int sp_pfm_read(const char *path, float **v, uint32_t *width, uint32_t *height, 
 
 /* ---- writing a probe directory ---- */
 
-static char *join(const char *dir, const char *name)
-{
-    size_t n = strlen(dir) + strlen(name) + 2;
-    char *p = malloc(n);
-    if (p)
-        snprintf(p, n, "%s/%s", dir, name);
-    return p;
-}
-
 /* Occluding pixels coloured by the depth they hide (near: red, far: blue), the rest dark. */
 static void occlusion_preview(const sp_probe_maps *m, uint8_t *rgb)
 {
@@ -138,7 +130,7 @@ static int write_params(const char *dir, const sp_probe *p, const sp_probe_maps 
 {
     sp_probe_plane plane;
     sp_probe_shadow shadow;
-    char *json = NULL, *path = join(dir, "probe.json");
+    char *json = NULL, *path = sp_path_join_alloc(dir, "probe.json");
     int ret = path ? 0 : -ENOMEM;
     if (!ret)
         ret = sp_probe_get_plane(p, &plane);
@@ -146,11 +138,8 @@ static int write_params(const char *dir, const sp_probe *p, const sp_probe_maps 
         ret = sp_probe_get_shadow(p, &shadow);
     if (!ret)
         ret = sp_probe_params_to_json(&plane, &shadow, m->width, m->height, &json);
-    sp_atomic_file af;
-    if (!ret && !(ret = sp_atomic_file_open(&af, path))) {
-        size_t n = strlen(json);
-        ret = sp_atomic_file_finish(&af, fwrite(json, 1, n, af.file) == n ? 0 : -EIO);
-    }
+    if (!ret)
+        ret = sp_write_whole_file_atomic(path, json, strlen(json));
     free(json);
     free(path);
     return ret;
@@ -160,7 +149,7 @@ static int write_params(const char *dir, const sp_probe *p, const sp_probe_maps 
 static int write_exr_maps(const char *dir, const sp_probe_maps *m)
 {
 #if HAVE_OPENIMAGEIO
-    char *occ = join(dir, "occlusion.exr"), *light = join(dir, "lighting.exr");
+    char *occ = sp_path_join_alloc(dir, "occlusion.exr"), *light = sp_path_join_alloc(dir, "lighting.exr");
     int ret = occ && light ? sp_exr_write(occ, m->occlusion, m->width, m->height, 1) : -ENOMEM;
     if (!ret)
         ret = sp_exr_write(light, m->lighting, m->width, m->height, 3);
@@ -186,7 +175,7 @@ int sp_probe_dir_write(const char *dir, const sp_probe *p)
     char *path[5] = { 0 };
     uint8_t *rgb = malloc((size_t)m.width * m.height * 3);
     for (int i = 0; i < 5; i++)
-        if (!(path[i] = join(dir, names[i])))
+        if (!(path[i] = sp_path_join_alloc(dir, names[i])))
             ret = -ENOMEM;
     if (!rgb)
         ret = -ENOMEM;
@@ -216,38 +205,20 @@ int sp_probe_dir_write(const char *dir, const sp_probe *p)
 
 /* ---- loading ---- */
 
+/* A params file is small: anything over 16 MiB is not one. */
 static int read_text(const char *path, char **out, size_t *len)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return -errno;
-    size_t cap = 4096, n = 0;
-    char *buf = malloc(cap);
-    int ret = buf ? 0 : -ENOMEM;
-    while (!ret) {
-        size_t got = fread(buf + n, 1, cap - n, f);
-        n += got;
-        if (got == 0)
-            break;
-        if (n == cap) {
-            char *nb = cap < (1u << 24) ? realloc(buf, cap * 2) : NULL;
-            ret = nb ? 0 : SP_ECORRUPT; /* a params file is small */
-            buf = nb ? nb : buf;
-            cap *= 2;
-        }
-    }
-    fclose(f);
-    if (ret) {
-        free(buf);
-        return ret;
-    }
-    *out = buf, *len = n;
+    void *buf = NULL;
+    int ret = sp_read_whole_file(path, (size_t)1 << 24, &buf, len);
+    if (ret)
+        return ret == -EFBIG ? SP_ECORRUPT : ret;
+    *out = buf;
     return 0;
 }
 
 static int load_map(const char *dir, const char *name, int want_ch, const sp_probe_dir *d, float **out)
 {
-    char *path = join(dir, name);
+    char *path = sp_path_join_alloc(dir, name);
     if (!path)
         return -ENOMEM;
     uint32_t w, h;
@@ -263,7 +234,7 @@ static int load_map(const char *dir, const char *name, int want_ch, const sp_pro
 
 static int load_plate(const char *dir, sp_probe_dir *d)
 {
-    char *path = join(dir, "clean_plate.png");
+    char *path = sp_path_join_alloc(dir, "clean_plate.png");
     uint8_t *rgba = NULL;
     uint32_t w, h;
     int ret = path ? sp_png_read_rgba(path, &rgba, &w, &h) : -ENOMEM;
@@ -283,7 +254,7 @@ int sp_probe_dir_load(const char *dir, sp_probe_dir *d)
     if (!dir || !d)
         return -EINVAL;
     memset(d, 0, sizeof(*d));
-    char *path = join(dir, "probe.json"), *json = NULL;
+    char *path = sp_path_join_alloc(dir, "probe.json"), *json = NULL;
     size_t len = 0;
     int ret = path ? read_text(path, &json, &len) : -ENOMEM;
     free(path);

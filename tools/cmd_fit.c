@@ -2,7 +2,7 @@
 /*
  * `sunprobe fit CAPTURE -o FACE_DIR`: streams a rotating-selfie capture through
  * the SunStage front end, fits, and writes the face directory into
- * FACE_DIR.partial, renamed to FACE_DIR only when every file is written.
+ * FACE_DIR.partial.<pid>, renamed to FACE_DIR only when every file is written.
  */
 #include <errno.h>
 #include <getopt.h>
@@ -12,10 +12,10 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
-#include <dirent.h>
 
 #include "cmd.h"
 #include "common/clock.h"
+#include "common/file_util.h"
 #include "common/json.h"
 #include "common/progress.h"
 #include "common/report.h"
@@ -126,22 +126,6 @@ static int parse_fit(int argc, char **argv, fit_args *a)
     return 0;
 }
 
-/* Removes a flat directory we created (files only). */
-static void remove_dir(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d)
-        return;
-    struct dirent *e;
-    char path[4096];
-    while ((e = readdir(d)))
-        if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..") &&
-            (size_t)snprintf(path, sizeof(path), "%s/%s", dir, e->d_name) < sizeof(path))
-            unlink(path);
-    closedir(d);
-    rmdir(dir);
-}
-
 typedef struct fit_cb_ctx {
     sp_report *report;
     sp_progress *bar;
@@ -195,17 +179,14 @@ static void find_truth(fit_args *a, const char *rel)
 /* The true sun direction from truth.json (lighting.sun.direction_world); 0 when found. */
 static int read_true_sun(const char *path, double sun[3])
 {
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return -errno;
-    char *buf = malloc(1 << 20);
-    size_t n = buf ? fread(buf, 1, (1 << 20) - 1, f) : 0;
-    fclose(f);
-    if (!buf)
-        return -ENOMEM;
+    void *buf = NULL;
+    size_t n = 0;
+    int ret = sp_read_whole_file(path, (1 << 20) - 1, &buf, &n);
+    if (ret)
+        return ret;
     sp_json *root = NULL;
     char err[128];
-    int ret = sp_json_parse(buf, n, &root, err, sizeof(err));
+    ret = sp_json_parse(buf, n, &root, err, sizeof(err));
     free(buf);
     if (ret)
         return ret;
@@ -277,19 +258,17 @@ static int write_albedo_png(const sp_sunstage *ss, const char *dir) /* dir: at m
 
 static int write_output(const fit_args *a, const sp_sunstage *ss)
 {
-    char partial[4096];
-    if ((size_t)snprintf(partial, sizeof(partial), "%s.partial", a->out) >= sizeof(partial))
-        return -ENAMETOOLONG;
-    remove_dir(partial);
-    if (mkdir(partial, 0755) && errno != EEXIST)
-        return -errno;
-    int ret = sp_face_dir_write(ss, partial);
-    if (!ret)
-        ret = write_albedo_png(ss, partial);
-    if (!ret && rename(partial, a->out))
-        ret = -errno;
+    sp_partial pd = { 0 };
+    int ret = sp_partial_dir_open(&pd, a->out);
     if (ret)
-        remove_dir(partial);
+        return ret;
+    ret = sp_face_dir_write(ss, pd.path);
+    if (!ret)
+        ret = write_albedo_png(ss, pd.path);
+    if (!ret)
+        ret = sp_partial_dir_commit(&pd, 0);
+    if (ret)
+        sp_partial_dir_abort(&pd);
     return ret;
 }
 

@@ -14,7 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/atomic_file.h"
+#include "common/file_util.h"
 #include "common/json.h"
 #include "pipeline/sunstage/sunstage_internal.h"
 
@@ -23,14 +23,8 @@
 static int write_blob(const char *dir, const char *name, const void *data, size_t size)
 {
     char path[4096];
-    if ((size_t)snprintf(path, sizeof(path), "%s/%s", dir, name) >= sizeof(path))
-        return -ENAMETOOLONG;
-    sp_atomic_file af;
-    int ret = sp_atomic_file_open(&af, path);
-    if (ret)
-        return ret;
-    int st = size && fwrite(data, 1, size, af.file) != size ? -EIO : 0;
-    return sp_atomic_file_finish(&af, st);
+    int ret = sp_path_join(path, sizeof(path), dir, name);
+    return ret ? ret : sp_write_whole_file_atomic(path, data, size);
 }
 
 static int write_text(const char *dir, const char *name, const sp_strbuf *b)

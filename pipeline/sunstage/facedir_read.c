@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/file_util.h"
 #include "common/json.h"
 
 #define MOD "sunstage"
@@ -17,36 +18,28 @@
 static int read_file(const char *dir, const char *name, size_t want, char **out, size_t *size)
 {
     char path[4096];
-    if ((size_t)snprintf(path, sizeof(path), "%s/%s", dir, name) >= sizeof(path))
-        return -ENAMETOOLONG;
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        int err = -errno;
-        sp_log(SP_LOG_ERROR, MOD, "cannot open %s", path);
-        return err;
+    int ret = sp_path_join(path, sizeof(path), dir, name);
+    if (ret)
+        return ret;
+    void *buf = NULL;
+    size_t len = 0;
+    ret = sp_read_whole_file(path, MAX_FILE, &buf, &len);
+    if (ret == -EFBIG) {
+        sp_log(SP_LOG_ERROR, MOD, "%s is larger than %zu bytes", path, MAX_FILE);
+        return -EIO;
     }
-    int ret = 0;
-    char *buf = NULL;
-    long len = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
-    if (len < 0 || (size_t)len > MAX_FILE || fseek(f, 0, SEEK_SET))
-        ret = -EIO;
-    else if (want && (size_t)len != want)
-        ret = SP_ETRUNCATED;
-    else if (!(buf = malloc((size_t)len + 1)))
-        ret = -ENOMEM;
-    else if (fread(buf, 1, (size_t)len, f) != (size_t)len)
-        ret = -EIO;
-    fclose(f);
     if (ret) {
-        if (ret == SP_ETRUNCATED)
-            sp_log(SP_LOG_ERROR, MOD, "%s has %ld bytes, expected %zu", path, len, want);
-        free(buf);
+        sp_log(SP_LOG_ERROR, MOD, "cannot open %s", path);
         return ret;
     }
-    buf[len] = 0;
+    if (want && len != want) {
+        sp_log(SP_LOG_ERROR, MOD, "%s has %zu bytes, expected %zu", path, len, want);
+        free(buf);
+        return SP_ETRUNCATED;
+    }
     *out = buf;
     if (size)
-        *size = (size_t)len;
+        *size = len;
     return 0;
 }
 
@@ -189,15 +182,28 @@ static int read_left_out(sp_face_asset *a, const sp_json *root)
     return 0;
 }
 
-/* Old manifests: what was left out, from zeros (no sun, ks = 0, flat displacement). */
-static void infer_left_out(sp_face_asset *a)
+/*
+ * Old manifests (no "left_out" list): what was left out, from the flags they
+ * did carry (sun_dropped, lighting_unobservable, specular left_out/dropped/
+ * disabled) and from zeros (no sun intensity, ks = 0, flat displacement).
+ */
+static void infer_left_out(sp_face_asset *a, const sp_json *root)
 {
+    const sp_json *light = sp_json_get(root, "lighting"), *spec = sp_json_get(root, "specular");
+    int unobservable = sp_json_number(sp_json_get(light, "lighting_unobservable"), 0.0) != 0.0;
+    int dropped = sp_json_number(sp_json_get(light, "sun_dropped"), 0.0) != 0.0;
+    static const char *spec_keys[] = { "left_out", "dropped", "disabled" };
+    int spec_off = 0;
+    for (size_t k = 0; k < sizeof(spec_keys) / sizeof(spec_keys[0]); k++)
+        spec_off |= sp_json_number(sp_json_get(spec, spec_keys[k]), 0.0) != 0.0;
     double ks = 0.0;
     for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
         ks += a->ks[k] > 0.0 ? a->ks[k] : 0.0;
-    if (!(a->sun_intensity > 0.0))
+    if (unobservable || dropped || !(a->sun_intensity > 0.0))
         a->left_out |= SP_FACE_LEFT_OUT_SUN | SP_FACE_LEFT_OUT_SHADOWS;
-    if (!(ks > 0.0))
+    if (unobservable)
+        a->left_out |= SP_FACE_LEFT_OUT_ENVIRONMENT;
+    if (spec_off || !(ks > 0.0))
         a->left_out |= SP_FACE_LEFT_OUT_SPECULAR;
     int flat = 1;
     for (size_t i = 0; flat && i < (size_t)a->tex_width * (size_t)a->tex_height; i++)
@@ -217,7 +223,7 @@ int sp_face_dir_read(sp_face_asset *a, const char *dir)
     if (!ret)
         ret = read_maps(a, dir, sp_json_get(root, "textures"));
     if (!ret && read_left_out(a, root))
-        infer_left_out(a);
+        infer_left_out(a, root);
     sp_json_free(root);
     if (!ret)
         ret = read_mesh(a, dir);

@@ -80,10 +80,32 @@ static int write_maps(const char *dir, int tw, int th, int flat)
     return ret;
 }
 
+/*
+ * A fixture face directory. flat: zero displacement, zero specular, no sun.
+ * ict: the ICT model (or the generic head when its data is missing) with 256^2
+ * maps, for size figures. left_out: the manifest's "left_out" list (JSON array),
+ * NULL for an old manifest without it. unobservable: lighting_unobservable true.
+ */
+typedef struct fixture {
+    int flat, ict, unobservable;
+    const char *left_out;
+} fixture;
+
+/* What facedir.c writes for a fit that left everything out (reasons as it words them). */
+#define ALL_LEFT_OUT                                                                                            \
+    "[{\"part\":\"sun\",\"reason\":\"lighting unobservable: too little camera rotation\"},"                     \
+    "{\"part\":\"shadows\",\"reason\":\"no sun, so no cast shadows\"},"                                         \
+    "{\"part\":\"specular\",\"reason\":\"no sun to reflect\"},"                                                 \
+    "{\"part\":\"displacement\",\"reason\":\"displacement map not fitted\"},"                                   \
+    "{\"part\":\"environment\",\"reason\":\"lighting unobservable: the sky is a neutral constant\"}]"
+
 /* The manifest keys facedir.c writes (and facedir_read.c needs). */
-static int write_manifest(const char *dir, const sp_face_model *m, int tw, int th, int flat)
+static int write_manifest(const char *dir, const sp_face_model *m, int tw, int th, const fixture *fx)
 {
-    char buf[4096];
+    char buf[8192], list[4096] = "";
+    int flat = fx->flat;
+    if (fx->left_out)
+        snprintf(list, sizeof(list), "\"left_out\":%s,\n", fx->left_out);
     int n = snprintf(buf, sizeof(buf),
                      "{\"format\":\"sunprobe-face\",\"version\":1,\"model\":\"%s\",\"solver\":\"fast\",\n"
                      "\"mesh\":\"mesh.obj\",\"mesh_binary\":\"mesh.bin\",\"n_vertices\":%u,\"n_triangles\":%u,\n"
@@ -91,13 +113,13 @@ static int write_manifest(const char *dir, const sp_face_model *m, int tw, int t
                      "\"displacement\":\"displacement.f32\",\"clusters\":\"clusters.u8\",\"cluster_width\":%u,"
                      "\"cluster_height\":%u},\n\"specular\":{\"ks\":[%s],\"shininess\":[10,20,30,40,50,60,70,80,"
                      "90,100]},\n\"lighting\":{\"sun_direction\":[0.3,-0.8,0.5],\"sun_intensity\":%s,"
-                     "\"sun_dropped\":false,\"lighting_unobservable\":false,\"notes\":\"\",\"env\":\"env.f32\","
+                     "\"sun_dropped\":false,\"lighting_unobservable\":%s,\"notes\":\"\",\"env\":\"env.f32\","
                      "\"env_height\":16,\"env_width\":32,\"yaw_range_deg\":300},\n"
-                     "\"cameras\":\"cameras.json\"}\n",
+                     "%s\"cameras\":\"cameras.json\"}\n",
                      m->source, m->mesh.n_vertices, m->mesh.n_triangles, tw, th, m->cluster_width,
                      m->cluster_height,
                      flat ? "0,0,0,0,0,0,0,0,0,0" : "0.01,0.02,0.03,0.04,0.05,0.02,0.02,0.02,0.02,0.02",
-                     flat ? "0" : "2.5");
+                     flat ? "0" : "2.5", fx->unobservable ? "true" : "false", list);
     const char *cams = "{\"frames\":[\n {\"sequence\":0,\"timestamp_ns\":0,\"heldout\":false,\"width\":128,"
                        "\"height\":128,\"intrinsics\":[150,150,64,64],\"camera_to_world_wxyz\":[0.7071068,"
                        "0.7071068,0,0]}\n]}\n";
@@ -105,12 +127,9 @@ static int write_manifest(const char *dir, const sp_face_model *m, int tw, int t
     return ret ? ret : write_file(dir, "cameras.json", cams, strlen(cams));
 }
 
-/*
- * flat: zero displacement, zero specular, no sun (everything that can be left out).
- * ict: the ICT model (or the generic head when its data is missing) with 256^2 maps, for size figures.
- */
-static int make_fixture_model(const char *dir, int flat, int ict)
+static int make_fixture_spec(const char *dir, const fixture *fx)
 {
+    int flat = fx->flat, ict = fx->ict;
     sp_face_model m;
     int ret = ict ? sp_face_model_load_default(&m) : sp_face_model_generic(&m);
     if (ret)
@@ -124,14 +143,15 @@ static int make_fixture_model(const char *dir, int flat, int ict)
     if (!ret)
         ret = write_file(dir, "clusters.u8", m.cluster_map, (size_t)m.cluster_width * m.cluster_height);
     if (!ret)
-        ret = write_manifest(dir, &m, tw, th, flat);
+        ret = write_manifest(dir, &m, tw, th, fx);
     sp_face_model_free(&m);
     return ret;
 }
 
 static int make_fixture(const char *dir, int flat)
 {
-    return make_fixture_model(dir, flat, 0);
+    fixture fx = { .flat = flat };
+    return make_fixture_spec(dir, &fx);
 }
 
 typedef struct glb {
@@ -158,6 +178,12 @@ static uint8_t *slurp(const char *path, size_t *n)
     fclose(f);
     *n = b ? (size_t)len : 0;
     return b;
+}
+
+static int exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0;
 }
 
 static int glb_read(glb *g, const char *path)
@@ -247,7 +273,7 @@ static void check_material(const glb *g, int full)
     CHECK(spec != NULL && (sp_json_get(spec, "specularTexture") != NULL) == full);
     const sp_json *left = sp_json_get(sp_json_get(sp_json_get(sp_json_get(g->json, "asset"), "extras"), "sunprobe"),
                                       "left_out");
-    CHECK(left && left->count == (full ? 0u : 3u));
+    CHECK(left && left->count == (full ? 0u : 4u)); /* flat: sun, shadows, specular, displacement */
     const sp_json *lights = sp_json_get(sp_json_get(sp_json_get(g->json, "extensions"), "KHR_lights_punctual"),
                                         "lights");
     CHECK((lights != NULL) == full);
@@ -263,6 +289,129 @@ static void check_material(const glb *g, int full)
     CHECK_NEAR(col[0], 0.3 / n, 1e-6);
     CHECK_NEAR(col[1], 0.5 / n, 1e-6);
     CHECK_NEAR(col[2], 0.8 / n, 1e-6);
+}
+
+static const sp_json *extras(const glb *g)
+{
+    return sp_json_get(sp_json_get(sp_json_get(g->json, "asset"), "extras"), "sunprobe");
+}
+
+/* The extras' left_out entry for part, or NULL. */
+static const sp_json *left_entry(const glb *g, const char *part)
+{
+    const sp_json *list = sp_json_get(extras(g), "left_out"), *e;
+    for (size_t i = 0; (e = sp_json_at(list, i)); i++)
+        if (!strcmp(sp_json_string(sp_json_get(e, "part"), ""), part))
+            return e;
+    return NULL;
+}
+
+static size_t left_count(const glb *g)
+{
+    const sp_json *list = sp_json_get(extras(g), "left_out");
+    return list ? list->count : (size_t)-1;
+}
+
+static int reason_is(const glb *g, const char *part, const char *prefix)
+{
+    const char *r = sp_json_string(sp_json_get(left_entry(g, part), "reason"), NULL);
+    return r && !strncmp(r, prefix, strlen(prefix));
+}
+
+/* Exports fx as a plain .glb into tmp/name.glb and checks what the face directory reader made of it. */
+static int export_fixture(const char *tmp, const char *name, const fixture *fx, unsigned want_bits, int inferred,
+                          sp_export_stats *st, glb *g)
+{
+    char dir[1024], out[1024];
+    snprintf(dir, sizeof(dir), "%s/%s", tmp, name);
+    snprintf(out, sizeof(out), "%s/%s.glb", tmp, name);
+    CHECK(make_fixture_spec(dir, fx) == 0);
+    sp_face_asset a;
+    CHECK(sp_face_dir_read(&a, dir) == 0);
+    CHECK_MSG(a.left_out == want_bits && a.left_out_inferred == inferred, "%s: left_out 0x%x inferred %d", name,
+              a.left_out, a.left_out_inferred);
+    sp_face_asset_free(&a);
+    sp_export_settings s;
+    sp_export_default_settings(&s);
+    s.draco = 0;
+    memset(g, 0, sizeof(*g));
+    int ret = sp_export_face(dir, out, &s, st);
+    CHECK(ret == 0);
+    return ret ? ret : glb_read(g, out);
+}
+
+static int has_env_file(const char *tmp, const char *name)
+{
+    char path[1024];
+    snprintf(path, sizeof(path), "%s/%s.env.hdr", tmp, name);
+    return exists(path);
+}
+
+/*
+ * The manifest's left_out list decides, not zeros: maps and ks that are not
+ * zero are still left out when listed, zeros are used when the list is empty,
+ * and the fit's reasons reach the .glb. Old manifests fall back to inference.
+ */
+static void check_left_out(const char *tmp)
+{
+    sp_export_stats st;
+    glb g;
+    const sp_json *mat, *prim;
+    fixture part = { .left_out = "[{\"part\":\"specular\",\"reason\":\"specular dropped: too few highlights\"},"
+                                 "{\"part\":\"displacement\",\"reason\":\"refinement reverted\"},"
+                                 "{\"part\":\"environment\",\"reason\":\"sky unresolved\"}]" };
+    if (export_fixture(tmp, "part", &part, SP_FACE_LEFT_OUT_SPECULAR | SP_FACE_LEFT_OUT_DISPLACEMENT |
+                       SP_FACE_LEFT_OUT_ENVIRONMENT, 0, &st, &g) == 0) {
+        CHECK(!st.has_normal_map && !st.has_specular_texture && st.has_sun);
+        mat = sp_json_at(sp_json_get(g.json, "materials"), 0);
+        prim = sp_json_at(sp_json_get(sp_json_at(sp_json_get(g.json, "meshes"), 0), "primitives"), 0);
+        CHECK(mat && !sp_json_get(mat, "normalTexture"));
+        CHECK(prim && !sp_json_get(sp_json_get(prim, "attributes"), "TANGENT"));
+        const sp_json *spec = sp_json_get(sp_json_get(mat, "extensions"), "KHR_materials_specular");
+        CHECK(spec && !sp_json_get(spec, "specularTexture"));
+        CHECK(sp_json_number(sp_json_get(spec, "specularFactor"), 1) == 0);
+        CHECK(sp_json_get(sp_json_get(g.json, "extensions"), "KHR_lights_punctual") != NULL);
+        CHECK(left_count(&g) == 3);
+        CHECK(reason_is(&g, "specular", "specular dropped: too few highlights"));
+        CHECK(reason_is(&g, "displacement", "refinement reverted") && reason_is(&g, "environment", "sky unresolved"));
+        CHECK(sp_json_string(sp_json_get(left_entry(&g, "displacement"), "omitted"), NULL) != NULL);
+        CHECK(sp_json_number(sp_json_get(extras(&g), "left_out_inferred"), -1) == 0.0);
+        CHECK(!sp_json_get(extras(&g), "environment_map") && !has_env_file(tmp, "part"));
+    }
+    glb_free(&g);
+    fixture nosun = { .left_out = "[{\"part\":\"sun\",\"reason\":\"overcast: the sun does not explain the shading\"},"
+                                  "{\"part\":\"shadows\",\"reason\":\"no sun, so no cast shadows\"}]" };
+    if (export_fixture(tmp, "nosun", &nosun, SP_FACE_LEFT_OUT_SUN | SP_FACE_LEFT_OUT_SHADOWS, 0, &st, &g) == 0) {
+        CHECK(st.has_normal_map && st.has_specular_texture && !st.has_sun); /* the manifest's intensity is 2.5 */
+        CHECK(!sp_json_get(g.json, "extensions") && !has_string(sp_json_get(g.json, "extensionsUsed"),
+                                                               "KHR_lights_punctual"));
+        CHECK(left_count(&g) == 2 && sp_json_get(g.json, "nodes") && sp_json_get(g.json, "nodes")->count == 1);
+        CHECK(reason_is(&g, "sun", "overcast: the sun") && reason_is(&g, "shadows", "no sun, so"));
+        CHECK(sp_json_get(extras(&g), "environment_map") && has_env_file(tmp, "nosun"));
+    }
+    glb_free(&g);
+    fixture empty = { .flat = 1, .left_out = "[]" }; /* zeros, but the fit left nothing out: no inference */
+    if (export_fixture(tmp, "empty", &empty, 0, 0, &st, &g) == 0) {
+        CHECK(st.has_normal_map && st.has_specular_texture && !st.has_sun);
+        CHECK(left_count(&g) == 1); /* the export's own: intensity 0 is no light */
+        CHECK(reason_is(&g, "sun", "the sun's direction or intensity"));
+    }
+    glb_free(&g);
+    fixture old = { .unobservable = 1 }; /* old manifest: bits from its flags */
+    if (export_fixture(tmp, "old", &old, SP_FACE_LEFT_OUT_SUN | SP_FACE_LEFT_OUT_SHADOWS | SP_FACE_LEFT_OUT_ENVIRONMENT,
+                       1, &st, &g) == 0) {
+        CHECK(st.has_normal_map && st.has_specular_texture && !st.has_sun && !has_env_file(tmp, "old"));
+        CHECK(sp_json_number(sp_json_get(extras(&g), "left_out_inferred"), -1) == 1.0);
+        CHECK(reason_is(&g, "sun", "old manifest") && reason_is(&g, "environment", "old manifest"));
+        CHECK(left_count(&g) == 3);
+    }
+    glb_free(&g);
+    fixture all = { .flat = 1, .left_out = ALL_LEFT_OUT };
+    if (export_fixture(tmp, "all", &all, 0x1f, 0, &st, &g) == 0) {
+        CHECK(!st.has_normal_map && !st.has_specular_texture && !st.has_sun && !has_env_file(tmp, "all"));
+        CHECK(left_count(&g) == 5 && reason_is(&g, "sun", "lighting unobservable"));
+    }
+    glb_free(&g);
 }
 
 static void check_mappings(void)
@@ -296,12 +445,6 @@ static int count_prefix(const char *path, const char *prefix)
         c += !strncmp(l, prefix, pl);
     free(t);
     return c;
-}
-
-static int exists(const char *path)
-{
-    struct stat st;
-    return stat(path, &st) == 0;
 }
 
 static void check_formats(const char *tmp, const char *face, const char *flat)
@@ -434,9 +577,11 @@ static void check_bad_input(const char *exe, const char *tmp, const char *face)
 
 int main(int argc, char **argv)
 {
-    if (argc >= 4 && !strcmp(argv[2], "fixture"))
-        return make_fixture_model(argv[3], argc >= 5 && !strcmp(argv[4], "flat"),
-                                  argc >= 5 && !strcmp(argv[4], "ict")) ? 1 : 0;
+    if (argc >= 4 && !strcmp(argv[2], "fixture")) { /* flat: a new manifest that left everything out */
+        fixture fx = { .flat = argc >= 5 && !strcmp(argv[4], "flat"), .ict = argc >= 5 && !strcmp(argv[4], "ict") };
+        fx.left_out = fx.flat ? ALL_LEFT_OUT : NULL;
+        return make_fixture_spec(argv[3], &fx) ? 1 : 0;
+    }
     if (argc < 2) {
         fprintf(stderr, "usage: test_export SUNPROBE [fixture DIR [flat]]\n");
         return 99;
@@ -449,6 +594,7 @@ int main(int argc, char **argv)
     CHECK(make_fixture(face, 0) == 0 && make_fixture(flat, 1) == 0);
     check_mappings();
     check_formats(tmp, face, flat);
+    check_left_out(tmp);
     check_bad_input(argv[1], tmp, face);
     char cmd[128];
     snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmp);
