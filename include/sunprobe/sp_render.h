@@ -56,6 +56,14 @@ typedef struct sp_renderer_settings {
      * image, radiance, coverage and the per-sample buffers are always written.
      */
     unsigned skip_outputs;
+    /*
+     * 1: sp_render_fit_l2 shades (sun, lobe, soft shadow, SH ambient) and
+     * differentiates that shading in float structure-of-arrays kernels
+     * (faster; loss and gradients then agree with the classic double path to
+     * ~1e-5 and ~1e-4 relative instead of bit for bit). Default 0. sp_render
+     * and sp_render_backward are unaffected.
+     */
+    int fit_float;
 } sp_renderer_settings;
 
 #define SP_RENDER_SKIP_DIFFUSE 0x01u

@@ -8,11 +8,6 @@
 #include "pipeline/render/tonemap.h"
 #include "pipeline/render/vec3.h"
 
-/* Local adjoints of one sample's surface quantities. */
-typedef struct sample_grad {
-    double a[3], n[3], p[3], v[3];
-} sample_grad;
-
 static void specular_backward(const shade_ctx *ctx, const shade_rec *rec, double gs, double *g_nl, double *g_I,
                               double *g_V, sample_grad *sg, shade_acc *acc)
 {
@@ -126,19 +121,24 @@ void shade_backward(const shade_ctx *ctx, const shade_rec *rec, const double gc[
     }
     env_irradiance_backward_L(y, E, gE, acc->gY);
     sun_backward(ctx, rec, gc, &sg, acc);
+    shade_backward_surface(ctx, rec, &sg, acc);
+}
+
+void shade_backward_surface(const shade_ctx *ctx, const shade_rec *rec, sample_grad *sg, shade_acc *acc)
+{
     /* v = normalize(eye - p) */
     double g_ev[3] = {0, 0, 0};
-    v3_normalize_backward(rec->v, rec->evlen, sg.v, g_ev);
-    v3_axpy(-1.0, g_ev, sg.p);
+    v3_normalize_backward(rec->v, rec->evlen, sg->v, g_ev);
+    v3_axpy(-1.0, g_ev, sg->p);
     v3_axpy(1.0, g_ev, acc->g_eye);
     const sp_render_texture *at = &ctx->sc->albedo;
     if (acc->g_albedo)
-        tex_splat(&rec->alb, acc->g_albedo, 3, sg.a);
+        tex_splat(&rec->alb, acc->g_albedo, 3, sg->a);
     double du[3], dv[3], g_uv[2];
     tex_sample_duv(&rec->alb, at->data, 3, du, dv);
-    g_uv[0] = v3_dot(sg.a, du);
-    g_uv[1] = v3_dot(sg.a, dv);
-    bary_backward(ctx, rec, &sg, g_uv, acc);
+    g_uv[0] = v3_dot(sg->a, du);
+    g_uv[1] = v3_dot(sg->a, dv);
+    bary_backward(ctx, rec, sg, g_uv, acc);
 }
 
 /* dL/d(per-sample linear radiance) for pixel i: tone map and exposure; adds to the exposure gradient. */

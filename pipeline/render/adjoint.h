@@ -22,6 +22,18 @@ typedef struct shade_acc {
     double g_fx, g_fy, g_cx, g_cy;
 } shade_acc;
 
+/* Local adjoints of one sample's surface quantities (albedo, unit normal, point, unit view direction). */
+typedef struct sample_grad {
+    double a[3], n[3], p[3], v[3];
+} sample_grad;
+
+/*
+ * The geometric tail of shade_backward: view vector, albedo splat and UV,
+ * interpolation and barycentrics, from the sample's local adjoints sg (the
+ * float kernels' path in fused.c; sg is consumed).
+ */
+void shade_backward_surface(const shade_ctx *ctx, const shade_rec *rec, sample_grad *sg, shade_acc *acc);
+
 /* Adds the sample's contribution given gc = dL/d(rec's linear RGB). */
 void shade_backward(const shade_ctx *ctx, const shade_rec *rec, const double gc[3], shade_acc *acc);
 

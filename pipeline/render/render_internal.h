@@ -25,7 +25,9 @@ struct sp_renderer {
     /* per sample */
     int32_t *tri_id, *shadow_texel;
     sun_cache *sun_cache;  /* forward sun terms the adjoint reuses */
-    shade_rec *recs;       /* S * S: one pixel's sample records in the fused path */
+    shade_rec *recs;       /* SIMD_BATCH (>= S * S): one pixel's (fit_float: one batch's) records, fused path */
+    struct simd_batch *batches; /* fit_float: one batch of samples in float SoA (shade_simd.h) */
+    int *row_first;        /* fit_float: SIMD_BATCH + 1 offsets of each batch pixel's first record */
     float *bary, *depth;
     render_geom geo;
     shadow_map sm;

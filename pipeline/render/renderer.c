@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "pipeline/render/render_internal.h"
+#include "pipeline/render/shade_simd.h"
 #include "pipeline/render/tonemap.h"
 #include "pipeline/render/vec3.h"
 
@@ -66,6 +67,8 @@ void sp_renderer_close(sp_renderer **pr)
     free(r->image64);
     free(r->sun_cache);
     free(r->recs);
+    free(r->row_first);
+    free(r->batches);
     free(r->tri_id);
     free(r->shadow_texel);
     free(r->env_basis);
@@ -113,7 +116,11 @@ static int alloc_buffers(sp_renderer *r)
     ok &= (r->depth = calloc(r->nsamp, sizeof(float))) != NULL;
     ok &= (r->tri_id = calloc(r->nsamp, sizeof(int32_t))) != NULL;
     ok &= (r->sun_cache = calloc(r->nsamp, sizeof(sun_cache))) != NULL;
-    ok &= (r->recs = calloc((size_t)r->set.supersample * (size_t)r->set.supersample, sizeof(shade_rec))) != NULL;
+    /* S^2 <= 64 = SIMD_BATCH records: one pixel's (classic fused) or one batch's (fit_float) */
+    ok &= (r->recs = calloc(SIMD_BATCH, sizeof(shade_rec))) != NULL;
+    ok &= (r->row_first = calloc(SIMD_BATCH + 1, sizeof(int))) != NULL;
+    if (r->set.fit_float)
+        ok &= (r->batches = calloc(1, sizeof(simd_batch))) != NULL;
     ok &= (r->shadow_texel = calloc(r->nsamp, sizeof(int32_t))) != NULL;
     ok &= (r->env_basis = calloc((size_t)ENV_TEXELS * ENV_SH_N, sizeof(double))) != NULL;
     return ok ? 0 : -ENOMEM;

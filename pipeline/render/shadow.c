@@ -228,3 +228,38 @@ void shadow_eval(const shadow_map *m, double k, double b, const double p[3], sha
     for (int i = 0; i < 3; i++)
         out->dVdp[i] = gzr * f->l[i] + gs * (dsdx * f->e1[i] + dsdy * f->e2[i]);
 }
+
+void shadow_eval_z(const shadow_map *m, double k, double b, const double p[3], double *z, double dzdp[3],
+                   int32_t *texel)
+{
+    const shadow_frame *f = &m->f;
+    double q[3];
+    to_map(f, p, q);
+    v3_zero(dzdp);
+    *z = -1e30;
+    *texel = -1;
+    int n = m->n;
+    if (!(q[0] > -1.0 && q[0] < (double)n && q[1] > -1.0 && q[1] < (double)n))
+        return;
+    int ix = ifloor(q[0]), iy = ifloor(q[1]);
+    double fx = q[0] - (double)ix, fy = q[1] - (double)iy;
+    double empty = f->offset + SHADOW_EMPTY_DEPTH;
+    double d00, d10, d01, d11;
+    if (ix >= 0 && iy >= 0 && ix + 1 < n && iy + 1 < n) { /* interior: one bounds test, as shadow_eval */
+        const float *row = m->depth + (size_t)iy * (size_t)n + (size_t)ix;
+        d00 = (double)row[0], d10 = (double)row[1];
+        d01 = (double)row[n], d11 = (double)row[n + 1];
+    } else {
+        d00 = tap(m, ix, iy, empty), d10 = tap(m, ix + 1, iy, empty);
+        d01 = tap(m, ix, iy + 1, empty), d11 = tap(m, ix + 1, iy + 1, empty);
+    }
+    double ds = (1.0 - fy) * ((1.0 - fx) * d00 + fx * d10) + fy * ((1.0 - fx) * d01 + fx * d11);
+    double dsdx = (1.0 - fy) * (d10 - d00) + fy * (d11 - d01);
+    double dsdy = (1.0 - fx) * (d01 - d00) + fx * (d11 - d10);
+    *z = k * (q[2] - b * ds);
+    *texel = (iy + 1) * (n + 1) + (ix + 1);
+    /* as shadow_eval's dV/dp with dV/dz factored out */
+    double gzr = -k / f->r, gs = -k * b * f->scale;
+    for (int i = 0; i < 3; i++)
+        dzdp[i] = gzr * f->l[i] + gs * (dsdx * f->e1[i] + dsdy * f->e2[i]);
+}

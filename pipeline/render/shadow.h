@@ -52,6 +52,13 @@ void shadow_frame_init(shadow_frame *f, const double l[3], const double c[3], do
 void shadow_map_render(shadow_map *m, const double *pts, const sp_mesh *mesh);
 /* Soft visibility at world point p with sharpness k and multiplicative bias b. */
 void shadow_eval(const shadow_map *m, double k, double b, const double p[3], shadow_sample *out);
+/*
+ * shadow_eval without the sigmoid, for the float kernels (shade_simd.h):
+ * *z = k (d - b ds) with V = 1 - sigmoid(z), dzdp = dz/dp, and the texel.
+ * Outside the map: *z = -1e30 (V = 1), dzdp = 0, texel -1.
+ */
+void shadow_eval_z(const shadow_map *m, double k, double b, const double p[3], double *z, double dzdp[3],
+                   int32_t *texel);
 /* sigmoid(x) = 1 / (1 + exp(-x)) via exp(-|x|), and its derivative; finite for any finite x. */
 double shadow_sigmoid(double x, double *deriv);
 

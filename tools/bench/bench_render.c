@@ -3,17 +3,20 @@
  * Renderer benchmark: one 224 x 224 frame of a ~10k-triangle sphere head
  * (displacement, 10 specular clusters, SH sky, shadowed sun, shadow map
  * rendered every frame), forward render plus the adjoint of an L2 loss,
- * single thread, two ways:
+ * single thread, three ways:
  *  - classic: sp_render (all output buffers) + sp_render_l2_loss +
  *    sp_render_backward, timed as forward (render) and backward (loss + adjoint);
  *  - fit: the fused sp_render_fit_l2 (render + loss + adjoint in one sweep,
- *    no decomposition buffers), timed as one call.
+ *    no decomposition buffers), timed as one call;
+ *  - fit_float: the same with settings.fit_float (float SoA shading kernels),
+ *    alternated run by run with fit so both see the same machine load.
  * Both use the same scene, target, mask (the coverage of the warm-up render)
  * and gradient groups. Prints the median of RUNS timed runs (after one
  * warm-up) as wall time and as thread CPU time (the latter is robust to other
  * jobs), the ratio, and user-space instruction counts where the kernel allows
  * perf counters. Usage: bench_render [supersample]   (default 1)
  */
+#include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -116,7 +119,11 @@ int main(int argc, char **argv)
     static float env[SP_RENDER_ENV_FLOATS], target[SIZE * SIZE * 3], dl[SIZE * SIZE * 3];
     double *g_alb = calloc(TEX * TEX * 3, sizeof(double)), *g_disp = calloc(TEX * TEX, sizeof(double));
     static double g_env[SP_RENDER_ENV_FLOATS];
+    sp_renderer *r_ff = NULL;
+    sp_renderer_settings set_ff = set;
+    set_ff.fit_float = 1;
     if (!albedo || !disp || !clusters || !g_alb || !g_disp || sp_renderer_open(&r, &set) != 0 ||
+        sp_renderer_open(&r_ff, &set_ff) != 0 ||
         testmesh_head(&head, 64, 80, c, 0.075, 0.095, 0.11, 0.25) != 0) {
         fprintf(stderr, "bench_render: setup failed\n");
         return 1;
@@ -145,6 +152,7 @@ int main(int argc, char **argv)
     sp_render_grads g = {.albedo = g_alb, .displacement = g_disp, .env = g_env, .positions = g_pos};
     double tf[RUNS], tb[RUNS], tt[RUNS], cf[RUNS], cb[RUNS], ct[RUNS], in_f[RUNS], in_b[RUNS];
     double tfit[RUNS], cfit[RUNS], in_fit[RUNS], loss_classic = 0.0, loss_fit = 0.0;
+    double tfit_ff[RUNS], cfit_ff[RUNS], in_fit_ff[RUNS], loss_fit_ff = 0.0;
     float *mask = calloc(SIZE * SIZE, sizeof(float));
     int covered = 0, ifd = instr_open();
     for (int run = -1; run < RUNS; run++) { /* classic: render, then loss + adjoint */
@@ -181,24 +189,29 @@ int main(int argc, char **argv)
         in_f[run] = i1 - i0;
         in_b[run] = i3 - i2 + (i2 - i1);
     }
-    for (int run = -1; run < RUNS; run++) { /* fit: the fused call */
-        sp_render_outputs o;
-        int64_t t0 = sp_clock_monotonic_ns(), c0 = cpu_ns();
-        double i0 = instr_read(ifd);
-        int err = sp_render_fit_l2(r, &sc, target, mask, &loss_fit, &g, &o);
-        double i1 = instr_read(ifd);
-        int64_t t1 = sp_clock_monotonic_ns(), c1 = cpu_ns();
-        sp_render_grads_zero(&g, &sc);
-        if (err) {
-            fprintf(stderr, "bench_render: fit: %s\n", sp_strerror(err));
-            return 1;
+    /* fit: the fused call, double (r) and float shading (r_ff), alternated run by run */
+    sp_renderer *fits[2] = {r, r_ff};
+    double *tw[2] = {tfit, tfit_ff}, *tc[2] = {cfit, cfit_ff}, *ti[2] = {in_fit, in_fit_ff};
+    double *lf[2] = {&loss_fit, &loss_fit_ff};
+    for (int run = -1; run < RUNS; run++)
+        for (int k = 0; k < 2; k++) {
+            sp_render_outputs o;
+            int64_t t0 = sp_clock_monotonic_ns(), c0 = cpu_ns();
+            double i0 = instr_read(ifd);
+            int err = sp_render_fit_l2(fits[k], &sc, target, mask, lf[k], &g, &o);
+            double i1 = instr_read(ifd);
+            int64_t t1 = sp_clock_monotonic_ns(), c1 = cpu_ns();
+            sp_render_grads_zero(&g, &sc);
+            if (err) {
+                fprintf(stderr, "bench_render: fit: %s\n", sp_strerror(err));
+                return 1;
+            }
+            if (run >= 0) {
+                tw[k][run] = (double)(t1 - t0) * 1e-6;
+                tc[k][run] = (double)(c1 - c0) * 1e-6;
+                ti[k][run] = i1 - i0;
+            }
         }
-        if (run >= 0) {
-            tfit[run] = (double)(t1 - t0) * 1e-6;
-            cfit[run] = (double)(c1 - c0) * 1e-6;
-            in_fit[run] = i1 - i0;
-        }
-    }
     printf("bench_render: %dx%d, supersample %d, %u triangles, %d covered pixels, shadow map %d^2 (every frame)\n",
            SIZE, SIZE, ss, head.n_triangles, covered, set.shadow_size);
     printf("classic = sp_render (all outputs) + sp_render_l2_loss + sp_render_backward; "
@@ -214,20 +227,29 @@ int main(int argc, char **argv)
     printf("fit median of %d (wall):           total %.2f ms\n", RUNS, median(tfit, RUNS));
     printf("fit median of %d (thread CPU):     total %.2f ms (fastest %.2f ms)\n", RUNS, fit_cpu, cfit[0]);
     printf("ratio classic / fit (thread CPU median): %.2f\n", fit_cpu > 0.0 ? classic_cpu / fit_cpu : 0.0);
+    double ff_cpu = median(cfit_ff, RUNS);
+    printf("fit_float median of %d (wall):     total %.2f ms\n", RUNS, median(tfit_ff, RUNS));
+    printf("fit_float median of %d (thread CPU): total %.2f ms (fastest %.2f ms), ratio fit / fit_float %.2f\n",
+           RUNS, ff_cpu, cfit_ff[0], ff_cpu > 0.0 ? fit_cpu / ff_cpu : 0.0);
     if (ifd >= 0)
         printf("instructions (user, median): classic forward %.1f M, backward %.1f M, total %.1f M; fit %.1f M\n",
                median(in_f, RUNS) * 1e-6, median(in_b, RUNS) * 1e-6,
                (median(in_f, RUNS) + median(in_b, RUNS)) * 1e-6, median(in_fit, RUNS) * 1e-6);
+    if (ifd >= 0)
+        printf("instructions (user, median): fit_float %.1f M\n", median(in_fit_ff, RUNS) * 1e-6);
     else
         printf("instructions: perf counters unavailable here (try valgrind --tool=callgrind)\n");
     printf("loss classic %.17g, fit %.17g (%s)\n", loss_classic, loss_fit,
            loss_classic == loss_fit ? "identical" : "DIFFERENT");
+    printf("loss fit_float %.17g (relative difference to classic %.2e)\n", loss_fit_ff,
+           loss_classic != 0.0 ? fabs(loss_fit_ff - loss_classic) / loss_classic : 0.0);
 #ifdef __linux__
     if (ifd >= 0)
         close(ifd);
 #endif
     free(mask);
     sp_renderer_close(&r);
+    sp_renderer_close(&r_ff);
     sp_mesh_free(&head);
     free(albedo);
     free(disp);
