@@ -99,7 +99,7 @@ void segment_close(probe_segment *sg);
 /*
  * Classifies the frame against the plate and extracts the objects and their
  * shadows; the current scale model (may be NULL) helps rejoin people an
- * occluder cut in two.
+ * occluder cut in two and find legs whose colour is close to the plate's.
  */
 void segment_frame(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate, const sp_probe_plane *plane);
 /* 1 when pixel (x, y) belongs to object o's refined mask M'. */

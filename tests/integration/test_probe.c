@@ -197,10 +197,10 @@ static void check_occlusion(const sp_probe_dir *d)
            recall, n, recall3, n3, false_rate, n_seen);
     CHECK_MSG(n > 500, "%zu occluder pixels in the truth", n);
     /*
-     * the issue asks for 0.90; this scene (seed 1) gives 0.86, seeds 1-6 0.81-0.95 (median 0.89):
-     * PROBE.md, limits. The bound keeps the gain over the 0.79 of the 2-event, space-saving map.
+     * the issue asks for 0.90; this scene (seed 1) gives 0.894, seeds 1-6 0.82-0.95 (median 0.90):
+     * PROBE.md, limits. The bound keeps the gain of the weak-change legs over the 0.86 without them.
      */
-    CHECK_MSG(recall >= 0.82, "occluder recall %.3f", recall);
+    CHECK_MSG(recall >= 0.87, "occluder recall %.3f", recall);
     CHECK_MSG(false_rate <= 0.01, "false occluder rate %.4f", false_rate);
     free(far), free(cnt), free(seen);
 }
