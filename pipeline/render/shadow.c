@@ -193,40 +193,16 @@ static double tap(const shadow_map *m, int x, int y, double empty)
 
 void shadow_eval(const shadow_map *m, double k, double b, const double p[3], shadow_sample *out)
 {
-    const shadow_frame *f = &m->f;
-    double q[3];
-    to_map(f, p, q);
-    v3_zero(out->dVdp);
-    out->V = 1.0;
-    out->texel = -1;
-    int n = m->n;
-    /* wholly outside the map (or non-finite): nothing can shadow it */
-    if (!(q[0] > -1.0 && q[0] < (double)n && q[1] > -1.0 && q[1] < (double)n))
+    double z, dzdp[3], dsig;
+    shadow_eval_z(m, k, b, p, &z, dzdp, &out->texel);
+    if (out->texel < 0) { /* outside the map: nothing can shadow it */
+        out->V = 1.0;
+        v3_zero(out->dVdp);
         return;
-    int ix = ifloor(q[0]), iy = ifloor(q[1]);
-    double fx = q[0] - (double)ix, fy = q[1] - (double)iy;
-    double empty = f->offset + SHADOW_EMPTY_DEPTH;
-    double d00, d10, d01, d11;
-    if (ix >= 0 && iy >= 0 && ix + 1 < n && iy + 1 < n) { /* the usual case: one bounds test for all four */
-        const float *row = m->depth + (size_t)iy * (size_t)n + (size_t)ix;
-        d00 = (double)row[0], d10 = (double)row[1];
-        d01 = (double)row[n], d11 = (double)row[n + 1];
-    } else {
-        d00 = tap(m, ix, iy, empty), d10 = tap(m, ix + 1, iy, empty);
-        d01 = tap(m, ix, iy + 1, empty), d11 = tap(m, ix + 1, iy + 1, empty);
     }
-    double ds = (1.0 - fy) * ((1.0 - fx) * d00 + fx * d10) + fy * ((1.0 - fx) * d01 + fx * d11);
-    double dsdx = (1.0 - fy) * (d10 - d00) + fy * (d11 - d01);
-    double dsdy = (1.0 - fx) * (d01 - d00) + fx * (d11 - d10);
-    double z = k * (q[2] - b * ds), dsig;
-    out->V = shadow_sigmoid(-z, &dsig); /* 1 - sigmoid(z) */
-    out->texel = (iy + 1) * (n + 1) + (ix + 1);
-    /* dz/dp = k (-l / r - b (dsdx e1 + dsdy e2) scale); dV/dz = -sigmoid'(z) */
-    double gz = -dsig * k;
-    double gs = -gz * b * f->scale;
-    double gzr = -gz / f->r; /* one division for the three components */
+    out->V = shadow_sigmoid(-z, &dsig); /* 1 - sigmoid(z), so dV/dz = -sigmoid'(z) */
     for (int i = 0; i < 3; i++)
-        out->dVdp[i] = gzr * f->l[i] + gs * (dsdx * f->e1[i] + dsdy * f->e2[i]);
+        out->dVdp[i] = -dsig * dzdp[i];
 }
 
 void shadow_eval_z(const shadow_map *m, double k, double b, const double p[3], double *z, double dzdp[3],
@@ -245,7 +221,7 @@ void shadow_eval_z(const shadow_map *m, double k, double b, const double p[3], d
     double fx = q[0] - (double)ix, fy = q[1] - (double)iy;
     double empty = f->offset + SHADOW_EMPTY_DEPTH;
     double d00, d10, d01, d11;
-    if (ix >= 0 && iy >= 0 && ix + 1 < n && iy + 1 < n) { /* interior: one bounds test, as shadow_eval */
+    if (ix >= 0 && iy >= 0 && ix + 1 < n && iy + 1 < n) { /* the usual case: one bounds test for all four */
         const float *row = m->depth + (size_t)iy * (size_t)n + (size_t)ix;
         d00 = (double)row[0], d10 = (double)row[1];
         d01 = (double)row[n], d11 = (double)row[n + 1];
@@ -258,7 +234,7 @@ void shadow_eval_z(const shadow_map *m, double k, double b, const double p[3], d
     double dsdy = (1.0 - fx) * (d01 - d00) + fx * (d11 - d10);
     *z = k * (q[2] - b * ds);
     *texel = (iy + 1) * (n + 1) + (ix + 1);
-    /* as shadow_eval's dV/dp with dV/dz factored out */
+    /* dz/dp = -k (l / r + b scale (dsdx e1 + dsdy e2)) */
     double gzr = -k / f->r, gs = -k * b * f->scale;
     for (int i = 0; i < 3; i++)
         dzdp[i] = gzr * f->l[i] + gs * (dsdx * f->e1[i] + dsdy * f->e2[i]);
