@@ -24,6 +24,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "common/file_util.h"
 #include "common/json.h"
 #include "export/png.h"
 #include "export/png_read.h"
@@ -84,26 +85,16 @@ static int run(const char *arg0, ...)
     return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
 }
 
+/* The whole file, NUL-terminated (common/file_util.h); NULL when it cannot be read. */
 static char *slurp(const char *path, size_t *len)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f)
+    void *data = NULL;
+    size_t n = 0;
+    if (sp_read_whole_file(path, (size_t)1 << 30, &data, &n))
         return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *buf = n >= 0 ? malloc((size_t)n + 1) : NULL;
-    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
-        free(buf);
-        buf = NULL;
-    }
-    fclose(f);
-    if (buf) {
-        buf[n] = '\0';
-        if (len)
-            *len = (size_t)n;
-    }
-    return buf;
+    if (len)
+        *len = n;
+    return data;
 }
 
 static int file_has(const char *name, const char *needle)

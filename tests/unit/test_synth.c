@@ -16,6 +16,7 @@
 
 #include "check.h"
 #include "common/crc32c.h"
+#include "common/file_util.h"
 #include "common/jpeg.h"
 #include "common/json.h"
 #include "common/pixconv.h"
@@ -148,25 +149,16 @@ static int file_exists(const char *dir, const char *name)
     return stat(p, &st) == 0 && S_ISREG(st.st_mode) && st.st_size > 0;
 }
 
+/* The whole file, NUL-terminated (common/file_util.h); NULL when it cannot be read. */
 static char *slurp(const char *path, size_t *len)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f)
+    void *data = NULL;
+    size_t n = 0;
+    if (sp_read_whole_file(path, (size_t)1 << 30, &data, &n))
         return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *buf = n >= 0 ? malloc((size_t)n + 1) : NULL;
-    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
-        free(buf);
-        buf = NULL;
-    }
-    fclose(f);
-    if (buf) {
-        buf[n] = '\0';
-        *len = (size_t)n;
-    }
-    return buf;
+    if (len)
+        *len = n;
+    return data;
 }
 
 static sp_json *load_json(const char *dir, const char *name)

@@ -24,6 +24,7 @@
 #include <unistd.h>
 
 #include "common/clock.h"
+#include "common/file_util.h"
 #include "common/json.h"
 #include "sunprobe/sp_replay.h"
 #include "sunprobe/sp_sunstage.h"
@@ -104,25 +105,16 @@ static double albedo_error(const sp_sunstage_result *r, const sp_synth_selfie_tr
     return sqrt(fmax(e, 0.0) / (double)n);
 }
 
+/* The whole file, NUL-terminated (common/file_util.h); NULL when it cannot be read. */
 static char *slurp(const char *path, size_t *len)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f)
+    void *data = NULL;
+    size_t n = 0;
+    if (sp_read_whole_file(path, (size_t)1 << 30, &data, &n))
         return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *b = n >= 0 ? malloc((size_t)n + 1) : NULL;
-    if (b && fread(b, 1, (size_t)n, f) != (size_t)n) {
-        free(b);
-        b = NULL;
-    }
-    fclose(f);
-    if (b) {
-        b[n] = 0;
-        *len = (size_t)n;
-    }
-    return b;
+    if (len)
+        *len = n;
+    return data;
 }
 
 /* Binary PPM (P6, 8 bit) or PFM ("PF", bottom row first); floats into out (w * h * 3). */
