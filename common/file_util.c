@@ -2,7 +2,9 @@
 #include "file_util.h"
 
 #include <errno.h>
+#include <dirent.h>
 #include <fcntl.h>
+#include <signal.h>
 #include <ftw.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -249,6 +251,61 @@ void sp_partial_forget(sp_partial *p)
         partial_reset(p);
 }
 
+/* 1 when name is "<base>.partial.<pid>" for a pid other than ours that no longer runs; the pid in *pid. */
+static int is_stale_partial(const char *name, const char *base, long *pid)
+{
+    static const char tag[] = ".partial.";
+    size_t nb = strlen(base);
+    if (strncmp(name, base, nb) != 0 || strncmp(name + nb, tag, sizeof(tag) - 1) != 0)
+        return 0;
+    const char *digits = name + nb + sizeof(tag) - 1;
+    char *end;
+    errno = 0;
+    long v = strtol(digits, &end, 10);
+    if (!*digits || *end || errno || v <= 0 || v > INT32_MAX || v == (long)getpid())
+        return 0;
+    *pid = v;
+    /* EPERM: a process of another user has that pid now; only ESRCH says nobody does */
+    return kill((pid_t)v, 0) != 0 && errno == ESRCH;
+}
+
+/*
+ * Removes "<final_dir>.partial.<pid>" directories of ours whose process is
+ * gone (killed, crashed): they were never committed, so nothing of value is
+ * lost, and without this they pile up beside the outputs. Failures are logged.
+ */
+static void remove_stale_partials(const char *final_dir)
+{
+    char *copy = strdup(final_dir);
+    if (!copy)
+        return;
+    char *slash = strrchr(copy, '/');
+    const char *parent = slash ? (slash == copy ? "/" : copy) : ".";
+    const char *base = slash ? slash + 1 : copy;
+    if (slash)
+        *slash = '\0';
+    DIR *d = *base ? opendir(parent) : NULL;
+    struct dirent *e;
+    while (d && (e = readdir(d))) {
+        long pid;
+        char *path;
+        struct stat st;
+        if (!is_stale_partial(e->d_name, base, &pid) || !(path = sp_path_join_alloc(parent, e->d_name)))
+            continue;
+        if (lstat(path, &st) == 0 && S_ISDIR(st.st_mode) && st.st_uid == getuid()) {
+            int err = sp_remove_tree(path);
+            if (err)
+                sp_log(SP_LOG_WARN, LOG_MODULE, "%s: could not remove: %s", path, sp_strerror(err));
+            else
+                sp_log(SP_LOG_INFO, LOG_MODULE, "removed %s, left by process %ld, which no longer runs", path, pid);
+        }
+        free(path);
+    }
+    if (d)
+        closedir(d);
+    free(copy);
+}
+
 int sp_partial_dir_open(sp_partial *pd, const char *final_dir)
 {
     if (!pd)
@@ -256,6 +313,7 @@ int sp_partial_dir_open(sp_partial *pd, const char *final_dir)
     int err = partial_names(pd, final_dir, 1);
     if (err)
         return err;
+    remove_stale_partials(final_dir);
     if (mkdir(pd->path, 0755) != 0) {
         err = -errno;
         partial_reset(pd); /* not ours: never remove it */

@@ -48,7 +48,9 @@ typedef struct sp_partial {
 
 /*
  * Creates the directory "<final_dir>.partial.<pid>" (mode 0755; -EEXIST if it is
- * already there) and sets pd->path to it. The pid keeps two runs apart.
+ * already there) and sets pd->path to it. The pid keeps two runs apart. First
+ * removes the user's own "<final_dir>.partial.<pid>" directories whose process
+ * no longer runs (left by a crash or SIGKILL; logged).
  */
 int sp_partial_dir_open(sp_partial *pd, const char *final_dir);
 /*

@@ -7,7 +7,6 @@
  * renamed into place only when complete, so a failed run leaves nothing that
  * looks like a result.
  */
-#include <dirent.h>
 #include <errno.h>
 #include <getopt.h>
 #include <inttypes.h>
@@ -22,6 +21,7 @@
 #include "capture_open.h"
 #include "cmd.h"
 #include "common/clock.h"
+#include "common/file_util.h"
 #include "common/json.h"
 #include "common/pixconv.h"
 #include "common/progress.h"
@@ -254,34 +254,6 @@ static sp_probe_truth_sample *load_truth(const char *capture, const char *name, 
 
 /* ---- the output directory ---- */
 
-static char *join(const char *dir, const char *name)
-{
-    size_t n = strlen(dir) + strlen(name) + 2;
-    char *p = malloc(n);
-    if (p)
-        snprintf(p, n, "%s/%s", dir, name);
-    return p;
-}
-
-/* Removes a flat directory we created (regular files only). */
-static void remove_dir(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (d) {
-        struct dirent *e;
-        while ((e = readdir(d)) != NULL) {
-            if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, ".."))
-                continue;
-            char *p = join(dir, e->d_name);
-            if (p)
-                unlink(p);
-            free(p);
-        }
-        closedir(d);
-    }
-    rmdir(dir);
-}
-
 /* An existing output is replaced only with --force (an empty directory is fine). */
 static int check_output(const probe_args *a)
 {
@@ -294,25 +266,6 @@ static int check_output(const probe_args *a)
         return 0;
     fprintf(stderr, "sunprobe probe: %s exists (use --force to replace it)\n", a->out);
     return SP_EXIT_USAGE;
-}
-
-static int put_in_place(const probe_args *a, const char *partial)
-{
-    struct stat st;
-    char old[4096];
-    int had = stat(a->out, &st) == 0;
-    snprintf(old, sizeof(old), "%s.old.%ld", a->out, (long)getpid());
-    if (had && rename(a->out, old) != 0)
-        return -errno;
-    if (rename(partial, a->out) != 0) {
-        int err = -errno;
-        if (had)
-            rename(old, a->out);
-        return err;
-    }
-    if (had)
-        remove_dir(old);
-    return 0;
 }
 
 /* ---- streaming ---- */
@@ -344,11 +297,11 @@ static int write_empty(run_state *rs, const sp_frame *f)
         return 0;
     }
     snprintf(name, sizeof(name), "empty_%06" PRIu64 ".png", rs->index);
-    char *p = join(rs->dir, name);
+    char *p = sp_path_join_alloc(rs->dir, name);
     ret = ret ? ret : p ? sp_png_write(p, rs->rgb, w, h, w * 3, 3) : -ENOMEM;
     free(p);
     snprintf(name, sizeof(name), "frame_%06" PRIu64 ".png", rs->index);
-    p = join(rs->dir, name);
+    p = sp_path_join_alloc(rs->dir, name);
     if (!ret)
         ret = p ? sp_pixconv_frame_to_rgb24(f, rs->rgb, (size_t)w * h * 3, w * 3) : -ENOMEM;
     if (!ret)
@@ -472,27 +425,27 @@ int sp_cmd_probe(int argc, char **argv)
     sigemptyset(&sa.sa_mask);
     sigaction(SIGINT, &sa, &old_int);
     sigaction(SIGTERM, &sa, &old_term);
-    char partial[4096], report[4200];
-    snprintf(partial, sizeof(partial), "%s.partial.%ld", a.out, (long)getpid());
-    if (mkdir(partial, 0755) != 0) {
+    sp_partial partial;
+    int ret = sp_partial_dir_open(&partial, a.out);
+    if (ret) {
         sigaction(SIGINT, &old_int, NULL);
         sigaction(SIGTERM, &old_term, NULL);
-        return sp_cmd_fail("probe", -errno, partial);
+        return sp_cmd_fail("probe", ret, a.out);
     }
-    snprintf(report, sizeof(report), "%s/convergence", partial);
+    char *report = sp_path_join_alloc(partial.path, "convergence");
     a.s.report_prefix = report;
     size_t n_truth = 0;
     sp_probe_truth_sample *truth = load_truth(a.capture, facts.ground_truth, &n_truth);
     a.s.truth = truth, a.s.n_truth = n_truth;
-    code = run(&a, &facts, partial);
+    code = report ? run(&a, &facts, partial.path) : sp_cmd_fail("probe", -ENOMEM, "report path");
     free(truth);
+    free(report);
     if (code == SP_EXIT_OK && interrupted) /* after the last frame: the final directory is left as it was */
         code = 128 + (int)interrupted;
-    int ret = code == SP_EXIT_OK ? put_in_place(&a, partial) : 0;
+    ret = code == SP_EXIT_OK ? sp_partial_dir_commit(&partial, a.force ? SP_PARTIAL_REPLACE : 0) : 0;
     if (ret)
         code = sp_cmd_fail("probe", ret, a.out);
-    if (code != SP_EXIT_OK)
-        remove_dir(partial);
+    sp_partial_dir_abort(&partial); /* after a commit there is nothing left to remove */
     sigaction(SIGINT, &old_int, NULL);
     sigaction(SIGTERM, &old_term, NULL);
     return code;

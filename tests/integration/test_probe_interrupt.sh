@@ -2,6 +2,7 @@
 # SPDX-License-Identifier: MIT
 # Ctrl-C during `sunprobe probe`: SIGINT (then SIGTERM) sent while the frames stream ends the run
 # with exit code 128 + the signal, removes DIR.partial.PID and leaves an existing DIR untouched.
+# SIGKILL cannot be caught: the partial directory stays until the next run into DIR removes it.
 set -u
 SP=$1
 dir=$(mktemp -d "${TMPDIR:-/tmp}/sp-probe-int.XXXXXX")
@@ -15,15 +16,20 @@ fail() { echo "FAIL: $*"; fails=$((fails + 1)); }
 mkdir "$dir/out"
 echo keep >"$dir/out/old.txt"
 
-interrupt() { # signal-name expected-exit-code
+start_probe() { # signal-name; sets pid once DIR.partial.PID exists (the frame loop is about to start)
     "$SP" probe "$dir/long.spcap" -o "$dir/out" --force -q >"$dir/o.txt" 2>"$dir/e.txt" &
-    local pid=$! seen=0
-    for _ in $(seq 1 3000); do # wait for the partial directory: the frame loop is about to start
+    pid=$!
+    local seen=0
+    for _ in $(seq 1 3000); do
         if [ -d "$dir/out.partial.$pid" ]; then seen=1; break; fi
         kill -0 "$pid" 2>/dev/null || break
         sleep 0.01
     done
     [ "$seen" = 1 ] || fail "$1: $dir/out.partial.$pid never appeared"
+}
+
+interrupt() { # signal-name expected-exit-code
+    start_probe "$1"
     kill "-$1" "$pid" 2>/dev/null
     wait "$pid"
     local got=$?
@@ -35,8 +41,14 @@ interrupt() { # signal-name expected-exit-code
 }
 interrupt INT 130
 interrupt TERM 143
+start_probe KILL
+kill -KILL "$pid" 2>/dev/null
+wait "$pid" 2>/dev/null
+killed=$pid
+[ -d "$dir/out.partial.$killed" ] || fail "KILL: expected the partial directory to stay behind"
 # the same capture without a signal completes (the run above was long enough to be interrupted)
 "$SP" probe "$dir/long.spcap" -o "$dir/out" --force -q --max-frames 200 >/dev/null 2>&1 || fail "uninterrupted run"
 [ -e "$dir/out/probe.json" ] || fail "uninterrupted run wrote no probe.json"
+[ -d "$dir/out.partial.$killed" ] && fail "the next run did not remove the killed run's partial directory"
 [ "$fails" -eq 0 ] && echo "probe interrupt: all passed"
 [ "$fails" -eq 0 ]

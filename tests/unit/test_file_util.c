@@ -270,6 +270,50 @@ static void test_partial_file(void)
     CHECK_EQ_INT(sp_partial_file_commit(&pf, 0), -EINVAL);
 }
 
+/* A pid that no longer runs: a child that has exited and been reaped. */
+static pid_t dead_pid(void)
+{
+    pid_t pid = fork();
+    if (pid == 0)
+        _exit(0);
+    CHECK(pid > 0);
+    int status;
+    CHECK(waitpid(pid, &status, 0) == pid);
+    return pid;
+}
+
+/* Partials left by crashed runs are removed on the next open; live or foreign-looking ones are not. */
+static void test_stale_partials(void)
+{
+    char out[520]; /* at()'s buffers rotate, and fill() uses them */
+    snprintf(out, sizeof(out), "%s", at("crashy"));
+    char stale[600], alive[600], odd[600], plain[600];
+    snprintf(stale, sizeof(stale), "%s.partial.%ld", out, (long)dead_pid());
+    snprintf(alive, sizeof(alive), "%s.partial.%ld", out, (long)getppid()); /* our parent still runs */
+    snprintf(odd, sizeof(odd), "%s.partial.12x", out);
+    snprintf(plain, sizeof(plain), "%s.partial.%ld", at("crashy2"), (long)dead_pid()); /* another output's */
+    const char *dirs[] = { stale, alive, odd, plain };
+    for (int i = 0; i < 4; i++) {
+        CHECK_EQ_INT(mkdir(dirs[i], 0755), 0);
+        fill(dirs[i], "left");
+    }
+    sp_partial pd;
+    CHECK_EQ_INT(sp_partial_dir_open(&pd, out), 0);
+    CHECK(!exists(stale));
+    CHECK(exists(alive) && exists(odd) && exists(plain));
+    sp_partial_dir_abort(&pd);
+    /* a relative name sweeps the current directory */
+    char cwd[512];
+    CHECK(getcwd(cwd, sizeof(cwd)) != NULL);
+    CHECK_EQ_INT(chdir(root), 0);
+    CHECK_EQ_INT(sp_partial_dir_open(&pd, "crashy2"), 0);
+    CHECK(!exists(plain) && exists(alive));
+    sp_partial_dir_abort(&pd);
+    CHECK_EQ_INT(chdir(cwd), 0);
+    for (int i = 1; i < 3; i++)
+        CHECK_EQ_INT(sp_remove_tree(dirs[i]), 0);
+}
+
 int main(void)
 {
     const char *tmp = getenv("TMPDIR");
@@ -280,6 +324,7 @@ int main(void)
     test_write();
     test_paths();
     test_partial_dir();
+    test_stale_partials();
     test_partial_file();
     if (!check_failures)
         CHECK_EQ_INT(sp_remove_tree(root), 0);
