@@ -20,6 +20,7 @@
 #include "capture/container_format.h"
 #include "check.h"
 #include "common/crc32c.h"
+#include "common/file_util.h"
 #include "sunprobe/sp_capture.h"
 
 static char tmpdir[256];
@@ -56,23 +57,12 @@ static void remove_tmpdir(void)
 
 /* ---- whole-file helpers ---- */
 
+/* The whole file, or NULL (and *len 0) when it cannot be read; the caller frees it. */
 static uint8_t *read_file(const char *path, size_t *len)
 {
+    void *b = NULL;
     *len = 0;
-    int fd = open(path, O_RDONLY);
-    if (fd < 0)
-        return NULL;
-    struct stat st;
-    fstat(fd, &st);
-    uint8_t *b = malloc((size_t)st.st_size + 1);
-    ssize_t n = b ? read(fd, b, (size_t)st.st_size) : -1;
-    close(fd);
-    if (n != st.st_size) {
-        free(b);
-        return NULL;
-    }
-    *len = (size_t)n;
-    return b;
+    return sp_read_whole_file(path, (size_t)1 << 30, &b, len) == 0 ? b : NULL;
 }
 
 static void write_file(const char *path, const uint8_t *b, size_t len)
