@@ -1,0 +1,74 @@
+/* SPDX-License-Identifier: MIT */
+/* opencv_shim.h's functions forwarded to the sunprobe-opencv-import module, loaded on first use (common/module.h). */
+#include "opencv_shim.h"
+
+#include <errno.h>
+#include <stddef.h>
+
+#include "common/module.h"
+
+static const sp_module cv_import = { "sunprobe-opencv-import", "capture", "OpenCV" };
+
+typedef int (*video_open_fn)(sp_cv_video_reader **, const char *, sp_cv_video_info *);
+typedef int (*video_read_fn)(sp_cv_video_reader *, uint8_t *, size_t, uint32_t);
+typedef void (*video_close_fn)(sp_cv_video_reader **);
+typedef int (*image_read_fn)(const char *, uint8_t **, size_t *, uint32_t *, uint32_t *);
+typedef int (*image_decode_fn)(const uint8_t *, size_t, uint8_t **, size_t *, uint32_t *, uint32_t *);
+typedef int (*writer_open_fn)(sp_cv_video_writer **, const char *, uint32_t, uint32_t, double);
+typedef int (*video_write_fn)(sp_cv_video_writer *, const uint8_t *, uint32_t);
+typedef int (*writer_close_fn)(sp_cv_video_writer **);
+
+#define SYMBOL(type, name) ((type)sp_module_symbol(&cv_import, #name))
+
+int sp_cv_video_open(sp_cv_video_reader **out, const char *path, sp_cv_video_info *info)
+{
+    video_open_fn fn = SYMBOL(video_open_fn, sp_cv_video_open);
+    return fn ? fn(out, path, info) : SP_EMODULE;
+}
+
+int sp_cv_video_read(sp_cv_video_reader *r, uint8_t *dst, size_t dst_size, uint32_t dst_stride)
+{
+    video_read_fn fn = SYMBOL(video_read_fn, sp_cv_video_read);
+    return fn ? fn(r, dst, dst_size, dst_stride) : SP_EMODULE;
+}
+
+void sp_cv_video_close(sp_cv_video_reader **r)
+{
+    video_close_fn fn = r && *r ? SYMBOL(video_close_fn, sp_cv_video_close) : NULL; /* nothing open: no load */
+    if (fn)
+        fn(r);
+}
+
+int sp_cv_image_read(const char *path, uint8_t **buf, size_t *cap, uint32_t *width, uint32_t *height)
+{
+    image_read_fn fn = SYMBOL(image_read_fn, sp_cv_image_read);
+    return fn ? fn(path, buf, cap, width, height) : SP_EMODULE;
+}
+
+int sp_cv_image_decode(const uint8_t *data, size_t size, uint8_t **buf, size_t *cap, uint32_t *width,
+                       uint32_t *height)
+{
+    image_decode_fn fn = SYMBOL(image_decode_fn, sp_cv_image_decode);
+    return fn ? fn(data, size, buf, cap, width, height) : SP_EMODULE;
+}
+
+int sp_cv_video_writer_open(sp_cv_video_writer **out, const char *path, uint32_t width, uint32_t height,
+                            double fps)
+{
+    writer_open_fn fn = SYMBOL(writer_open_fn, sp_cv_video_writer_open);
+    return fn ? fn(out, path, width, height, fps) : SP_EMODULE;
+}
+
+int sp_cv_video_write(sp_cv_video_writer *w, const uint8_t *rgb, uint32_t stride)
+{
+    video_write_fn fn = SYMBOL(video_write_fn, sp_cv_video_write);
+    return fn ? fn(w, rgb, stride) : SP_EMODULE;
+}
+
+int sp_cv_video_writer_close(sp_cv_video_writer **w)
+{
+    if (!w || !*w)
+        return 0;
+    writer_close_fn fn = SYMBOL(writer_close_fn, sp_cv_video_writer_close);
+    return fn ? fn(w) : SP_EMODULE;
+}

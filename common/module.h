@@ -1,0 +1,53 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Loadable modules for the C++ shims whose libraries are costly to load.
+ * OpenCV and OpenImageIO pull in ~200 shared libraries: linked into the
+ * binary they cost every `sunprobe` start ~0.5 s of CPU and ~130 MB of
+ * resident memory, even `sunprobe info`. With -Dlazy_modules=true (the
+ * default) each such shim is built as a module (NAME.so) and small C
+ * forwarders (*_lazy.c) load it on the first call of one of its functions.
+ *
+ * Where a module is looked for: $SP_MODULE_DIR when set; else the build
+ * tree's BUILD_SUBDIR when the running program lives in the build tree
+ * (tests, uninstalled runs); else the installed module directory.
+ */
+#ifndef SUNPROBE_COMMON_MODULE_H
+#define SUNPROBE_COMMON_MODULE_H
+
+#include "sunprobe/sp_common.h"
+
+#define SP_MODULE_ABI 1
+
+/* What the program hands a module when it is loaded: the module logs through the program's logger. */
+typedef struct sp_module_host {
+    int abi; /* SP_MODULE_ABI */
+    void (*log)(enum sp_log_level level, const char *module, const char *fmt, ...) SP_PRINTF(3, 4);
+    enum sp_log_level (*log_level)(void);
+} sp_module_host;
+
+/* Every module exports this; it returns 0, or -EPROTO when the host's ABI differs. */
+typedef int (*sp_module_attach_fn)(const sp_module_host *host);
+#define SP_MODULE_ATTACH_SYMBOL "sp_module_attach"
+
+/* A module as the forwarders name it (static storage). */
+typedef struct sp_module {
+    const char *name;         /* file name without ".so", e.g. "sunprobe-opencv-import" */
+    const char *build_subdir; /* where the build tree puts it, relative to the build root */
+    const char *library;      /* what it wraps, for messages: "OpenCV" */
+} sp_module;
+
+/* Any function pointer; forwarders cast it back to the function's real type. */
+typedef void (*sp_module_fn)(void);
+
+/*
+ * The function symbol from module m, loading the module on first use
+ * (thread-safe; a module is never unloaded). NULL when the module or the
+ * symbol cannot be found: the reason is logged once per module, and
+ * callers return SP_EMODULE.
+ */
+sp_module_fn sp_module_symbol(const sp_module *m, const char *symbol);
+
+/* What forwarders return when their module cannot be loaded. */
+#define SP_EMODULE (-ELIBACC)
+
+#endif

@@ -1,0 +1,17 @@
+/* SPDX-License-Identifier: MIT */
+/* oiio_shim.h's function forwarded to the sunprobe-oiio module, loaded on first use (common/module.h). */
+#include "oiio_shim.h"
+
+#include <errno.h>
+
+#include "common/module.h"
+
+static const sp_module oiio = { "sunprobe-oiio", "export", "OpenImageIO" };
+
+typedef int (*exr_write_fn)(const char *, const float *, uint32_t, uint32_t, int);
+
+int sp_exr_write(const char *path, const float *pixels, uint32_t width, uint32_t height, int channels)
+{
+    exr_write_fn fn = (exr_write_fn)sp_module_symbol(&oiio, "sp_exr_write");
+    return fn ? fn(path, pixels, width, height, channels) : SP_EMODULE;
+}
