@@ -22,6 +22,15 @@
 #include <stdlib.h>
 #include <string.h>
 
+/*
+ * Slanted cuts: a camera pitched down sees vertical poles lean (about 1 px
+ * in 16 rows on synth street's pillar), so a pole's edge column meets the
+ * body's M' somewhere and the vertical "column with no M'" rule misses it.
+ * Lines leaning by k/16 px per row, k = +-1, +-2, are tried as well.
+ */
+#define SLANTS 4
+static const int slant_k[SLANTS] = { -2, -1, 1, 2 };
+
 int maps_open(probe_maps *m, uint32_t width, uint32_t height, unsigned min_events)
 {
     memset(m, 0, sizeof(*m));
@@ -46,9 +55,11 @@ int maps_open(probe_maps *m, uint32_t width, uint32_t height, unsigned min_event
     m->span_r = malloc((size_t)height * sizeof(int32_t));
     m->col_top = malloc((size_t)width * sizeof(int32_t));
     m->span_hidden = malloc(height);
+    m->slant_cap = (int32_t)(width + height / 4 + 8); /* a box's width plus the lean over its height, both sides */
+    m->slant_hit = malloc((size_t)SLANTS * (size_t)m->slant_cap * sizeof(int32_t));
     if (!m->hid || !m->vis || !m->hid_n || !m->vis_n || !m->light || !m->light_n || !m->bg ||
         !m->bg_n || !m->clean || !m->occlusion || !m->lighting || !m->prev_occ || !m->prev_light || !m->span_l || !m->span_r ||
-        !m->col_top || !m->span_hidden) {
+        !m->col_top || !m->span_hidden || !m->slant_hit) {
         maps_close(m);
         return -ENOMEM;
     }
@@ -77,6 +88,7 @@ void maps_close(probe_maps *m)
     free(m->span_r);
     free(m->col_top);
     free(m->span_hidden);
+    free(m->slant_hit);
     memset(m, 0, sizeof(*m));
 }
 
@@ -213,11 +225,58 @@ static void head_room(probe_maps *m, const probe_segment *sg, const probe_object
         }
 }
 
+/* Columns a line of slope k/16 px per row has moved after d rows (rounded down). */
+static inline int slant_dx(int d, int k)
+{
+    int t = d * k;
+    return t >= 0 ? t / 16 : -((-t + 15) / 16);
+}
+
+/* For every slanted line from the body's top row: the first row where it meets M' (INT32_MAX: never). */
+static void slant_lines(probe_maps *m, const probe_segment *sg, const probe_object *o)
+{
+    int shift = slant_dx(o->y1 - o->y0, 2) + 1, n = o->x1 - o->x0 + 1 + 2 * shift;
+    m->slant_c0 = o->x0 - shift;
+    m->slant_n = n < m->slant_cap ? n : m->slant_cap;
+    for (int s = 0; s < SLANTS; s++)
+        for (int j = 0; j < m->slant_n; j++) {
+            int32_t hit = INT32_MAX;
+            for (int y = o->y0; y <= o->y1 && hit == INT32_MAX; y++) {
+                int x = m->slant_c0 + j + slant_dx(y - o->y0, slant_k[s]);
+                if (x >= o->x0 && x <= o->x1 && segment_in_mask(sg, o, (uint32_t)x, (uint32_t)y))
+                    hit = y;
+            }
+            m->slant_hit[s * m->slant_cap + j] = hit;
+        }
+}
+
+/*
+ * Pixel (x, y) lies on a slanted line that runs from the body's top down to it
+ * without meeting M' and crosses the torso row yt inside the torso's span
+ * [tl, tr]: something static cut the body through there (a leaning pole's
+ * edge), not the space beside it.
+ */
+static int slant_cut(const probe_maps *m, const probe_object *o, int x, int y, int yt, int tl, int tr)
+{
+    if (yt < o->y0 || yt > o->y1)
+        return 0;
+    for (int s = 0; s < SLANTS; s++) {
+        int c = x - slant_dx(y - o->y0, slant_k[s]), j = c - m->slant_c0;
+        if (j < 0 || j >= m->slant_n || m->slant_hit[s * m->slant_cap + j] <= y)
+            continue;
+        int xt = c + slant_dx(yt - o->y0, slant_k[s]);
+        if (xt > m->span_l[yt] && xt < m->span_r[yt] && xt >= tl && xt <= tr)
+            return 1;
+    }
+    return 0;
+}
+
 /*
  * Visible evidence on M'; occlusion evidence on background-coloured pixels
  * inside the hull: in the upper body (legs leave gaps of their own), in rows
  * hidden across the whole body, or in a column with no M' pixel at all (cut
- * from top to bottom: a pole, not the space between the legs or beside an arm).
+ * from top to bottom: a pole, not the space between the legs or beside an arm)
+ * or on a slightly leaning line with none from the top that cuts the torso.
  */
 void maps_add_object(probe_maps *m, const probe_segment *sg, const probe_object *o, const sp_probe_plane *plane)
 {
@@ -228,13 +287,15 @@ void maps_add_object(probe_maps *m, const probe_segment *sg, const probe_object 
      */
     double expect = sp_probe_plane_height(plane, o->foot_x, o->foot_y);
     int one_body = ground && o->height >= 1.4 * (o->x1 - o->x0 + 1) && !(isfinite(expect) && o->height > 1.25 * expect);
-    m->last_one_body = one_body;
     int16_t yb = (int16_t)o->foot_y;
     int upper_last = (int)floor(o->foot_y - 0.45 * o->height);
     float col[3] = { (float)o->mean_rgb[0], (float)o->mean_rgb[1], (float)o->mean_rgb[2] };
     hull(m, sg, o);
     int tl, tr;
     torso_span(m, o, &tl, &tr);
+    int yt = (int)lrint(o->foot_y - 0.65 * o->height);
+    if (one_body && tl >= 0)
+        slant_lines(m, sg, o);
     for (int y = o->y0; y <= o->y1; y++) {
         int l = m->span_l[y], r = m->span_r[y];
         if (y > upper_last && tl >= 0) { /* below the torso, columns cut from the top down may widen the span */
@@ -251,7 +312,8 @@ void maps_add_object(probe_maps *m, const probe_segment *sg, const probe_object 
                 if (ground)
                     seen_visible(m, i, yb);
             } else if (one_body && sg->cls[i] == PROBE_CLS_BG &&
-                       (y <= upper_last || m->span_hidden[y] || m->col_top[x] == INT32_MAX)) {
+                       (y <= upper_last || m->span_hidden[y] || m->col_top[x] == INT32_MAX ||
+                        (tl >= 0 && slant_cut(m, o, x, y, yt, tl, tr)))) {
                 seen_hidden(m, i, yb);
             }
         }
@@ -295,12 +357,14 @@ static void interior_cuts(const uint16_t *on, const uint16_t *miss, int n, unsig
  * Template pixels that show the plate now were hidden, when an occluder
  * explains them: they lie on an interior cut (a pole takes whole columns, a
  * sign whole rows; segmentation noise leaves scattered holes, misalignment
- * shaves the edges, neither cuts the body through).
+ * shaves the edges, neither cuts the body through). Also for an object that
+ * is this person merged with another (no hull of its own): the other's M'
+ * counts as present, so only what the static occluder took is a cut.
  */
 void maps_add_template(probe_maps *m, const probe_segment *sg, const probe_object *o, const probe_completion *c)
 {
     const probe_track *k = c->track;
-    if (!k || !k->has_template || !m->last_one_body)
+    if (!k || !k->has_template)
         return;
     int x0 = c->x - k->ax, y0 = c->y - k->th + 1;
     uint16_t col_on[PROBE_TMPL_W] = { 0 }, col_miss[PROBE_TMPL_W] = { 0 };

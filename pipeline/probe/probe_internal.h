@@ -165,7 +165,8 @@ typedef struct probe_maps {
     int32_t *span_l, *span_r; /* height: an object's hull per row (scratch) */
     int32_t *col_top;        /* width: its first M' row per column (scratch) */
     uint8_t *span_hidden;    /* height: the row had no M' pixel, its span was interpolated (scratch) */
-    int last_one_body;       /* the last object added looked like one body */
+    int32_t *slant_hit;      /* 4 slopes x slant_cap: first M' row along each leaning line from the top (scratch) */
+    int32_t slant_cap, slant_n, slant_c0; /* lines per slope: room, this object's, the column of its first */
 } probe_maps;
 
 int maps_open(probe_maps *m, uint32_t width, uint32_t height, unsigned min_events);

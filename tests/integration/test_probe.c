@@ -4,6 +4,7 @@
  * synthetic ground truth and on OpenCV's vtest.avi.
  *   test_probe SUNPROBE sunny     occluder recall, plane height error, shadow direction,
  *                                 compositing behind/in front of the pole, removal
+ *   test_probe SUNPROBE seeds     occluder recall and false rate on two more synth street seeds
  *   test_probe SUNPROBE overcast  the shadow model is left out, the plane still fits
  *   test_probe SUNPROBE bad       moving camera, nothing moving, 3 frames, missing file:
  *                                 a message, exit code 2/3, no output left behind
@@ -159,11 +160,19 @@ static sp_json *read_json(const char *name)
 
 /* ---- sunny: truth checks ---- */
 
-static void check_occlusion(const sp_probe_dir *d)
+/* The truth files synth street wrote beside PREFIX.spcap. */
+static uint16_t *read_truth(const char *prefix, const char *suffix, uint32_t *w, uint32_t *h)
+{
+    char name[128];
+    snprintf(name, sizeof(name), "%s.%s.pgm", prefix, suffix);
+    return read_pgm16(name, w, h);
+}
+
+static void check_occlusion(const sp_probe_dir *d, const char *prefix)
 {
     uint32_t w, h;
-    uint16_t *far = read_pgm16("st.hidden-far.pgm", &w, &h), *cnt = read_pgm16("st.hidden-count.pgm", &w, &h);
-    uint16_t *seen = read_pgm16("st.seen-far.pgm", &w, &h);
+    uint16_t *far = read_truth(prefix, "hidden-far", &w, &h), *cnt = read_truth(prefix, "hidden-count", &w, &h);
+    uint16_t *seen = read_truth(prefix, "seen-far", &w, &h);
     CHECK(far && cnt && seen && w == d->width && h == d->height);
     if (!far || !cnt || !seen)
         return;
@@ -183,15 +192,12 @@ static void check_occlusion(const sp_probe_dir *d)
     }
     double recall = (double)hit / (double)(n ? n : 1), recall3 = (double)hit3 / (double)(n3 ? n3 : 1);
     double false_rate = (double)wrong / (double)(n_seen ? n_seen : 1);
-    printf("occluder recall %.3f of %zu pixels figures passed behind (%.3f of %zu hidden in 3+ frames); "
+    printf("%s: occluder recall %.3f of %zu pixels figures passed behind (%.3f of %zu hidden in 3+ frames); "
            "%.4f of %zu pixels where figures were seen would wrongly hide them\n",
-           recall, n, recall3, n3, false_rate, n_seen);
+           prefix, recall, n, recall3, n3, false_rate, n_seen);
     CHECK_MSG(n > 500, "%zu occluder pixels in the truth", n);
-    /*
-     * the issue asks for 0.90; this scene (seed 1) gives 0.894, seeds 1-6 0.82-0.95 (median 0.90):
-     * PROBE.md, limits. The bound keeps the gain of the weak-change legs over the 0.86 without them.
-     */
-    CHECK_MSG(recall >= 0.87, "occluder recall %.3f", recall);
+    /* the issue's bound; seeds 1-10 give 0.908-0.994 (PROBE.md, occlusion figures) */
+    CHECK_MSG(recall >= 0.90, "occluder recall %.3f", recall);
     CHECK_MSG(false_rate <= 0.01, "false occluder rate %.4f", false_rate);
     free(far), free(cnt), free(seen);
 }
@@ -335,7 +341,7 @@ static void test_sunny(void)
     } else {
         CHECK(!exists("stp/occlusion.exr"));
     }
-    check_occlusion(&d);
+    check_occlusion(&d, "st");
     check_plane_and_shadow(&d, 1);
     /* removal: the emptied frame is the empty street; the frame itself is not */
     double de = png_diff("stp/empty_000200.png", "st.background.png"), df = png_diff("stp/frame_000200.png", "st.background.png");
@@ -347,6 +353,27 @@ static void test_sunny(void)
     CHECK(run("probe", path_in("st.spcap"), "-o", path_in("stp"), "-q", "-f", "--max-frames", "200", NULL) == 0);
     CHECK(!exists("stp/empty_000200.png") && exists("stp/probe.json"));
     sp_probe_dir_free(&d);
+}
+
+/* Two more scenes: seeds 4 and 5 were the worst of 1-6 (0.883 and 0.815 before the leaning cuts). */
+static void test_seeds(void)
+{
+    static const char *const seeds[] = { "4", "5" };
+    for (int i = 0; i < 2; i++) {
+        char cap[32], dir[32];
+        snprintf(cap, sizeof(cap), "s%s.spcap", seeds[i]);
+        snprintf(dir, sizeof(dir), "s%sp", seeds[i]);
+        CHECK(run("synth", "street", "-o", path_in(cap), "--seed", seeds[i], NULL) == 0);
+        CHECK(run("probe", path_in(cap), "-o", path_in(dir), "-q", NULL) == 0);
+        sp_probe_dir d;
+        int ret = sp_probe_dir_load(path_in(dir), &d);
+        CHECK_MSG(ret == 0, "loading the probe directory of seed %s: %s", seeds[i], sp_strerror(ret));
+        if (ret)
+            continue;
+        cap[strlen(cap) - strlen(".spcap")] = '\0';
+        check_occlusion(&d, cap);
+        sp_probe_dir_free(&d);
+    }
 }
 
 static void test_overcast(void)
@@ -462,7 +489,7 @@ static void cleanup(void)
 int main(int argc, char **argv)
 {
     if (argc != 3) {
-        fprintf(stderr, "usage: test_probe SUNPROBE sunny|overcast|bad|vtest\n");
+        fprintf(stderr, "usage: test_probe SUNPROBE sunny|seeds|overcast|bad|vtest\n");
         return 99;
     }
     sunprobe = argv[1];
@@ -473,6 +500,8 @@ int main(int argc, char **argv)
         return 99;
     if (!strcmp(argv[2], "sunny"))
         test_sunny();
+    else if (!strcmp(argv[2], "seeds"))
+        test_seeds();
     else if (!strcmp(argv[2], "overcast"))
         test_overcast();
     else if (!strcmp(argv[2], "bad"))
