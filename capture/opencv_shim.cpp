@@ -17,6 +17,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "opencv_guard.hpp"
 #include "sunprobe/sp_common.h"
 
 struct sp_cv_video_reader {
@@ -34,16 +35,8 @@ struct sp_cv_video_writer {
 
 namespace {
 
-/* OpenCV's own logging would print on our stderr; keep it to errors unless debugging. */
-void quiet_opencv()
-{
-    static bool done = false;
-    if (done)
-        return;
-    done = true;
-    cv::utils::logging::setLogLevel(sp_log_get_level() >= SP_LOG_DEBUG ? cv::utils::logging::LOG_LEVEL_INFO
-                                                                        : cv::utils::logging::LOG_LEVEL_SILENT);
-}
+using sp_cv::guarded;
+using sp_cv::quiet_opencv;
 
 int missing_or(const char *path, int otherwise)
 {
@@ -51,25 +44,6 @@ int missing_or(const char *path, int otherwise)
     if (stat(path, &st) != 0)
         return -errno;
     return S_ISDIR(st.st_mode) ? -EISDIR : otherwise;
-}
-
-/* The one place C++ exceptions become error codes. */
-template <typename F> int guarded(const char *what, F &&fn)
-{
-    try {
-        return fn();
-    } catch (const std::bad_alloc &) {
-        return -ENOMEM;
-    } catch (const cv::Exception &e) {
-        sp_log(SP_LOG_ERROR, "opencv", "%s: %s", what, e.what());
-        return -EIO;
-    } catch (const std::exception &e) {
-        sp_log(SP_LOG_ERROR, "opencv", "%s: %s", what, e.what());
-        return -EIO;
-    } catch (...) {
-        sp_log(SP_LOG_ERROR, "opencv", "%s: unknown exception", what);
-        return -EIO;
-    }
 }
 
 bool dst_fits(uint32_t w, uint32_t h, size_t dst_size, uint32_t dst_stride)

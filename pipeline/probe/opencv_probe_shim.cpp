@@ -12,6 +12,7 @@
 #include <opencv2/objdetect.hpp>
 #include <opencv2/video/background_segm.hpp>
 
+#include "capture/opencv_guard.hpp"
 #include "sunprobe/sp_common.h"
 
 struct sp_cv_hog {
@@ -27,30 +28,7 @@ struct sp_cv_mog2 {
 
 namespace {
 
-template <typename F> int guarded(const char *what, F &&fn)
-{
-    try {
-        return fn();
-    } catch (const std::bad_alloc &) {
-        return -ENOMEM;
-    } catch (const cv::Exception &e) {
-        sp_log(SP_LOG_ERROR, "opencv", "%s: %s", what, e.what());
-        return -EIO;
-    } catch (...) {
-        sp_log(SP_LOG_ERROR, "opencv", "%s: unknown exception", what);
-        return -EIO;
-    }
-}
-
-void quiet()
-{
-    static bool done = false;
-    if (!done) {
-        done = true;
-        cv::utils::logging::setLogLevel(sp_log_get_level() >= SP_LOG_DEBUG ? cv::utils::logging::LOG_LEVEL_INFO
-                                                                            : cv::utils::logging::LOG_LEVEL_SILENT);
-    }
-}
+using sp_cv::guarded;
 
 } // namespace
 
@@ -59,7 +37,7 @@ extern "C" int sp_cv_hog_open(sp_cv_hog **out)
     if (!out)
         return -EINVAL;
     *out = nullptr;
-    quiet();
+    sp_cv::quiet_opencv();
     sp_cv_hog *h = new (std::nothrow) sp_cv_hog;
     if (!h)
         return -ENOMEM;
@@ -110,7 +88,7 @@ extern "C" int sp_cv_mog2_open(sp_cv_mog2 **out, int history, double var_thresho
     if (!out || history < 1 || !(var_threshold > 0))
         return -EINVAL;
     *out = nullptr;
-    quiet();
+    sp_cv::quiet_opencv();
     sp_cv_mog2 *m = new (std::nothrow) sp_cv_mog2;
     if (!m)
         return -ENOMEM;
