@@ -31,18 +31,23 @@ enum sp_log_level sp_log_get_level(void)
     return (enum sp_log_level)log_level;
 }
 
-void sp_log(enum sp_log_level level, const char *module, const char *fmt, ...)
+void sp_logv(enum sp_log_level level, const char *module, const char *fmt, va_list ap)
 {
     static const char *const tags[] = { "error", "warning", "info", "debug" };
     if ((int)level > (int)sp_log_get_level())
         return;
     char line[1024];
-    va_list ap;
-    va_start(ap, fmt);
     vsnprintf(line, sizeof(line), fmt, ap);
-    va_end(ap);
     /* One fputs per message so lines from threads do not interleave. */
     char out[1200];
     snprintf(out, sizeof(out), "sunprobe: %s: %s: %s\n", module ? module : "-", tags[level], line);
     fputs(out, stderr);
+}
+
+void sp_log(enum sp_log_level level, const char *module, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    sp_logv(level, module, fmt, ap);
+    va_end(ap);
 }

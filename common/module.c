@@ -47,7 +47,7 @@ static void module_path(const sp_module *m, char *path, size_t size)
         snprintf(path, size, "%s/%s.so", SP_MODULE_INSTALL_DIR, m->name);
 }
 
-static const sp_module_host host = { SP_MODULE_ABI, sp_log, sp_log_get_level };
+static const sp_module_host host = { SP_MODULE_ABI, sp_logv, sp_log_get_level };
 
 /* dlopen + attach; NULL with the reason logged. */
 static void *load(const sp_module *m)

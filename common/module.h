@@ -21,7 +21,7 @@
 /* What the program hands a module when it is loaded: the module logs through the program's logger. */
 typedef struct sp_module_host {
     int abi; /* SP_MODULE_ABI */
-    void (*log)(enum sp_log_level level, const char *module, const char *fmt, ...) SP_PRINTF(3, 4);
+    void (*logv)(enum sp_log_level level, const char *module, const char *fmt, va_list ap) SP_PRINTF(3, 0);
     enum sp_log_level (*log_level)(void);
 } sp_module_host;
 

@@ -8,7 +8,6 @@
 
 #include <errno.h>
 #include <stdarg.h>
-#include <stdio.h>
 
 static const sp_module_host *host;
 
@@ -29,12 +28,10 @@ enum sp_log_level sp_log_get_level(void)
 
 void sp_log(enum sp_log_level level, const char *module, const char *fmt, ...)
 {
-    if (!host || (int)level > (int)host->log_level())
+    if (!host)
         return;
-    char line[1024];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(line, sizeof(line), fmt, ap);
+    host->logv(level, module, fmt, ap);
     va_end(ap);
-    host->log(level, module, "%s", line);
 }

@@ -53,6 +53,8 @@ enum sp_log_level {
 SP_API void sp_log_set_level(enum sp_log_level level);
 SP_API enum sp_log_level sp_log_get_level(void);
 SP_API void sp_log(enum sp_log_level level, const char *module, const char *fmt, ...) SP_PRINTF(3, 4);
+/* sp_log with the arguments as a va_list (for wrappers); ap is consumed. */
+SP_API void sp_logv(enum sp_log_level level, const char *module, const char *fmt, va_list ap) SP_PRINTF(3, 0);
 
 SP_API const char *sp_version(void);
 
