@@ -191,17 +191,22 @@ static void camera_backward(sp_renderer *r, const sp_render_scene *sc, const sha
 {
     render_geom *g = &r->geo;
     const double *R = sc->camera.R, *t = sc->camera.t;
+    double gt[3], gR[9]; /* local sums (the same additions in the same order): g_pd may alias gr's doubles */
+    memcpy(gt, gr->camera_t, sizeof(gt));
+    memcpy(gR, gr->camera_R, sizeof(gR));
     for (uint32_t v = 0; v < sc->mesh->n_vertices; v++) {
         const double *gx = g->g_xc + (size_t)v * 3, *pd = g->pd + (size_t)v * 3;
         double tmp[3];
         m3_tmul(R, gx, tmp);
         v3_axpy(1.0, tmp, g->g_pd + (size_t)v * 3);
         for (int i = 0; i < 3; i++) {
-            gr->camera_t[i] += gx[i];
+            gt[i] += gx[i];
             for (int k = 0; k < 3; k++)
-                gr->camera_R[i * 3 + k] += gx[i] * pd[k];
+                gR[i * 3 + k] += gx[i] * pd[k];
         }
     }
+    memcpy(gr->camera_t, gt, sizeof(gt));
+    memcpy(gr->camera_R, gR, sizeof(gR));
     /* eye = -R^T t */
     double rg[3];
     m3_mul(R, acc->g_eye, rg);

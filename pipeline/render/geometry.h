@@ -26,6 +26,19 @@ typedef struct render_geom {
     double *md, *nd; /* displaced normal sums and unit normals */
     double *xc;  /* displaced positions in camera space */
     double *tri_k; /* 9 per triangle: camera-space B x C, C x A, A x B of drawn triangles (raster.h) */
+    double *xs;    /* 2 per vertex: the rasteriser's scratch (sample-grid projections) */
+    double *col_dx; /* 1 per sample column and row: the rasteriser's scratch (ray x and y) */
+    int cap_cols;
+    double *im0, *imd; /* 1 / |m0|, 1 / |md| per vertex (0 where the sum is tiny): the backward needs no sqrt */
+    /*
+     * Copy of the last mesh's positions and indices: when a frame's are equal
+     * (fitting usually moves only the displacement, camera and lighting), the
+     * UV-copy lists, p0, m0, n0 and im0 are kept instead of rebuilt.
+     */
+    float *key_pos;
+    uint32_t *key_tv, *key_tuv;
+    uint32_t key_nv, key_nt;
+    int key_valid;
     /* adjoint accumulators, same layout */
     double *g_pd, *g_nd, *g_xc, *g_n0, *g_h;
     double *g_m; /* scratch: adjoint of a normal sum */
@@ -33,6 +46,8 @@ typedef struct render_geom {
 
 /* Grows the buffers to hold the mesh; 0 or -ENOMEM (buffers then freed, capacity 0). */
 int geom_reserve(render_geom *g, uint32_t n_vertices, uint32_t n_triangles);
+/* Grows col_dx to n doubles (sample columns + rows); 0 or -ENOMEM. geom_reserve may free it: call after. */
+int geom_reserve_raster(render_geom *g, int n);
 void geom_free(render_geom *g);
 
 /* Displacement (disp->data may be NULL), normals, then camera space with R, t. */

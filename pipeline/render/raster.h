@@ -48,9 +48,12 @@ static inline double raster_weights(const double k[9], const double d[3], double
  * Rasterises mesh triangles whose camera-space vertices are xc (3 per vertex)
  * into per-sample triangle ids (-1 empty), depths (zbuf, FLT_MAX empty) and
  * barycentrics (3 per sample); the nearest hit wins. tri_k (9 doubles per
- * triangle) receives B x C, C x A, A x B of every triangle that was drawn.
+ * triangle) receives B x C, C x A, A x B of every triangle that may own a
+ * sample (entries of the others are left as they were). Scratch: xs, 2
+ * doubles per vertex (the vertices' sample-grid projections), col_dx, one
+ * per sample column and one per sample row (the rays' x and y).
  */
 void raster_camera_draw(const raster_camera *c, const double *xc, const sp_mesh *mesh, int32_t *tri_id,
-                        float *zbuf, float *bary, double *tri_k);
+                        float *zbuf, float *bary, double *tri_k, double *xs, double *col_dx);
 
 #endif

@@ -146,6 +146,8 @@ int sp_renderer_open(sp_renderer **out, const sp_renderer_settings *s)
     if (!err)
         err = geom_reserve(&r->geo, s->max_vertices, s->max_triangles);
     if (!err)
+        err = geom_reserve_raster(&r->geo, r->sw + r->sh);
+    if (!err)
         err = shadow_map_reserve(&r->sm, s->max_vertices);
     if (err) {
         sp_renderer_close(&r);
@@ -243,6 +245,8 @@ static int ensure_capacity(sp_renderer *r, const sp_mesh *mesh)
         sp_log(SP_LOG_DEBUG, MODULE, "growing mesh buffers to %u vertices, %u triangles", mesh->n_vertices,
                mesh->n_triangles);
     int err = geom_reserve(&r->geo, mesh->n_vertices, mesh->n_triangles);
+    if (!err)
+        err = geom_reserve_raster(&r->geo, r->sw + r->sh);
     if (!err)
         err = shadow_map_reserve(&r->sm, mesh->n_vertices);
     if (err)
@@ -468,7 +472,8 @@ int render_begin(sp_renderer *r, const sp_render_scene *sc, int need_backward, i
     }
     geom_forward(&r->geo, sc->mesh, &sc->displacement, sc->camera.R, sc->camera.t);
     setup_frame(r, sc, *n_sun);
-    raster_camera_draw(&r->cam, r->geo.xc, sc->mesh, r->tri_id, r->depth, r->bary, r->geo.tri_k);
+    raster_camera_draw(&r->cam, r->geo.xc, sc->mesh, r->tri_id, r->depth, r->bary, r->geo.tri_k, r->geo.xs,
+                       r->geo.col_dx);
     return 0;
 }
 

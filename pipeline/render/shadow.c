@@ -114,45 +114,106 @@ static inline void edge_span(double A, double ia, double r, double *lo, double *
         *hi = -1.0; /* parallel edge, row outside */
 }
 
+/* A triangle in map space after setup: flipped edge functions, their 1 / A, the depth plane. */
+typedef struct shadow_tri {
+    double e[3][3], ia[3];
+    double zx, zy, z0;
+    int box[4]; /* texel x0, x1, y0, y1 */
+} shadow_tri;
+
+/* Keeps the minimum of the depth plane over texels x0..x1 of one row. */
+static inline void fill_span(float *row, int x0, int x1, double zx, double zr)
+{
+    double px = (double)x0; /* (double)x by exact increments: no int -> double conversion in the chain */
+    for (int x = x0; x <= x1; x++, px += 1.0) {
+        float z = (float)(zx * px + zr);
+        if (z < row[x])
+            row[x] = z;
+    }
+}
+
+/* Rows with edge_span per edge: any triangle (flat edges included). */
+static void fill_rows_generic(shadow_map *m, const shadow_tri *t)
+{
+    int n = m->n;
+    for (int y = t->box[2]; y <= t->box[3]; y++) {
+        double py = (double)y, lo = (double)t->box[0], hi = (double)t->box[1];
+        for (int k = 0; k < 3; k++)
+            edge_span(t->e[k][0], t->ia[k], t->e[k][1] * py + t->e[k][2], &lo, &hi);
+        if (!(lo <= hi))
+            continue;
+        fill_span(m->depth + (size_t)y * (size_t)n, iceil(lo), ifloor(hi), t->zx, t->zy * py + t->z0);
+    }
+}
+
+/*
+ * Rows of a triangle without flat edges (|A| > 1e-290, so every crossing is
+ * finite): one edge bounds the span below (A > 0), one above (A < 0), and the
+ * third edge m either; its role is a bias of 0 or -+infinity instead of a
+ * branch per row and edge (the signs change from triangle to triangle and
+ * mispredict). Same crossings and same max / min as edge_span, so the same texels.
+ */
+static void fill_rows_sorted(shadow_map *m, const shadow_tri *t)
+{
+    int a = -1, b = -1, mid = -1, n = m->n;
+    for (int k = 0; k < 3; k++) {
+        if (t->e[k][0] > 0.0 && a < 0)
+            a = k;
+        else if (t->e[k][0] < 0.0 && b < 0)
+            b = k;
+        else
+            mid = k;
+    }
+    if (a < 0 || b < 0) { /* a degenerate orientation after all: keep the general form */
+        fill_rows_generic(m, t);
+        return;
+    }
+    double blo = t->e[mid][0] > 0.0 ? 0.0 : -HUGE_VAL, bhi = t->e[mid][0] > 0.0 ? HUGE_VAL : 0.0;
+    double py = (double)t->box[2];
+    for (int y = t->box[2]; y <= t->box[3]; y++, py += 1.0) {
+        double xa = -(t->e[a][1] * py + t->e[a][2]) * t->ia[a];
+        double xb = -(t->e[b][1] * py + t->e[b][2]) * t->ia[b];
+        double xm = -(t->e[mid][1] * py + t->e[mid][2]) * t->ia[mid];
+        double lo = dmax(dmax((double)t->box[0], xa), xm + blo);
+        double hi = dmin(dmin((double)t->box[1], xb), xm + bhi);
+        if (!(lo <= hi))
+            continue;
+        fill_span(m->depth + (size_t)y * (size_t)n, iceil(lo), ifloor(hi), t->zx, t->zy * py + t->z0);
+    }
+}
+
 /* Orthographic triangle fill at texel centres, keeping the minimum depth (affine in x, y); row spans. */
 static void fill_tri(shadow_map *m, const double *a, const double *b, const double *c)
 {
-    double e[3][3];
-    edge_coef(b, c, e[0]);
-    edge_coef(c, a, e[1]);
-    edge_coef(a, b, e[2]);
-    double area = e[0][0] * a[0] + e[0][1] * a[1] + e[0][2]; /* e0 at a: twice the signed area */
+    shadow_tri t;
+    int n = m->n;
+    int_range(dmin(a[0], dmin(b[0], c[0])), dmax(a[0], dmax(b[0], c[0])), n, &t.box[0], &t.box[1]);
+    int_range(dmin(a[1], dmin(b[1], c[1])), dmax(a[1], dmax(b[1], c[1])), n, &t.box[2], &t.box[3]);
+    if (t.box[0] > t.box[1] || t.box[2] > t.box[3]) /* outside the map or between texel centres */
+        return;
+    edge_coef(b, c, t.e[0]);
+    edge_coef(c, a, t.e[1]);
+    edge_coef(a, b, t.e[2]);
+    double area = t.e[0][0] * a[0] + t.e[0][1] * a[1] + t.e[0][2]; /* e0 at a: twice the signed area */
     if (!(area > 1e-12 || area < -1e-12))
         return;
-    double sg = area > 0.0 ? 1.0 : -1.0, inv = 1.0 / area, ia[3];
+    double sg = area > 0.0 ? 1.0 : -1.0, inv = 1.0 / area;
+    int flat = 0;
     for (int k = 0; k < 3; k++) {
         for (int j = 0; j < 3; j++)
-            e[k][j] *= sg; /* exact: covered texels now have e >= 0 */
-        ia[k] = e[k][0] != 0.0 ? 1.0 / e[k][0] : 0.0;
+            t.e[k][j] *= sg; /* exact: covered texels now have e >= 0 */
+        t.ia[k] = t.e[k][0] != 0.0 ? 1.0 / t.e[k][0] : 0.0;
+        flat |= !(fabs(t.e[k][0]) > 1e-290);
     }
     inv *= sg;
     /* depth plane z = zx x + zy y + z0 from the barycentric form */
-    double zx = (e[0][0] * a[2] + e[1][0] * b[2] + e[2][0] * c[2]) * inv;
-    double zy = (e[0][1] * a[2] + e[1][1] * b[2] + e[2][1] * c[2]) * inv;
-    double z0 = (e[0][2] * a[2] + e[1][2] * b[2] + e[2][2] * c[2]) * inv;
-    int n = m->n, ix0, ix1, iy0, iy1;
-    int_range(dmin(a[0], dmin(b[0], c[0])), dmax(a[0], dmax(b[0], c[0])), n, &ix0, &ix1);
-    int_range(dmin(a[1], dmin(b[1], c[1])), dmax(a[1], dmax(b[1], c[1])), n, &iy0, &iy1);
-    for (int y = iy0; y <= iy1; y++) {
-        double py = (double)y, lo = (double)ix0, hi = (double)ix1;
-        for (int k = 0; k < 3; k++)
-            edge_span(e[k][0], ia[k], e[k][1] * py + e[k][2], &lo, &hi);
-        if (!(lo <= hi))
-            continue;
-        int x0 = iceil(lo), x1 = ifloor(hi);
-        float *row = m->depth + (size_t)y * (size_t)n;
-        double zr = zy * py + z0;
-        for (int x = x0; x <= x1; x++) {
-            float z = (float)(zx * (double)x + zr);
-            if (z < row[x])
-                row[x] = z;
-        }
-    }
+    t.zx = (t.e[0][0] * a[2] + t.e[1][0] * b[2] + t.e[2][0] * c[2]) * inv;
+    t.zy = (t.e[0][1] * a[2] + t.e[1][1] * b[2] + t.e[2][1] * c[2]) * inv;
+    t.z0 = (t.e[0][2] * a[2] + t.e[1][2] * b[2] + t.e[2][2] * c[2]) * inv;
+    if (flat)
+        fill_rows_generic(m, &t);
+    else
+        fill_rows_sorted(m, &t);
 }
 
 void shadow_map_render(shadow_map *m, const double *pts, const sp_mesh *mesh)
