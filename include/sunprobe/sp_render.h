@@ -57,11 +57,14 @@ typedef struct sp_renderer_settings {
      */
     unsigned skip_outputs;
     /*
-     * 1: sp_render_fit_l2 shades (sun, lobe, soft shadow, SH ambient) and
-     * differentiates that shading in float structure-of-arrays kernels
-     * (faster; loss and gradients then agree with the classic double path to
-     * ~1e-5 and ~1e-4 relative instead of bit for bit). Default 0. sp_render
-     * and sp_render_backward are unaffected.
+     * 1: sp_render_fit_l2 reconstructs the surface, shades (sun, lobe, soft
+     * shadow, SH ambient), tone-maps (supersample 1) and differentiates all
+     * of it in float structure-of-arrays kernels (faster; loss and gradients
+     * then agree with the classic double path to ~1e-5 and ~1e-4 relative
+     * instead of bit for bit). Such a call keeps no state for
+     * sp_render_backward, which then returns -EINVAL until the next
+     * sp_render; it writes image and radiance only when `out` is non-NULL.
+     * Default 0. sp_render and sp_render_backward are unaffected.
      */
     int fit_float;
 } sp_renderer_settings;
@@ -254,7 +257,7 @@ SP_API int sp_render_l2_loss(const float *image, const float *target, const floa
  * computes only the loss. out (may be NULL) receives image, radiance,
  * coverage and the per-sample buffers; diffuse, specular, ambient, fill,
  * visibility, normal and albedo are NULL. sp_render_backward may follow it
- * (e.g. for a second loss). Returns 0, -EINVAL (bad arguments or scene),
+ * (e.g. for a second loss), except with settings.fit_float (see there). Returns 0, -EINVAL (bad arguments or scene),
  * -ENOMEM, or SP_EUNSUPPORTED for an area sun or fill lights (nothing done).
  */
 SP_API int sp_render_fit_l2(sp_renderer *r, const sp_render_scene *scene, const float *target, const float *mask,

@@ -7,7 +7,9 @@
  * with sp_render + sp_render_l2_loss + sp_render_backward it saves the second
  * surface reconstruction and SH evaluation per sample, the decomposition
  * buffers and two full-image sweeps. The arithmetic and its order match the
- * classic path, so the loss is bit-identical.
+ * classic path, so the loss is bit-identical. settings.fit_float runs the
+ * same sweep on batches of samples through the float SoA kernels
+ * (surf_simd.h, shade_simd.h; RENDERER.md "Fourth pass").
  */
 #include "sunprobe/sp_render.h"
 
@@ -19,6 +21,7 @@
 #include "pipeline/render/adjoint.h"
 #include "pipeline/render/render_internal.h"
 #include "pipeline/render/shade_simd.h"
+#include "pipeline/render/surf_simd.h"
 #include "pipeline/render/tonemap.h"
 #include "pipeline/render/vec3.h"
 
@@ -36,6 +39,10 @@ typedef struct fused_state {
     int want_grads;
     simd_frame sf;         /* fit_float: the frame constants in float */
     simd_acc sacc;         /* and the kernels' frame sums */
+    surf_frame sfr;        /* fit_float: the surface / resolve kernels' constants */
+    resolve_acc racc;      /* and the S = 1 resolve's frame sums */
+    surf_acc surfacc;      /* and the surface adjoint's (the pose sums go to grads after the finish) */
+    double bg_md[3];       /* fit_float: sum over uncovered pixels of m (display - target) */
 } fused_state;
 
 /* Shades the S x S samples of pixel (px, py) into r->recs; returns how many; adds them to rad and coverage. */
@@ -166,40 +173,16 @@ static void fused_sweep(sp_renderer *r, const sp_render_scene *sc, fused_state *
 }
 
 /*
- * fit_float path: the sample's kernel inputs into lane i of batch b. Until
- * the forward kernel ran, rec->shadow.dVdp holds dz/dp (shadow_eval_z).
+ * fit_float: gathers the covered samples of pixels px0, px0 + 1, ... of row
+ * py into the batch until the next pixel would overflow it (S^2 <=
+ * SIMD_BATCH, so at least one pixel); returns the end pixel; sets b->n. At
+ * most SIMD_BATCH pixels; r->row_first[i] is pixel px0 + i's first lane.
  */
-static void load_sample(const shade_ctx *ctx, shade_rec *rec, simd_batch *b, int i)
-{
-    double z = -1e30;
-    v3_zero(rec->shadow.dVdp);
-    rec->shadow.texel = -1;
-    if (ctx->sm)
-        shadow_eval_z(ctx->sm, ctx->shadow_k, ctx->shadow_b, rec->p, &z, rec->shadow.dVdp, &rec->shadow.texel);
-    z = z < -1e30 ? -1e30 : (z > 1e30 ? 1e30 : z); /* NaN stays NaN: the kernel's clamps map it to a bound */
-    b->nx[i] = (float)rec->n[0], b->ny[i] = (float)rec->n[1], b->nz[i] = (float)rec->n[2];
-    b->vx[i] = (float)rec->v[0], b->vy[i] = (float)rec->v[1], b->vz[i] = (float)rec->v[2];
-    for (int c = 0; c < 3; c++)
-        b->a[c][i] = (float)rec->a[c];
-    int cl = rec->cluster;
-    b->ks[i] = cl >= 0 ? (float)ctx->ks[cl] : 0.0f;
-    b->s[i] = cl >= 0 ? (float)ctx->s[cl] : 1.0f;
-    b->z[i] = (float)z;
-}
-
-/*
- * fit_float: reconstructs the covered samples of pixels px0, px0 + 1, ... of
- * row py into r->recs and the batch until the next pixel would overflow it
- * (S^2 <= SIMD_BATCH, so at least one pixel); returns the end pixel and the
- * sample count in *n_out; at most SIMD_BATCH pixels. r->row_first[i] is
- * pixel px0 + i's first record.
- */
-static int gather_chunk(sp_renderer *r, int py, int px0, int *n_out)
+static int gather_chunk(sp_renderer *r, int py, int px0, simd_batch *b)
 {
     const shade_ctx *ctx = &r->ctx;
     int S = r->set.supersample, n = 0, px = px0;
-    double w = 1.0 / (double)(S * S);
-    /* at most SIMD_BATCH pixels (row_first's size), covered or not */
+    float w = 1.0f / (float)(S * S);
     for (; px < r->set.width && px - px0 < SIMD_BATCH && (n == 0 || n + S * S <= SIMD_BATCH); px++) {
         size_t p = (size_t)py * (size_t)r->set.width + (size_t)px;
         r->row_first[px - px0] = n;
@@ -209,111 +192,196 @@ static int gather_chunk(sp_renderer *r, int py, int px0, int *n_out)
                 int sx = px * S + k, sy = py * S + j;
                 size_t s = (size_t)sy * (size_t)r->sw + (size_t)sx;
                 r->shadow_texel[s] = -1;
-                if (r->tri_id[s] < 0 || !shade_geometry(ctx, sx, sy, r->tri_id[s], r->recs + n)) {
+                if (r->tri_id[s] < 0 || !surf_gather(ctx, sx, sy, r->tri_id[s], b, n)) {
                     r->tri_id[s] = -1; /* negative already, or a degenerate hit: uncovered, as sp_render */
                     r->depth[s] = 0.0f;
                     continue;
                 }
-                load_sample(ctx, r->recs + n, r->batches, n);
-                r->shadow_texel[s] = r->recs[n].shadow.texel;
-                r->coverage[p] += (float)w;
+                b->surf.pix[n] = (int32_t)p;
+                b->surf.samp[n] = (int32_t)s;
+                r->coverage[p] += w;
                 n++;
             }
     }
     r->row_first[px - px0] = n;
-    *n_out = n;
+    b->n = n;
     return px;
 }
 
-/* Sample k's radiance into rad (weight w); finishes dV/dp and the sun cache the classic adjoint may replay. */
-static void take_sample(sp_renderer *r, int k, double w, double rad[3])
+/* fit_float: an uncovered pixel's loss terms (they depend only on target and mask) into acc (loss, then the
+ * three sums of m (display - target) for the exposure gradient at the end); outputs if asked. */
+static inline void background_pixel_f(sp_renderer *r, const fused_state *st, size_t p, int want_out, double acc[4])
 {
-    const simd_batch *b = r->batches + k / SIMD_BATCH;
-    int i = k % SIMD_BATCH;
-    shade_rec *rec = r->recs + k;
-    for (int c = 0; c < 3; c++)
-        rad[c] += w * (double)b->rad[c][i];
-    sun_cache *sc = r->sun_cache + (size_t)rec->sy * (size_t)r->sw + (size_t)rec->sx;
-    sc->V = b->V[i];
-    for (int d = 0; d < 3; d++) {
-        rec->shadow.dVdp[d] *= (double)b->dVdz[i];
-        sc->dVdp[d] = to_float(rec->shadow.dVdp[d]);
+    double m = st->mask ? (double)st->mask[p] : 1.0;
+    const float *t = st->target + p * 3;
+    for (int c = 0; c < 3; c++) {
+        double d = (double)st->bg_img_f[c] - (double)t[c], md = m * d;
+        acc[0] += md * d;
+        acc[1 + c] += md;
     }
-    sc->P = b->P[i];
-    sc->log_nh = b->P[i] > 0.0f ? b->lnh[i] : 0.0f;
+    if (want_out)
+        for (int c = 0; c < 3; c++) {
+            r->radiance[p * 3 + (size_t)c] = st->bg_rad_f[c];
+            r->image[p * 3 + (size_t)c] = st->bg_img_f[c];
+        }
 }
 
-/* fit_float: resolves pixels [px0, px1) of row py, their loss and dL/d(sample radiance) into the batch's gc. */
-static void resolve_chunk(sp_renderer *r, const sp_render_scene *sc, fused_state *st, int py, int px0, int px1)
+static void background_add(fused_state *st, const double acc[4])
 {
-    double w = st->inv_s2;
+    st->loss_sum += acc[0];
+    for (int c = 0; c < 3; c++)
+        st->bg_md[c] += acc[1 + c];
+}
+
+/* fit_float, S = 1 (sample = pixel): gather_chunk without the pixel bookkeeping; uncovered pixels' loss terms inline. */
+static int gather_chunk_s1(sp_renderer *r, fused_state *st, int py, int px, simd_batch *b, int want_out)
+{
+    const shade_ctx *ctx = &r->ctx;
+    int n = 0, W = r->set.width;
+    double acc[4] = {0.0, 0.0, 0.0, 0.0};
+    for (; px < W && n < SIMD_BATCH; px++) {
+        size_t p = (size_t)py * (size_t)W + (size_t)px;
+        r->shadow_texel[p] = -1;
+        if (r->tri_id[p] >= 0 && surf_gather(ctx, px, py, r->tri_id[p], b, n)) {
+            b->surf.pix[n] = b->surf.samp[n] = (int32_t)p;
+            n++;
+            r->coverage[p] = 1.0f;
+            continue;
+        }
+        r->tri_id[p] = -1; /* negative already, or a degenerate hit: uncovered, as sp_render */
+        r->depth[p] = 0.0f;
+        r->coverage[p] = 0.0f;
+        background_pixel_f(r, st, p, want_out, acc);
+    }
+    background_add(st, acc);
+    b->n = n;
+    return px;
+}
+
+/* fit_float, S = 1: every lane is one fully covered pixel; float tone map, loss and gc in surf_resolve_l2. */
+static void resolve_chunk_s1(sp_renderer *r, fused_state *st, simd_batch *b, int want_out)
+{
+    surf_batch *s = &b->surf;
+    for (int i = 0; i < b->n; i++) {
+        size_t p = (size_t)s->pix[i];
+        const float *t = st->target + p * 3;
+        s->tgt[0][i] = t[0], s->tgt[1][i] = t[1], s->tgt[2][i] = t[2];
+        s->msk[i] = st->mask ? st->mask[p] : 1.0f;
+    }
+    surf_resolve_l2(&st->sfr, b, &st->racc);
+    if (!want_out)
+        return;
+    for (int i = 0; i < b->n; i++)
+        for (int c = 0; c < 3; c++) {
+            size_t q = (size_t)s->pix[i] * 3 + (size_t)c;
+            r->image[q] = s->img[c][i];
+            r->radiance[q] = b->rad[c][i];
+        }
+}
+
+/* fit_float, S > 1: pixels [px0, px1) of row py resolved in double (resolve_pixel without the double twins). */
+static void resolve_chunk(sp_renderer *r, const sp_render_scene *sc, fused_state *st, simd_batch *b, int py,
+                          int px0, int px1, int want_out)
+{
     for (int px = px0; px < px1; px++) {
         size_t p = (size_t)py * (size_t)r->set.width + (size_t)px;
         int k0 = r->row_first[px - px0], k1 = r->row_first[px - px0 + 1];
         if (k0 == k1) {
-            background_pixel(r, st, p);
+            double acc[4] = {0.0, 0.0, 0.0, 0.0};
+            background_pixel_f(r, st, p, want_out, acc);
+            background_add(st, acc);
             continue;
         }
         double rad[3] = {0.0, 0.0, 0.0}, gc[3] = {0.0, 0.0, 0.0}, tm_d[3];
+        double bgw = 1.0 - (double)r->coverage[p], m = st->mask ? (double)st->mask[p] : 1.0;
         float dl[3];
-        for (int k = k0; k < k1; k++)
-            take_sample(r, k, w, rad);
-        resolve_pixel(r, sc, st, p, rad, dl, tm_d);
+        for (int c = 0; c < 3; c++) {
+            for (int k = k0; k < k1; k++)
+                rad[c] += st->inv_s2 * (double)b->rad[c][k];
+            rad[c] += bgw * sc->background[c];
+            float img = to_float(tonemap_eval(sc->exposure * rad[c], &tm_d[c]));
+            double d = (double)img - (double)st->target[p * 3 + (size_t)c];
+            st->loss_sum += m * d * d;
+            dl[c] = to_float(2.0 * m * d / st->norm);
+            if (want_out) {
+                r->image[p * 3 + (size_t)c] = img;
+                r->radiance[p * 3 + (size_t)c] = to_float(rad[c]);
+            }
+        }
         if (st->want_grads && !pixel_grad(sc, st, dl, rad, tm_d, gc, &st->g_exposure))
             gc[0] = gc[1] = gc[2] = 0.0;
         for (int k = k0; k < k1; k++)
             for (int c = 0; c < 3; c++)
-                r->batches[k / SIMD_BATCH].gc[c][k % SIMD_BATCH] = to_float(gc[c]);
+                b->gc[c][k] = (float)gc[c];
     }
 }
 
-/* fit_float: the kernel's per-sample adjoints through the surface, in double. */
-static void scatter_chunk(sp_renderer *r, fused_state *st, int n)
+static void surf_frame_setup(const sp_renderer *r, const sp_render_scene *sc, fused_state *st)
 {
-    for (int k = 0; k < n; k++) {
-        const simd_batch *b = r->batches + k / SIMD_BATCH;
-        int i = k % SIMD_BATCH;
-        if (b->gc[0][i] == 0.0f && b->gc[1][i] == 0.0f && b->gc[2][i] == 0.0f)
-            continue;
-        const shade_rec *rec = r->recs + k;
-        sample_grad sg;
-        for (int d = 0; d < 3; d++) {
-            sg.a[d] = (double)b->ga[d][i];
-            sg.n[d] = (double)b->gn[d][i];
-            sg.v[d] = (double)b->gv[d][i];
-            sg.p[d] = (double)b->gV[i] * rec->shadow.dVdp[d];
-        }
-        int cl = rec->cluster;
-        if (cl >= 0) {
-            st->acc.g_ks[cl] += (double)b->gks[i];
-            if (!st->ctx.s_clamped[cl])
-                st->acc.g_s[cl] += (double)b->gs[i];
-        }
-        shade_backward_surface(&st->ctx, rec, &sg, &st->acc);
-    }
+    surf_frame *f = &st->sfr;
+    f->tex_w = sc->albedo.width;
+    f->tex_h = sc->albedo.height;
+    f->inv_fx = r->cam.inv_fx;
+    f->inv_fy = r->cam.inv_fy;
+    for (int k = 0; k < 9; k++)
+        f->R[k] = (float)sc->camera.R[k];
+    for (int k = 0; k < 3; k++)
+        f->eye[k] = (float)r->ctx.eye[k];
+    f->exposure = (float)sc->exposure;
+    f->toe_slope = (float)pow(TONEMAP_TOE, 1.0 / TONEMAP_GAMMA - 1.0);
+    f->two_over_norm = (float)(2.0 / st->norm);
 }
 
-static void fused_sweep_float(sp_renderer *r, const sp_render_scene *sc, fused_state *st)
+/*
+ * fit_float: chunks of a row, each one batch: gather (scalar), surface and
+ * shading kernels, resolve + loss, adjoint kernels, scatter (scalar). Writes
+ * image and radiance only when the caller asked for outputs; never the
+ * double twins or the sun cache (sp_render_backward is refused after it).
+ */
+static void fused_sweep_float(sp_renderer *r, const sp_render_scene *sc, fused_state *st, int want_out)
 {
     simd_batch *b = r->batches;
+    int s1 = r->set.supersample == 1;
+    surf_acc *sacc = &st->surfacc;
     simd_frame_init(&st->sf, r->ctx.sun_l, r->ctx.sun_I, &r->ctx.sh);
+    surf_frame_setup(r, sc, st);
     for (int py = 0; py < r->set.height; py++)
         for (int px0 = 0, px1; px0 < r->set.width; px0 = px1) {
-            px1 = gather_chunk(r, py, px0, &b->n);
+            px1 = s1 ? gather_chunk_s1(r, st, py, px0, b, want_out) : gather_chunk(r, py, px0, b);
+            if (b->n == 0) {
+                if (!s1)
+                    resolve_chunk(r, sc, st, b, py, px0, px1, want_out);
+                continue;
+            }
             simd_batch_pad(b);
+            surf_batch_pad(&b->surf, b->n);
+            surf_forward_a(&st->sfr, b);
+            surf_shadow(&r->ctx, st->sf.l, b, r->shadow_texel);
+            surf_gather_texels(b, sc->albedo.data);
+            surf_forward_b(b);
             simd_shade_forward(&st->sf, b);
-            resolve_chunk(r, sc, st, py, px0, px1);
+            if (s1)
+                resolve_chunk_s1(r, st, b, want_out);
+            else
+                resolve_chunk(r, sc, st, b, py, px0, px1, want_out);
             if (!st->want_grads)
                 continue;
             simd_shade_backward(&st->sf, b, &st->sacc);
-            scatter_chunk(r, st, b->n);
+            surf_backward(&st->sfr, b, sacc);
+            surf_scatter(&st->ctx, b, &st->acc);
         }
     for (int c = 0; c < 3; c++) {
         st->acc.g_l[c] += st->sacc.gl[c];
+        st->acc.g_eye[c] += sacc->g_eye[c];
         for (int j = 0; j < ENV_SH_N; j++)
             st->acc.gY[c][j] += st->sacc.gY[c][j];
+        /* uncovered pixels: sum_p to_float(2 m d / norm) ~ 2 / norm sum_p m d */
+        st->g_exposure += 2.0 / st->norm * st->bg_md[c] * st->bg_deriv[c] * st->bg_rad[c];
     }
     st->acc.g_I += st->sacc.gI;
+    st->acc.g_fx += sacc->g_fx, st->acc.g_fy += sacc->g_fy, st->acc.g_cx += sacc->g_cx, st->acc.g_cy += sacc->g_cy;
+    st->loss_sum += st->racc.loss;
+    st->g_exposure += st->racc.g_exposure;
 }
 
 static int fit_args_ok(const sp_renderer *r, const sp_render_scene *sc, const float *target, const double *loss)
@@ -352,14 +420,22 @@ int sp_render_fit_l2(sp_renderer *r, const sp_render_scene *sc, const float *tar
     if (grads)
         render_backward_begin(r, sc, grads, &st.ctx, &st.acc);
     if (r->set.fit_float)
-        fused_sweep_float(r, sc, &st);
+        fused_sweep_float(r, sc, &st, out != NULL);
     else
         fused_sweep(r, sc, &st);
     if (grads)
         render_backward_finish(r, sc, &st.ctx, &st.acc, st.g_exposure, grads);
+    if (grads && r->set.fit_float) /* the camera-space vertex adjoints, folded into the kernels' pose sums */
+        for (int k = 0; k < 9; k++) {
+            grads->camera_R[k] += st.surfacc.g_R[k];
+            if (k < 3)
+                grads->camera_t[k] += st.surfacc.g_t[k];
+        }
     *loss = st.loss_sum / st.norm;
     if (out)
         render_fill_outputs(r, out);
     render_end(r, sc, n_sun);
+    if (r->set.fit_float)
+        r->have_render = 0; /* no double twins or sun cache: sp_render_backward needs an sp_render first */
     return 0;
 }

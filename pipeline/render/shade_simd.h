@@ -1,20 +1,18 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Float structure-of-arrays shading kernels (experimental, not used by the
- * renderer's entry points yet): the per-sample sun Lambert + normalised
+ * Float structure-of-arrays shading kernels (settings.fit_float): the per-sample sun Lambert + normalised
  * Blinn-Phong, the soft-shadow sigmoid and the SH ambient term, and their
  * adjoint, over a batch of up to SIMD_BATCH covered samples. Written with
  * GCC vector extensions (4 float lanes: SSE2 / NEON) and a scalar fallback;
  * no libm calls (polynomial exp2 / log2 with explicit exponent clamps).
- * Geometry (reconstruction, barycentric adjoint, texel / vertex scatter)
- * stays with the caller, in double. See RENDERER.md "Memory and speed".
+ * The surface reconstruction and its adjoint are in surf_simd.h; texel and
+ * vertex gathers / scatters stay with the caller. See RENDERER.md "Memory and speed".
  */
 #ifndef SUNPROBE_RENDER_SHADE_SIMD_H
 #define SUNPROBE_RENDER_SHADE_SIMD_H
 
 #include "pipeline/render/envlight.h"
-
-#define SIMD_BATCH 64 /* samples per batch; a multiple of the lane count */
+#include "pipeline/render/surf_simd.h" /* SIMD_BATCH, surf_batch */
 
 /* Frame constants in float. */
 typedef struct simd_frame {
@@ -47,6 +45,7 @@ typedef struct simd_batch {
     /* adjoint outputs per sample: w.r.t. albedo, normal, view direction, V, ks, s */
     float ga[3][SIMD_BATCH], gn[3][SIMD_BATCH], gv[3][SIMD_BATCH];
     float gV[SIMD_BATCH], gks[SIMD_BATCH], gs[SIMD_BATCH];
+    surf_batch surf;          /* fit_float's surface reconstruction and its adjoint (surf_simd.h) */
 } simd_batch;
 
 /* Frame-wide adjoint sums (double): sun direction, irradiance, SH (gY as env_irradiance_backward_L). */

@@ -211,7 +211,19 @@ static void check_equivalence(fixture *f)
     }
     CHECK(memcmp(cov_c, of.coverage, sizeof(cov_c)) == 0);
     CHECK(memcmp(tri_c, of.tri_id, ns * sizeof(int32_t)) == 0);
-    CHECK(memcmp(tex_c, of.shadow_texel, ns * sizeof(int32_t)) == 0);
+    if (f->fit_float) {
+        /* fit_float skips the shadow lookup (texel -1) where n.l <= 0: V multiplies nothing there */
+        size_t same = 0, skipped = 0;
+        for (size_t s = 0; s < ns; s++) {
+            same += of.shadow_texel[s] == tex_c[s] && tex_c[s] >= 0;
+            skipped += of.shadow_texel[s] == -1 && tex_c[s] >= 0;
+            CHECK(of.shadow_texel[s] == tex_c[s] || of.shadow_texel[s] == -1);
+        }
+        printf("fit_float: %zu shadow texels as classic, %zu skipped (facing away from the sun)\n", same, skipped);
+        CHECK(same > skipped / 4 && same > 0);
+    } else {
+        CHECK(memcmp(tex_c, of.shadow_texel, ns * sizeof(int32_t)) == 0);
+    }
     CHECK(!of.diffuse && !of.specular && !of.ambient && !of.fill && !of.visibility && !of.normal && !of.albedo);
     CHECK_MSG(grads_close(&gf, &gc, nv, f->fit_float ? 1e-3 : 1e-5), "fused gradients differ from the classic ones");
     /*
@@ -219,8 +231,13 @@ static void check_equivalence(fixture *f)
      * sp_render: identical (fit_float: the sun cache and radiance come from
      * the float kernels, so within the float tolerance)
      */
-    CHECK_EQ_INT(sp_render_backward(f->r, &f->sc, dl, &gb.g), 0);
-    CHECK_MSG(grads_close(&gb, &gc, nv, f->fit_float ? 1e-3 : 1e-12), "backward after the fused call differs");
+    if (f->fit_float) {
+        /* fit_float keeps no double twins or sun cache: refused until the next sp_render (RENDERER.md) */
+        CHECK_EQ_INT(sp_render_backward(f->r, &f->sc, dl, &gb.g), -EINVAL);
+    } else {
+        CHECK_EQ_INT(sp_render_backward(f->r, &f->sc, dl, &gb.g), 0);
+        CHECK_MSG(grads_close(&gb, &gc, nv, 1e-12), "backward after the fused call differs");
+    }
     /* loss only */
     CHECK_EQ_INT(sp_render_fit_l2(f->r, &f->sc, f->target, NULL, &loss_only, NULL, NULL), 0);
     double loss_nomask = -4.0;
@@ -246,6 +263,18 @@ static double fused_loss(fixture *f)
 {
     double L = 0.0, sum = 0.0, msum = 0.0;
     CHECK_EQ_INT(sp_render_fit_l2(f->r, &f->sc, f->target, f->mask, &L, NULL, NULL), 0);
+    if (f->fit_float) {
+        /*
+         * fit_float tone-maps in float and keeps no double image; its loss
+         * carries ~1e-7 relative rounding that does not vary smoothly, which
+         * central differences of small texel steps amplify to ~2e-3. So the
+         * float gradient is checked against differences of the double
+         * model's loss (sp_render's double image, below), and the fused loss
+         * against that loss (the 1e-6 check below).
+         */
+        sp_render_outputs o;
+        CHECK_EQ_INT(sp_render(f->r, &f->sc, &o), 0);
+    }
     const double *img = render_image_f64(f->r);
     for (size_t p = 0; p < (size_t)W * H; p++) {
         msum += (double)f->mask[p];

@@ -7,6 +7,13 @@
  * differences of the double forward within 1e-3 relative, the exp2 / log2
  * approximations, and extremes (s = 1e4, |z| = 1e6, n.l = 0, black and
  * 1e3 albedo, 1e5 sun and sky) without NaN or Inf.
+ * The surface kernels (surf_simd.c) against shade_geometry and
+ * shade_backward_surface on a head mesh: normal, view direction and albedo
+ * within 2e-5, clusters identical, every adjoint group (vertex positions,
+ * normals, camera pose, albedo texels, eye, intrinsics) within 3e-4
+ * of its scale; degenerate hits refused by both; cancelling vertex normals,
+ * UVs far outside the texture, grazing triangles and huge adjoints without
+ * NaN or Inf. The S = 1 float tone map and loss against tonemap_eval.
  */
 #include <math.h>
 #include <stdio.h>
@@ -14,9 +21,14 @@
 #include <string.h>
 
 #include "check.h"
+#include "pipeline/render/adjoint.h"
+#include "pipeline/render/geometry.h"
 #include "pipeline/render/shade_simd.h"
 #include "pipeline/render/shading.h"
 #include "pipeline/render/shadow.h"
+#include "pipeline/render/surf_simd.h"
+#include "pipeline/render/testmesh.h"
+#include "pipeline/render/vec3.h"
 
 typedef struct sample {
     double n[3], v[3], a[3], ks, s, z;
@@ -299,10 +311,283 @@ static void test_extremes(void)
     CHECK(b.V[0] < 1e-30f && b.V[4] == 1.0f); /* z = 1e6 fully shadowed, -1e6 fully lit */
 }
 
+/* A head mesh in the renderer's geometry buffers, seen by a 224 x 224 camera (no shadow map). */
+typedef struct surf_scene {
+    sp_mesh mesh;
+    render_geom geo;
+    raster_camera cam;
+    sp_render_scene sc;
+    shade_ctx ctx;
+    float albedo[16 * 12 * 3];
+    uint8_t clusters[3 * 3];
+} surf_scene;
+
+static void surf_scene_init(surf_scene *z)
+{
+    memset(z, 0, sizeof(*z));
+    double c[3] = {0, 0, 0}, eye[3] = {0.03, -0.45, 0.02}, up[3] = {0, 0, 1};
+    CHECK(testmesh_head(&z->mesh, 14, 20, c, 0.08, 0.095, 0.11, 0.25) == 0);
+    CHECK(geom_reserve(&z->geo, z->mesh.n_vertices, z->mesh.n_triangles) == 0);
+    sp_render_scene *sc = &z->sc;
+    sp_render_scene_defaults(sc);
+    testmesh_look_at(&sc->camera, eye, c, up);
+    for (int i = 0; i < 16 * 12 * 3; i++)
+        z->albedo[i] = (float)urand(0.1, 0.9);
+    for (int i = 0; i < 9; i++)
+        z->clusters[i] = (uint8_t)(i == 4 ? 255 : i % 3);
+    sc->mesh = &z->mesh;
+    sc->albedo = (sp_render_texture){16, 12, z->albedo};
+    sc->clusters = (sp_render_cluster_map){3, 3, z->clusters};
+    geom_forward(&z->geo, &z->mesh, &sc->displacement, sc->camera.R, sc->camera.t);
+    for (uint32_t t = 0; t < z->mesh.n_triangles; t++) { /* B x C, C x A, A x B as the rasteriser caches them */
+        const double *X[3];
+        for (int v = 0; v < 3; v++)
+            X[v] = z->geo.xc + (size_t)z->mesh.tri_vertices[t * 3 + (uint32_t)v] * 3;
+        for (int v = 0; v < 3; v++)
+            v3_cross(X[(v + 1) % 3], X[(v + 2) % 3], z->geo.tri_k + (size_t)t * 9 + (size_t)v * 3);
+    }
+    raster_camera *cam = &z->cam;
+    cam->fx = cam->fy = 200.0, cam->cx = cam->cy = 111.5;
+    cam->inv_fx = cam->inv_fy = 1.0 / 200.0, cam->inv_s = 1.0, cam->supersample = 1;
+    cam->sample_width = cam->sample_height = 224;
+    shade_ctx *x = &z->ctx;
+    x->sc = sc, x->geo = &z->geo, x->cam = cam;
+    m3_tmul(sc->camera.R, sc->camera.t, x->eye);
+    v3_scale(x->eye, -1.0, x->eye);
+    for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
+        x->ks[k] = 0.3, x->s[k] = 20.0;
+}
+
+static void surf_scene_free(surf_scene *z)
+{
+    geom_free(&z->geo);
+    sp_mesh_free(&z->mesh);
+}
+
+static void surf_frame_of(const surf_scene *z, surf_frame *f)
+{
+    memset(f, 0, sizeof(*f));
+    f->tex_w = 16, f->tex_h = 12, f->inv_fx = z->cam.inv_fx, f->inv_fy = z->cam.inv_fy;
+    for (int k = 0; k < 9; k++)
+        f->R[k] = (float)z->sc.camera.R[k];
+    for (int k = 0; k < 3; k++)
+        f->eye[k] = (float)z->ctx.eye[k];
+}
+
+/* A pixel whose ray passes near a random interior point of triangle t. */
+static void pixel_on(const surf_scene *z, uint32_t t, int *sx, int *sy)
+{
+    double l0 = urand(0.05, 0.9), l1 = urand(0.05, 0.95 - l0), lam[3] = {l0, l1, 1.0 - l0 - l1}, x[3] = {0, 0, 0};
+    for (int v = 0; v < 3; v++)
+        v3_axpy(lam[v], z->geo.xc + (size_t)z->mesh.tri_vertices[t * 3 + (uint32_t)v] * 3, x);
+    *sx = (int)floor(z->cam.fx * x[0] / x[2] + z->cam.cx + 0.5);
+    *sy = (int)floor(z->cam.fy * x[1] / x[2] + z->cam.cy + 0.5);
+}
+
+static void surf_kernels(const surf_scene *z, const surf_frame *f, simd_batch *b, const float *albedo)
+{
+    const float l[3] = {0.0f, 0.0f, 1.0f};
+    simd_batch_pad(b);
+    surf_batch_pad(&b->surf, b->n);
+    surf_forward_a(f, b);
+    surf_shadow(&z->ctx, l, b, NULL); /* no shadow map: z = -1e30 (lit), dz = 0 */
+    for (int i = 0; i < b->n; i++)
+        CHECK(b->z[i] == -1e30f && b->surf.dz[0][i] == 0.0f);
+    surf_gather_texels(b, albedo);
+    surf_forward_b(b);
+}
+
+typedef struct surf_grads {
+    double *pd, *nd, *xc, alb[16 * 12 * 3];
+    shade_acc acc;
+} surf_grads;
+
+static void surf_grads_init(surf_grads *g, const surf_scene *z)
+{
+    memset(g, 0, sizeof(*g));
+    size_t n = (size_t)z->mesh.n_vertices * 3;
+    g->pd = calloc(n, sizeof(double)), g->nd = calloc(n, sizeof(double)), g->xc = calloc(n, sizeof(double));
+    CHECK(g->pd && g->nd && g->xc);
+    g->acc.g_pd = g->pd, g->acc.g_nd = g->nd, g->acc.g_xc = g->xc, g->acc.g_albedo = g->alb;
+}
+
+static void surf_grads_free(surf_grads *g)
+{
+    free(g->pd), free(g->nd), free(g->xc);
+}
+
+static void group_arrays(group_err *g, const double *got, const double *want, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        group_add(g, got[i], want[i]);
+}
+
+static void test_surface(void)
+{
+    static surf_scene z;
+    static simd_batch b;
+    static shade_rec rec[SIMD_BATCH];
+    srand(23);
+    surf_scene_init(&z);
+    surf_frame sf;
+    surf_frame_of(&z, &sf);
+    surf_grads gf, gd;
+    surf_grads_init(&gf, &z);
+    surf_grads_init(&gd, &z);
+    surf_acc sacc;
+    memset(&sacc, 0, sizeof(sacc));
+    double worst_n = 0.0, worst_v = 0.0, worst_a = 0.0;
+    int clusters_differ = 0, total = 0;
+    for (int round = 0; round < 8; round++) {
+        int n = 0;
+        while (n < SIMD_BATCH - round % 4) { /* also batches that are not a multiple of 4 */
+            uint32_t t = (uint32_t)rand() % z.mesh.n_triangles;
+            int sx, sy;
+            pixel_on(&z, t, &sx, &sy);
+            int ok_f = surf_gather(&z.ctx, sx, sy, (int32_t)t, &b, n);
+            int ok_d = shade_geometry(&z.ctx, sx, sy, (int32_t)t, rec + n);
+            CHECK(ok_f == ok_d);
+            n += ok_f;
+        }
+        b.n = n;
+        surf_kernels(&z, &sf, &b, z.albedo);
+        for (int i = 0; i < n; i++) {
+            const float fn[3] = {b.nx[i], b.ny[i], b.nz[i]}, fv[3] = {b.vx[i], b.vy[i], b.vz[i]};
+            for (int k = 0; k < 3; k++) {
+                worst_n = fmax(worst_n, fabs((double)fn[k] - rec[i].n[k]));
+                worst_v = fmax(worst_v, fabs((double)fv[k] - rec[i].v[k]));
+                worst_a = fmax(worst_a, fabs((double)b.a[k][i] - rec[i].a[k]));
+            }
+            clusters_differ += b.surf.cluster[i] != rec[i].cluster;
+            /* random local adjoints; the shading kernel's outputs are the surface kernel's inputs */
+            sample_grad sg;
+            memset(&sg, 0, sizeof(sg));
+            for (int k = 0; k < 3; k++) {
+                b.ga[k][i] = (float)urand(-1.0, 1.0), b.gn[k][i] = (float)urand(-1.0, 1.0);
+                b.gv[k][i] = (float)urand(-1.0, 1.0), b.gc[k][i] = 1.0f;
+                sg.a[k] = (double)b.ga[k][i], sg.n[k] = (double)b.gn[k][i], sg.v[k] = (double)b.gv[k][i];
+            }
+            b.gV[i] = b.dVdz[i] = b.gks[i] = b.gs[i] = 0.0f;
+            shade_backward_surface(&z.ctx, rec + i, &sg, &gd.acc);
+        }
+        surf_backward(&sf, &b, &sacc);
+        surf_scatter(&z.ctx, &b, &gf.acc);
+        total += n;
+    }
+    printf("surface forward over %d samples: normal %.2e, view %.2e, albedo %.2e; %d clusters differ\n", total,
+           worst_n, worst_v, worst_a, clusters_differ);
+    CHECK(worst_n < 2e-5 && worst_v < 2e-5 && worst_a < 2e-5 && clusters_differ == 0);
+    size_t n3 = (size_t)z.mesh.n_vertices * 3;
+    /* the kernels fold the camera-space vertex adjoint into world positions and pose sums (x = R p + t) */
+    double pose_d[12] = {0};
+    for (uint32_t v = 0; v < z.mesh.n_vertices; v++) {
+        const double *gx = gd.xc + (size_t)v * 3, *pd = z.geo.pd + (size_t)v * 3;
+        double tmp[3];
+        m3_tmul(z.sc.camera.R, gx, tmp);
+        v3_axpy(1.0, tmp, gd.pd + (size_t)v * 3);
+        for (int i = 0; i < 3; i++) {
+            pose_d[9 + i] += gx[i];
+            for (int k = 0; k < 3; k++)
+                pose_d[i * 3 + k] += gx[i] * pd[k];
+        }
+    }
+    double pose_f[12];
+    memcpy(pose_f, sacc.g_R, sizeof(sacc.g_R));
+    memcpy(pose_f + 9, sacc.g_t, sizeof(sacc.g_t));
+    for (size_t i = 0; i < n3; i++)
+        CHECK(gf.xc[i] == 0.0);
+    group_err e_pd = {0, 0}, e_nd = {0, 0}, e_xc = {0, 0}, e_alb = {0, 0}, e_eye = {0, 0}, e_cam = {0, 0};
+    group_arrays(&e_pd, gf.pd, gd.pd, n3);
+    group_arrays(&e_nd, gf.nd, gd.nd, n3);
+    group_arrays(&e_xc, pose_f, pose_d, 12);
+    group_arrays(&e_alb, gf.alb, gd.alb, 16 * 12 * 3);
+    group_arrays(&e_eye, sacc.g_eye, gd.acc.g_eye, 3);
+    const double cam_f[4] = {sacc.g_fx, sacc.g_fy, sacc.g_cx, sacc.g_cy};
+    const double cam_d[4] = {gd.acc.g_fx, gd.acc.g_fy, gd.acc.g_cx, gd.acc.g_cy};
+    group_arrays(&e_cam, cam_f, cam_d, 4);
+    const group_err *all[] = {&e_pd, &e_nd, &e_xc, &e_alb, &e_eye, &e_cam};
+    const char *names[] = {"positions", "normals", "pose R, t", "albedo", "eye", "intrinsics"};
+    for (int k = 0; k < 6; k++) {
+        printf("surface %-10s relative error %.2e (scale %.2e)\n", names[k], group_rel(all[k]), all[k]->scale);
+        CHECK_MSG(group_rel(all[k]) < 3e-4, "surface group %s", names[k]);
+        CHECK(all[k]->scale > 0.0);
+    }
+    surf_grads_free(&gf);
+    surf_grads_free(&gd);
+    surf_scene_free(&z);
+}
+
+static int surf_finite(const simd_batch *b, const surf_acc *acc)
+{
+    int bad = 0;
+    const surf_batch *s = &b->surf;
+    for (int i = 0; i < b->n; i++) {
+        const float v[] = {b->nx[i], b->ny[i], b->nz[i], b->vx[i], b->vy[i], b->vz[i], b->a[0][i], b->a[1][i],
+                           b->a[2][i]};
+        for (size_t k = 0; k < sizeof(v) / sizeof(v[0]); k++)
+            bad += !isfinite(v[k]);
+        for (int a = 0; a < 3; a++)
+            for (int d = 0; d < 3; d++)
+                bad += !isfinite(s->gpv[a][d][i]) + !isfinite(s->gmv[a][d][i]);
+        for (int k = 0; k < 4; k++)
+            for (int c = 0; c < 3; c++)
+                bad += !isfinite(s->gal[k][c][i]);
+    }
+    for (int k = 0; k < 9; k++)
+        bad += !isfinite(acc->g_R[k]);
+    bad += !isfinite(acc->g_t[0]) + !isfinite(acc->g_t[1]) + !isfinite(acc->g_t[2]);
+    bad += !isfinite(acc->g_eye[0]) + !isfinite(acc->g_eye[1]) + !isfinite(acc->g_eye[2]);
+    bad += !isfinite(acc->g_fx) + !isfinite(acc->g_fy) + !isfinite(acc->g_cx) + !isfinite(acc->g_cy);
+    return bad;
+}
+
+static void test_surface_extremes(void)
+{
+    static surf_scene z;
+    static simd_batch b;
+    srand(29);
+    surf_scene_init(&z);
+    surf_frame sf;
+    surf_frame_of(&z, &sf);
+    /* a degenerate triangle (all edge functions 0): no hit in either path */
+    shade_rec rec;
+    double keep[9];
+    memcpy(keep, z.geo.tri_k, sizeof(keep));
+    memset(z.geo.tri_k, 0, sizeof(keep));
+    CHECK(surf_gather(&z.ctx, 100, 100, 0, &b, 0) == 0 && shade_geometry(&z.ctx, 100, 100, 0, &rec) == 0);
+    memcpy(z.geo.tri_k, keep, sizeof(keep));
+    /* cancelling vertex normals, UVs far outside the texture, any triangle (grazing ones included) */
+    z.geo.nd[0] = -z.geo.nd[3], z.geo.nd[1] = -z.geo.nd[4], z.geo.nd[2] = -z.geo.nd[5];
+    for (uint32_t i = 0; i < z.mesh.n_uvs * 2; i += 7)
+        z.mesh.uvs[i] = i % 2 ? 1e6f : -1e6f;
+    int n = 0;
+    for (uint32_t t = 0; n < SIMD_BATCH && t < z.mesh.n_triangles; t += 3) {
+        int sx, sy;
+        pixel_on(&z, t, &sx, &sy);
+        n += surf_gather(&z.ctx, sx, sy, (int32_t)t, &b, n);
+    }
+    b.n = n;
+    surf_kernels(&z, &sf, &b, z.albedo);
+    for (int i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++) {
+            b.ga[k][i] = 1e6f, b.gn[k][i] = -1e6f, b.gv[k][i] = 1e6f, b.gc[k][i] = 1.0f;
+            b.gV[i] = 1e6f, b.dVdz[i] = -0.25f;
+        }
+    surf_acc acc;
+    memset(&acc, 0, sizeof(acc));
+    surf_backward(&sf, &b, &acc);
+    int bad = surf_finite(&b, &acc);
+    printf("surface extremes: %d samples, %d non-finite values\n", n, bad);
+    CHECK(n == SIMD_BATCH && bad == 0);
+    surf_scene_free(&z);
+}
+
 int main(void)
 {
     test_math();
     test_against_double();
     test_extremes();
+    test_surface();
+    test_surface_extremes();
     return check_exit();
 }
