@@ -21,6 +21,7 @@
 #include "pipeline/render/adjoint.h"
 #include "pipeline/render/render_internal.h"
 #include "pipeline/render/shade_simd.h"
+#include "pipeline/render/surf_gather.h"
 #include "pipeline/render/surf_simd.h"
 #include "pipeline/render/tonemap.h"
 #include "pipeline/render/vec3.h"
@@ -192,7 +193,7 @@ static int gather_chunk(sp_renderer *r, int py, int px0, simd_batch *b)
                 int sx = px * S + k, sy = py * S + j;
                 size_t s = (size_t)sy * (size_t)r->sw + (size_t)sx;
                 r->shadow_texel[s] = -1;
-                if (r->tri_id[s] < 0 || !surf_gather(ctx, sx, sy, r->tri_id[s], b, n)) {
+                if (r->tri_id[s] < 0 || !surf_gather_at(ctx, sx, sy, r->tri_id[s], b, n)) {
                     r->tri_id[s] = -1; /* negative already, or a degenerate hit: uncovered, as sp_render */
                     r->depth[s] = 0.0f;
                     continue;
@@ -242,7 +243,7 @@ static int gather_chunk_s1(sp_renderer *r, fused_state *st, int py, int px, simd
     for (; px < W && n < SIMD_BATCH; px++) {
         size_t p = (size_t)py * (size_t)W + (size_t)px;
         r->shadow_texel[p] = -1;
-        if (r->tri_id[p] >= 0 && surf_gather(ctx, px, py, r->tri_id[p], b, n)) {
+        if (r->tri_id[p] >= 0 && surf_gather_at(ctx, px, py, r->tri_id[p], b, n)) {
             b->surf.pix[n] = b->surf.samp[n] = (int32_t)p;
             n++;
             r->coverage[p] = 1.0f;

@@ -16,6 +16,7 @@ void geom_free(render_geom *g)
         free(*d[i]);
         *d[i] = NULL;
     }
+    free(g->ndf);
     free(g->tri_k);
     free(g->xs);
     free(g->col_dx);
@@ -59,6 +60,7 @@ int geom_reserve(render_geom *g, uint32_t n_vertices, uint32_t n_triangles)
     ok &= (g->g_h = calloc(v1, sizeof(double))) != NULL;
     ok &= (g->im0 = calloc(v1, sizeof(double))) != NULL;
     ok &= (g->imd = calloc(v1, sizeof(double))) != NULL;
+    ok &= (g->ndf = calloc(v3, sizeof(float))) != NULL;
     ok &= (g->key_pos = calloc(v3, sizeof(float))) != NULL;
     ok &= (g->key_tv = calloc(c, sizeof(uint32_t))) != NULL;
     ok &= (g->key_tuv = calloc(c, sizeof(uint32_t))) != NULL;
@@ -216,14 +218,26 @@ static void mesh_constants(render_geom *g, const sp_mesh *mesh)
     bytes_copy(g->key_tuv, mesh->tri_uvs, n3 * sizeof(uint32_t));
     g->key_nv = mesh->n_vertices;
     g->key_nt = mesh->n_triangles;
+    g->key_nuv = mesh->n_uvs;
     g->key_valid = 1;
+}
+
+int geom_mesh_unchanged(const render_geom *g, const sp_mesh *mesh)
+{
+    return same_mesh(g, mesh) && g->key_nuv == mesh->n_uvs;
 }
 
 void geom_forward(render_geom *g, const sp_mesh *mesh, const sp_render_texture *disp, const double R[9],
                   const double t[3])
 {
+    geom_forward_known(g, mesh, same_mesh(g, mesh), disp, R, t);
+}
+
+void geom_forward_known(render_geom *g, const sp_mesh *mesh, int same, const sp_render_texture *disp,
+                        const double R[9], const double t[3])
+{
     size_t nv = mesh->n_vertices;
-    if (!same_mesh(g, mesh))
+    if (!same)
         mesh_constants(g, mesh);
     displacement(g, mesh, disp);
     if (disp->data) {
@@ -240,6 +254,8 @@ void geom_forward(render_geom *g, const sp_mesh *mesh, const sp_render_texture *
         x[1] += t[1];
         x[2] += t[2];
     }
+    for (size_t i = 0; i < nv * 3; i++)
+        g->ndf[i] = (float)g->nd[i];
 }
 
 static void displacement_backward(render_geom *g, const sp_mesh *mesh, const sp_render_texture *disp,

@@ -24,6 +24,7 @@ typedef struct render_geom {
     double *m0, *n0; /* coarse normal sums (sum of face cross products) and unit normals */
     double *pd;  /* displaced positions */
     double *md, *nd; /* displaced normal sums and unit normals */
+    float *ndf;      /* nd rounded to float (the fit_float gather's per-vertex input; same values it converted per sample) */
     double *xc;  /* displaced positions in camera space */
     double *tri_k; /* 9 per triangle: camera-space B x C, C x A, A x B of drawn triangles (raster.h) */
     double *xs;    /* 2 per vertex: the rasteriser's scratch (sample-grid projections) */
@@ -37,7 +38,7 @@ typedef struct render_geom {
      */
     float *key_pos;
     uint32_t *key_tv, *key_tuv;
-    uint32_t key_nv, key_nt;
+    uint32_t key_nv, key_nt, key_nuv;
     int key_valid;
     /* adjoint accumulators, same layout */
     double *g_pd, *g_nd, *g_xc, *g_n0, *g_h;
@@ -53,6 +54,15 @@ void geom_free(render_geom *g);
 /* Displacement (disp->data may be NULL), normals, then camera space with R, t. */
 void geom_forward(render_geom *g, const sp_mesh *mesh, const sp_render_texture *disp, const double R[9],
                   const double t[3]);
+/*
+ * 1 when the mesh's vertex, triangle and UV counts, positions and index arrays
+ * equal the copy kept by the last geom_forward (the mesh's arrays must be
+ * readable: non-NULL where their count is nonzero).
+ */
+int geom_mesh_unchanged(const render_geom *g, const sp_mesh *mesh);
+/* geom_forward with geom_mesh_unchanged(g, mesh) already known (same: its result for this mesh, now). */
+void geom_forward_known(render_geom *g, const sp_mesh *mesh, int same, const sp_render_texture *disp,
+                        const double R[9], const double t[3]);
 
 /*
  * Adjoint: from g_pd and g_nd (displaced positions and unit normals, filled

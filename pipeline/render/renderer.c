@@ -223,11 +223,32 @@ static int validate_lighting(const sp_render_scene *sc)
     return 0;
 }
 
-static int validate_scene(const sp_render_scene *sc)
+/*
+ * sp_mesh_validate, shortened for a mesh whose counts, positions and indices
+ * equal the last validated frame's (same: geom_mesh_unchanged; the key is
+ * only taken by geom_forward after validation): only the UVs are not in the
+ * key. An unreadable index array is refused before anything is compared.
+ */
+static int mesh_ok(const sp_renderer *r, const sp_mesh *m, int *same)
 {
+    *same = 0;
+    if (m->n_triangles && (!m->tri_vertices || !m->tri_uvs))
+        return 0;
+    *same = geom_mesh_unchanged(&r->geo, m);
+    if (!*same)
+        return sp_mesh_validate(m) == 0;
+    for (size_t i = 0; i < (size_t)m->n_uvs * 2; i++)
+        if (!isfinite(m->uvs[i]))
+            return 0;
+    return 1;
+}
+
+static int validate_scene(const sp_renderer *r, const sp_render_scene *sc, int *same_mesh)
+{
+    *same_mesh = 0;
     if (!sc->mesh)
         return bad("scene mesh (NULL)");
-    if (sp_mesh_validate(sc->mesh) != 0)
+    if (!mesh_ok(r, sc->mesh, same_mesh))
         return bad("scene mesh (indices out of range or non-finite values)");
     if (sc->mesh->n_triangles > (uint32_t)INT32_MAX)
         return bad("scene mesh (too many triangles)");
@@ -460,7 +481,8 @@ void render_fill_outputs(const sp_renderer *r, sp_render_outputs *out)
 
 int render_begin(sp_renderer *r, const sp_render_scene *sc, int need_backward, int *n_sun)
 {
-    int err = validate_scene(sc);
+    int same_mesh;
+    int err = validate_scene(r, sc, &same_mesh);
     if (!err)
         err = ensure_capacity(r, sc->mesh);
     if (err)
@@ -470,7 +492,8 @@ int render_begin(sp_renderer *r, const sp_render_scene *sc, int need_backward, i
         sp_log(SP_LOG_ERROR, MODULE, "no gradients for an area sun or fill lights (forward only)");
         return SP_EUNSUPPORTED;
     }
-    geom_forward(&r->geo, sc->mesh, &sc->displacement, sc->camera.R, sc->camera.t);
+    same_mesh = same_mesh && r->geo.key_valid; /* a grown geom (ensure_capacity) has no key: rebuild */
+    geom_forward_known(&r->geo, sc->mesh, same_mesh, &sc->displacement, sc->camera.R, sc->camera.t);
     setup_frame(r, sc, *n_sun);
     raster_camera_draw(&r->cam, r->geo.xc, sc->mesh, r->tri_id, r->depth, r->bary, r->geo.tri_k, r->geo.xs,
                        r->geo.col_dx);

@@ -266,8 +266,9 @@ void shadow_eval(const shadow_map *m, double k, double b, const double p[3], sha
         out->dVdp[i] = -dsig * dzdp[i];
 }
 
-void shadow_eval_z(const shadow_map *m, double k, double b, const double p[3], double *z, double dzdp[3],
-                   int32_t *texel)
+/* shadow_eval_z's body, inline so that shadow_eval_z_lanes hoists the frame loads out of its lane loop. */
+static inline void eval_z(const shadow_map *m, double k, double b, const double p[3], double *z, double dzdp[3],
+                          int32_t *texel)
 {
     const shadow_frame *f = &m->f;
     double q[3];
@@ -299,4 +300,25 @@ void shadow_eval_z(const shadow_map *m, double k, double b, const double p[3], d
     double gzr = -k / f->r, gs = -k * b * f->scale;
     for (int i = 0; i < 3; i++)
         dzdp[i] = gzr * f->l[i] + gs * (dsdx * f->e1[i] + dsdy * f->e2[i]);
+}
+
+void shadow_eval_z(const shadow_map *m, double k, double b, const double p[3], double *z, double dzdp[3],
+                   int32_t *texel)
+{
+    eval_z(m, k, b, p, z, dzdp, texel);
+}
+
+void shadow_eval_z_lanes(const shadow_map *m, double k, double b, int n, const double *const p[3], const float *lit,
+                         float *z, float *const dz[3], int32_t *texel)
+{
+    for (int i = 0; i < n; i++) {
+        double zi = -1e30, g[3] = {0.0, 0.0, 0.0}, q[3] = {p[0][i], p[1][i], p[2][i]};
+        int32_t t = -1;
+        if (lit[i] > 0.0f)
+            eval_z(m, k, b, q, &zi, g, &t);
+        zi = zi < -1e30 ? -1e30 : (zi > 1e30 ? 1e30 : zi); /* NaN stays NaN */
+        z[i] = (float)zi;
+        dz[0][i] = (float)g[0], dz[1][i] = (float)g[1], dz[2][i] = (float)g[2];
+        texel[i] = t;
+    }
 }

@@ -59,6 +59,13 @@ void shadow_eval(const shadow_map *m, double k, double b, const double p[3], sha
  */
 void shadow_eval_z(const shadow_map *m, double k, double b, const double p[3], double *z, double dzdp[3],
                    int32_t *texel);
+/*
+ * shadow_eval_z (the same arithmetic, so the same z, dz/dp and texel) of lanes i in [0, n) with lit[i] > 0 at
+ * world points (p[0][i], p[1][i], p[2][i]), rounded to float, z clamped to +-1e30 (NaN stays NaN); other lanes get
+ * z = -1e30, dz = 0 and texel -1. For the fit_float batches (surf_shadow): one call per batch.
+ */
+void shadow_eval_z_lanes(const shadow_map *m, double k, double b, int n, const double *const p[3], const float *lit,
+                         float *z, float *const dz[3], int32_t *texel);
 /* sigmoid(x) = 1 / (1 + exp(-x)) via exp(-|x|), and its derivative; finite for any finite x. */
 double shadow_sigmoid(double x, double *deriv);
 

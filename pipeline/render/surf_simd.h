@@ -89,7 +89,8 @@ typedef struct resolve_acc {
  * cluster (ks, s), hit point (pw). The hit point, UV and cluster are
  * computed in double with shade_geometry's arithmetic, so coverage, shadow
  * texels and clusters match the double path exactly. Returns 0 for a
- * degenerate hit (uncovered, as shade_geometry), 1 otherwise.
+ * degenerate hit (uncovered, as shade_geometry), 1 otherwise. The body is
+ * surf_gather_at in surf_gather.h (inlined into the fused sweep).
  */
 int surf_gather(const struct shade_ctx *ctx, int sx, int sy, int32_t tri, struct simd_batch *b, int i);
 /*

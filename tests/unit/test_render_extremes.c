@@ -398,6 +398,44 @@ static void test_scalar_limits(void)
     }
 }
 
+/*
+ * A mesh edited in place after a render: the renderer skips the full
+ * validation only for a mesh byte-equal (counts, positions, indices) to the
+ * last validated one, so each edit below must still be refused, and the
+ * restored mesh must render as before.
+ */
+static void test_mesh_edited_in_place(world *w)
+{
+    static float before[W * H * 3];
+    sp_render_scene sc;
+    sp_render_outputs o;
+    sp_mesh *m = &w->head;
+    base_scene(w, &sc, m);
+    CHECK_EQ_INT(sp_render(w->r, &sc, &o), 0);
+    CHECK_EQ_INT(sp_render(w->r, &sc, &o), 0); /* the second frame takes the unchanged-mesh path */
+    memcpy(before, o.image, sizeof(before));
+    float u = m->uvs[3];
+    m->uvs[3] = NAN; /* not part of the unchanged-mesh key: checked on every frame */
+    CHECK_EQ_INT(sp_render(w->r, &sc, &o), -EINVAL);
+    m->uvs[3] = INFINITY;
+    CHECK_EQ_INT(sp_render(w->r, &sc, &o), -EINVAL);
+    m->uvs[3] = u;
+    uint32_t nuv = m->n_uvs;
+    m->n_uvs = 0; /* every tri_uvs index out of range */
+    CHECK_EQ_INT(sp_render(w->r, &sc, &o), -EINVAL);
+    m->n_uvs = nuv;
+    float x = m->positions[4];
+    m->positions[4] = NAN;
+    CHECK_EQ_INT(sp_render(w->r, &sc, &o), -EINVAL);
+    m->positions[4] = x;
+    uint32_t t = m->tri_uvs[5];
+    m->tri_uvs[5] = nuv;
+    CHECK_EQ_INT(sp_render(w->r, &sc, &o), -EINVAL);
+    m->tri_uvs[5] = t;
+    CHECK_EQ_INT(sp_render(w->r, &sc, &o), 0);
+    CHECK(memcmp(before, o.image, sizeof(before)) == 0);
+}
+
 static void test_bad_arguments(world *w)
 {
     sp_render_scene sc;
@@ -459,6 +497,7 @@ int main(void)
     test_radiometry(&w);
     test_forward_only_extras(&w);
     test_scalar_limits();
+    test_mesh_edited_in_place(&w);
     test_bad_arguments(&w);
     sp_renderer_close(&w.r);
     sp_renderer_close(&w.r_ss);

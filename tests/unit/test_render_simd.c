@@ -558,6 +558,8 @@ static void test_surface_extremes(void)
     memcpy(z.geo.tri_k, keep, sizeof(keep));
     /* cancelling vertex normals, UVs far outside the texture, any triangle (grazing ones included) */
     z.geo.nd[0] = -z.geo.nd[3], z.geo.nd[1] = -z.geo.nd[4], z.geo.nd[2] = -z.geo.nd[5];
+    for (int k = 0; k < 3; k++) /* surf_gather reads geom_forward's float copy */
+        z.geo.ndf[k] = (float)z.geo.nd[k];
     for (uint32_t i = 0; i < z.mesh.n_uvs * 2; i += 7)
         z.mesh.uvs[i] = i % 2 ? 1e6f : -1e6f;
     int n = 0;
