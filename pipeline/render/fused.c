@@ -21,6 +21,7 @@
 #include "pipeline/render/adjoint.h"
 #include "pipeline/render/render_internal.h"
 #include "pipeline/render/shade_simd.h"
+#include "pipeline/render/simd_kernels.h"
 #include "pipeline/render/surf_gather.h"
 #include "pipeline/render/surf_simd.h"
 #include "pipeline/render/tonemap.h"
@@ -269,7 +270,7 @@ static void resolve_chunk_s1(sp_renderer *r, fused_state *st, simd_batch *b, int
         s->tgt[0][i] = t[0], s->tgt[1][i] = t[1], s->tgt[2][i] = t[2];
         s->msk[i] = st->mask ? st->mask[p] : 1.0f;
     }
-    surf_resolve_l2(&st->sfr, b, &st->racc);
+    r->simd->resolve_l2(&st->sfr, b, &st->racc);
     if (!want_out)
         return;
     for (int i = 0; i < b->n; i++)
@@ -342,6 +343,7 @@ static void surf_frame_setup(const sp_renderer *r, const sp_render_scene *sc, fu
 static void fused_sweep_float(sp_renderer *r, const sp_render_scene *sc, fused_state *st, int want_out)
 {
     simd_batch *b = r->batches;
+    const simd_kernels *k = r->simd;
     int s1 = r->set.supersample == 1;
     surf_acc *sacc = &st->surfacc;
     simd_frame_init(&st->sf, r->ctx.sun_l, r->ctx.sun_I, &r->ctx.sh);
@@ -354,22 +356,22 @@ static void fused_sweep_float(sp_renderer *r, const sp_render_scene *sc, fused_s
                     resolve_chunk(r, sc, st, b, py, px0, px1, want_out);
                 continue;
             }
-            simd_batch_pad(b);
-            surf_batch_pad(&b->surf, b->n);
-            surf_forward_a(&st->sfr, b);
-            surf_shadow(&r->ctx, st->sf.l, b, r->shadow_texel);
-            surf_gather_texels(b, sc->albedo.data);
-            surf_forward_b(b);
-            simd_shade_forward(&st->sf, b);
+            k->batch_pad(b);
+            k->surf_batch_pad(&b->surf, b->n);
+            k->surf_forward_a(&st->sfr, b);
+            k->surf_shadow(&r->ctx, st->sf.l, b, r->shadow_texel);
+            k->surf_gather_texels(b, sc->albedo.data);
+            k->surf_forward_b(b);
+            k->shade_forward(&st->sf, b);
             if (s1)
                 resolve_chunk_s1(r, st, b, want_out);
             else
                 resolve_chunk(r, sc, st, b, py, px0, px1, want_out);
             if (!st->want_grads)
                 continue;
-            simd_shade_backward(&st->sf, b, &st->sacc);
-            surf_backward(&st->sfr, b, sacc);
-            surf_scatter(&st->ctx, b, &st->acc);
+            k->shade_backward(&st->sf, b, &st->sacc);
+            k->surf_backward(&st->sfr, b, sacc);
+            k->surf_scatter(&st->ctx, b, &st->acc);
         }
     for (int c = 0; c < 3; c++) {
         st->acc.g_l[c] += st->sacc.gl[c];

@@ -27,6 +27,7 @@ struct sp_renderer {
     sun_cache *sun_cache;  /* forward sun terms the adjoint reuses */
     shade_rec *recs;       /* SIMD_BATCH (>= S * S): one pixel's (fit_float: one batch's) records, fused path */
     struct simd_batch *batches; /* fit_float: one batch of samples in float SoA (shade_simd.h) */
+    const struct simd_kernels *simd; /* fit_float: the kernel set for this CPU (simd_kernels.h) */
     int *row_first;        /* fit_float: SIMD_BATCH + 1 offsets of each batch pixel's first record */
     float *bary, *depth;
     render_geom geo;

@@ -10,6 +10,7 @@
 
 #include "pipeline/render/render_internal.h"
 #include "pipeline/render/shade_simd.h"
+#include "pipeline/render/simd_kernels.h"
 #include "pipeline/render/tonemap.h"
 #include "pipeline/render/vec3.h"
 
@@ -119,8 +120,11 @@ static int alloc_buffers(sp_renderer *r)
     /* S^2 <= 64 = SIMD_BATCH records: one pixel's (classic fused) or one batch's (fit_float) */
     ok &= (r->recs = calloc(SIMD_BATCH, sizeof(shade_rec))) != NULL;
     ok &= (r->row_first = calloc(SIMD_BATCH + 1, sizeof(int))) != NULL;
-    if (r->set.fit_float)
+    if (r->set.fit_float) {
         ok &= (r->batches = calloc(1, sizeof(simd_batch))) != NULL;
+        r->simd = simd_kernels_select();
+        sp_log(SP_LOG_DEBUG, MODULE, "fit_float kernels: %s (%d lanes)", r->simd->name, r->simd->lanes);
+    }
     ok &= (r->shadow_texel = calloc(r->nsamp, sizeof(int32_t))) != NULL;
     ok &= (r->env_basis = calloc((size_t)ENV_TEXELS * ENV_SH_N, sizeof(double))) != NULL;
     return ok ? 0 : -ENOMEM;

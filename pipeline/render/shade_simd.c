@@ -16,15 +16,15 @@
 
 float simd_exp2f(float x)
 {
-    float in[4] = {x, x, x, x}, out[4];
-    st(out, v_exp2(ld(in)));
+    float out[LANES];
+    st(out, v_exp2(splat(x)));
     return out[0];
 }
 
 float simd_log2f(float x)
 {
-    float in[4] = {x, x, x, x}, out[4];
-    st(out, v_log2(ld(in)));
+    float out[LANES];
+    st(out, v_log2(splat(x)));
     return out[0];
 }
 
@@ -40,7 +40,7 @@ void simd_frame_init(simd_frame *f, const double l[3], double I, const env_sh *s
 
 void simd_batch_pad(simd_batch *b)
 {
-    int end = (b->n + 3) / 4 * 4;
+    int end = (b->n + LANES - 1) / LANES * LANES;
     for (int i = b->n; i < end; i++) {
         b->nx[i] = b->ny[i] = b->vx[i] = b->vy[i] = 0.0f;
         b->nz[i] = b->vz[i] = 1.0f;

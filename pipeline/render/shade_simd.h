@@ -3,13 +3,15 @@
  * Float structure-of-arrays shading kernels (settings.fit_float): the per-sample sun Lambert + normalised
  * Blinn-Phong, the soft-shadow sigmoid and the SH ambient term, and their
  * adjoint, over a batch of up to SIMD_BATCH covered samples. Written with
- * GCC vector extensions (4 float lanes: SSE2 / NEON) and a scalar fallback;
+ * GCC vector extensions (4 float lanes: SSE2 / NEON; 8 in the AVX2 build, simd_kernels.h) and a scalar fallback;
  * no libm calls (polynomial exp2 / log2 with explicit exponent clamps).
  * The surface reconstruction and its adjoint are in surf_simd.h; texel and
  * vertex gathers / scatters stay with the caller. See RENDERER.md "Memory and speed".
  */
 #ifndef SUNPROBE_RENDER_SHADE_SIMD_H
 #define SUNPROBE_RENDER_SHADE_SIMD_H
+
+#include "pipeline/render/simd_variant.h" /* first: the AVX2 build renames the entry points */
 
 #include "pipeline/render/envlight.h"
 #include "pipeline/render/surf_simd.h" /* SIMD_BATCH, surf_batch */
@@ -23,7 +25,7 @@ typedef struct simd_frame {
 
 /*
  * One batch. The caller fills n and the inputs of samples [0, n); the kernels
- * treat lanes up to the next multiple of 4 (simd_batch_pad zeroes them).
+ * treat lanes up to the next multiple of the lane count (simd_batch_pad zeroes them).
  */
 typedef struct simd_batch {
     int n;
@@ -54,7 +56,7 @@ typedef struct simd_acc {
 } simd_acc;
 
 void simd_frame_init(simd_frame *f, const double l[3], double I, const env_sh *sh);
-/* Zeroes the inputs of lanes [n, next multiple of 4). */
+/* Zeroes the inputs of lanes [n, next multiple of the lane count). */
 void simd_batch_pad(simd_batch *b);
 void simd_shade_forward(const simd_frame *f, simd_batch *b);
 /* Needs the forward's intermediates in b and b->gc; adds the frame sums to acc. */

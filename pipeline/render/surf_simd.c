@@ -25,7 +25,7 @@ static inline vi mini(vi a, vi b)
 
 void surf_batch_pad(surf_batch *s, int n)
 {
-    int end = (n + 3) / 4 * 4;
+    int end = (n + LANES - 1) / LANES * LANES;
     for (int i = n; i < end; i++) {
         s->d0[i] = s->d1[i] = s->iw[i] = s->u[i] = s->v[i] = s->msk[i] = 0.0f;
         s->tgt[0][i] = s->tgt[1][i] = s->tgt[2][i] = 0.0f;

@@ -14,6 +14,8 @@
 #ifndef SUNPROBE_RENDER_SURF_SIMD_H
 #define SUNPROBE_RENDER_SURF_SIMD_H
 
+#include "pipeline/render/simd_variant.h" /* first: the AVX2 build renames the entry points */
+
 #include <stdint.h>
 
 #define SIMD_BATCH 64 /* samples per batch; a multiple of the lane count */
@@ -112,7 +114,7 @@ void surf_gather_texels(struct simd_batch *b, const float *albedo);
  * where ctx->s_clamped).
  */
 void surf_scatter(const struct shade_ctx *ctx, const struct simd_batch *b, struct shade_acc *acc);
-/* Zeroes the gathered inputs of lanes [n, next multiple of 4) (texels included). */
+/* Zeroes the gathered inputs of lanes [n, next multiple of the lane count) (texels included). */
 void surf_batch_pad(surf_batch *s, int n);
 /*
  * Normal n = normalize(sum lam_i nd_i) and view v = normalize(ev) into

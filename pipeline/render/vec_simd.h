@@ -1,8 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Private helpers of the float SoA kernels (shade_simd.c, surf_simd.c): a
- * 4-lane float vector type (GCC vector extensions: SSE2 / NEON) or plain
- * float with SP_SIMD_SCALAR / other compilers, loads, stores, lane selects
+ * float vector type (GCC vector extensions: 4 lanes for SSE2 / NEON, 8 in
+ * the AVX2 build of simd_variant.h) or plain float with SP_SIMD_SCALAR /
+ * other compilers, loads, stores, lane selects
  * and call-free exp2 / log2 / 1/sqrt. Static inline: include only from
  * *_simd.c files.
  */
@@ -16,9 +17,13 @@
 #define LOG2E 1.44269504f
 
 #if defined(__GNUC__) && !defined(SP_SIMD_SCALAR) /* SP_SIMD_SCALAR: force the fallback (tests) */
+#if defined(__AVX2__)
+#define LANES 8
+#else
 #define LANES 4
-typedef float vf __attribute__((vector_size(16)));
-typedef int32_t vi __attribute__((vector_size(16)));
+#endif
+typedef float vf __attribute__((vector_size(4 * LANES)));
+typedef int32_t vi __attribute__((vector_size(4 * LANES)));
 #define AS_VI(x) ((vi)(x))
 #define AS_VF(x) ((vf)(x))
 #define CVT_I(x) __builtin_convertvector((x), vi)

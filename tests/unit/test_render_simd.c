@@ -25,6 +25,7 @@
 #include "pipeline/render/geometry.h"
 #include "pipeline/render/shade_simd.h"
 #include "pipeline/render/shading.h"
+#include "pipeline/render/simd_kernels.h"
 #include "pipeline/render/shadow.h"
 #include "pipeline/render/surf_simd.h"
 #include "pipeline/render/testmesh.h"
@@ -440,7 +441,7 @@ static void test_surface(void)
     int clusters_differ = 0, total = 0;
     for (int round = 0; round < 8; round++) {
         int n = 0;
-        while (n < SIMD_BATCH - round % 4) { /* also batches that are not a multiple of 4 */
+        while (n < SIMD_BATCH - round % 4) { /* also batches that are not a multiple of the lane count */
             uint32_t t = (uint32_t)rand() % z.mesh.n_triangles;
             int sx, sy;
             pixel_on(&z, t, &sx, &sy);
@@ -586,6 +587,13 @@ static void test_surface_extremes(void)
 
 int main(void)
 {
+#ifdef SP_SIMD_VARIANT /* built again against another kernel set (tests/unit/meson.build) */
+    const simd_kernels *k = simd_kernels_by_name(SIMD_STR(SP_SIMD_VARIANT));
+    if (!k)
+        SKIP("this CPU cannot run the %s kernels", SIMD_STR(SP_SIMD_VARIANT));
+    printf("kernel set %s, %d lanes\n", k->name, k->lanes);
+    CHECK(k->shade_forward == simd_shade_forward && k->surf_backward == surf_backward && k->lanes > 4);
+#endif
     test_math();
     test_against_double();
     test_extremes();

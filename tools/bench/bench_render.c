@@ -9,7 +9,10 @@
  *  - fit: the fused sp_render_fit_l2 (render + loss + adjoint in one sweep,
  *    no decomposition buffers), timed as one call;
  *  - fit_float: the same with settings.fit_float (float SoA shading kernels),
- *    alternated run by run with fit so both see the same machine load.
+ *    alternated run by run with fit so both see the same machine load; where
+ *    the renderer picks a faster kernel set than the baseline (AVX2 on
+ *    x86-64, pipeline/render/simd_kernels.h), also fit_float on the baseline
+ *    set, in the same alternation.
  * Both use the same scene, target, mask (the coverage of the warm-up render)
  * and gradient groups. Prints the median of RUNS timed runs (after one
  * warm-up) as wall time and as thread CPU time (the latter is robust to other
@@ -29,6 +32,7 @@
 #endif
 
 #include "common/clock.h"
+#include "pipeline/render/simd_kernels.h"
 #include "pipeline/render/testmesh.h"
 #include "sunprobe/sp_render.h"
 
@@ -71,6 +75,21 @@ static double instr_read(int fd)
     (void)fd;
 #endif
     return 0.0;
+}
+
+/* A fit_float renderer on the baseline kernels (SP_RENDER_SIMD=base while it opens). */
+static int open_base_kernels(sp_renderer **r, const sp_renderer_settings *set)
+{
+    const char *was = getenv("SP_RENDER_SIMD");
+    char *saved = was ? strdup(was) : NULL;
+    setenv("SP_RENDER_SIMD", "base", 1);
+    int err = sp_renderer_open(r, set);
+    if (saved)
+        setenv("SP_RENDER_SIMD", saved, 1);
+    else
+        unsetenv("SP_RENDER_SIMD");
+    free(saved);
+    return err;
 }
 
 static int cmp_double(const void *a, const void *b)
@@ -122,8 +141,11 @@ int main(int argc, char **argv)
     sp_renderer *r_ff = NULL;
     sp_renderer_settings set_ff = set;
     set_ff.fit_float = 1;
+    const char *kernels = simd_kernels_select()->name;
+    int with_base = strcmp(kernels, "base") != 0;
+    sp_renderer *r_ffb = NULL;
     if (!albedo || !disp || !clusters || !g_alb || !g_disp || sp_renderer_open(&r, &set) != 0 ||
-        sp_renderer_open(&r_ff, &set_ff) != 0 ||
+        sp_renderer_open(&r_ff, &set_ff) != 0 || (with_base && open_base_kernels(&r_ffb, &set_ff) != 0) ||
         testmesh_head(&head, 64, 80, c, 0.075, 0.095, 0.11, 0.25) != 0) {
         fprintf(stderr, "bench_render: setup failed\n");
         return 1;
@@ -153,6 +175,7 @@ int main(int argc, char **argv)
     double tf[RUNS], tb[RUNS], tt[RUNS], cf[RUNS], cb[RUNS], ct[RUNS], in_f[RUNS], in_b[RUNS];
     double tfit[RUNS], cfit[RUNS], in_fit[RUNS], loss_classic = 0.0, loss_fit = 0.0;
     double tfit_ff[RUNS], cfit_ff[RUNS], in_fit_ff[RUNS], loss_fit_ff = 0.0;
+    double tfit_ffb[RUNS], cfit_ffb[RUNS], in_fit_ffb[RUNS], loss_fit_ffb = 0.0;
     float *mask = calloc(SIZE * SIZE, sizeof(float));
     int covered = 0, ifd = instr_open();
     for (int run = -1; run < RUNS; run++) { /* classic: render, then loss + adjoint */
@@ -189,12 +212,12 @@ int main(int argc, char **argv)
         in_f[run] = i1 - i0;
         in_b[run] = i3 - i2 + (i2 - i1);
     }
-    /* fit: the fused call, double (r) and float shading (r_ff), alternated run by run */
-    sp_renderer *fits[2] = {r, r_ff};
-    double *tw[2] = {tfit, tfit_ff}, *tc[2] = {cfit, cfit_ff}, *ti[2] = {in_fit, in_fit_ff};
-    double *lf[2] = {&loss_fit, &loss_fit_ff};
+    /* fit: the fused call, double (r), float shading (r_ff) and on the baseline kernels (r_ffb), alternated */
+    sp_renderer *fits[3] = {r, r_ff, r_ffb};
+    double *tw[3] = {tfit, tfit_ff, tfit_ffb}, *tc[3] = {cfit, cfit_ff, cfit_ffb};
+    double *ti[3] = {in_fit, in_fit_ff, in_fit_ffb}, *lf[3] = {&loss_fit, &loss_fit_ff, &loss_fit_ffb};
     for (int run = -1; run < RUNS; run++)
-        for (int k = 0; k < 2; k++) {
+        for (int k = 0; k < 2 + with_base; k++) {
             sp_render_outputs o;
             int64_t t0 = sp_clock_monotonic_ns(), c0 = cpu_ns();
             double i0 = instr_read(ifd);
@@ -229,8 +252,13 @@ int main(int argc, char **argv)
     printf("ratio classic / fit (thread CPU median): %.2f\n", fit_cpu > 0.0 ? classic_cpu / fit_cpu : 0.0);
     double ff_cpu = median(cfit_ff, RUNS);
     printf("fit_float median of %d (wall):     total %.2f ms\n", RUNS, median(tfit_ff, RUNS));
-    printf("fit_float median of %d (thread CPU): total %.2f ms (fastest %.2f ms), ratio fit / fit_float %.2f\n",
-           RUNS, ff_cpu, cfit_ff[0], ff_cpu > 0.0 ? fit_cpu / ff_cpu : 0.0);
+    printf("fit_float median of %d (thread CPU): total %.2f ms (fastest %.2f ms), ratio fit / fit_float %.2f "
+           "(%s kernels)\n", RUNS, ff_cpu, cfit_ff[0], ff_cpu > 0.0 ? fit_cpu / ff_cpu : 0.0, kernels);
+    if (with_base) {
+        double ffb_cpu = median(cfit_ffb, RUNS);
+        printf("fit_float, base kernels (thread CPU): total %.2f ms (fastest %.2f ms), ratio base / %s %.2f\n",
+               ffb_cpu, cfit_ffb[0], kernels, ff_cpu > 0.0 ? ffb_cpu / ff_cpu : 0.0);
+    }
     if (ifd >= 0)
         printf("instructions (user, median): classic forward %.1f M, backward %.1f M, total %.1f M; fit %.1f M\n",
                median(in_f, RUNS) * 1e-6, median(in_b, RUNS) * 1e-6,
@@ -243,6 +271,9 @@ int main(int argc, char **argv)
            loss_classic == loss_fit ? "identical" : "DIFFERENT");
     printf("loss fit_float %.17g (relative difference to classic %.2e)\n", loss_fit_ff,
            loss_classic != 0.0 ? fabs(loss_fit_ff - loss_classic) / loss_classic : 0.0);
+    if (with_base)
+        printf("loss fit_float, base kernels %.17g (relative difference to classic %.2e)\n", loss_fit_ffb,
+               loss_classic != 0.0 ? fabs(loss_fit_ffb - loss_classic) / loss_classic : 0.0);
 #ifdef __linux__
     if (ifd >= 0)
         close(ifd);
@@ -250,6 +281,7 @@ int main(int argc, char **argv)
     free(mask);
     sp_renderer_close(&r);
     sp_renderer_close(&r_ff);
+    sp_renderer_close(&r_ffb);
     sp_mesh_free(&head);
     free(albedo);
     free(disp);
