@@ -63,8 +63,8 @@ typedef struct sp_renderer_settings {
      * then agree with the classic double path to ~1e-5 and ~1e-4 relative
      * instead of bit for bit). Such a call keeps no state for
      * sp_render_backward, which then returns -EINVAL until the next
-     * sp_render; it writes image and radiance only when `out` is non-NULL.
-     * Default 0. sp_render and sp_render_backward are unaffected.
+     * sp_render; it writes image and radiance only when `out` is non-NULL,
+     * and gives no barycentrics (out->bary NULL). Default 0. sp_render and sp_render_backward are unaffected.
      */
     int fit_float;
 } sp_renderer_settings;
@@ -153,7 +153,7 @@ typedef struct sp_render_scene {
  * by coverage). Per-sample buffers are sample_width * sample_height, the
  * supersampled grid (the same as pixels when supersample is 1).
  * diffuse .. albedo are NULL when settings.skip_outputs skips them and after
- * sp_render_fit_l2.
+ * sp_render_fit_l2, and bary too after sp_render_fit_l2 with settings.fit_float.
  */
 typedef struct sp_render_outputs {
     int width, height;

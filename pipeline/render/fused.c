@@ -398,7 +398,7 @@ int sp_render_fit_l2(sp_renderer *r, const sp_render_scene *sc, const float *tar
     if (!fit_args_ok(r, sc, target, loss))
         return -EINVAL;
     int n_sun = 1;
-    int err = render_begin(r, sc, 1, &n_sun);
+    int err = render_begin(r, sc, 1, !r->set.fit_float, &n_sun);
     if (err)
         return err;
     fused_state st;
@@ -435,8 +435,11 @@ int sp_render_fit_l2(sp_renderer *r, const sp_render_scene *sc, const float *tar
                 grads->camera_t[k] += st.surfacc.g_t[k];
         }
     *loss = st.loss_sum / st.norm;
-    if (out)
+    if (out) {
         render_fill_outputs(r, out);
+        if (r->set.fit_float)
+            out->bary = NULL; /* not computed (render_begin) */
+    }
     render_end(r, sc, n_sun);
     if (r->set.fit_float)
         r->have_render = 0; /* no double twins or sun cache: sp_render_backward needs an sp_render first */

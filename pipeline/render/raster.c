@@ -166,6 +166,8 @@ static inline void write_sample(const tri_setup *ts, double s_min, double s_max,
         return;
     o->zbuf[idx] = (float)z;
     o->tri_id[idx] = id;
+    if (!o->bary) /* fit_float's gather recomputes them in double */
+        return;
     o->bary[idx * 3 + 0] = to_float(w[0] / s);
     o->bary[idx * 3 + 1] = to_float(w[1] / s);
     o->bary[idx * 3 + 2] = to_float(w[2] / s);
@@ -230,7 +232,8 @@ void raster_camera_draw(const raster_camera *c, const double *xc, const sp_mesh 
         tri_id[i] = -1;
         zbuf[i] = FLT_MAX;
     }
-    memset(bary, 0, n * 3 * sizeof(float));
+    if (bary)
+        memset(bary, 0, n * 3 * sizeof(float));
     for (uint32_t v = 0; v < mesh->n_vertices; v++) { /* once per vertex instead of once per corner */
         const double *p = xc + (size_t)v * 3;
         if (p[2] >= c->near_plane)

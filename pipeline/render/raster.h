@@ -47,7 +47,7 @@ static inline double raster_weights(const double k[9], const double d[3], double
 /*
  * Rasterises mesh triangles whose camera-space vertices are xc (3 per vertex)
  * into per-sample triangle ids (-1 empty), depths (zbuf, FLT_MAX empty) and
- * barycentrics (3 per sample); the nearest hit wins. tri_k (9 doubles per
+ * barycentrics (3 per sample; bary NULL: not computed); the nearest hit wins. tri_k (9 doubles per
  * triangle) receives B x C, C x A, A x B of every triangle that may own a
  * sample (entries of the others are left as they were). Scratch: xs, 2
  * doubles per vertex (the vertices' sample-grid projections), col_dx, one

@@ -52,8 +52,9 @@ const double *render_image_f64(const sp_renderer *r);
  * Forward steps shared by sp_render and the fused path (renderer.c):
  * validation, capacity, geometry, frame constants and the camera raster.
  * need_backward: refuse (SP_EUNSUPPORTED) scenes without gradients first.
+ * want_bary: 0 leaves r->bary as it was (fit_float does not read it).
  */
-int render_begin(sp_renderer *r, const sp_render_scene *sc, int need_backward, int *n_sun);
+int render_begin(sp_renderer *r, const sp_render_scene *sc, int need_backward, int want_bary, int *n_sun);
 /* Records the frame for a following sp_render_backward. */
 void render_end(sp_renderer *r, const sp_render_scene *sc, int n_sun);
 const shadow_map *render_prepare_shadow(sp_renderer *r, const sp_render_scene *sc, const double l[3], int force);

@@ -483,7 +483,7 @@ void render_fill_outputs(const sp_renderer *r, sp_render_outputs *out)
     };
 }
 
-int render_begin(sp_renderer *r, const sp_render_scene *sc, int need_backward, int *n_sun)
+int render_begin(sp_renderer *r, const sp_render_scene *sc, int need_backward, int want_bary, int *n_sun)
 {
     int same_mesh;
     int err = validate_scene(r, sc, &same_mesh);
@@ -499,8 +499,8 @@ int render_begin(sp_renderer *r, const sp_render_scene *sc, int need_backward, i
     same_mesh = same_mesh && r->geo.key_valid; /* a grown geom (ensure_capacity) has no key: rebuild */
     geom_forward_known(&r->geo, sc->mesh, same_mesh, &sc->displacement, sc->camera.R, sc->camera.t);
     setup_frame(r, sc, *n_sun);
-    raster_camera_draw(&r->cam, r->geo.xc, sc->mesh, r->tri_id, r->depth, r->bary, r->geo.tri_k, r->geo.xs,
-                       r->geo.col_dx);
+    raster_camera_draw(&r->cam, r->geo.xc, sc->mesh, r->tri_id, r->depth, want_bary ? r->bary : NULL,
+                       r->geo.tri_k, r->geo.xs, r->geo.col_dx);
     return 0;
 }
 
@@ -518,7 +518,7 @@ int sp_render(sp_renderer *r, const sp_render_scene *sc, sp_render_outputs *out)
     if (!r || !sc || !out)
         return -EINVAL;
     int n_sun = 1;
-    int err = render_begin(r, sc, 0, &n_sun);
+    int err = render_begin(r, sc, 0, 1, &n_sun);
     if (err)
         return err;
     clear_pixels(r);

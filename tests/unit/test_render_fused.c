@@ -225,6 +225,7 @@ static void check_equivalence(fixture *f)
         CHECK(memcmp(tex_c, of.shadow_texel, ns * sizeof(int32_t)) == 0);
     }
     CHECK(!of.diffuse && !of.specular && !of.ambient && !of.fill && !of.visibility && !of.normal && !of.albedo);
+    CHECK(f->fit_float ? of.bary == NULL : of.bary != NULL); /* fit_float computes no barycentrics */
     CHECK_MSG(grads_close(&gf, &gc, nv, f->fit_float ? 1e-3 : 1e-5), "fused gradients differ from the classic ones");
     /*
      * the classic backward after a fused call reads the same state as after
@@ -234,6 +235,18 @@ static void check_equivalence(fixture *f)
     if (f->fit_float) {
         /* fit_float keeps no double twins or sun cache: refused until the next sp_render (RENDERER.md) */
         CHECK_EQ_INT(sp_render_backward(f->r, &f->sc, dl, &gb.g), -EINVAL);
+        /* sp_render on this renderer still computes barycentrics (they sum to 1 on covered samples) */
+        float *bary_c = malloc(ns * 3 * sizeof(float));
+        CHECK(bary_c != NULL);
+        memcpy(bary_c, o.bary, ns * 3 * sizeof(float));
+        size_t bad_sum = 0;
+        for (size_t s = 0; s < ns; s++)
+            bad_sum += tri_c[s] >= 0 && fabs((double)bary_c[s * 3] + (double)bary_c[s * 3 + 1] + (double)bary_c[s * 3 + 2] - 1.0) > 1e-5;
+        CHECK(bad_sum == 0);
+        sp_render_outputs o2;
+        CHECK_EQ_INT(sp_render(f->r, &f->sc, &o2), 0);
+        CHECK(o2.bary && memcmp(bary_c, o2.bary, ns * 3 * sizeof(float)) == 0);
+        free(bary_c);
     } else {
         CHECK_EQ_INT(sp_render_backward(f->r, &f->sc, dl, &gb.g), 0);
         CHECK_MSG(grads_close(&gb, &gc, nv, 1e-12), "backward after the fused call differs");
