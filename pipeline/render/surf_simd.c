@@ -308,6 +308,100 @@ int surf_gather(const shade_ctx *ctx, int sx, int sy, int32_t tri, simd_batch *b
     return surf_gather_at(ctx, sx, sy, tri, b, i);
 }
 
+#ifdef DLANES
+static inline vd ldd(const double *p)
+{
+    vd v;
+    memcpy(&v, p, sizeof(v));
+    return v;
+}
+
+static inline vd seld(vdm m, vd a, vd b)
+{
+    return (vd)(((vdm)a & m) | ((vdm)b & ~m));
+}
+
+/* shadow.c's tap: a texel of the map, or empty outside it. */
+static inline double map_tap(const shadow_map *m, int x, int y, double empty)
+{
+    if (x < 0 || y < 0 || x >= m->n || y >= m->n)
+        return empty;
+    return (double)m->depth[(size_t)y * (size_t)m->n + (size_t)x];
+}
+
+/*
+ * Lanes [i, i + DLANES) of shadow_eval_z_lanes, DLANES at a time in double:
+ * the same operations in the same order (no contraction), so the same z, dz
+ * and texel bit for bit; only the four depth taps are loaded per lane.
+ */
+static void shadow_z_group(const shadow_map *m, double k, double bias, const double *const p[3], const float *lit,
+                           int i, float *z, float *const dz[3], int32_t *texel)
+{
+    const shadow_frame *f = &m->f;
+    int n = m->n;
+    double h = 0.5 * (double)f->n - 0.5, empty = f->offset + SHADOW_EMPTY_DEPTH;
+    vd q0 = ldd(p[0] + i) - f->c[0], q1 = ldd(p[1] + i) - f->c[1], q2 = ldd(p[2] + i) - f->c[2];
+    vd mx = (q0 * f->e1[0] + q1 * f->e1[1] + q2 * f->e1[2]) * f->scale + h;
+    vd my = (q0 * f->e2[0] + q1 * f->e2[1] + q2 * f->e2[2]) * f->scale + h;
+    vd mz = f->offset - (q0 * f->l[0] + q1 * f->l[1] + q2 * f->l[2]) / f->r;
+    vd lt;
+    for (int j = 0; j < DLANES; j++)
+        lt[j] = (double)lit[i + j];
+    vdm in = (lt > 0.0) & (mx > -1.0) & (mx < (double)n) & (my > -1.0) & (my < (double)n);
+    vd zero = {0.0};
+    mx = seld(in, mx, zero), my = seld(in, my, zero); /* in range before the conversion */
+    vdi tx = __builtin_convertvector(mx, vdi), ty = __builtin_convertvector(my, vdi); /* ifloor */
+    vdi ix = tx + __builtin_convertvector(mx < __builtin_convertvector(tx, vd), vdi);
+    vdi iy = ty + __builtin_convertvector(my < __builtin_convertvector(ty, vd), vdi);
+    vd fx = mx - __builtin_convertvector(ix, vd), fy = my - __builtin_convertvector(iy, vd);
+    vd d00, d10, d01, d11;
+    for (int j = 0; j < DLANES; j++) {
+        int x = ix[j], y = iy[j];
+        texel[i + j] = in[j] ? (y + 1) * (n + 1) + (x + 1) : -1;
+        if (!in[j]) {
+            d00[j] = d10[j] = d01[j] = d11[j] = 0.0;
+        } else if (x >= 0 && y >= 0 && x + 1 < n && y + 1 < n) {
+            const float *row = m->depth + (size_t)y * (size_t)n + (size_t)x;
+            d00[j] = (double)row[0], d10[j] = (double)row[1];
+            d01[j] = (double)row[n], d11[j] = (double)row[n + 1];
+        } else {
+            d00[j] = map_tap(m, x, y, empty), d10[j] = map_tap(m, x + 1, y, empty);
+            d01[j] = map_tap(m, x, y + 1, empty), d11[j] = map_tap(m, x + 1, y + 1, empty);
+        }
+    }
+    vd gx = 1.0 - fx, gy = 1.0 - fy;
+    vd ds = gy * (gx * d00 + fx * d10) + fy * (gx * d01 + fx * d11);
+    vd dsdx = gy * (d10 - d00) + fy * (d11 - d01);
+    vd dsdy = gx * (d01 - d00) + fx * (d11 - d10);
+    vd zz = seld(in, k * (mz - bias * ds), zero - 1e30);
+    zz = seld(zz < -1e30, zero - 1e30, seld(zz > 1e30, zero + 1e30, zz)); /* NaN stays NaN */
+    double gzr = -k / f->r, gs = -k * bias * f->scale;
+    for (int a = 0; a < 3; a++) {
+        vd g = seld(in, gzr * f->l[a] + gs * (dsdx * f->e1[a] + dsdy * f->e2[a]), zero);
+        for (int j = 0; j < DLANES; j++)
+            dz[a][i + j] = (float)g[j];
+    }
+    for (int j = 0; j < DLANES; j++)
+        z[i + j] = (float)zz[j];
+}
+#endif
+
+/* shadow_eval_z_lanes, DLANES lanes at a time where the vector types exist. */
+static void shadow_z_lanes(const shadow_map *m, double k, double bias, int n, const double *const p[3],
+                           const float *lit, float *z, float *const dz[3], int32_t *texel)
+{
+    int i = 0;
+#ifdef DLANES
+    for (; i + DLANES <= n; i += DLANES)
+        shadow_z_group(m, k, bias, p, lit, i, z, dz, texel);
+#endif
+    if (i < n) {
+        const double *const pt[3] = {p[0] + i, p[1] + i, p[2] + i};
+        float *const dzt[3] = {dz[0] + i, dz[1] + i, dz[2] + i};
+        shadow_eval_z_lanes(m, k, bias, n - i, pt, lit + i, z + i, dzt, texel + i);
+    }
+}
+
 void surf_shadow(const shade_ctx *ctx, const float l[3], simd_batch *b, int32_t *texels)
 {
     surf_batch *s = &b->surf;
@@ -318,7 +412,7 @@ void surf_shadow(const shade_ctx *ctx, const float l[3], simd_batch *b, int32_t 
     if (ctx->sm) {
         const double *const pw[3] = {s->pw[0], s->pw[1], s->pw[2]};
         float *const dz[3] = {s->dz[0], s->dz[1], s->dz[2]};
-        shadow_eval_z_lanes(ctx->sm, ctx->shadow_k, ctx->shadow_b, b->n, pw, lit, b->z, dz, tx);
+        shadow_z_lanes(ctx->sm, ctx->shadow_k, ctx->shadow_b, b->n, pw, lit, b->z, dz, tx);
     } else {
         for (int i = 0; i < b->n; i++) {
             b->z[i] = (float)-1e30; /* as shadow_eval_z_lanes' clamp */

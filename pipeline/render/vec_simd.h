@@ -24,6 +24,11 @@
 #endif
 typedef float vf __attribute__((vector_size(4 * LANES)));
 typedef int32_t vi __attribute__((vector_size(4 * LANES)));
+/* double vectors of the same width (the shadow lookup): their comparison masks and 32-bit integers per lane */
+#define DLANES (LANES / 2)
+typedef double vd __attribute__((vector_size(8 * DLANES)));
+typedef int64_t vdm __attribute__((vector_size(8 * DLANES)));
+typedef int32_t vdi __attribute__((vector_size(4 * DLANES)));
 #define AS_VI(x) ((vi)(x))
 #define AS_VF(x) ((vf)(x))
 #define CVT_I(x) __builtin_convertvector((x), vi)

@@ -542,6 +542,74 @@ static int surf_finite(const simd_batch *b, const surf_acc *acc)
     return bad;
 }
 
+/* Bits of a float (so that NaN equals NaN and -0 differs from 0). */
+static uint32_t fbits(float x)
+{
+    uint32_t u;
+    memcpy(&u, &x, sizeof(u));
+    return u;
+}
+
+/*
+ * surf_shadow against shadow_eval_z, bit for bit: z, dz/dp and the texel of
+ * points on and around a head's shadow map (inside, on the border texels,
+ * outside, NaN), lit and unlit lanes, batches of every length up to 64.
+ */
+static void test_shadow_lookup(void)
+{
+    surf_scene z;
+    surf_scene_init(&z);
+    shadow_map sm;
+    CHECK(shadow_map_init(&sm, 64) == 0 && shadow_map_reserve(&sm, z.mesh.n_vertices) == 0);
+    double l[3] = {0.6, -0.5, 0.6}, c[3], r;
+    v3_normalize(l, l);
+    shadow_bounds(z.geo.pd, z.mesh.n_vertices, c, &r);
+    r *= 0.6; /* a map smaller than the head: its border texels hold depths too */
+    shadow_frame_init(&sm.f, l, c, r, 0.0, sm.n);
+    shadow_map_render(&sm, z.geo.pd, &z.mesh);
+    z.ctx.sm = &sm, z.ctx.shadow_k = 800.0, z.ctx.shadow_b = 1.0015;
+    const float lf[3] = {(float)l[0], (float)l[1], (float)l[2]};
+    int32_t texels[SIMD_BATCH];
+    int mismatches = 0, inside = 0, lanes = 0;
+    static simd_batch b;
+    for (int round = 0; round < 200; round++) {
+        memset(&b, 0, sizeof(b));
+        b.n = 1 + round % SIMD_BATCH;
+        for (int i = 0; i < b.n; i++) {
+            double p[3], s = round % 4 == 0 ? 1.3 : 1.0; /* some rounds reach past the map's edge */
+            for (int a = 0; a < 3; a++)
+                p[a] = c[a] + s * urand(-r, r);
+            if (i % 17 == 5)
+                p[i % 3] = NAN;
+            for (int a = 0; a < 3; a++)
+                b.surf.pw[a][i] = p[a];
+            double nrm[3];
+            unit_rand(nrm);
+            b.nx[i] = (float)nrm[0], b.ny[i] = (float)nrm[1], b.nz[i] = (float)nrm[2];
+            b.surf.samp[i] = i;
+        }
+        surf_shadow(&z.ctx, lf, &b, texels);
+        for (int i = 0; i < b.n; i++) {
+            float nl = b.nx[i] * lf[0] + b.ny[i] * lf[1] + b.nz[i] * lf[2];
+            double p[3] = {b.surf.pw[0][i], b.surf.pw[1][i], b.surf.pw[2][i]}, zz = -1e30, g[3] = {0, 0, 0};
+            int32_t t = -1;
+            if (nl > 0.0f)
+                shadow_eval_z(&sm, 800.0, 1.0015, p, &zz, g, &t);
+            zz = zz < -1e30 ? -1e30 : (zz > 1e30 ? 1e30 : zz);
+            int same = fbits(b.z[i]) == fbits((float)zz) && texels[i] == t;
+            for (int a = 0; a < 3; a++)
+                same &= fbits(b.surf.dz[a][i]) == fbits((float)g[a]);
+            mismatches += !same;
+            inside += t >= 0;
+            lanes++;
+        }
+    }
+    printf("shadow lookup: %d lanes, %d inside the map, %d differ from shadow_eval_z\n", lanes, inside, mismatches);
+    CHECK(mismatches == 0 && inside > lanes / 4 && inside < lanes);
+    shadow_map_free(&sm);
+    surf_scene_free(&z);
+}
+
 static void test_surface_extremes(void)
 {
     static surf_scene z;
@@ -599,5 +667,6 @@ int main(void)
     test_extremes();
     test_surface();
     test_surface_extremes();
+    test_shadow_lookup();
     return check_exit();
 }
