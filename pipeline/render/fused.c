@@ -182,7 +182,10 @@ static void fused_sweep(sp_renderer *r, const sp_render_scene *sc, fused_state *
  */
 static int gather_chunk(sp_renderer *r, int py, int px0, simd_batch *b)
 {
-    const shade_ctx *ctx = &r->ctx;
+    gather_frame f;
+    gather_rec rec;
+    gather_frame_init(&f, &r->ctx);
+    const double *dx = r->geo.col_dx, *dy = r->geo.col_dx + r->cam.sample_width; /* the rasteriser's rays */
     int S = r->set.supersample, n = 0, px = px0;
     float w = 1.0f / (float)(S * S);
     for (; px < r->set.width && px - px0 < SIMD_BATCH && (n == 0 || n + S * S <= SIMD_BATCH); px++) {
@@ -194,7 +197,8 @@ static int gather_chunk(sp_renderer *r, int py, int px0, simd_batch *b)
                 int sx = px * S + k, sy = py * S + j;
                 size_t s = (size_t)sy * (size_t)r->sw + (size_t)sx;
                 r->shadow_texel[s] = -1;
-                if (r->tri_id[s] < 0 || !surf_gather_at(ctx, sx, sy, r->tri_id[s], b, n)) {
+                int32_t tri = r->tri_id[s];
+                if (tri < 0 || !gather_cover(&f, dx[sx], dy[sy], tri, &rec, n)) {
                     r->tri_id[s] = -1; /* negative already, or a degenerate hit: uncovered, as sp_render */
                     r->depth[s] = 0.0f;
                     continue;
@@ -206,6 +210,7 @@ static int gather_chunk(sp_renderer *r, int py, int px0, simd_batch *b)
             }
     }
     r->row_first[px - px0] = n;
+    gather_lanes(&f, &rec, b, n);
     b->n = n;
     return px;
 }
@@ -238,13 +243,18 @@ static void background_add(fused_state *st, const double acc[4])
 /* fit_float, S = 1 (sample = pixel): gather_chunk without the pixel bookkeeping; uncovered pixels' loss terms inline. */
 static int gather_chunk_s1(sp_renderer *r, fused_state *st, int py, int px, simd_batch *b, int want_out)
 {
-    const shade_ctx *ctx = &r->ctx;
+    gather_frame f;
+    gather_rec rec;
+    gather_frame_init(&f, &r->ctx);
     int n = 0, W = r->set.width;
+    /* the rays: the rasteriser's table (raster_sample_ray's values, the ones coverage was decided with) */
+    const double *dx = r->geo.col_dx, dy = r->geo.col_dx[r->cam.sample_width + py];
     double acc[4] = {0.0, 0.0, 0.0, 0.0};
     for (; px < W && n < SIMD_BATCH; px++) {
         size_t p = (size_t)py * (size_t)W + (size_t)px;
+        int32_t tri = r->tri_id[p];
         r->shadow_texel[p] = -1;
-        if (r->tri_id[p] >= 0 && surf_gather_at(ctx, px, py, r->tri_id[p], b, n)) {
+        if (tri >= 0 && gather_cover(&f, dx[px], dy, tri, &rec, n)) {
             b->surf.pix[n] = b->surf.samp[n] = (int32_t)p;
             n++;
             r->coverage[p] = 1.0f;
@@ -256,6 +266,7 @@ static int gather_chunk_s1(sp_renderer *r, fused_state *st, int py, int px, simd
         background_pixel_f(r, st, p, want_out, acc);
     }
     background_add(st, acc);
+    gather_lanes(&f, &rec, b, n);
     b->n = n;
     return px;
 }
