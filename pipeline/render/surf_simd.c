@@ -309,18 +309,6 @@ int surf_gather(const shade_ctx *ctx, int sx, int sy, int32_t tri, simd_batch *b
 }
 
 #ifdef DLANES
-static inline vd ldd(const double *p)
-{
-    vd v;
-    memcpy(&v, p, sizeof(v));
-    return v;
-}
-
-static inline vd seld(vdm m, vd a, vd b)
-{
-    return (vd)(((vdm)a & m) | ((vdm)b & ~m));
-}
-
 /* shadow.c's tap: a texel of the map, or empty outside it. */
 static inline double map_tap(const shadow_map *m, int x, int y, double empty)
 {

@@ -86,6 +86,21 @@ static inline vf splat(float x)
     return (vf){0} + x;
 }
 
+#ifdef DLANES
+static inline vd ldd(const double *p)
+{
+    vd v;
+    memcpy(&v, p, sizeof(v));
+    return v;
+}
+
+/* m ? a : b per double lane */
+static inline vd seld(vdm m, vd a, vd b)
+{
+    return (vd)(((vdm)a & m) | ((vdm)b & ~m));
+}
+#endif
+
 /* m ? a : b per lane (m all ones or zero) */
 static inline vf sel(vi m, vf a, vf b)
 {
