@@ -120,11 +120,8 @@ static int alloc_buffers(sp_renderer *r)
     /* S^2 <= 64 = SIMD_BATCH records: one pixel's (classic fused) or one batch's (fit_float) */
     ok &= (r->recs = calloc(SIMD_BATCH, sizeof(shade_rec))) != NULL;
     ok &= (r->row_first = calloc(SIMD_BATCH + 1, sizeof(int))) != NULL;
-    if (r->set.fit_float) {
+    if (r->set.fit_float)
         ok &= (r->batches = calloc(1, sizeof(simd_batch))) != NULL;
-        r->simd = simd_kernels_select();
-        sp_log(SP_LOG_DEBUG, MODULE, "fit_float kernels: %s (%d lanes)", r->simd->name, r->simd->lanes);
-    }
     ok &= (r->shadow_texel = calloc(r->nsamp, sizeof(int32_t))) != NULL;
     ok &= (r->env_basis = calloc((size_t)ENV_TEXELS * ENV_SH_N, sizeof(double))) != NULL;
     return ok ? 0 : -ENOMEM;
@@ -158,6 +155,10 @@ int sp_renderer_open(sp_renderer **out, const sp_renderer_settings *s)
         return err;
     }
     env_basis_init(r->env_basis);
+    if (s->fit_float) { /* the fastest kernel set this CPU runs, once per renderer */
+        r->simd = simd_kernels_select();
+        sp_log(SP_LOG_DEBUG, MODULE, "fit_float kernels: %s (%d lanes)", r->simd->name, r->simd->lanes);
+    }
     *out = r;
     return 0;
 }
