@@ -18,20 +18,24 @@ typedef int (*writer_open_fn)(sp_cv_video_writer **, const char *, uint32_t, uin
 typedef int (*video_write_fn)(sp_cv_video_writer *, const uint8_t *, uint32_t);
 typedef int (*writer_close_fn)(sp_cv_video_writer **);
 
-#define SYMBOL(type, name) ((type)sp_module_symbol(&cv_import, #name))
+/* name's function from the module, looked up once (each forwarder has its slot, name##_slot) */
+#define SYMBOL(type, name) ((type)sp_module_symbol_cached(&cv_import, #name, &name##_slot))
 
+static sp_module_slot sp_cv_video_open_slot;
 int sp_cv_video_open(sp_cv_video_reader **out, const char *path, sp_cv_video_info *info)
 {
     video_open_fn fn = SYMBOL(video_open_fn, sp_cv_video_open);
     return fn ? fn(out, path, info) : SP_EMODULE;
 }
 
+static sp_module_slot sp_cv_video_read_slot;
 int sp_cv_video_read(sp_cv_video_reader *r, uint8_t *dst, size_t dst_size, uint32_t dst_stride)
 {
     video_read_fn fn = SYMBOL(video_read_fn, sp_cv_video_read);
     return fn ? fn(r, dst, dst_size, dst_stride) : SP_EMODULE;
 }
 
+static sp_module_slot sp_cv_video_close_slot;
 void sp_cv_video_close(sp_cv_video_reader **r)
 {
     video_close_fn fn = r && *r ? SYMBOL(video_close_fn, sp_cv_video_close) : NULL; /* nothing open: no load */
@@ -39,12 +43,14 @@ void sp_cv_video_close(sp_cv_video_reader **r)
         fn(r);
 }
 
+static sp_module_slot sp_cv_image_read_slot;
 int sp_cv_image_read(const char *path, uint8_t **buf, size_t *cap, uint32_t *width, uint32_t *height)
 {
     image_read_fn fn = SYMBOL(image_read_fn, sp_cv_image_read);
     return fn ? fn(path, buf, cap, width, height) : SP_EMODULE;
 }
 
+static sp_module_slot sp_cv_image_decode_slot;
 int sp_cv_image_decode(const uint8_t *data, size_t size, uint8_t **buf, size_t *cap, uint32_t *width,
                        uint32_t *height)
 {
@@ -52,6 +58,7 @@ int sp_cv_image_decode(const uint8_t *data, size_t size, uint8_t **buf, size_t *
     return fn ? fn(data, size, buf, cap, width, height) : SP_EMODULE;
 }
 
+static sp_module_slot sp_cv_video_writer_open_slot;
 int sp_cv_video_writer_open(sp_cv_video_writer **out, const char *path, uint32_t width, uint32_t height,
                             double fps)
 {
@@ -59,12 +66,14 @@ int sp_cv_video_writer_open(sp_cv_video_writer **out, const char *path, uint32_t
     return fn ? fn(out, path, width, height, fps) : SP_EMODULE;
 }
 
+static sp_module_slot sp_cv_video_write_slot;
 int sp_cv_video_write(sp_cv_video_writer *w, const uint8_t *rgb, uint32_t stride)
 {
     video_write_fn fn = SYMBOL(video_write_fn, sp_cv_video_write);
     return fn ? fn(w, rgb, stride) : SP_EMODULE;
 }
 
+static sp_module_slot sp_cv_video_writer_close_slot;
 int sp_cv_video_writer_close(sp_cv_video_writer **w)
 {
     if (!w || !*w)

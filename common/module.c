@@ -5,6 +5,7 @@
 #include <errno.h>
 #include <limits.h>
 #include <pthread.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -96,5 +97,16 @@ sp_module_fn sp_module_symbol(const sp_module *m, const char *symbol)
     if (h && !sym)
         sp_log(SP_LOG_ERROR, LOG_MODULE, "%s: no symbol %s", m->name, symbol);
     memcpy(&fn, &sym, sizeof(fn));
+    return fn;
+}
+
+sp_module_fn sp_module_symbol_cached(const sp_module *m, const char *symbol, sp_module_slot *slot)
+{
+    sp_module_fn fn = atomic_load_explicit(slot, memory_order_acquire);
+    if (fn)
+        return fn;
+    fn = sp_module_symbol(m, symbol);
+    if (fn)
+        atomic_store_explicit(slot, fn, memory_order_release);
     return fn;
 }

@@ -47,6 +47,15 @@ typedef void (*sp_module_fn)(void);
  */
 sp_module_fn sp_module_symbol(const sp_module *m, const char *symbol);
 
+/*
+ * A forwarder's remembered function (one static per forwarder, zero-initialised):
+ * after the first successful lookup a call costs one atomic load, not a lock
+ * and a dlsym (forwarders run per frame: video reads, MOG2, HOG).
+ */
+typedef _Atomic(sp_module_fn) sp_module_slot;
+/* sp_module_symbol, remembered in *slot once found (a failed lookup is retried: its reason is logged by it). */
+sp_module_fn sp_module_symbol_cached(const sp_module *m, const char *symbol, sp_module_slot *slot);
+
 /* What forwarders return when their module cannot be loaded. */
 #define SP_EMODULE (-ELIBACC)
 

@@ -10,8 +10,9 @@ static const sp_module oiio = { "sunprobe-oiio", "export", "OpenImageIO" };
 
 typedef int (*exr_write_fn)(const char *, const float *, uint32_t, uint32_t, int);
 
+static sp_module_slot sp_exr_write_slot;
 int sp_exr_write(const char *path, const float *pixels, uint32_t width, uint32_t height, int channels)
 {
-    exr_write_fn fn = (exr_write_fn)sp_module_symbol(&oiio, "sp_exr_write");
+    exr_write_fn fn = (exr_write_fn)sp_module_symbol_cached(&oiio, "sp_exr_write", &sp_exr_write_slot);
     return fn ? fn(path, pixels, width, height, channels) : SP_EMODULE;
 }

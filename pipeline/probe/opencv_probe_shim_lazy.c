@@ -16,14 +16,17 @@ typedef int (*mog2_apply_fn)(sp_cv_mog2 *, const uint8_t *, uint32_t, uint32_t, 
 typedef void (*mog2_close_fn)(sp_cv_mog2 **);
 typedef void (*set_threads_fn)(int);
 
-#define SYMBOL(type, name) ((type)sp_module_symbol(&cv_probe, #name))
+/* name's function from the module, looked up once (each forwarder has its slot, name##_slot) */
+#define SYMBOL(type, name) ((type)sp_module_symbol_cached(&cv_probe, #name, &name##_slot))
 
+static sp_module_slot sp_cv_hog_open_slot;
 int sp_cv_hog_open(sp_cv_hog **out)
 {
     hog_open_fn fn = SYMBOL(hog_open_fn, sp_cv_hog_open);
     return fn ? fn(out) : SP_EMODULE;
 }
 
+static sp_module_slot sp_cv_hog_score_slot;
 int sp_cv_hog_score(sp_cv_hog *hog, const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, int x0,
                     int y0, int x1, int y1, double *score)
 {
@@ -31,6 +34,7 @@ int sp_cv_hog_score(sp_cv_hog *hog, const uint8_t *rgb, uint32_t width, uint32_t
     return fn ? fn(hog, rgb, width, height, stride, x0, y0, x1, y1, score) : SP_EMODULE;
 }
 
+static sp_module_slot sp_cv_hog_close_slot;
 void sp_cv_hog_close(sp_cv_hog **hog)
 {
     hog_close_fn fn = hog && *hog ? SYMBOL(hog_close_fn, sp_cv_hog_close) : NULL; /* nothing open: no load */
@@ -38,12 +42,14 @@ void sp_cv_hog_close(sp_cv_hog **hog)
         fn(hog);
 }
 
+static sp_module_slot sp_cv_mog2_open_slot;
 int sp_cv_mog2_open(sp_cv_mog2 **out, int history, double var_threshold, int detect_shadows)
 {
     mog2_open_fn fn = SYMBOL(mog2_open_fn, sp_cv_mog2_open);
     return fn ? fn(out, history, var_threshold, detect_shadows) : SP_EMODULE;
 }
 
+static sp_module_slot sp_cv_mog2_apply_slot;
 int sp_cv_mog2_apply(sp_cv_mog2 *m, const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride,
                      uint8_t *mask, uint32_t mask_stride)
 {
@@ -51,6 +57,7 @@ int sp_cv_mog2_apply(sp_cv_mog2 *m, const uint8_t *rgb, uint32_t width, uint32_t
     return fn ? fn(m, rgb, width, height, stride, mask, mask_stride) : SP_EMODULE;
 }
 
+static sp_module_slot sp_cv_mog2_close_slot;
 void sp_cv_mog2_close(sp_cv_mog2 **m)
 {
     mog2_close_fn fn = m && *m ? SYMBOL(mog2_close_fn, sp_cv_mog2_close) : NULL;
@@ -58,6 +65,7 @@ void sp_cv_mog2_close(sp_cv_mog2 **m)
         fn(m);
 }
 
+static sp_module_slot sp_cv_set_threads_slot;
 void sp_cv_set_threads(int n)
 {
     set_threads_fn fn = SYMBOL(set_threads_fn, sp_cv_set_threads);
