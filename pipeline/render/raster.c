@@ -19,7 +19,7 @@ typedef struct raster_out {
     int32_t *tri_id;
     float *zbuf, *bary;
     double *tri_k;
-    const double *col_dx; /* ray x per sample column, sample_dx() of each */
+    const double *col_dx; /* ray x per sample column (raster_sample_ray's d[0]) */
     const double *row_dy; /* ray y per sample row (raster_sample_ray's d[1]) */
 } raster_out;
 
@@ -29,12 +29,6 @@ static void project(const raster_camera *c, const double p[3], double *sx, doubl
     double s = (double)c->supersample;
     *sx = (c->fx * p[0] / p[2] + c->cx + 0.5) * s - 0.5;
     *sy = (c->fy * p[1] / p[2] + c->cy + 0.5) * s - 0.5;
-}
-
-/* Camera-space x of the ray through sample column sx (raster_sample_ray's d[0]). */
-static inline double sample_dx(const raster_camera *c, int sx)
-{
-    return (((double)sx + 0.5) * c->inv_s - 0.5 - c->cx) * c->inv_fx;
 }
 
 /* Screen bounds of the part of the triangle in front of the near plane; 0 if none. */
@@ -241,11 +235,15 @@ void raster_camera_draw(const raster_camera *c, const double *xc, const sp_mesh 
     }
     /* ray x per column and y per row, once: shorter dependency chains before each coverage branch, and
      * every triangle sees the same ray for a sample */
-    double *row_dy = col_dx + c->sample_width;
-    for (int sx = 0; sx < c->sample_width; sx++)
-        col_dx[sx] = sample_dx(c, sx);
-    for (int sy = 0; sy < c->sample_height; sy++)
-        row_dy[sy] = (((double)sy + 0.5) * c->inv_s - 0.5 - c->cy) * c->inv_fy; /* raster_sample_ray's d[1] */
+    double *row_dy = col_dx + c->sample_width, d[3];
+    for (int sx = 0; sx < c->sample_width; sx++) {
+        raster_sample_ray(c, sx, 0, d);
+        col_dx[sx] = d[0];
+    }
+    for (int sy = 0; sy < c->sample_height; sy++) {
+        raster_sample_ray(c, 0, sy, d);
+        row_dy[sy] = d[1];
+    }
     const raster_out o = {tri_id, zbuf, bary, tri_k, col_dx, row_dy};
     for (uint32_t t = 0; t < mesh->n_triangles; t++) {
         const uint32_t *tv = mesh->tri_vertices + (size_t)t * 3;
