@@ -195,11 +195,11 @@ static void bytes_copy(void *dst, const void *src, size_t n)
         memcpy(dst, src, n);
 }
 
-/* 1 when the mesh's positions and indices equal the copy kept by the last geom_forward. */
-static int same_mesh(const render_geom *g, const sp_mesh *mesh)
+int geom_mesh_unchanged(const render_geom *g, const sp_mesh *mesh)
 {
     size_t n3 = (size_t)mesh->n_triangles * 3;
     return g->key_valid && g->key_nv == mesh->n_vertices && g->key_nt == mesh->n_triangles &&
+           g->key_nuv == mesh->n_uvs &&
            bytes_equal(g->key_pos, mesh->positions, (size_t)mesh->n_vertices * 3 * sizeof(float)) &&
            bytes_equal(g->key_tv, mesh->tri_vertices, n3 * sizeof(uint32_t)) &&
            bytes_equal(g->key_tuv, mesh->tri_uvs, n3 * sizeof(uint32_t));
@@ -222,15 +222,10 @@ static void mesh_constants(render_geom *g, const sp_mesh *mesh)
     g->key_valid = 1;
 }
 
-int geom_mesh_unchanged(const render_geom *g, const sp_mesh *mesh)
-{
-    return same_mesh(g, mesh) && g->key_nuv == mesh->n_uvs;
-}
-
 void geom_forward(render_geom *g, const sp_mesh *mesh, const sp_render_texture *disp, const double R[9],
                   const double t[3])
 {
-    geom_forward_known(g, mesh, same_mesh(g, mesh), disp, R, t);
+    geom_forward_known(g, mesh, geom_mesh_unchanged(g, mesh), disp, R, t);
 }
 
 void geom_forward_known(render_geom *g, const sp_mesh *mesh, int same, const sp_render_texture *disp,
