@@ -4,6 +4,12 @@
  * min-heap for `reorder_window_ns`, because a writer appends IMU batches and
  * frames as they arrive, not in exact timestamp order. Memory is bounded by the
  * window and the frame pool, never by the file.
+ *
+ * The metadata prologue: every META chunk that stands before the first FRAME
+ * chunk is read ahead at open (with a reader of its own) and delivered before
+ * any other event. A phone's IMU log starts before its video, so its first
+ * samples carry earlier timestamps than the META chunk; in timestamp order they
+ * would reach a consumer before the calibration they need (imu.to_camera).
  */
 #include "sunprobe/sp_replay.h"
 
@@ -28,8 +34,13 @@ typedef struct pending {
     uint64_t side_sequence;
 } pending;
 
+#define PROLOGUE_MAX_CHUNKS 4096 /* leading chunks searched for META (about 1.5 h of 200 Hz IMU batches) */
+
 typedef struct replay {
     sp_replay_settings settings;
+    pending *prologue;  /* META events read ahead, delivered first */
+    size_t n_prologue, next_prologue;
+    uint64_t prologue_end; /* META chunks before this offset were read ahead: skipped by the main pass */
     sp_capture_reader *reader;
     sp_frame_pool *pool;
     pending *heap;
@@ -191,22 +202,63 @@ static int push_imu(replay *r, const sp_chunk *c)
     return 0;
 }
 
+/* A META chunk as a pending event (the JSON copied, NUL-terminated; merged when delivered). */
+static int meta_pending(const sp_chunk *c, pending *p)
+{
+    *p = (pending){ .t = c->timestamp_ns, .type = SP_EVENT_META, .meta_len = c->payload_size,
+                    .side_sequence = c->offset }; /* the offset names the chunk in a warning */
+    p->meta = malloc(c->payload_size + 1);
+    if (!p->meta)
+        return -ENOMEM;
+    memcpy(p->meta, c->payload, c->payload_size);
+    p->meta[c->payload_size] = 0;
+    return 0;
+}
+
 static int push_meta(replay *r, const sp_chunk *c)
 {
-    if (sp_capture_meta_merge(&r->meta, (const char *)c->payload, c->payload_size))
-        sp_log(SP_LOG_WARN, "replay", "metadata chunk at offset %llu is not valid JSON metadata; ignored",
-               (unsigned long long)c->offset);
-    pending p = { .t = c->timestamp_ns, .type = SP_EVENT_META, .meta_len = c->payload_size };
-    p.meta = malloc(c->payload_size + 1);
-    if (!p.meta)
-        return -ENOMEM;
-    memcpy(p.meta, c->payload, c->payload_size);
-    p.meta[c->payload_size] = 0;
-    int ret = heap_push(r, &p);
-    if (ret)
+    if (c->offset < r->prologue_end)
+        return 0; /* read ahead and delivered first */
+    pending p;
+    int ret = meta_pending(c, &p);
+    if (!ret && (ret = heap_push(r, &p)))
         free(p.meta);
-    else
-        r->stats.meta_chunks++;
+    return ret;
+}
+
+/* Reads the META chunks before the first FRAME chunk with a reader of its own (see the top). */
+static int read_prologue(replay *r, const char *path)
+{
+    sp_capture_reader *rd = NULL;
+    sp_capture_reader_settings rs;
+    sp_capture_reader_default_settings(&rs);
+    int ret = sp_capture_reader_open(&rd, path, &rs);
+    if (ret)
+        return ret;
+    sp_chunk c;
+    size_t cap = 0;
+    for (unsigned n = 0; n < PROLOGUE_MAX_CHUNKS; n++) {
+        if (sp_capture_reader_next(rd, &c))
+            break; /* the end, a torn tail or a bad chunk: the main pass meets it and reports it */
+        if (c.type == SP_CHUNK_FRAME)
+            break;
+        if (c.type == SP_CHUNK_META) {
+            if (r->n_prologue == cap) {
+                cap = cap ? 2 * cap : 4;
+                pending *q = realloc(r->prologue, cap * sizeof(*q));
+                if (!q) {
+                    ret = -ENOMEM;
+                    break;
+                }
+                r->prologue = q;
+            }
+            if ((ret = meta_pending(&c, &r->prologue[r->n_prologue])))
+                break;
+            r->n_prologue++;
+        }
+        r->prologue_end = c.offset + 1;
+    }
+    sp_capture_reader_close(&rd);
     return ret;
 }
 
@@ -328,6 +380,15 @@ static void to_event(replay *r, pending *p, sp_event *ev)
     ev->side_kind = p->side_kind;
     ev->side_count = p->side_count;
     ev->side_values = p->side;
+    if (p->type == SP_EVENT_META) { /* merged once, here; consumers read ev->meta */
+        if (sp_capture_meta_merge(&r->meta, p->meta, p->meta_len))
+            sp_log(SP_LOG_WARN, "replay", "metadata chunk at offset %llu is not valid JSON metadata; ignored",
+                   (unsigned long long)p->side_sequence);
+        ev->meta = &r->meta;
+        ev->side_sequence = 0;
+        r->stats.meta_chunks++;
+        return; /* metadata is not part of the time order (the prologue comes first whatever its time) */
+    }
     if (p->t < r->last_emitted_t)
         r->stats.late_events++;
     else
@@ -341,6 +402,12 @@ static int replay_next(void *ctx, sp_event *ev)
 {
     replay *r = ctx;
     pending_free(&r->current);
+    if (r->next_prologue < r->n_prologue) {
+        r->current = r->prologue[r->next_prologue];
+        memset(&r->prologue[r->next_prologue++], 0, sizeof(pending));
+        to_event(r, &r->current, ev);
+        return 0;
+    }
     for (;;) {
         int must_drain = 0;
         if (!ready_to_emit(r) && !r->eof) {
@@ -374,6 +441,9 @@ static void replay_close(void *ctx)
         return;
     pending_free(&r->current);
     sp_frame_unref(&r->inflight);
+    for (size_t i = r->next_prologue; i < r->n_prologue; i++)
+        pending_free(&r->prologue[i]);
+    free(r->prologue);
     while (r->heap_len) {
         pending p = heap_pop(r);
         pending_free(&p);
@@ -422,6 +492,8 @@ int sp_replay_open(sp_source **out, const char *path, const sp_replay_settings *
     sp_capture_reader_default_settings(&rs);
     rs.skip_corrupt = s->skip_corrupt;
     int ret = sp_capture_reader_open(&r->reader, path, &rs);
+    if (!ret)
+        ret = read_prologue(r, path);
     if (!ret && s->start_ns != INT64_MIN)
         ret = sp_capture_reader_seek(r->reader, s->start_ns);
     if (!ret)
@@ -440,11 +512,4 @@ int sp_replay_get_stats(const sp_source *src, sp_replay_stats *out)
     if (r->settings.skip_corrupt)
         out->corrupt_chunks = sp_capture_reader_corrupt_count(r->reader);
     return 0;
-}
-
-const sp_capture_meta *sp_replay_meta(const sp_source *src)
-{
-    if (!src || src->ops != &replay_ops)
-        return NULL;
-    return &((const replay *)src->ctx)->meta;
 }

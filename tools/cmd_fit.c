@@ -20,8 +20,8 @@
 #include "common/progress.h"
 #include "common/report.h"
 #include "export/png.h"
+#include "pipeline/stages/stages.h"
 #include "sunprobe/sp_face_model.h"
-#include "sunprobe/sp_replay.h"
 #include "sunprobe/sp_sunstage.h"
 
 typedef struct fit_args {
@@ -196,38 +196,19 @@ static int read_true_sun(const char *path, double sun[3])
     return ret;
 }
 
-/* Streams every event of the capture into the fitter. */
-static int stream(fit_args *a, sp_sunstage *ss)
+/* Streams the capture through the orientation tagger into the fitter's front end. */
+static int stream(fit_args *a, const sp_stage *stage)
 {
-    sp_replay_settings rs;
-    sp_replay_default_settings(&rs);
-    sp_source *src = NULL;
-    int ret = sp_replay_open(&src, a->capture, &rs);
-    if (ret) {
+    sp_run_settings rs;
+    sp_run_default_settings(&rs);
+    rs.progress = a->progress ? -1 : 0;
+    sp_run_stats st;
+    int ret = sp_stage_run(a->capture, stage, &rs, &st);
+    if (st.meta.ground_truth[0]) /* relative to the capture's directory */
+        find_truth(a, st.meta.ground_truth);
+    if (ret && st.failed_in == SP_RUN_FAILED_OPEN)
         fprintf(stderr, "sunprobe fit: cannot read capture %s: %s\n", a->capture, sp_strerror(ret));
-        return ret;
-    }
-    sp_progress bar;
-    sp_progress_start(&bar, "frames", 0, a->progress ? -1 : 0);
-    sp_event ev;
-    uint64_t frames = 0;
-    while ((ret = sp_source_next(src, &ev)) == 0) {
-        frames += ev.type == SP_EVENT_FRAME;
-        ret = sp_sunstage_push(ss, &ev);
-        sp_event_release(&ev);
-        if (ret)
-            break;
-        if (ev.type == SP_EVENT_FRAME)
-            sp_progress_update(&bar, frames, "frames read");
-    }
-    sp_progress_finish(&bar);
-    const sp_capture_meta *meta = sp_replay_meta(src);
-    if (meta && meta->ground_truth[0]) /* relative to the capture's directory */
-        find_truth(a, meta->ground_truth);
-    sp_source_close(&src);
-    if (ret == SP_EOS)
-        ret = sp_sunstage_end_stream(ss);
-    else
+    else if (ret)
         fprintf(stderr, "sunprobe fit: reading %s: %s\n", a->capture, sp_strerror(ret));
     return ret;
 }
@@ -293,12 +274,14 @@ static void print_summary(const sp_sunstage *ss)
 
 static int run_fit(fit_args *a, const sp_face_model *model)
 {
-    sp_sunstage *ss = NULL;
-    int ret = sp_sunstage_open(&ss, &a->set, model);
+    sp_stage stage = { 0 };
+    sp_fit_stage_settings fs = { .fit = a->set, .model = model };
+    int ret = sp_stage_open(&stage, &sp_stage_fit, &fs);
     if (ret)
         return sp_cmd_fail("fit", ret, "settings");
+    sp_sunstage *ss = stage.ctx;
     int code = SP_EXIT_OK;
-    if ((ret = stream(a, ss))) {
+    if ((ret = stream(a, &stage))) {
         code = sp_exit_for_error(ret);
         goto done;
     }
@@ -329,7 +312,7 @@ static int run_fit(fit_args *a, const sp_face_model *model)
     else
         printf("fit: wrote %s\n", a->out);
 done:
-    sp_sunstage_close(&ss);
+    sp_stage_close(&stage);
     return code;
 }
 

@@ -27,6 +27,7 @@
 #include "common/progress.h"
 #include "export/png.h"
 #include "export/probe_dir.h"
+#include "pipeline/stages/stages.h"
 #include "sunprobe/sp_probe.h"
 #include "sunprobe/sp_replay.h"
 
@@ -281,26 +282,24 @@ static void on_signal(int sig)
 typedef struct run_state {
     const probe_args *a;
     const char *dir;
-    sp_probe *probe;
     uint8_t *rgb;
-    uint64_t index;
 } run_state;
 
-static int write_empty(run_state *rs, const sp_frame *f)
+static int write_empty(run_state *rs, const sp_probe *probe, const sp_frame *f, uint64_t index)
 {
     uint32_t w = f->width, h = f->height;
     char name[64];
-    int ret = sp_probe_empty_frame(rs->probe, rs->rgb, w * 3);
+    int ret = sp_probe_empty_frame(probe, rs->rgb, w * 3);
     if (ret == -EAGAIN) {
         fprintf(stderr, "sunprobe probe: frame %" PRIu64 " comes before the clean plate is ready; not emptied\n",
-                rs->index);
+                index);
         return 0;
     }
-    snprintf(name, sizeof(name), "empty_%06" PRIu64 ".png", rs->index);
+    snprintf(name, sizeof(name), "empty_%06" PRIu64 ".png", index);
     char *p = sp_path_join_alloc(rs->dir, name);
     ret = ret ? ret : p ? sp_png_write(p, rs->rgb, w, h, w * 3, 3) : -ENOMEM;
     free(p);
-    snprintf(name, sizeof(name), "frame_%06" PRIu64 ".png", rs->index);
+    snprintf(name, sizeof(name), "frame_%06" PRIu64 ".png", index);
     p = sp_path_join_alloc(rs->dir, name);
     if (!ret)
         ret = p ? sp_pixconv_frame_to_rgb24(f, rs->rgb, (size_t)w * h * 3, w * 3) : -ENOMEM;
@@ -310,40 +309,15 @@ static int write_empty(run_state *rs, const sp_frame *f)
     return ret;
 }
 
-static int on_frame(run_state *rs, const sp_frame *f)
+/* After each probed frame: the emptied frames the user asked for (--empty). */
+static int on_frame(void *user, const sp_probe *probe, const sp_frame *f, uint64_t index)
 {
-    if (f->stream_id != 0)
-        return 0;
-    int ret = sp_probe_push_frame(rs->probe, f);
+    run_state *rs = user;
+    int ret = 0;
     for (unsigned i = 0; !ret && i < rs->a->n_empty; i++)
-        if (rs->a->empty[i] == rs->index)
-            ret = write_empty(rs, f);
-    rs->index++;
+        if (rs->a->empty[i] == index)
+            ret = write_empty(rs, probe, f, index);
     return ret;
-}
-
-static int stream(run_state *rs, uint64_t total)
-{
-    sp_replay_settings set;
-    sp_replay_default_settings(&set);
-    sp_source *src = NULL;
-    int ret = sp_replay_open(&src, rs->a->capture, &set);
-    if (ret)
-        return ret;
-    sp_progress bar;
-    sp_progress_start(&bar, "probe", total, rs->a->quiet ? 0 : -1);
-    sp_event ev;
-    while (!interrupted && (ret = sp_source_next(src, &ev)) == 0) {
-        if (ev.type == SP_EVENT_FRAME)
-            ret = on_frame(rs, ev.frame);
-        sp_event_release(&ev);
-        if (ret || (rs->a->max_frames && rs->index >= rs->a->max_frames))
-            break;
-        sp_progress_update(&bar, rs->index, NULL);
-    }
-    sp_progress_finish(&bar);
-    sp_source_close(&src);
-    return ret == SP_EOS ? 0 : ret;
 }
 
 static void summary(const probe_args *a, sp_probe *p, double secs)
@@ -374,31 +348,40 @@ static void summary(const probe_args *a, sp_probe *p, double secs)
 static int run(probe_args *a, const capture_facts *facts, const char *dir)
 {
     run_state rs = { .a = a, .dir = dir };
-    int ret = sp_probe_open(&rs.probe, facts->width, facts->height, &a->s);
+    sp_probe_stage_settings ps = { .probe = a->s, .width = facts->width, .height = facts->height,
+                                   .on_frame = on_frame, .user = &rs };
+    sp_stage stage = { 0 };
+    int ret = sp_stage_open(&stage, &sp_stage_probe, &ps);
     if (ret)
         return sp_cmd_fail("probe", ret, "opening the probe");
+    sp_probe *probe = sp_probe_stage_probe(&stage);
     rs.rgb = malloc((size_t)facts->width * facts->height * 3);
+    sp_run_settings run;
+    sp_run_default_settings(&run);
+    run.max_frames = a->max_frames;
+    run.stop = &interrupted;
+    run.progress = a->quiet ? 0 : -1;
+    run.progress_label = "probe";
+    run.progress_total = a->max_frames && a->max_frames < facts->frames ? a->max_frames : facts->frames;
+    sp_run_stats st = { 0 };
     int64_t t0 = sp_clock_monotonic_ns();
-    ret = rs.rgb ? stream(&rs, a->max_frames && a->max_frames < facts->frames ? a->max_frames : facts->frames)
-                 : -ENOMEM;
-    if (!ret && !interrupted)
-        ret = sp_probe_finish(rs.probe);
+    ret = rs.rgb ? sp_stage_run(a->capture, &stage, &run, &st) : -ENOMEM;
     int code = SP_EXIT_OK;
     if (interrupted) { /* a read cut short by the signal is no capture error */
-        fprintf(stderr, "sunprobe probe: interrupted after %" PRIu64 " frames; nothing written\n", rs.index);
+        fprintf(stderr, "sunprobe probe: interrupted after %" PRIu64 " frames; nothing written\n", st.frames);
         code = 128 + (int)interrupted;
     } else if (ret == SP_ENODATA) {
-        fprintf(stderr, "sunprobe probe: %s: %s\n", a->capture, sp_probe_message(rs.probe));
+        fprintf(stderr, "sunprobe probe: %s: %s\n", a->capture, sp_probe_message(probe));
         code = SP_EXIT_BAD_INPUT;
     } else if (ret) {
         code = sp_tool_capture_error("probe", a->capture, ret, 0);
-    } else if ((ret = sp_probe_dir_write(dir, rs.probe))) {
+    } else if ((ret = sp_probe_dir_write(dir, probe))) {
         code = sp_cmd_fail("probe", ret, "writing the probe directory");
     } else if (!a->quiet) {
-        summary(a, rs.probe, (double)(sp_clock_monotonic_ns() - t0) * 1e-9);
+        summary(a, probe, (double)(sp_clock_monotonic_ns() - t0) * 1e-9);
     }
     free(rs.rgb);
-    sp_probe_close(&rs.probe);
+    sp_stage_close(&stage);
     return code;
 }
 

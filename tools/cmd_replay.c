@@ -9,9 +9,7 @@
 
 #include "capture_open.h"
 #include "cmd.h"
-#include "common/clock.h"
-#include "common/progress.h"
-#include "pipeline/stage.h"
+#include "pipeline/stages/stages.h"
 #include "sunprobe/sp_replay.h"
 
 static void usage(FILE *out)
@@ -95,46 +93,50 @@ static int first_timestamp(const char *path, int64_t *t0)
     return ret;
 }
 
-static int run_stage(const replay_args *a, const sp_stage_ops *ops, sp_source *src)
+/* What the tagger's orientation filter did (stages that want tagged frames). */
+static void print_filter(const sp_tagger_stats *t)
 {
-    void *ctx = NULL;
+    if (!t->have_filter)
+        return;
+    const sp_orientation_stats *f = &t->filter;
+    printf("orientation: %" PRIu64 " IMU samples used, dropped %" PRIu64 " duplicate / %" PRIu64 " out-of-order / %" PRIu64
+           " invalid, %" PRIu64 " gaps, %" PRIu64 " saturated; gyro bias (%.3f, %.3f, %.3f) deg/s%s\n",
+           f->samples_used, f->dropped_duplicate, f->dropped_out_of_order, f->dropped_invalid, f->gaps, f->saturated,
+           f->gyro_bias.x * 180 / M_PI, f->gyro_bias.y * 180 / M_PI, f->gyro_bias.z * 180 / M_PI,
+           f->bias_from_still ? " (from a still period)" : "");
+    if (t->thinned)
+        printf("orientation: %" PRIu64 " frames dropped while the filter initialised\n", t->thinned);
+}
+
+static int run_stage(const replay_args *a, const sp_stage_ops *ops, const sp_run_settings *rs)
+{
+    sp_stage stage = { 0 };
     sp_stage_options so = { .output_path = a->output };
-    int ret = ops->open(&ctx, &so);
+    int ret = sp_stage_open(&stage, ops, &so);
     if (ret)
         return sp_cmd_fail("replay", ret, "opening the stage");
-    sp_progress bar;
-    sp_progress_start(&bar, "replay", 0, -1);
-    int64_t t_start = sp_clock_monotonic_ns();
-    uint64_t events = 0, frames = 0;
-    sp_event ev;
-    while ((ret = sp_source_next(src, &ev)) == 0) {
-        events++;
-        frames += ev.type == SP_EVENT_FRAME;
-        ret = ops->process(ctx, &ev);
-        sp_event_release(&ev);
-        if (ret)
-            break;
-        if ((events & 255) == 0)
-            sp_progress_update(&bar, frames, "frames");
-    }
-    sp_progress_finish(&bar);
-    double secs = (double)(sp_clock_monotonic_ns() - t_start) * 1e-9;
+    sp_run_stats st;
+    ret = sp_stage_run(a->path, &stage, rs, &st);
     int code = SP_EXIT_OK;
-    if (ret != SP_EOS) {
-        code = ret == -EAGAIN ? sp_cmd_fail("replay", ret, "stage holds every frame")
-                              : sp_tool_capture_error("replay", a->path, ret, 0);
-    } else if ((ret = ops->finish(ctx, stdout))) {
+    if (ret == -EAGAIN && st.failed_in == SP_RUN_FAILED_SOURCE)
+        code = sp_cmd_fail("replay", ret, "stage holds every frame");
+    else if (st.failed_in == SP_RUN_FAILED_FINISH)
         code = sp_cmd_fail("replay", ret, "finishing the stage");
-    }
-    ops->close(ctx);
-    sp_replay_stats st;
-    sp_replay_get_stats(src, &st);
-    printf("replay: %" PRIu64 " frames, %" PRIu64 " IMU samples in %.3f s (%.1f frames/s, %.1f MB/s)%s\n", st.frames,
-           st.imu_samples, secs, secs > 0 ? (double)st.frames / secs : 0.0,
-           secs > 0 ? (double)st.bytes_read / secs / 1e6 : 0.0, st.truncated ? "; torn tail ignored" : "");
-    if (st.corrupt_chunks || st.late_events)
+    else if (ret)
+        code = sp_tool_capture_error("replay", a->path, ret, 0);
+    sp_stage_close(&stage);
+    if (st.failed_in == SP_RUN_FAILED_OPEN)
+        return code;
+    if (st.tagged)
+        print_filter(&st.tagger);
+    const sp_replay_stats *rp = &st.replay;
+    double secs = st.seconds;
+    printf("replay: %" PRIu64 " frames, %" PRIu64 " IMU samples in %.3f s (%.1f frames/s, %.1f MB/s)%s\n", rp->frames,
+           rp->imu_samples, secs, secs > 0 ? (double)rp->frames / secs : 0.0,
+           secs > 0 ? (double)rp->bytes_read / secs / 1e6 : 0.0, rp->truncated ? "; torn tail ignored" : "");
+    if (rp->corrupt_chunks || rp->late_events)
         printf("replay: %" PRIu64 " corrupt chunks skipped, %" PRIu64 " events later than the reorder window\n",
-               st.corrupt_chunks, st.late_events);
+               rp->corrupt_chunks, rp->late_events);
     return code;
 }
 
@@ -152,23 +154,23 @@ int sp_cmd_replay(int argc, char **argv)
         fprintf(stderr, "sunprobe replay: unknown stage '%s' (see --list-stages)\n", a.stage);
         return SP_EXIT_USAGE;
     }
-    sp_replay_settings rs;
-    sp_replay_default_settings(&rs);
-    rs.realtime = a.realtime;
-    rs.speed = a.speed;
-    rs.skip_corrupt = a.skip_corrupt;
+    sp_run_settings run;
+    sp_run_default_settings(&run);
+    run.progress_label = "replay";
+    sp_replay_settings *rs = &run.replay;
+    rs->realtime = a.realtime;
+    rs->speed = a.speed;
+    rs->skip_corrupt = a.skip_corrupt;
     if (!isnan(a.start_s)) {
         int64_t t0 = 0;
         int ret = first_timestamp(a.path, &t0);
         if (ret)
             return sp_tool_capture_error("replay", a.path, ret, 0);
-        rs.start_ns = t0 + (int64_t)(a.start_s * 1e9);
+        rs->start_ns = t0 + (int64_t)(a.start_s * 1e9);
     }
-    sp_source *src = NULL;
-    int ret = sp_replay_open(&src, a.path, &rs);
-    if (ret)
-        return sp_tool_capture_error("replay", a.path, ret, 0);
-    code = run_stage(&a, ops, src);
-    sp_source_close(&src);
-    return code;
+    sp_capture_reader *check = NULL; /* a capture that cannot be opened leaves no stage output behind */
+    if ((code = sp_tool_open_capture("replay", a.path, a.skip_corrupt, &check)))
+        return code;
+    sp_capture_reader_close(&check);
+    return run_stage(&a, ops, &run);
 }

@@ -3,6 +3,8 @@
  * Replay is a device: it turns a .spcap file back into the frame + IMU event
  * stream a live camera and IMU produce, in timestamp order across chunk types,
  * with refcounted frames from a pool and bounded memory whatever the file size.
+ * The META chunks before the first frame chunk come first, whatever their
+ * timestamps; each META event carries the metadata merged so far (ev->meta).
  */
 #ifndef SUNPROBE_SP_REPLAY_H
 #define SUNPROBE_SP_REPLAY_H
@@ -40,8 +42,6 @@ SP_API void sp_replay_default_settings(sp_replay_settings *s);
 SP_API int sp_replay_open(sp_source **out, const char *path, const sp_replay_settings *s);
 /* Stats so far; -EINVAL if src is not a replay source. */
 SP_API int sp_replay_get_stats(const sp_source *src, sp_replay_stats *out);
-/* Metadata merged from the META chunks read so far (all of them once the stream has ended). */
-SP_API const sp_capture_meta *sp_replay_meta(const sp_source *src);
 
 #ifdef __cplusplus
 }

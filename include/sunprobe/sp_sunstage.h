@@ -50,7 +50,7 @@ typedef struct sp_sunstage_counts {
     uint64_t skipped_dark, skipped_saturated, skipped_blurred, skipped_no_face, skipped_no_orientation;
     uint64_t accepted;  /* passed every check (then competed for a reservoir slot) */
     int keyframes, heldout; /* slots filled */
-    uint64_t thinned_early; /* waited for the orientation filter to initialise; dropped as the nearest in time to a kept one */
+    uint64_t thinned_early; /* dropped by the orientation tagger while its filter initialised (sp_frame_tags) */
 } sp_sunstage_counts;
 
 /* Progress of the fit, passed to the callback (borrowed for the call). */
@@ -107,13 +107,13 @@ SP_API int sp_sunstage_open(sp_sunstage **out, const sp_sunstage_settings *s, co
 SP_API void sp_sunstage_close(sp_sunstage **ss);
 
 /*
- * Feeds one event (borrowed for the call; the fitter takes its own frame
- * reference when needed and drops it before returning or within a bounded ring).
- * Returns 0, SP_EDISABLED when a frame needs dlib and the build has none, or a
- * negative error for a broken frame.
+ * Feeds one event of a tagged stream (sp_tagger.h; borrowed for the call, no
+ * reference kept): META events set the intrinsics, frames carry their camera
+ * orientation and landmarks in ev->tags. Returns 0, -EINVAL for an untagged
+ * frame, or a negative error for a broken frame.
  */
 SP_API int sp_sunstage_push(sp_sunstage *ss, const sp_event *ev);
-/* Flushes frames still waiting for IMU coverage; call once at the end of the stream. */
+/* The end of the stream (nothing waits in the front end; kept for the stage contract). */
 SP_API int sp_sunstage_end_stream(sp_sunstage *ss);
 
 /*

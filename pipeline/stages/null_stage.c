@@ -10,8 +10,9 @@ typedef struct null_stage {
     uint64_t frames, imu, other, frame_bytes;
 } null_stage;
 
-static int null_open(void **ctx, const sp_stage_options *options)
+static int null_open(void **ctx, const void *settings)
 {
+    (void)settings;
     *ctx = calloc(1, sizeof(null_stage));
     return *ctx ? 0 : -ENOMEM;
 }
@@ -47,7 +48,7 @@ const sp_stage_ops sp_stage_null = {
     .name = "null",
     .description = "count events (throughput measurement)",
     .open = null_open,
-    .process = null_process,
+    .push = null_process,
     .finish = null_finish,
     .close = null_close,
 };

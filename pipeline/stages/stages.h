@@ -1,12 +1,41 @@
 /* SPDX-License-Identifier: MIT */
-/* The built-in replay stages. */
+/* The built-in stages and their settings (the contract: pipeline/stage.h). */
 #ifndef SUNPROBE_PIPELINE_STAGES_H
 #define SUNPROBE_PIPELINE_STAGES_H
 
+#include <stdint.h>
+
 #include "pipeline/stage.h"
+#include "sunprobe/sp_face_model.h"
+#include "sunprobe/sp_probe.h"
+#include "sunprobe/sp_sunstage.h"
+
+/* Settings of the replay stages (null, stats, orientation). */
+typedef struct sp_stage_options {
+    const char *output_path; /* stage-specific output file (CSV), may be NULL */
+} sp_stage_options;
 
 extern const sp_stage_ops sp_stage_null;
 extern const sp_stage_ops sp_stage_stats;
-extern const sp_stage_ops sp_stage_orientation;
+extern const sp_stage_ops sp_stage_orientation; /* tagged: writes the tagger's orientation per frame */
+
+/* "fit": the SunStage front end (tagged frames into the keyframe reservoir); ctx is the sp_sunstage. */
+typedef struct sp_fit_stage_settings {
+    sp_sunstage_settings fit;
+    const sp_face_model *model; /* borrowed; must outlive the stage */
+} sp_fit_stage_settings;
+extern const sp_stage_ops sp_stage_fit;
+
+/* "probe": People as Scene Probes on the frames of stream 0 (untagged: a static camera needs no orientation). */
+typedef struct sp_probe_stage_settings {
+    sp_probe_settings probe;
+    uint32_t width, height;     /* the capture's frame size */
+    /* called after each probed frame (index counts from 0), may be NULL; non-zero stops the stream */
+    int (*on_frame)(void *user, const sp_probe *probe, const sp_frame *frame, uint64_t index);
+    void *user;
+} sp_probe_stage_settings;
+extern const sp_stage_ops sp_stage_probe;
+/* The probe of an open "probe" stage (borrowed from the stage). */
+sp_probe *sp_probe_stage_probe(const sp_stage *st);
 
 #endif

@@ -29,14 +29,15 @@ typedef struct frame_stats {
     double mean, black, saturated, sharpness;
 } frame_stats;
 
-static int stats_open(void **ctx, const sp_stage_options *options)
+static int stats_open(void **ctx, const void *settings)
 {
+    const sp_stage_options *options = settings;
     stats_stage *s = calloc(1, sizeof(*s));
     if (!s)
         return -ENOMEM;
     s->luma_min = s->sharp_min = INFINITY;
     s->luma_max = s->sharp_max = -INFINITY;
-    if (options->output_path) {
+    if (options && options->output_path) {
         s->csv = fopen(options->output_path, "w");
         if (!s->csv) {
             int err = -errno;
@@ -137,7 +138,7 @@ const sp_stage_ops sp_stage_stats = {
     .name = "stats",
     .description = "per-frame luma, black/saturated fractions and sharpness (CSV with -o)",
     .open = stats_open,
-    .process = stats_process,
+    .push = stats_process,
     .finish = stats_finish,
     .close = stats_close,
 };

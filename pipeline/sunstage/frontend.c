@@ -1,9 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Per-frame front end: convert and downsample each frame once, reject dark,
- * saturated and blurred frames, wait (in a ring of SS_PENDING) for the IMU and
- * the frame's landmark side data, detect landmarks with dlib when none came,
- * then offer the frame to the yaw-binned keyframe reservoir.
+ * Per-frame front end: frames come from the orientation tagger with their camera
+ * orientation and landmarks attached (sp_frame_tags). Convert and downsample each
+ * frame once, reject dark, saturated and blurred frames and frames without an
+ * orientation, detect landmarks with dlib when none came, then offer the frame
+ * to the yaw-binned keyframe reservoir. Nothing waits here: one frame at a time.
  */
 #include "pipeline/sunstage/sunstage_internal.h"
 
@@ -73,12 +74,10 @@ static int setup_geometry(sp_sunstage *ss, uint32_t w, uint32_t h)
     ss->rgb24 = malloc((size_t)w * h * 3);
     if (!ss->rgb24)
         return -ENOMEM;
-    for (int i = 0; i < SS_PENDING; i++) {
-        ss->pend[i].rgb = malloc((size_t)ss->W * (size_t)ss->H * 3 * sizeof(float));
-        ss->pend[i].gray = malloc((size_t)ss->dw * (size_t)ss->dh);
-        if (!ss->pend[i].rgb || !ss->pend[i].gray)
-            return -ENOMEM;
-    }
+    ss->work_rgb = malloc((size_t)ss->W * (size_t)ss->H * 3 * sizeof(float));
+    ss->work_gray = malloc((size_t)ss->dw * (size_t)ss->dh);
+    if (!ss->work_rgb || !ss->work_gray)
+        return -ENOMEM;
     return alloc_buffers(ss);
 }
 
@@ -140,51 +139,39 @@ static double frame_exposure(sp_sunstage *ss, const sp_frame *frame)
     return e / ss->expo_ref;
 }
 
-static ss_pending *free_pending(sp_sunstage *ss)
+/* Landmarks from the frame's side data, at fit resolution. */
+static void tag_landmarks(const sp_sunstage *ss, const sp_frame_tags *tags, double lm[136])
 {
-    for (int i = 0; i < SS_PENDING; i++)
-        if (!ss->pend[i].used)
-            return &ss->pend[i];
-    return NULL;
+    double s = (double)ss->W / (double)ss->cap_w;
+    for (int k = 0; k < 136; k++)
+        lm[k] = ((double)tags->landmarks[k] + 0.5) * s - 0.5;
 }
 
-/* 1 when pending frames wait only because the orientation filter has not initialised yet. */
-static int waiting_for_init(sp_sunstage *ss)
+/* Dark, saturated or blurred: counted and 1 when the frame is skipped (the sharpness mean is updated). */
+static int skip_by_quality(sp_sunstage *ss, const float *rgb, double *sharp)
 {
-    sp_orientation_stats st;
-    return !ss->orient || (sp_orientation_get_stats(ss->orient, &st) == 0 && !st.initialized);
-}
-
-/*
- * Ring full before the filter initialised: rather than dropping the oldest
- * frame (it would get no orientation), drop the less sharp of the two pending
- * frames closest in time, so the ring thins out evenly over the start of the
- * capture; once initialised, the filter's history (states from before its
- * initialisation, re-levelled) gives every kept frame its orientation.
- */
-static void thin_pending(sp_sunstage *ss)
-{
-    ss_pending *drop = NULL;
-    int64_t best = INT64_MAX;
-    for (int i = 0; i < SS_PENDING; i++) {
-        ss_pending *a = &ss->pend[i], *next = NULL;
-        if (!a->used)
-            continue;
-        for (int j = 0; j < SS_PENDING; j++) /* the next pending frame in time */
-            if (ss->pend[j].used && ss->pend[j].t > a->t && (!next || ss->pend[j].t < next->t))
-                next = &ss->pend[j];
-        if (next && next->t - a->t < best) {
-            best = next->t - a->t;
-            drop = a->score < next->score ? a : next;
-        }
+    double mean, sat;
+    frame_stats(rgb, ss->W, ss->H, &mean, &sat, sharp);
+    if (mean < 0.03) {
+        ss->counts.skipped_dark++;
+        return 1;
     }
-    if (drop) {
-        drop->used = 0;
-        ss->counts.thinned_early++;
+    if (sat > 0.25) {
+        ss->counts.skipped_saturated++;
+        return 1;
     }
+    ss->sharp_n++;
+    ss->sharp_mean += (*sharp - ss->sharp_mean) / (double)(ss->sharp_n < 50 ? ss->sharp_n : 50);
+    if (ss->sharp_n > 5 && *sharp < ss->set.blur_ratio * ss->sharp_mean) {
+        ss->counts.skipped_blurred++;
+        return 1;
+    }
+    return 0;
 }
 
-int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t)
+static int detect(sp_sunstage *ss, double lm[136]);
+
+int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const sp_frame_tags *tags)
 {
     int ret;
     if (!ss->rgb24 && (ret = setup_geometry(ss, frame->width, frame->height)))
@@ -197,76 +184,34 @@ int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t)
                                     (uint32_t)ss->cap_w * 3);
     if (ret)
         return ret;
-    ss_pending *p = free_pending(ss);
-    if (!p) {
-        if (waiting_for_init(ss))
-            thin_pending(ss);
-        else
-            ss_frontend_resolve(ss, 2); /* ring full: decide the oldest now */
-        if (!(p = free_pending(ss)))
-            return -ENOSPC;
-    }
-    downsample(ss->rgb24, ss->cap_w, ss->cap_h, ss->W, ss->H, p->rgb, NULL);
-    double mean, sat, sharp;
-    frame_stats(p->rgb, ss->W, ss->H, &mean, &sat, &sharp);
-    if (mean < 0.03) {
-        ss->counts.skipped_dark++;
+    downsample(ss->rgb24, ss->cap_w, ss->cap_h, ss->W, ss->H, ss->work_rgb, NULL);
+    double sharp;
+    if (skip_by_quality(ss, ss->work_rgb, &sharp))
+        return 0;
+    double expo = frame_exposure(ss, frame);
+    if (tags->orientation != SP_ORIENTATION_OK) {
+        ss->counts.skipped_no_orientation++;
         return 0;
     }
-    if (sat > 0.25) {
-        ss->counts.skipped_saturated++;
+    double lm[136];
+    if (tags->has_landmarks) {
+        tag_landmarks(ss, tags, lm);
+    } else if (!ss->set.use_dlib || detect(ss, lm) != 0) {
+        ss->counts.skipped_no_face++;
         return 0;
     }
-    ss->sharp_n++;
-    ss->sharp_mean += (sharp - ss->sharp_mean) / (double)(ss->sharp_n < 50 ? ss->sharp_n : 50);
-    if (ss->sharp_n > 5 && sharp < ss->set.blur_ratio * ss->sharp_mean) {
-        ss->counts.skipped_blurred++;
-        return 0;
+    ss->counts.accepted++;
+    int slot = -1;
+    ret = ss_reservoir_offer(ss, ss->work_rgb, lm, sharp, expo, frame->sequence, t, tags->camera_to_world, 0, &slot);
+    if (!ret && slot >= 0) { /* the frame took a slot: attach its truth */
+        ss->slots[slot].has_truth = tags->has_true_orientation;
+        ss->slots[slot].truth_q = tags->true_camera_to_world;
     }
-    downsample(ss->rgb24, ss->cap_w, ss->cap_h, ss->dw, ss->dh, NULL, p->gray);
-    p->used = 1;
-    p->has_lm = 0;
-    p->has_truth = 0;
-    p->sequence = frame->sequence;
-    p->t = t;
-    p->score = sharp;
-    p->expo = frame_exposure(ss, frame);
-    if (frame->sequence > ss->pend_seq_max || !ss->have_pending_frame)
-        ss->pend_seq_max = frame->sequence;
-    ss->have_pending_frame = 1;
-    return 0;
+    return ret;
 }
 
-void ss_frontend_side(sp_sunstage *ss, const sp_event *ev)
-{
-    if (ev->side_kind == SP_SIDE_TRUE_ORIENTATION && ev->side_count == 4 && ev->side_values) {
-        const float *v = ev->side_values;
-        for (int i = 0; i < SS_PENDING; i++)
-            if (ss->pend[i].used && ss->pend[i].sequence == ev->side_sequence) {
-                ss->pend[i].truth_q = sp_quat_normalize((sp_quat){ v[0], v[1], v[2], v[3] });
-                ss->pend[i].has_truth = 1;
-            }
-        return;
-    }
-    if (ev->side_kind != SP_SIDE_LANDMARKS_2D || ev->side_count != 136 || !ev->side_values || !ss->W)
-        return;
-    double s = (double)ss->W / (double)ss->cap_w;
-    for (int i = 0; i < SS_PENDING; i++) {
-        ss_pending *p = &ss->pend[i];
-        if (!p->used || p->sequence != ev->side_sequence)
-            continue;
-        int ok = 1;
-        for (int k = 0; k < 136; k++) {
-            double v = (double)ev->side_values[k];
-            ok &= isfinite(v);
-            p->lm[k] = (v + 0.5) * s - 0.5;
-        }
-        p->has_lm = ok;
-    }
-}
-
-/* dlib on the detector-size grey image; 0 with landmarks at fit resolution, SP_ENODATA without a face. */
-static int detect(sp_sunstage *ss, ss_pending *p)
+/* dlib on a detector-size grey copy of the frame; 0 with landmarks at fit resolution, SP_ENODATA without a face. */
+static int detect(sp_sunstage *ss, double lm_out[136])
 {
 #if HAVE_DLIB
     if (!ss->dlib && !ss->dlib_failed) {
@@ -280,69 +225,22 @@ static int detect(sp_sunstage *ss, ss_pending *p)
     }
     if (!ss->dlib)
         return SP_ENODATA;
+    downsample(ss->rgb24, ss->cap_w, ss->cap_h, ss->dw, ss->dh, NULL, ss->work_gray);
     float lm[136];
-    if (sp_dlib_landmarks(ss->dlib, p->gray, ss->dw, ss->dh, lm))
+    if (sp_dlib_landmarks(ss->dlib, ss->work_gray, ss->dw, ss->dh, lm))
         return SP_ENODATA;
     double s = (double)ss->W / (double)ss->dw;
     for (int k = 0; k < 136; k++)
-        p->lm[k] = ((double)lm[k] + 0.5) * s - 0.5;
+        lm_out[k] = ((double)lm[k] + 0.5) * s - 0.5;
     return 0;
 #else
-    (void)p;
+    (void)lm_out;
     if (!ss->dlib_failed)
         sp_log(SP_LOG_ERROR, MOD,
                "a frame has no landmark side data and this build has no dlib (meson option -Ddlib=enabled)");
     ss->dlib_failed = 1;
     return SP_EDISABLED;
 #endif
-}
-
-static ss_pending *oldest_pending(sp_sunstage *ss)
-{
-    ss_pending *o = NULL;
-    for (int i = 0; i < SS_PENDING; i++)
-        if (ss->pend[i].used && (!o || ss->pend[i].t < o->t))
-            o = &ss->pend[i];
-    return o;
-}
-
-/* Decides one pending frame; returns 1 when it must wait longer. */
-static int decide(sp_sunstage *ss, ss_pending *p, int final)
-{
-    sp_quat q;
-    int ret = ss->orient ? sp_orientation_camera_at(ss->orient, p->t, &q) : -EAGAIN;
-    int newer = ss->pend_seq_max > p->sequence;
-    if (!final && ((ret == -EAGAIN) || (!p->has_lm && !newer)))
-        return 1;
-    p->used = 0;
-    if (ret) {
-        ss->counts.skipped_no_orientation++;
-        return 0;
-    }
-    if (!p->has_lm && !(ss->set.use_dlib && detect(ss, p) == 0)) {
-        ss->counts.skipped_no_face++;
-        return 0;
-    }
-    ss->counts.accepted++;
-    ss_reservoir_offer(ss, p->rgb, p->lm, p->score, p->expo, p->sequence, p->t, q, 0);
-    for (int i = 0; i < ss->n_slots; i++) /* the slot it took, if any: attach the truth */
-        if (ss->slots[i].used && ss->slots[i].sequence == p->sequence && ss->slots[i].t == p->t) {
-            ss->slots[i].has_truth = p->has_truth;
-            ss->slots[i].truth_q = p->truth_q;
-        }
-    return 0;
-}
-
-int ss_frontend_resolve(sp_sunstage *ss, int final)
-{
-    ss_pending *p;
-    while ((p = oldest_pending(ss))) {
-        if (decide(ss, p, final))
-            return 0;
-        if (final == 2)
-            return 0; /* made room for one frame */
-    }
-    return 0;
 }
 
 static double heading(sp_quat q)
@@ -352,7 +250,7 @@ static double heading(sp_quat q)
 }
 
 int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const double lm[136], double score, double expo,
-                       uint64_t seq, int64_t t, sp_quat q, int heldout_hint)
+                       uint64_t seq, int64_t t, sp_quat q, int heldout_hint, int *slot_out)
 {
     if (!ss->slots) {
         int ret = alloc_buffers(ss);
@@ -379,6 +277,8 @@ int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const double lm[136], 
         if (ss->slots[slot].used && ss->slots[slot].score >= score)
             return 0;
     }
+    if (slot_out)
+        *slot_out = slot;
     ss_frame *f = &ss->slots[slot];
     f->used = 1;
     f->heldout = held;

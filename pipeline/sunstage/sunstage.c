@@ -100,13 +100,10 @@ void sp_sunstage_close(sp_sunstage **pss)
     if (!pss || !*pss)
         return;
     sp_sunstage *ss = *pss;
-    sp_orientation_close(&ss->orient);
     ss_dlib_close_ctx(ss->dlib);
     free(ss->rgb24);
-    for (int i = 0; i < SS_PENDING; i++) {
-        free(ss->pend[i].rgb);
-        free(ss->pend[i].gray);
-    }
+    free(ss->work_rgb);
+    free(ss->work_gray);
     for (int i = 0; ss->slots && i < ss->n_slots; i++) {
         free(ss->slots[i].rgb);
         free(ss->slots[i].exp);
@@ -120,50 +117,38 @@ void sp_sunstage_close(sp_sunstage **pss)
     *pss = NULL;
 }
 
-static int open_orientation(sp_sunstage *ss)
-{
-    sp_orientation_settings os;
-    sp_orientation_default_settings(&os);
-    os.imu_to_camera = ss->meta.imu_to_camera;
-    os.time_offset_s = isfinite(ss->meta.imu_time_offset_s) ? ss->meta.imu_time_offset_s : 0.0;
-    return sp_orientation_open(&ss->orient, &os);
-}
-
 int sp_sunstage_push(sp_sunstage *ss, const sp_event *ev)
 {
     if (!ss || !ev)
         return -EINVAL;
     switch (ev->type) {
     case SP_EVENT_META:
-        if (ev->meta_json)
-            sp_capture_meta_merge(&ss->meta, ev->meta_json, ev->meta_len); /* replay logged bad chunks */
+        if (ev->meta)
+            ss->meta = *ev->meta;
         return 0;
     case SP_EVENT_IMU:
-        ss->counts.imu_samples++;
-        if (!ss->orient) {
-            int ret = open_orientation(ss);
-            if (ret)
-                return ret;
-        }
-        sp_orientation_push(ss->orient, &ev->imu);
-        return ss_frontend_resolve(ss, 0);
-    case SP_EVENT_SIDE:
-        ss_frontend_side(ss, ev);
+        ss->counts.imu_samples++; /* orientation comes with the frames; counted to explain a fit without it */
         return 0;
+    case SP_EVENT_SIDE:
+        return 0; /* what the fit uses comes attached to the frames */
     case SP_EVENT_FRAME:
         if (!ev->frame)
             return -EINVAL;
+        if (!ev->tags) {
+            sp_log(SP_LOG_ERROR, MOD, "frame %llu is untagged: SunStage takes frames from the orientation tagger "
+                   "(sp_tagger.h)", (unsigned long long)ev->frame->sequence);
+            return -EINVAL;
+        }
         ss->counts.frames++;
-        return ss_frontend_frame(ss, ev->frame, ev->timestamp_ns);
+        ss->counts.thinned_early = ev->tags->thinned;
+        return ss_frontend_frame(ss, ev->frame, ev->timestamp_ns, ev->tags);
     }
     return 0;
 }
 
 int sp_sunstage_end_stream(sp_sunstage *ss)
 {
-    if (!ss)
-        return -EINVAL;
-    return ss_frontend_resolve(ss, 1);
+    return ss ? 0 : -EINVAL; /* nothing waits in the front end */
 }
 
 void sp_sunstage_get_counts(const sp_sunstage *ss, sp_sunstage_counts *out)
@@ -211,7 +196,8 @@ int sp_sunstage_add_keyframe(sp_sunstage *ss, const float *rgb, int width, int h
     ss->fy = fy;
     ss->cx = cx;
     ss->cy = cy;
-    return ss_reservoir_offer(ss, rgb, landmarks, 1.0, 1.0, ss->counts.accepted++, 0, camera_to_world, heldout ? 2 : 3);
+    return ss_reservoir_offer(ss, rgb, landmarks, 1.0, 1.0, ss->counts.accepted++, 0, camera_to_world, heldout ? 2 : 3,
+                              NULL);
 }
 
 static double yaw_range(const sp_sunstage *ss, const int *idx, int n)

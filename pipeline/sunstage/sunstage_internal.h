@@ -7,11 +7,9 @@
 #include <stdint.h>
 
 #include "sunprobe/sp_meta.h"
-#include "sunprobe/sp_orientation.h"
 #include "sunprobe/sp_render.h"
 #include "sunprobe/sp_sunstage.h"
 
-#define SS_PENDING 32  /* frames waiting for IMU coverage or their side data (about 1 s at 30 fps) */
 #define SS_DETECT_W 480 /* grey copy kept for the landmark detector, at most this wide */
 #define SS_ENV_BASIS 9 /* non-negative environment lobes used by the fast solver */
 
@@ -35,32 +33,18 @@ typedef struct ss_frame {
     int sil_ok;         /* the mask was found: the silhouette loss applies to this frame */
 } ss_frame;
 
-/* A frame waiting in the pending ring. */
-typedef struct ss_pending {
-    int used, has_lm, decided, has_truth;
-    sp_quat truth_q;
-    uint64_t sequence;
-    int64_t t;
-    double score, expo;
-    float *rgb;         /* W * H * 3 */
-    uint8_t *gray;      /* dw * dh for the detector */
-    double lm[136];     /* fit resolution */
-} ss_pending;
-
 struct sp_sunstage {
     sp_sunstage_settings set;
     const sp_face_model *model;
-    sp_capture_meta meta;
-    sp_orientation *orient;
+    sp_capture_meta meta;       /* as the last META event left it (the source merges) */
     void *dlib;                 /* dlib shim context, NULL when unused */
     int dlib_failed;
     /* geometry of frames */
     int cap_w, cap_h, W, H, dw, dh;
     double fx, fy, cx, cy;      /* fit resolution */
     uint8_t *rgb24;             /* capture-size conversion buffer */
-    ss_pending pend[SS_PENDING];
-    uint64_t pend_seq_max;
-    int have_pending_frame;
+    float *work_rgb;            /* W * H * 3: the frame at fit resolution */
+    uint8_t *work_gray;         /* dw * dh: grey copy for the landmark detector */
     double sharp_mean;
     double expo_ref;            /* exposure_us x gain of the first frame, 0 when unknown */
     uint64_t sharp_n;
@@ -90,11 +74,11 @@ void ss_rotvec_to_matrix(const double r[3], double R[9]);
 int ss_list_frames(const sp_sunstage *ss, int heldout, int *idx, int cap);
 
 /* ---- frontend.c ---- */
-int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t);
-void ss_frontend_side(sp_sunstage *ss, const sp_event *ev);
-int ss_frontend_resolve(sp_sunstage *ss, int final);
+/* One tagged frame (borrowed) through the checks into the reservoir. */
+int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const sp_frame_tags *tags);
+/* Offers a frame to its yaw bin; *slot_out (may be NULL) gets the slot it took, untouched when it lost. */
 int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const double lm[136], double score, double expo,
-                       uint64_t seq, int64_t t, sp_quat q, int heldout_hint);
+                       uint64_t seq, int64_t t, sp_quat q, int heldout_hint, int *slot_out);
 
 /* ---- align.c: stage 1 ---- */
 /* Gauss-Newton (LM) on robust landmark residuals; returns RMS pixel error or a negative error. */

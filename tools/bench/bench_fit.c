@@ -26,7 +26,7 @@
 #include "common/clock.h"
 #include "common/file_util.h"
 #include "common/json.h"
-#include "sunprobe/sp_replay.h"
+#include "pipeline/stages/stages.h"
 #include "sunprobe/sp_sunstage.h"
 #include "sunprobe/sp_synth.h"
 
@@ -283,28 +283,19 @@ static int fit_child(const char *cap, enum sp_sunstage_solver solver, const held
                      result *res)
 {
     const sp_synth_selfie_truth *t = h->t;
-    sp_sunstage_settings set;
-    sp_sunstage_default_settings(&set);
-    set.solver = solver;
-    sp_sunstage *ss = NULL;
-    int ret = sp_sunstage_open(&ss, &set, t->model);
+    sp_fit_stage_settings fs = { .model = t->model };
+    sp_sunstage_default_settings(&fs.fit);
+    fs.fit.solver = solver;
+    sp_stage stage = { 0 };
+    int ret = sp_stage_open(&stage, &sp_stage_fit, &fs);
     if (ret)
         return ret;
+    sp_sunstage *ss = stage.ctx;
     bench_cb cb = { target[0], -1.0, sp_clock_monotonic_ns(), ss, t->sun_dir_world, target[1], -1.0, INFINITY };
-    sp_replay_settings rs;
-    sp_replay_default_settings(&rs);
-    sp_source *src = NULL;
-    if ((ret = sp_replay_open(&src, cap, &rs)))
-        goto done;
-    sp_event ev;
-    while ((ret = sp_source_next(src, &ev)) == 0) {
-        ret = sp_sunstage_push(ss, &ev);
-        sp_event_release(&ev);
-        if (ret)
-            break;
-    }
-    sp_source_close(&src);
-    if (ret != SP_EOS || (ret = sp_sunstage_end_stream(ss)) || (ret = sp_sunstage_fit(ss, on_progress, &cb)))
+    sp_run_settings rs;
+    sp_run_default_settings(&rs);
+    rs.progress = 0;
+    if ((ret = sp_stage_run(cap, &stage, &rs, NULL)) || (ret = sp_sunstage_fit(ss, on_progress, &cb)))
         goto done;
     sp_sunstage_result r;
     sp_sunstage_get_result(ss, &r);
@@ -325,7 +316,7 @@ static int fit_child(const char *cap, enum sp_sunstage_solver solver, const held
     res->relit = eval_kind(ss, h, "relit", N_HELDOUT);
     res->novel = eval_kind(ss, h, "view", N_HELDOUT);
 done:
-    sp_sunstage_close(&ss);
+    sp_stage_close(&stage);
     return ret;
 }
 

@@ -24,6 +24,7 @@
 #include "sp_config.h"
 #include "sunprobe/sp_import.h"
 #include "sunprobe/sp_probe.h"
+#include "pipeline/stage.h"
 #include "sunprobe/sp_replay.h"
 #if HAVE_OPENCV
 #include "pipeline/probe/opencv_probe_shim.h"
@@ -50,33 +51,59 @@ static int make_capture(const char *path)
 
 typedef int (*frame_fn)(void *user, const sp_frame *f, uint64_t index);
 
+/* A bench-local stage: every frame to fn, its timestamp continued across loops. */
+typedef struct frame_stage {
+    frame_fn fn;
+    void *user;
+    int64_t offset, last;
+    uint64_t index;
+} frame_stage;
+
+static int frame_stage_open(void **ctx, const void *settings)
+{
+    *ctx = (void *)settings; /* the caller's frame_stage, borrowed */
+    return 0;
+}
+
+static int frame_stage_push(void *ctx, const sp_event *ev)
+{
+    frame_stage *s = ctx;
+    if (ev->type != SP_EVENT_FRAME)
+        return 0;
+    ev->frame->timestamp_ns += s->offset;
+    s->last = ev->frame->timestamp_ns;
+    return s->fn(s->user, ev->frame, s->index++);
+}
+
+static void frame_stage_close(void *ctx)
+{
+    (void)ctx;
+}
+
+static const sp_stage_ops frame_stage_ops = {
+    .name = "bench-frames",
+    .description = "frames to a callback",
+    .open = frame_stage_open,
+    .push = frame_stage_push,
+    .close = frame_stage_close,
+};
+
 /* Streams the capture `loops` times (timestamps continued) through fn, at most max_frames per loop. */
 static int stream(const char *path, int loops, uint64_t max_frames, frame_fn fn, void *user)
 {
-    int64_t offset = 0, last = 0;
-    uint64_t index = 0;
-    int ret = 0;
+    frame_stage fs = { .fn = fn, .user = user };
+    sp_stage st = { 0 };
+    int ret = sp_stage_open(&st, &frame_stage_ops, &fs);
+    sp_run_settings rs;
+    sp_run_default_settings(&rs);
+    rs.max_frames = max_frames;
+    rs.progress = 0;
+    rs.finish = 0;
     for (int l = 0; !ret && l < loops; l++) {
-        sp_replay_settings rs;
-        sp_replay_default_settings(&rs);
-        sp_source *src = NULL;
-        if ((ret = sp_replay_open(&src, path, &rs)))
-            break;
-        sp_event ev;
-        uint64_t n = 0;
-        while (!ret && (!max_frames || n < max_frames) && (ret = sp_source_next(src, &ev)) == 0) {
-            if (ev.type == SP_EVENT_FRAME) {
-                ev.frame->timestamp_ns += offset;
-                last = ev.frame->timestamp_ns;
-                ret = fn(user, ev.frame, index++);
-                n++;
-            }
-            sp_event_release(&ev);
-        }
-        ret = ret == SP_EOS ? 0 : ret;
-        offset = last + 100000000; /* the next loop continues 0.1 s later */
-        sp_source_close(&src);
+        ret = sp_stage_run(path, &st, &rs, NULL);
+        fs.offset = fs.last + 100000000; /* the next loop continues 0.1 s later */
     }
+    sp_stage_close(&st);
     return ret;
 }
 

@@ -22,6 +22,7 @@
 
 #include "common/clock.h"
 #include "common/crc32c.h"
+#include "pipeline/stages/stages.h"
 #include "sunprobe/sp_capture.h"
 #include "sunprobe/sp_fake_camera.h"
 #include "sunprobe/sp_replay.h"
@@ -78,18 +79,21 @@ static int make_capture(const char *path, uint32_t w, uint32_t h, double seconds
     return ret;
 }
 
+/* The whole capture through the driver loop into the null stage (no tagger: raw replay throughput). */
 static int replay_all(const char *path, uint64_t *frames)
 {
-    sp_source *src = NULL;
-    int ret = sp_replay_open(&src, path, NULL);
-    sp_event ev;
-    *frames = 0;
-    while (!ret && (ret = sp_source_next(src, &ev)) == 0) {
-        *frames += ev.type == SP_EVENT_FRAME;
-        sp_event_release(&ev);
-    }
-    sp_source_close(&src);
-    return ret == SP_EOS ? 0 : ret;
+    sp_stage st = { 0 };
+    int ret = sp_stage_open(&st, &sp_stage_null, NULL);
+    sp_run_settings rs;
+    sp_run_default_settings(&rs);
+    rs.progress = 0;
+    rs.finish = 0;
+    sp_run_stats stats;
+    if (!ret)
+        ret = sp_stage_run(path, &st, &rs, &stats);
+    *frames = ret ? 0 : stats.frames;
+    sp_stage_close(&st);
+    return ret;
 }
 
 static int read_all(const char *path)

@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
+# A path-traced rotating selfie from ../shared/captures (another renderer; a phone-style IMU log that
+# starts 1 s before the video; the front camera's imu.to_camera is 180 deg about z), imported as a user
+# would, then: the orientation stage's cameras and the fit's keyframe cameras against the true
+# cam_to_world of every frame, and the fitted sun against the true sun.
+# usage: test_shared_selfie.sh SUNPROBE CAPTURES_DIR [NAME]   (default selfie-sunny-dev1)
+set -uo pipefail
+sp=$1
+cap=$2/${3:-selfie-sunny-dev1}
+here=$(cd "$(dirname "$0")" && pwd)
+check=(python3 "$here/check_capture_truth.py")
+[ -f "$cap/meta.json" ] || { echo "SKIP: no path-traced capture at $cap (../shared/captures)"; exit 77; }
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+
+to_camera=$("${check[@]}" to-camera "$cap/meta.json") || exit 1
+python3 - "$cap/meta.json" "$to_camera" >"$tmp/meta.json" <<'PY' || exit 1
+import json, sys
+m = json.load(open(sys.argv[1]))
+c = m["camera"]
+print(json.dumps({"kind": "selfie", "camera": {k: c[k] for k in ("fx", "fy", "cx", "cy")},
+                  "imu": {"name": "phone imu", "rate_hz": m["imu"]["rate_hz"],
+                          "to_camera": [float(v) for v in sys.argv[2].split(",")]}}))
+PY
+"$sp" import "$cap/frames/%05d.png" -o "$tmp/c.spcap" --frame-times "$cap/frames.csv" --imu "$cap/imu.csv" \
+    --meta "$tmp/meta.json" >"$tmp/import.log" 2>&1
+rc=$?
+[ $rc = 4 ] && { echo "SKIP: this build cannot import PNG frames"; cat "$tmp/import.log"; exit 77; }
+[ $rc = 0 ] || { cat "$tmp/import.log"; exit 1; }
+
+fail=0
+"$sp" replay "$tmp/c.spcap" --stage orientation -o "$tmp/orientation.csv" || fail=1
+"${check[@]}" orientation "$tmp/orientation.csv" "$cap/meta.json" --max-camera-deg 3 --max-up-deg 3 || fail=1
+
+"$sp" fit "$tmp/c.spcap" -o "$tmp/face" --no-progress >"$tmp/fit.log" 2>&1
+rc=$?
+cat "$tmp/fit.log"
+if [ $rc != 0 ] && grep -q "no dlib" "$tmp/fit.log"; then
+    echo "SKIP (fit part): this build has no dlib to find the face"
+    exit $((fail ? 1 : 77))
+fi
+[ $rc = 0 ] || exit 1
+# the sun limit is loose: this test is about the cameras; how well the sun is found is issue-tracked fidelity
+"${check[@]}" fit "$tmp/face" "$cap/meta.json" --max-camera-deg 3 --max-up-deg 3 --max-sun-deg 20 || fail=1
+exit $fail
