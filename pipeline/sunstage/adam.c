@@ -117,10 +117,8 @@ static double landmark_loss(adam_ctx *a, const ss_frame *f, const sp_face_params
     double *jac = malloc(sizeof(double) * 136 * nc);
     if (!jac)
         return 0.0;
-    sp_face_camera cam;
-    sp_face_camera_init(&cam, ss->fx, ss->fy, ss->cx, ss->cy);
     double L = 0.0;
-    if (sp_face_model_project_landmarks(m, p, &cam, uv, NULL, jac) >= 0)
+    if (sp_face_model_project_landmarks(m, p, &f->cam, uv, NULL, jac) >= 0)
         for (int k = 0; k < 136; k++) {
             double r = uv[k] - f->lm[k], ar = fabs(r);
             L += W_LM * (ar > 1.0 ? 2.0 * ar - 1.0 : r * r);
@@ -151,11 +149,9 @@ static double silhouette_loss(adam_ctx *a, ss_frame *f, const sp_face_params *p,
     int cap = 2 * ss->H;
     uint32_t *idx = malloc(sizeof(uint32_t) * (size_t)cap);
     double *r = malloc(sizeof(double) * (size_t)cap), *jac = malloc(sizeof(double) * (size_t)cap * nc);
-    sp_face_camera cam;
-    sp_face_camera_init(&cam, ss->fx, ss->fy, ss->cx, ss->cy);
     double L = 0.0;
-    int n = idx && r && jac ? ss_silhouette_vertices(m, p, &cam, ss->H, idx, cap, a->gcam) : 0;
-    if (n > 0 && ss_silhouette_residuals(m, p, &cam, idx, n, f->sil, ss->W, ss->H, r, jac) == 0)
+    int n = idx && r && jac ? ss_silhouette_vertices(m, p, &f->cam, ss->H, idx, cap, a->gcam) : 0;
+    if (n > 0 && ss_silhouette_residuals(m, p, &f->cam, idx, n, f->sil, ss->W, ss->H, r, jac) == 0)
         for (int j = 0; j < n; j++) {
             if (r[j] >= SS_SIL_MAX) { /* truncated: constant cost, no pull */
                 L += W_SIL * SS_SIL_HUBER * (2.0 * SS_SIL_MAX - SS_SIL_HUBER);
@@ -224,12 +220,7 @@ static int frame_step(adam_ctx *a, int fi, double *loss)
             a->gcam[(size_t)i * 3 + (size_t)c] = R[c] * gw[0] + R[3 + c] * gw[1] + R[6 + c] * gw[2];
     }
     sp_face_params p;
-    sp_face_params_init(&p);
-    p.id = ss->id;
-    p.exp = f->exp;
-    memcpy(p.rotvec, f->rotvec, sizeof(p.rotvec));
-    memcpy(p.t, f->t_face, sizeof(p.t));
-    p.s = ss->scale;
+    ss_frame_params(ss, f, &p);
     sp_face_grad fg = { .id = a->gid, .exp = a->gexp };
     if ((ret = sp_face_model_eval_adjoint(m, &p, a->gcam, &fg)))
         return ret;

@@ -24,7 +24,6 @@ typedef struct align_ctx {
     const int *idx;
     int n, shared, n_id, n_exp, ns, np, P;
     double *uv, *jac, *JtJ, *Jtr, *save;
-    sp_face_camera cam;
     ss_frame *one; /* a frame outside the reservoir (n = 1), or NULL */
     int use_sil, sil_cap;
     uint32_t *sil_idx; /* n * sil_cap outline vertices, chosen at each Jacobian evaluation */
@@ -35,16 +34,6 @@ typedef struct align_ctx {
 static ss_frame *frame_at(const align_ctx *a, int fi)
 {
     return a->one ? a->one : &a->ss->slots[a->idx[fi]];
-}
-
-static void frame_params(const align_ctx *a, const ss_frame *f, sp_face_params *p)
-{
-    sp_face_params_init(p);
-    p->id = a->ss->id;
-    p->exp = f->exp;
-    memcpy(p->rotvec, f->rotvec, sizeof(p->rotvec));
-    memcpy(p->t, f->t_face, sizeof(p->t));
-    p->s = a->ss->scale;
 }
 
 /* Landmark weight for the point residual (du, dv): Huber on its length times the jaw factor. */
@@ -70,9 +59,9 @@ static double silhouette_term(align_ctx *a, int fi, ss_frame *f, const sp_face_p
         return 0.0;
     uint32_t *idx = a->sil_idx + (size_t)fi * (size_t)a->sil_cap;
     if (with_jac)
-        a->sil_n[fi] = ss_silhouette_vertices(m, p, &a->cam, a->ss->H, idx, a->sil_cap, a->sil_work);
+        a->sil_n[fi] = ss_silhouette_vertices(m, p, &f->cam, a->ss->H, idx, a->sil_cap, a->sil_work);
     int n = a->sil_n[fi];
-    if (n <= 0 || ss_silhouette_residuals(m, p, &a->cam, idx, n, f->sil, a->ss->W, a->ss->H, a->sil_r,
+    if (n <= 0 || ss_silhouette_residuals(m, p, &f->cam, idx, n, f->sil, a->ss->W, a->ss->H, a->sil_r,
                                           with_jac ? a->sil_jac : NULL))
         return 0.0;
     uint32_t nc = sp_face_model_n_params(m);
@@ -113,8 +102,8 @@ static double evaluate(align_ctx *a, int with_jac)
     for (int fi = 0; fi < a->n; fi++) {
         ss_frame *f = frame_at(a, fi);
         sp_face_params p;
-        frame_params(a, f, &p);
-        if (sp_face_model_project_landmarks(m, &p, &a->cam, a->uv, NULL, with_jac ? a->jac : NULL) < 0) {
+        ss_frame_params(a->ss, f, &p);
+        if (sp_face_model_project_landmarks(m, &p, &f->cam, a->uv, NULL, with_jac ? a->jac : NULL) < 0) {
             free(col);
             return NAN;
         }
@@ -216,13 +205,13 @@ static void init_frame(align_ctx *a, ss_frame *f)
         ru += hypot(f->lm[2 * k] - mu[0], f->lm[2 * k + 1] - mu[1]);
         rm += hypot((double)v[0] - mm[0], (double)v[1] - mm[1]);
     }
-    double z = ru > 1e-6 ? a->cam.fx * rm / ru : 0.5;
+    double z = ru > 1e-6 ? f->cam.fx * rm / ru : 0.5;
     z = z < 0.05 ? 0.05 : (z > 20.0 ? 20.0 : z);
     f->rotvec[0] = M_PI;
     f->rotvec[1] = f->rotvec[2] = 0.0;
     /* model (x, y) maps to camera (x, -y) under the flip */
-    f->t_face[0] = (mu[0] - a->cam.cx) * z / a->cam.fx - mm[0];
-    f->t_face[1] = (mu[1] - a->cam.cy) * z / a->cam.fy + mm[1];
+    f->t_face[0] = (mu[0] - f->cam.cx) * z / f->cam.fx - mm[0];
+    f->t_face[1] = (mu[1] - f->cam.cy) * z / f->cam.fy + mm[1];
     f->t_face[2] = z;
 }
 
@@ -313,7 +302,6 @@ static double align(sp_sunstage *ss, const int *idx, ss_frame *one, int n, int s
     a.ns = shared ? a.n_id + 1 : 0;
     a.np = a.n_exp + 6;
     a.P = a.ns + n * a.np;
-    sp_face_camera_init(&a.cam, ss->fx, ss->fy, ss->cx, ss->cy);
     size_t nc = sp_face_model_n_params(m);
     a.uv = malloc(sizeof(double) * 136);
     a.jac = malloc(sizeof(double) * 136 * nc);
@@ -343,8 +331,8 @@ static double align(sp_sunstage *ss, const int *idx, ss_frame *one, int n, int s
     for (int fi = 0; fi < n; fi++) {
         ss_frame *f = frame_at(&a, fi);
         sp_face_params p;
-        frame_params(&a, f, &p);
-        sp_face_model_project_landmarks(m, &p, &a.cam, a.uv, NULL, NULL);
+        ss_frame_params(ss, f, &p);
+        sp_face_model_project_landmarks(m, &p, &f->cam, a.uv, NULL, NULL);
         for (int k = 0; k < 136; k++)
             se += (a.uv[k] - f->lm[k]) * (a.uv[k] - f->lm[k]);
     }

@@ -415,9 +415,6 @@ static double pattern_search(fast_ctx *c, double step, double min_step, int roun
 static int update_visibility(fast_ctx *c)
 {
     sp_sunstage *ss = c->ss;
-    float *mask = malloc(sizeof(float) * (size_t)ss->W * (size_t)ss->H);
-    if (!mask)
-        return -ENOMEM;
     int ret = 0;
     for (int fi = 0; fi < c->nf && !ret; fi++) {
         const ss_frame *f = &ss->slots[c->idx[fi]];
@@ -427,14 +424,10 @@ static int update_visibility(fast_ctx *c)
         size_t i = c->frame_start[fi];
         for (int p = 0; p < ss->W * ss->H && i < c->frame_start[fi + 1]; p++) {
             /* the observation order is the mask order of gather(); re-derive it from the same test */
-            int32_t t = o.tri_id[p];
-            const float *g = f->rgb + (size_t)p * 3;
-            int sat = g[0] > 0.98f || g[1] > 0.98f || g[2] > 0.98f;
-            if (t >= 0 && c->sc.skin_tri[t] && o.coverage[p] > 0.999f && !sat)
+            if (ss_scene_is_skin(&c->sc, &o, f->rgb, p))
                 c->o[i++].V = (double)o.visibility[p];
         }
     }
-    free(mask);
     return ret;
 }
 
@@ -450,10 +443,7 @@ static int update_specular(fast_ctx *c, double shin, float *out)
             break;
         size_t i = c->frame_start[fi];
         for (int p = 0; p < ss->W * ss->H && i < c->frame_start[fi + 1]; p++) {
-            int32_t t = o.tri_id[p];
-            const float *g = f->rgb + (size_t)p * 3;
-            int sat = g[0] > 0.98f || g[1] > 0.98f || g[2] > 0.98f;
-            if (t >= 0 && c->sc.skin_tri[t] && o.coverage[p] > 0.999f && !sat)
+            if (ss_scene_is_skin(&c->sc, &o, f->rgb, p))
                 out[i++] = o.specular[(size_t)p * 3];
         }
     }

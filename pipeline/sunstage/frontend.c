@@ -65,10 +65,7 @@ static int setup_geometry(sp_sunstage *ss, uint32_t w, uint32_t h)
     double fy = ss->meta.fy > 0.0 ? ss->meta.fy : f;
     double cx = isfinite(ss->meta.cx) ? ss->meta.cx : 0.5 * ((double)w - 1.0);
     double cy = isfinite(ss->meta.cy) ? ss->meta.cy : 0.5 * ((double)h - 1.0);
-    ss->fx = f * s;
-    ss->fy = fy * s;
-    ss->cx = (cx + 0.5) * s - 0.5;
-    ss->cy = (cy + 0.5) * s - 0.5;
+    sp_face_camera_init(&ss->cam, f * s, fy * s, (cx + 0.5) * s - 0.5, (cy + 0.5) * s - 0.5);
     ss->dw = (int)w < SS_DETECT_W ? (int)w : SS_DETECT_W;
     ss->dh = (int)lround((double)h * ss->dw / (double)w);
     ss->rgb24 = malloc((size_t)w * h * 3);
@@ -288,6 +285,7 @@ int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const double lm[136], 
     f->expo = expo > 0.0 && isfinite(expo) ? expo : 1.0;
     f->yaw = yaw;
     f->q_c2w = sp_quat_normalize(q);
+    f->cam = ss->cam;
     f->has_truth = 0;
     sp_quat_to_matrix(f->q_c2w, f->R_c2w);
     memcpy(f->rgb, rgb, (size_t)ss->W * (size_t)ss->H * 3 * sizeof(float));

@@ -57,12 +57,7 @@ int ss_scene_setup(ss_scene *sc, const sp_sunstage *ss, const ss_frame *f, sp_re
 {
     const sp_face_model *m = ss->model;
     sp_face_params p;
-    sp_face_params_init(&p);
-    p.id = ss->id;
-    p.exp = f->exp;
-    memcpy(p.rotvec, f->rotvec, sizeof(p.rotvec));
-    memcpy(p.t, f->t_face, sizeof(p.t));
-    p.s = ss->scale;
+    ss_frame_params(ss, f, &p);
     int ret = sp_face_model_eval(m, &p, sc->posd);
     if (ret)
         return ret;
@@ -73,10 +68,10 @@ int ss_scene_setup(ss_scene *sc, const sp_sunstage *ss, const ss_frame *f, sp_re
             sc->pos[(size_t)i * 3 + (size_t)r] = (float)(R[r * 3] * x[0] + R[r * 3 + 1] * x[1] + R[r * 3 + 2] * x[2]);
     }
     sp_render_scene_defaults(scene);
-    scene->camera.fx = ss->fx;
-    scene->camera.fy = ss->fy;
-    scene->camera.cx = ss->cx;
-    scene->camera.cy = ss->cy;
+    scene->camera.fx = f->cam.fx;
+    scene->camera.fy = f->cam.fy;
+    scene->camera.cx = f->cam.cx;
+    scene->camera.cy = f->cam.cy;
     for (int r = 0; r < 3; r++)
         for (int c = 0; c < 3; c++)
             scene->camera.R[r * 3 + c] = R[c * 3 + r];
@@ -95,15 +90,19 @@ int ss_scene_setup(ss_scene *sc, const sp_sunstage *ss, const ss_frame *f, sp_re
     return 0;
 }
 
+int ss_scene_is_skin(const ss_scene *sc, const sp_render_outputs *o, const float *target, int i)
+{
+    int32_t t = o->tri_id[i];
+    const float *g = target + (size_t)i * 3;
+    int sat = g[0] > 0.98f || g[1] > 0.98f || g[2] > 0.98f;
+    return t >= 0 && sc->skin_tri[t] && o->coverage[i] > 0.999f && !sat;
+}
+
 void ss_scene_mask(const ss_scene *sc, const sp_render_outputs *o, const float *target, float *mask)
 {
     int n = o->width * o->height;
-    for (int i = 0; i < n; i++) {
-        int32_t t = o->tri_id[i];
-        const float *g = target + (size_t)i * 3;
-        int sat = g[0] > 0.98f || g[1] > 0.98f || g[2] > 0.98f;
-        mask[i] = (t >= 0 && sc->skin_tri[t] && o->coverage[i] > 0.999f && !sat) ? 1.0f : 0.0f;
-    }
+    for (int i = 0; i < n; i++)
+        mask[i] = ss_scene_is_skin(sc, o, target, i) ? 1.0f : 0.0f;
 }
 
 double ss_psnr(const float *img, const float *target, const float *mask, int n)
@@ -180,12 +179,8 @@ int sp_sunstage_render_view(sp_sunstage *ss, const sp_sunstage_view *v, float *r
     sp_quat_to_matrix(f.q_c2w, f.R_c2w);
     for (int i = 0; i < 136; i++)
         f.lm[i] = (v->landmarks[i] + 0.5) * k - 0.5;
-    /* the fit's intrinsics drive alignment and rendering: swap them in for this view */
-    double keep[4] = { ss->fx, ss->fy, ss->cx, ss->cy };
-    ss->fx = v->fx * k;
-    ss->fy = v->fy * k;
-    ss->cx = (v->cx + 0.5) * k - 0.5;
-    ss->cy = (v->cy + 0.5) * k - 0.5;
+    /* the view's own intrinsics, at fit resolution, drive its alignment and rendering */
+    sp_face_camera_init(&f.cam, v->fx * k, v->fy * k, (v->cx + 0.5) * k - 0.5, (v->cy + 0.5) * k - 0.5);
     ss_scene sc;
     int ret = ss_align_one(ss, &f, 20) < 0 ? -EINVAL : ss_scene_open(&sc, ss);
     if (!ret) {
@@ -207,10 +202,6 @@ int sp_sunstage_render_view(sp_sunstage *ss, const sp_sunstage_view *v, float *r
         }
         ss_scene_close(&sc);
     }
-    ss->fx = keep[0];
-    ss->fy = keep[1];
-    ss->cx = keep[2];
-    ss->cy = keep[3];
     free(exp);
     return ret;
 }

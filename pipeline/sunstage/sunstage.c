@@ -175,6 +175,16 @@ int ss_list_frames(const sp_sunstage *ss, int heldout, int *idx, int cap)
     return n;
 }
 
+void ss_frame_params(const sp_sunstage *ss, const ss_frame *f, sp_face_params *p)
+{
+    sp_face_params_init(p);
+    p->id = ss->id;
+    p->exp = f->exp;
+    memcpy(p->rotvec, f->rotvec, sizeof(p->rotvec));
+    memcpy(p->t, f->t_face, sizeof(p->t));
+    p->s = ss->scale;
+}
+
 void ss_rotvec_to_matrix(const double r[3], double R[9])
 {
     sp_quat q = sp_quat_from_rotvec((sp_vec3){ r[0], r[1], r[2] });
@@ -192,10 +202,7 @@ int sp_sunstage_add_keyframe(sp_sunstage *ss, const float *rgb, int width, int h
     ss->H = height;
     ss->cap_w = width;
     ss->cap_h = height;
-    ss->fx = fx;
-    ss->fy = fy;
-    ss->cx = cx;
-    ss->cy = cy;
+    sp_face_camera_init(&ss->cam, fx, fy, cx, cy);
     return ss_reservoir_offer(ss, rgb, landmarks, 1.0, 1.0, ss->counts.accepted++, 0, camera_to_world, heldout ? 2 : 3,
                               NULL);
 }
@@ -326,10 +333,10 @@ int sp_sunstage_get_frame(const sp_sunstage *ss, int i, sp_sunstage_frame *out)
     memset(out, 0, sizeof(*out));
     out->sequence = f->sequence;
     out->timestamp_ns = f->t;
-    out->fx = ss->fx;
-    out->fy = ss->fy;
-    out->cx = ss->cx;
-    out->cy = ss->cy;
+    out->fx = f->cam.fx;
+    out->fy = f->cam.fy;
+    out->cx = f->cam.cx;
+    out->cy = f->cam.cy;
     out->width = ss->W;
     out->height = ss->H;
     out->scale_to_capture = ss->W > 0 ? (double)ss->cap_w / ss->W : 1.0;

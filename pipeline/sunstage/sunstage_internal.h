@@ -23,6 +23,7 @@ typedef struct ss_frame {
     double yaw;         /* camera heading, radians */
     float *rgb;         /* W * H * 3 display values */
     double lm[136];     /* landmarks at fit resolution */
+    sp_face_camera cam; /* the frame's intrinsics at fit resolution (identity pose) */
     double R_c2w[9];    /* camera to world */
     sp_quat q_c2w;
     int has_truth;      /* true orientation side data (synthetic captures) */
@@ -41,7 +42,7 @@ struct sp_sunstage {
     int dlib_failed;
     /* geometry of frames */
     int cap_w, cap_h, W, H, dw, dh;
-    double fx, fy, cx, cy;      /* fit resolution */
+    sp_face_camera cam;         /* the capture's intrinsics at fit resolution; every keyframe gets a copy */
     uint8_t *rgb24;             /* capture-size conversion buffer */
     float *work_rgb;            /* W * H * 3: the frame at fit resolution */
     uint8_t *work_gray;         /* dw * dh: grey copy for the landmark detector */
@@ -70,6 +71,8 @@ struct sp_sunstage {
 /* ---- sunstage.c ---- */
 /* The world rotation of a face: R_c2w * R(rotvec). */
 void ss_rotvec_to_matrix(const double r[3], double R[9]);
+/* The face parameters of frame f under the shared fit (views into ss and f). */
+void ss_frame_params(const sp_sunstage *ss, const ss_frame *f, sp_face_params *p);
 /* Fitted frames in slot order: fills idx with the used training (heldout = 0) or held-out slots. */
 int ss_list_frames(const sp_sunstage *ss, int heldout, int *idx, int cap);
 
@@ -118,7 +121,9 @@ int ss_scene_open(ss_scene *sc, const sp_sunstage *ss);
 void ss_scene_close(ss_scene *sc);
 /* Evaluates frame f's geometry and fills scene (pointers into ss and sc). */
 int ss_scene_setup(ss_scene *sc, const sp_sunstage *ss, const ss_frame *f, sp_render_scene *scene);
-/* Mask of skin pixels fully covered and not saturated in the target (W * H floats). */
+/* Pixel i is skin, fully covered and not saturated in the target: the one mask test of every solver. */
+int ss_scene_is_skin(const ss_scene *sc, const sp_render_outputs *o, const float *target, int i);
+/* That test for every pixel (W * H floats, 1 or 0). */
 void ss_scene_mask(const ss_scene *sc, const sp_render_outputs *o, const float *target, float *mask);
 double ss_psnr(const float *img, const float *target, const float *mask, int n);
 /* Training and held-out PSNR of the current fit. */
