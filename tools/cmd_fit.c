@@ -19,7 +19,7 @@
 #include "common/json.h"
 #include "common/progress.h"
 #include "common/report.h"
-#include "export/png.h"
+#include "export/face_dir.h"
 #include "pipeline/stages/stages.h"
 #include "sunprobe/sp_face_model.h"
 #include "sunprobe/sp_sunstage.h"
@@ -213,39 +213,13 @@ static int stream(fit_args *a, const sp_stage *stage)
     return ret;
 }
 
-/* Albedo preview: gamma-encoded 8-bit PNG beside the float map. */
-static int write_albedo_png(const sp_sunstage *ss, const char *dir) /* dir: at most 4096 bytes */
-{
-    sp_sunstage_result r;
-    sp_sunstage_get_result(ss, &r);
-    size_t n = (size_t)r.tex_width * (size_t)r.tex_height * 3;
-    uint8_t *px = malloc(n);
-    if (!px)
-        return -ENOMEM;
-    for (size_t i = 0; i < n; i++) {
-        double v = (double)r.albedo[i];
-        v = v > 0.0 ? pow(v > 1.0 ? 1.0 : v, 1.0 / 2.2) : 0.0;
-        px[i] = (uint8_t)lround(255.0 * v);
-    }
-    char path[4200];
-    if ((size_t)snprintf(path, sizeof(path), "%s/albedo.png", dir) >= sizeof(path)) {
-        free(px);
-        return -ENAMETOOLONG;
-    }
-    int ret = sp_png_write(path, px, (uint32_t)r.tex_width, (uint32_t)r.tex_height, (uint32_t)r.tex_width * 3, 3);
-    free(px);
-    return ret;
-}
-
 static int write_output(const fit_args *a, const sp_sunstage *ss)
 {
     sp_partial pd = { 0 };
     int ret = sp_partial_dir_open(&pd, a->out);
     if (ret)
         return ret;
-    ret = sp_face_dir_write(ss, pd.path);
-    if (!ret)
-        ret = write_albedo_png(ss, pd.path);
+    ret = sp_face_dir_write_all(ss, pd.path);
     if (!ret)
         ret = sp_partial_dir_commit(&pd, 0);
     if (ret)
