@@ -423,9 +423,7 @@ int ss_fit_adam(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
     int ret = ss_scene_open(&a->sc, ss);
     if (!ret)
         ret = adam_alloc(a);
-    if (!ret && !ss->unobservable)
-        ret = ss_fast_overcast_check(ss); /* the fast solver's decision, the same code: sets sun_dropped */
-    if (!ret) {
+    if (!ret) { /* the driver ran the overcast check first (sun_dropped) */
         a->no_sun = ss->unobservable || ss->sun_dropped;
         double d[3] = { 0.3, 0.3, 0.9 }; /* a generic high sun: the reference has no search */
         memcpy(ss->sun_dir, d, sizeof(d));

@@ -537,7 +537,6 @@ static void commit(fast_ctx *c)
         }
 }
 
-#define FAST_PHASES 8 /* rows reported: sphere, 2 pattern searches, 2 shadow rounds, sun, solve, refinement */
 
 /*
  * A report row at a phase boundary: the state at the current sun, committed;
@@ -557,7 +556,7 @@ static void checkpoint(fast_ctx *c, sp_sunstage_callback cb, void *user, int pha
     c->stride = stride;
     double ho = NAN;
     ss_evaluate(ss, &c->sc, NULL, &ho);
-    sp_sunstage_progress p = { "photometric", phase, FAST_PHASES,
+    sp_sunstage_progress p = { "photometric", phase, SS_FAST_PHASES,
                                (double)(sp_clock_monotonic_ns() - ss->t0) * 1e-9, loss, ho };
     cb(user, &p);
 }
@@ -634,21 +633,13 @@ static int fast_run(fast_ctx *c, sp_sunstage_callback cb, void *user)
     if (c->use_sun) {
         try_sun(c, c->sun, 4);
         commit(c);
-        report(c, cb, user, 6, FAST_PHASES);
+        report(c, cb, user, 6, SS_FAST_PHASES);
         if ((ret = fit_specular(c)))
             return ret;
         alternate(c, 4, 3);
     }
     commit(c);
-    report(c, cb, user, 7, FAST_PHASES);
-    if (ss->set.refine_steps > 0) {
-        if ((ret = ss_refine_geometry(ss, ss->set.refine_steps)))
-            return ret;
-        report(c, cb, user, 8, FAST_PHASES);
-    } else {
-        snprintf(ss->disp_note, sizeof(ss->disp_note),
-                 "the fast solver keeps the stage-1 geometry (photometric refinement off: refine_steps = 0)");
-    }
+    report(c, cb, user, 7, SS_FAST_PHASES);
     sp_log(SP_LOG_INFO, MOD, "fast solver: %zu observations, sun (%.3f %.3f %.3f) I %.3f, train %.2f dB", c->n,
            ss->sun_dir[0], ss->sun_dir[1], ss->sun_dir[2], ss->sun_I, ss->train_psnr);
     return 0;

@@ -225,6 +225,36 @@ static double yaw_range(const sp_sunstage *ss, const int *idx, int n)
     return (2.0 * M_PI - gap) * 180.0 / M_PI;
 }
 
+/* The fast solver, then the photometric refinement of its geometry (Adam's machinery) when enabled. */
+static int solve_fast(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
+{
+    int ret = ss_fit_fast(ss, cb, user);
+    if (ret)
+        return ret;
+    if (ss->set.refine_steps <= 0) {
+        snprintf(ss->disp_note, sizeof(ss->disp_note),
+                 "the fast solver keeps the stage-1 geometry (photometric refinement off: refine_steps = 0)");
+        return 0;
+    }
+    if ((ret = ss_refine_geometry(ss, ss->set.refine_steps)))
+        return ret;
+    if (cb) { /* the refinement leaves the PSNRs of the geometry it kept */
+        double tr = ss->train_psnr;
+        sp_sunstage_progress p = { "photometric", SS_FAST_PHASES, SS_FAST_PHASES,
+                                   (double)(sp_clock_monotonic_ns() - ss->t0) * 1e-9,
+                                   isfinite(tr) ? pow(10.0, -tr / 10.0) : (double)NAN, ss->heldout_psnr };
+        cb(user, &p);
+    }
+    return 0;
+}
+
+/* The fast solver's overcast decision, then the Adam reference solver. */
+static int solve_adam(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
+{
+    int ret = ss->unobservable ? 0 : ss_fast_overcast_check(ss);
+    return ret ? ret : ss_fit_adam(ss, cb, user);
+}
+
 int sp_sunstage_fit(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
 {
     if (!ss)
@@ -273,7 +303,7 @@ int sp_sunstage_fit(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
         sp_sunstage_progress p = { "align", 1, 1, (double)(sp_clock_monotonic_ns() - ss->t0) * 1e-9, rms, NAN };
         cb(user, &p);
     }
-    int ret = ss->set.solver == SP_SUNSTAGE_SOLVER_ADAM ? ss_fit_adam(ss, cb, user) : ss_fit_fast(ss, cb, user);
+    int ret = ss->set.solver == SP_SUNSTAGE_SOLVER_ADAM ? solve_adam(ss, cb, user) : solve_fast(ss, cb, user);
     ss->seconds = (double)(sp_clock_monotonic_ns() - ss->t0) * 1e-9;
     ss->fitted = ret == 0;
     return ret;

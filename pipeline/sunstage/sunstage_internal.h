@@ -129,17 +129,18 @@ double ss_psnr(const float *img, const float *target, const float *mask, int n);
 /* Training and held-out PSNR of the current fit. */
 int ss_evaluate(sp_sunstage *ss, ss_scene *sc, double *train, double *heldout);
 
-/* ---- fast.c / adam.c: stage 2 ---- */
+/* ---- fast.c / adam.c: stage 2; the driver (sunstage.c) calls both files, they never call each other ---- */
+#define SS_FAST_PHASES 8 /* rows the fast path reports: sphere, 2 pattern searches, 2 shadow rounds, sun, solve, refinement */
 int ss_fit_fast(sp_sunstage *ss, sp_sunstage_callback cb, void *user);
 int ss_fit_adam(sp_sunstage *ss, sp_sunstage_callback cb, void *user);
 /*
  * The fast solver's overcast decision alone (its sun search and sky-only
  * comparison, the same code): sets ss->sun_dropped and the note; leaves the
- * albedo and lighting state as they were. For the Adam solver.
+ * albedo and lighting state as they were. Run before the Adam solver.
  */
 int ss_fast_overcast_check(sp_sunstage *ss);
 /*
- * Photometric refinement after the fast solver (adam.c): Adam steps on per-frame
+ * Photometric refinement after the fast solver (adam.c, its machinery): Adam steps on per-frame
  * pose and expression, shared shape and the displacement map with albedo and
  * lighting fixed; kept only when the held-out PSNR rises (else reverted, with
  * the reason in ss->disp_note).
