@@ -180,7 +180,7 @@ static int frame_step(adam_ctx *a, int fi, double *loss)
 {
     sp_sunstage *ss = a->ss;
     const sp_face_model *m = ss->model;
-    ss_frame *f = &ss->slots[a->idx[fi]];
+    ss_frame *f = &ss->res.slots[a->idx[fi]];
     sp_render_scene scene;
     sp_render_outputs o;
     /*
@@ -211,7 +211,7 @@ static int frame_step(adam_ctx *a, int fi, double *loss)
     a->logI.g[0] += g.sun_intensity * scene.sun_intensity;
     for (int k = 0; k < SP_RENDER_CLUSTERS; k++) {
         a->ks.g[k] += g.ks[k];
-        a->logs.g[k] += g.shininess[k] * ss->shin[k];
+        a->logs.g[k] += g.shininess[k] * ss->fit.shin[k];
     }
     const double *R = f->R_c2w; /* world gradient back into the camera frame: R^T g */
     for (uint32_t i = 0; i < m->mesh.n_vertices; i++) {
@@ -255,29 +255,29 @@ static double regularisers(adam_ctx *a)
             for (int c = 0; c < 3; c++) {
                 int p = (i * SP_RENDER_ENV_W + j) * 3 + c;
                 int q = (i * SP_RENDER_ENV_W + (j + 1) % SP_RENDER_ENV_W) * 3 + c;
-                double e = ss->env[p], d = ss->env[p] - ss->env[q];
+                double e = ss->fit.env[p], d = ss->fit.env[p] - ss->fit.env[q];
                 L += W_ENV_L2 * e * e + W_ENV_SMOOTH * d * d;
                 a->env.g[p] += 2.0 * W_ENV_L2 * e + 2.0 * W_ENV_SMOOTH * d;
                 a->env.g[q] -= 2.0 * W_ENV_SMOOTH * d;
                 if (i + 1 < SP_RENDER_ENV_H) {
                     int r = p + SP_RENDER_ENV_W * 3;
-                    double dv = ss->env[p] - ss->env[r];
+                    double dv = ss->fit.env[p] - ss->fit.env[r];
                     L += W_ENV_SMOOTH * dv * dv;
                     a->env.g[p] += 2.0 * W_ENV_SMOOTH * dv;
                     a->env.g[r] -= 2.0 * W_ENV_SMOOTH * dv;
                 }
             }
-    for (int y = 0; y < ss->th; y++)
-        for (int x = 0; x + 1 < ss->tw; x++) {
-            int p = y * ss->tw + x;
-            double d = ss->disp[p] - ss->disp[p + 1];
+    for (int y = 0; y < ss->fit.th; y++)
+        for (int x = 0; x + 1 < ss->fit.tw; x++) {
+            int p = y * ss->fit.tw + x;
+            double d = ss->fit.disp[p] - ss->fit.disp[p + 1];
             L += W_DISP_SMOOTH * d * d;
             a->disp.g[p] += 2.0 * W_DISP_SMOOTH * d;
             a->disp.g[p + 1] -= 2.0 * W_DISP_SMOOTH * d;
         }
     for (uint32_t k = 0; k < ss->model->n_id; k++) {
-        L += 1e-4 * ss->id[k] * ss->id[k];
-        a->id.g[k] += 2e-4 * ss->id[k];
+        L += 1e-4 * ss->fit.id[k] * ss->fit.id[k];
+        a->id.g[k] += 2e-4 * ss->fit.id[k];
     }
     return L;
 }
@@ -293,8 +293,8 @@ static void apply(adam_ctx *a, int t, int total)
         memset(a->albedo.g, 0, sizeof(double) * a->albedo.n);
         memset(a->env.g, 0, sizeof(double) * a->env.n);
     } else {
-        adam_update(&a->albedo, NULL, ss->albedo, 0.02 * decay, t, 0.0, 4.0);
-        adam_update(&a->env, NULL, ss->env, 0.02 * decay, t, 0.0, 1e3);
+        adam_update(&a->albedo, NULL, ss->fit.albedo, 0.02 * decay, t, 0.0, 4.0);
+        adam_update(&a->env, NULL, ss->fit.env, 0.02 * decay, t, 0.0, 1e3);
     }
     if (a->no_sun || a->refine) { /* the sun's unknowns stay where they are: no sun, no specular */
         memset(a->sun.g, 0, sizeof(double) * 3);
@@ -302,17 +302,17 @@ static void apply(adam_ctx *a, int t, int total)
         memset(a->ks.g, 0, sizeof(double) * a->ks.n);
         memset(a->logs.g, 0, sizeof(double) * a->logs.n);
     } else {
-        adam_update(&a->sun, ss->sun_dir, NULL, 0.03 * decay, t, -2.0, 2.0);
-        double n = sqrt(ss->sun_dir[0] * ss->sun_dir[0] + ss->sun_dir[1] * ss->sun_dir[1] +
-                        ss->sun_dir[2] * ss->sun_dir[2]);
+        adam_update(&a->sun, ss->fit.sun_dir, NULL, 0.03 * decay, t, -2.0, 2.0);
+        double n = sqrt(ss->fit.sun_dir[0] * ss->fit.sun_dir[0] + ss->fit.sun_dir[1] * ss->fit.sun_dir[1] +
+                        ss->fit.sun_dir[2] * ss->fit.sun_dir[2]);
         for (int k = 0; k < 3; k++)
-            ss->sun_dir[k] = n > 1e-9 ? ss->sun_dir[k] / n : (k == 2);
+            ss->fit.sun_dir[k] = n > 1e-9 ? ss->fit.sun_dir[k] / n : (k == 2);
         adam_update(&a->logI, &a->logI_x, NULL, 0.03 * decay, t, -10.0, 5.0);
-        ss->sun_I = exp(a->logI_x);
-        adam_update(&a->ks, ss->ks, NULL, 0.01 * decay, t, 0.0, 10.0);
+        ss->fit.sun_I = exp(a->logI_x);
+        adam_update(&a->ks, ss->fit.ks, NULL, 0.01 * decay, t, 0.0, 10.0);
         adam_update(&a->logs, a->logs_x, NULL, 0.03 * decay, t, 0.0, log(SP_RENDER_SHININESS_MAX));
         for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
-            ss->shin[k] = exp(a->logs_x[k]);
+            ss->fit.shin[k] = exp(a->logs_x[k]);
     }
     if (!geo) {
         for (size_t i = 0; i < a->disp.n; i++)
@@ -324,11 +324,11 @@ static void apply(adam_ctx *a, int t, int total)
         return;
     }
     double gl = a->refine ? 0.1 * decay : decay; /* refinement: small steps around a converged fit */
-    adam_update(&a->disp, NULL, ss->disp, 2e-5 * decay, t, -0.005, 0.005);
-    adam_update(&a->id, ss->id, NULL, 0.01 * gl, t, -5.0, 5.0);
-    adam_update(&a->scale, &ss->scale, NULL, 0.001 * gl, t, 0.7, 1.4);
+    adam_update(&a->disp, NULL, ss->fit.disp, 2e-5 * decay, t, -0.005, 0.005);
+    adam_update(&a->id, ss->fit.id, NULL, 0.01 * gl, t, -5.0, 5.0);
+    adam_update(&a->scale, &ss->fit.scale, NULL, 0.001 * gl, t, 0.7, 1.4);
     for (int fi = 0; fi < a->nf; fi++) {
-        ss_frame *f = &ss->slots[a->idx[fi]];
+        ss_frame *f = &ss->res.slots[a->idx[fi]];
         double x[64];
         uint32_t ne = m->n_exp < 52 ? m->n_exp : 52;
         memcpy(x, f->exp, sizeof(double) * ne);
@@ -346,7 +346,7 @@ static int adam_alloc(adam_ctx *a)
 {
     sp_sunstage *ss = a->ss;
     const sp_face_model *m = ss->model;
-    size_t nt = (size_t)ss->tw * (size_t)ss->th;
+    size_t nt = (size_t)ss->fit.tw * (size_t)ss->fit.th;
     int ret = adam_vec_init(&a->albedo, nt * 3) | adam_vec_init(&a->disp, nt) |
               adam_vec_init(&a->env, SP_RENDER_ENV_FLOATS) | adam_vec_init(&a->sun, 3) | adam_vec_init(&a->logI, 1) |
               adam_vec_init(&a->ks, SP_RENDER_CLUSTERS) | adam_vec_init(&a->logs, SP_RENDER_CLUSTERS) |
@@ -393,16 +393,16 @@ static int adam_loop(adam_ctx *a, sp_sunstage_callback cb, void *user)
         }
         loss = loss / a->nf + regularisers(a);
         apply(a, t, total);
-        double el = (double)(sp_clock_monotonic_ns() - ss->t0) * 1e-9;
+        double el = (double)(sp_clock_monotonic_ns() - ss->fit.t0) * 1e-9;
         int stop = ss->set.time_budget_s > 0.0 && el > ss->set.time_budget_s;
         if (t % 10 == 0 || t == total || stop) {
             double ho = NAN, tr = NAN;
             if (t % 50 == 0 || t == total || stop)
                 ss_evaluate(ss, &a->sc, &tr, &ho);
             if (isfinite(tr))
-                ss->train_psnr = tr;
+                ss->fit.train_psnr = tr;
             if (isfinite(ho))
-                ss->heldout_psnr = ho;
+                ss->fit.heldout_psnr = ho;
             sp_sunstage_progress p = { "photometric", t, total, el, loss, ho };
             if (cb && cb(user, &p))
                 break;
@@ -424,24 +424,24 @@ int ss_fit_adam(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
     if (!ret)
         ret = adam_alloc(a);
     if (!ret) { /* the driver ran the overcast check first (sun_dropped) */
-        a->no_sun = ss->unobservable || ss->sun_dropped;
+        a->no_sun = ss->fit.unobservable || ss->fit.sun_dropped;
         double d[3] = { 0.3, 0.3, 0.9 }; /* a generic high sun: the reference has no search */
-        memcpy(ss->sun_dir, d, sizeof(d));
-        ss->sun_I = a->no_sun ? 0.0 : 2.0;
+        memcpy(ss->fit.sun_dir, d, sizeof(d));
+        ss->fit.sun_I = a->no_sun ? 0.0 : 2.0;
         a->logI_x = log(2.0);
         for (int k = 0; k < SP_RENDER_CLUSTERS; k++) {
-            ss->ks[k] = a->no_sun ? 0.0 : 0.05;
-            ss->shin[k] = 16.0;
+            ss->fit.ks[k] = a->no_sun ? 0.0 : 0.05;
+            ss->fit.shin[k] = 16.0;
             a->logs_x[k] = log(16.0);
         }
         ret = adam_loop(a, cb, user);
         if (a->no_sun)
-            ss->sun_I = 0.0;
+            ss->fit.sun_I = 0.0;
     }
     adam_free(a);
     free(a);
-    sp_log(SP_LOG_INFO, MOD, "adam: sun (%.3f %.3f %.3f) I %.3f, train %.2f dB", ss->sun_dir[0], ss->sun_dir[1],
-           ss->sun_dir[2], ss->sun_I, ss->train_psnr);
+    sp_log(SP_LOG_INFO, MOD, "adam: sun (%.3f %.3f %.3f) I %.3f, train %.2f dB", ss->fit.sun_dir[0], ss->fit.sun_dir[1],
+           ss->fit.sun_dir[2], ss->fit.sun_I, ss->fit.train_psnr);
     return ret;
 }
 
@@ -456,7 +456,7 @@ static void geo_io(sp_sunstage *ss, const int *idx, int nf, geo_state *g, int di
     const sp_face_model *m = ss->model;
     double *p = g->v;
     for (int fi = 0; fi < nf; fi++) {
-        ss_frame *f = &ss->slots[idx[fi]];
+        ss_frame *f = &ss->res.slots[idx[fi]];
         double *fields[3] = { f->exp, f->rotvec, f->t_face };
         size_t sizes[3] = { m->n_exp, 3, 3 };
         for (int k = 0; k < 3; k++) {
@@ -464,11 +464,11 @@ static void geo_io(sp_sunstage *ss, const int *idx, int nf, geo_state *g, int di
             p += sizes[k];
         }
     }
-    memcpy(dir ? ss->id : p, dir ? p : ss->id, sizeof(double) * m->n_id);
+    memcpy(dir ? ss->fit.id : p, dir ? p : ss->fit.id, sizeof(double) * m->n_id);
     p += m->n_id;
-    memcpy(dir ? &ss->scale : p, dir ? p : &ss->scale, sizeof(double));
-    size_t nt = (size_t)ss->tw * (size_t)ss->th;
-    memcpy(dir ? ss->disp : g->disp, dir ? g->disp : ss->disp, sizeof(float) * nt);
+    memcpy(dir ? &ss->fit.scale : p, dir ? p : &ss->fit.scale, sizeof(double));
+    size_t nt = (size_t)ss->fit.tw * (size_t)ss->fit.th;
+    memcpy(dir ? ss->fit.disp : g->disp, dir ? g->disp : ss->fit.disp, sizeof(float) * nt);
 }
 
 static int refine_loop(adam_ctx *a, int steps)
@@ -497,7 +497,7 @@ int ss_refine_geometry(sp_sunstage *ss, int steps)
     a->no_sun = 1; /* the sun's unknowns stay as the fast solver left them */
     const sp_face_model *m = ss->model;
     geo_state g = { malloc(sizeof(double) * ((size_t)a->nf * (m->n_exp + 6) + m->n_id + 1)),
-                    malloc(sizeof(float) * (size_t)ss->tw * (size_t)ss->th) };
+                    malloc(sizeof(float) * (size_t)ss->fit.tw * (size_t)ss->fit.th) };
     int ret = g.v && g.disp ? ss_scene_open(&a->sc, ss) : -ENOMEM;
     if (!ret)
         ret = adam_alloc(a);
@@ -514,14 +514,14 @@ int ss_refine_geometry(sp_sunstage *ss, int steps)
         int better = (have_ho ? ho1 > ho0 + 0.05 : tr1 > tr0 + 0.05) && !(tr1 < tr0 - 0.05);
         if (!better) {
             geo_io(ss, a->idx, a->nf, &g, 1);
-            snprintf(ss->disp_note, sizeof(ss->disp_note),
+            snprintf(ss->fit.disp_note, sizeof(ss->fit.disp_note),
                      "photometric refinement of geometry and displacement (%d steps) did not pay off (train %.2f -> "
                      "%.2f dB, held-out %.2f -> %.2f dB): reverted",
                      steps, tr0, tr1, ho0, ho1);
-            sp_log(SP_LOG_INFO, MOD, "%s", ss->disp_note);
+            sp_log(SP_LOG_INFO, MOD, "%s", ss->fit.disp_note);
         } else {
-            ss->train_psnr = tr1;
-            ss->heldout_psnr = ho1;
+            ss->fit.train_psnr = tr1;
+            ss->fit.heldout_psnr = ho1;
             sp_log(SP_LOG_INFO, MOD, "photometric refinement (%d steps): train %.2f -> %.2f dB, held-out %.2f -> %.2f dB",
                    steps, tr0, tr1, ho0, ho1);
         }

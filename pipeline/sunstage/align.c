@@ -33,7 +33,7 @@ typedef struct align_ctx {
 
 static ss_frame *frame_at(const align_ctx *a, int fi)
 {
-    return a->one ? a->one : &a->ss->slots[a->idx[fi]];
+    return a->one ? a->one : &a->ss->res.slots[a->idx[fi]];
 }
 
 /* Landmark weight for the point residual (du, dv): Huber on its length times the jaw factor. */
@@ -148,16 +148,16 @@ static double evaluate(align_ctx *a, int with_jac)
     free(col);
     if (a->shared) {
         for (int i = 0; i < a->n_id; i++) {
-            cost += W_ID * ss->id[i] * ss->id[i];
+            cost += W_ID * ss->fit.id[i] * ss->fit.id[i];
             if (with_jac) {
                 a->JtJ[(size_t)i * (size_t)a->P + (size_t)i] += W_ID;
-                a->Jtr[i] += W_ID * ss->id[i];
+                a->Jtr[i] += W_ID * ss->fit.id[i];
             }
         }
-        cost += W_SCALE * (ss->scale - 1.0) * (ss->scale - 1.0);
+        cost += W_SCALE * (ss->fit.scale - 1.0) * (ss->fit.scale - 1.0);
         if (with_jac) {
             a->JtJ[(size_t)a->n_id * (size_t)a->P + (size_t)a->n_id] += W_SCALE;
-            a->Jtr[a->n_id] += W_SCALE * (ss->scale - 1.0);
+            a->Jtr[a->n_id] += W_SCALE * (ss->fit.scale - 1.0);
         }
     }
     return cost;
@@ -169,7 +169,7 @@ static void params_io(align_ctx *a, double *x, int dir)
     sp_sunstage *ss = a->ss;
     if (a->shared)
         for (int i = 0; i <= a->n_id; i++) {
-            double *v = i < a->n_id ? &ss->id[i] : &ss->scale;
+            double *v = i < a->n_id ? &ss->fit.id[i] : &ss->fit.scale;
             if (dir)
                 *v = x[i];
             else
@@ -218,7 +218,7 @@ static void init_frame(align_ctx *a, ss_frame *f)
 static void clamp_params(align_ctx *a)
 {
     sp_sunstage *ss = a->ss;
-    ss->scale = ss->scale < 0.7 ? 0.7 : (ss->scale > 1.4 ? 1.4 : ss->scale);
+    ss->fit.scale = ss->fit.scale < 0.7 ? 0.7 : (ss->fit.scale > 1.4 ? 1.4 : ss->fit.scale);
     for (int fi = 0; fi < a->n; fi++) {
         ss_frame *f = frame_at(a, fi);
         for (int e = 0; e < a->n_exp; e++)

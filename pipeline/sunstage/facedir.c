@@ -45,7 +45,7 @@ static int placed_mesh(const sp_sunstage *ss, float *pos)
     if (ret)
         return ret;
     sp_render_scene scene;
-    ret = ss_scene_setup(&sc, ss, &ss->slots[idx[0]], &scene);
+    ret = ss_scene_setup(&sc, ss, &ss->res.slots[idx[0]], &scene);
     if (!ret)
         memcpy(pos, sc.pos, sizeof(float) * 3 * ss->model->mesh.n_vertices);
     ss_scene_close(&sc);
@@ -122,15 +122,15 @@ static int write_cameras(const sp_sunstage *ss, const char *dir)
 static void manifest_lighting(const sp_sunstage *ss, sp_strbuf *b)
 {
     sp_strbuf_printf(b, "\"lighting\":{\"sun_direction\":");
-    sp_strbuf_json_numbers(b, ss->sun_dir, 3);
+    sp_strbuf_json_numbers(b, ss->fit.sun_dir, 3);
     sp_strbuf_printf(b, ",\"sun_intensity\":");
-    sp_strbuf_json_number(b, ss->sun_dropped || ss->unobservable ? 0.0 : ss->sun_I);
+    sp_strbuf_json_number(b, ss->fit.sun_dropped || ss->fit.unobservable ? 0.0 : ss->fit.sun_I);
     sp_strbuf_printf(b, ",\"sun_dropped\":%s,\"lighting_unobservable\":%s,\"notes\":",
-                     ss->sun_dropped ? "true" : "false", ss->unobservable ? "true" : "false");
-    sp_strbuf_json_string(b, ss->notes);
+                     ss->fit.sun_dropped ? "true" : "false", ss->fit.unobservable ? "true" : "false");
+    sp_strbuf_json_string(b, ss->fit.notes);
     sp_strbuf_printf(b, ",\"env\":\"env.f32\",\"env_height\":%d,\"env_width\":%d,\"yaw_range_deg\":",
                      SP_RENDER_ENV_H, SP_RENDER_ENV_W);
-    sp_strbuf_json_number(b, ss->yaw_range);
+    sp_strbuf_json_number(b, ss->fit.yaw_range);
     sp_strbuf_printf(b, "},\n");
 }
 
@@ -139,9 +139,9 @@ static void manifest_left_out(const sp_sunstage *ss, sp_strbuf *b)
 {
     const char *part[5], *why[5];
     int n = 0;
-    const char *light = ss->unobservable ? "lighting unobservable: too little camera rotation (see lighting.notes)"
+    const char *light = ss->fit.unobservable ? "lighting unobservable: too little camera rotation (see lighting.notes)"
                                          : "overcast: the sun does not explain the shading (see lighting.notes)";
-    if (ss->unobservable || ss->sun_dropped || !(ss->sun_I > 0.0)) {
+    if (ss->fit.unobservable || ss->fit.sun_dropped || !(ss->fit.sun_I > 0.0)) {
         part[n] = "sun";
         why[n++] = light;
         part[n] = "shadows";
@@ -149,19 +149,19 @@ static void manifest_left_out(const sp_sunstage *ss, sp_strbuf *b)
     }
     double ks = 0.0;
     for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
-        ks += ss->ks[k] > 0.0 ? ss->ks[k] : 0.0;
+        ks += ss->fit.ks[k] > 0.0 ? ss->fit.ks[k] : 0.0;
     if (!(ks > 0.0)) {
         why[n] = n > 0 ? "no sun to reflect" : "the fitted specular intensity is zero in every cluster";
         part[n++] = "specular";
     }
-    size_t nt = (size_t)ss->tw * (size_t)ss->th, nz = 0;
+    size_t nt = (size_t)ss->fit.tw * (size_t)ss->fit.th, nz = 0;
     for (size_t i = 0; i < nt; i++)
-        nz += ss->disp[i] != 0.0f;
+        nz += ss->fit.disp[i] != 0.0f;
     if (!nz) {
         part[n] = "displacement";
-        why[n++] = ss->disp_note[0] ? ss->disp_note : "displacement map not fitted";
+        why[n++] = ss->fit.disp_note[0] ? ss->fit.disp_note : "displacement map not fitted";
     }
-    if (ss->unobservable) {
+    if (ss->fit.unobservable) {
         part[n] = "environment";
         why[n++] = "lighting unobservable: the sky is a neutral constant";
     }
@@ -188,24 +188,24 @@ static int write_manifest(const sp_sunstage *ss, const char *dir)
     sp_strbuf_printf(&b, "\"textures\":{\"width\":%d,\"height\":%d,\"albedo\":\"albedo.f32\",\"albedo_png\":"
                          "\"albedo.png\",\"displacement\":\"displacement.f32\",\"clusters\":\"clusters.u8\","
                          "\"cluster_width\":%u,\"cluster_height\":%u},\n",
-                     ss->tw, ss->th, ss->model->cluster_width, ss->model->cluster_height);
+                     ss->fit.tw, ss->fit.th, ss->model->cluster_width, ss->model->cluster_height);
     sp_strbuf_printf(&b, "\"specular\":{\"ks\":");
-    sp_strbuf_json_numbers(&b, ss->ks, SP_RENDER_CLUSTERS);
+    sp_strbuf_json_numbers(&b, ss->fit.ks, SP_RENDER_CLUSTERS);
     sp_strbuf_printf(&b, ",\"shininess\":");
-    sp_strbuf_json_numbers(&b, ss->shin, SP_RENDER_CLUSTERS);
+    sp_strbuf_json_numbers(&b, ss->fit.shin, SP_RENDER_CLUSTERS);
     sp_strbuf_printf(&b, "},\n");
     manifest_lighting(ss, &b);
     manifest_left_out(ss, &b);
     sp_strbuf_printf(&b, "\"identity\":");
-    sp_strbuf_json_numbers(&b, ss->id, (int)ss->model->n_id);
+    sp_strbuf_json_numbers(&b, ss->fit.id, (int)ss->model->n_id);
     sp_strbuf_printf(&b, ",\"scale\":");
-    sp_strbuf_json_number(&b, ss->scale);
+    sp_strbuf_json_number(&b, ss->fit.scale);
     sp_strbuf_printf(&b, ",\n\"cameras\":\"cameras.json\",\"fit\":{\"train_psnr\":");
-    sp_strbuf_json_number(&b, ss->train_psnr);
+    sp_strbuf_json_number(&b, ss->fit.train_psnr);
     sp_strbuf_printf(&b, ",\"heldout_psnr\":");
-    sp_strbuf_json_number(&b, ss->heldout_psnr);
+    sp_strbuf_json_number(&b, ss->fit.heldout_psnr);
     sp_strbuf_printf(&b, ",\"seconds\":");
-    sp_strbuf_json_number(&b, ss->seconds);
+    sp_strbuf_json_number(&b, ss->fit.seconds);
     sp_strbuf_printf(&b, ",\"frames\":%llu,\"keyframes\":%d,\"heldout\":%d,\"skipped\":{\"dark\":%llu,"
                          "\"saturated\":%llu,\"blurred\":%llu,\"no_face\":%llu,\"no_orientation\":%llu},"
                          "\"thinned_early\":%llu}}\n",
@@ -220,7 +220,7 @@ static int write_manifest(const sp_sunstage *ss, const char *dir)
 
 int sp_face_dir_write(const sp_sunstage *ss, const char *dir)
 {
-    if (!ss || !dir || !ss->fitted)
+    if (!ss || !dir || !ss->fit.fitted)
         return -EINVAL;
     const sp_face_model *m = ss->model;
     float *pos = malloc(sizeof(float) * 3 * m->mesh.n_vertices);
@@ -230,15 +230,15 @@ int sp_face_dir_write(const sp_sunstage *ss, const char *dir)
     if (!ret)
         ret = write_mesh(ss, dir, pos);
     free(pos);
-    size_t nt = (size_t)ss->tw * (size_t)ss->th;
+    size_t nt = (size_t)ss->fit.tw * (size_t)ss->fit.th;
     if (!ret)
-        ret = write_blob(dir, "albedo.f32", ss->albedo, nt * 3 * sizeof(float));
+        ret = write_blob(dir, "albedo.f32", ss->fit.albedo, nt * 3 * sizeof(float));
     if (!ret)
-        ret = write_blob(dir, "displacement.f32", ss->disp, nt * sizeof(float));
+        ret = write_blob(dir, "displacement.f32", ss->fit.disp, nt * sizeof(float));
     if (!ret)
         ret = write_blob(dir, "clusters.u8", m->cluster_map, (size_t)m->cluster_width * m->cluster_height);
     if (!ret)
-        ret = write_blob(dir, "env.f32", ss->env, sizeof(ss->env));
+        ret = write_blob(dir, "env.f32", ss->fit.env, sizeof(ss->fit.env));
     if (!ret)
         ret = write_cameras(ss, dir);
     if (!ret)

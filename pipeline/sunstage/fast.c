@@ -79,14 +79,14 @@ static void make_env_basis(float *envb)
 
 static void texel_taps(const sp_sunstage *ss, double u, double v, obs *ob)
 {
-    double x = u * ss->tw - 0.5, y = (1.0 - v) * ss->th - 0.5;
+    double x = u * ss->fit.tw - 0.5, y = (1.0 - v) * ss->fit.th - 0.5;
     int x0 = (int)floor(x), y0 = (int)floor(y);
     double fx = x - x0, fy = y - y0;
     for (int k = 0; k < 4; k++) {
         int xi = x0 + (k & 1), yi = y0 + (k >> 1);
-        xi = xi < 0 ? 0 : (xi >= ss->tw ? ss->tw - 1 : xi);
-        yi = yi < 0 ? 0 : (yi >= ss->th ? ss->th - 1 : yi);
-        ob->tex[k] = yi * ss->tw + xi;
+        xi = xi < 0 ? 0 : (xi >= ss->fit.tw ? ss->fit.tw - 1 : xi);
+        yi = yi < 0 ? 0 : (yi >= ss->fit.th ? ss->fit.th - 1 : yi);
+        ob->tex[k] = yi * ss->fit.tw + xi;
         ob->tw[k] = (((k & 1) ? fx : 1.0 - fx) * ((k >> 1) ? fy : 1.0 - fy));
     }
 }
@@ -138,7 +138,7 @@ static int gather(fast_ctx *c)
         return -ENOMEM;
     int ret = 0;
     for (int fi = 0; fi < c->nf && !ret; fi++) {
-        const ss_frame *f = &ss->slots[c->idx[fi]];
+        const ss_frame *f = &ss->res.slots[c->idx[fi]];
         sp_render_outputs o;
         c->frame_start[fi] = c->n;
         if ((ret = render_white(c, f, c->sun, 0.0, NULL, 0.0, 16.0, &o)))
@@ -205,7 +205,7 @@ static double albedo_at(const sp_sunstage *ss, const obs *o, int ch)
 {
     double a = 0.0;
     for (int k = 0; k < 4; k++)
-        a += (double)o->tw[k] * (double)ss->albedo[(size_t)o->tex[k] * 3 + (size_t)ch];
+        a += (double)o->tw[k] * (double)ss->fit.albedo[(size_t)o->tex[k] * 3 + (size_t)ch];
     return a;
 }
 
@@ -241,7 +241,7 @@ static double cost(const fast_ctx *c)
 static void solve_albedo(fast_ctx *c, int steps)
 {
     sp_sunstage *ss = c->ss;
-    size_t nt = (size_t)ss->tw * (size_t)ss->th * 3;
+    size_t nt = (size_t)ss->fit.tw * (size_t)ss->fit.th * 3;
     for (int it = 0; it < steps; it++) {
         memset(c->num, 0, nt * sizeof(double));
         memset(c->den, 0, nt * sizeof(double));
@@ -265,16 +265,16 @@ static void solve_albedo(fast_ctx *c, int steps)
         for (size_t t = 0; t < nt; t += 3)
             if (c->den[t] > 1e-3 * dmax) {
                 for (int ch = 0; ch < 3; ch++)
-                    mean[ch] += (double)ss->albedo[t + (size_t)ch];
+                    mean[ch] += (double)ss->fit.albedo[t + (size_t)ch];
                 wsum += 1.0;
             }
         for (int ch = 0; ch < 3; ch++)
             mean[ch] = wsum > 0.0 ? mean[ch] / wsum : 0.5;
         double lam = 1e-4 * dmax + 1e-30;
         for (size_t t = 0; t < nt; t++) {
-            double a = ss->albedo[t];
+            double a = ss->fit.albedo[t];
             a += (c->num[t] + lam * (mean[t % 3] - a)) / (c->den[t] + lam);
-            ss->albedo[t] = (float)(a < 0.0 ? 0.0 : (a > 4.0 ? 4.0 : a));
+            ss->fit.albedo[t] = (float)(a < 0.0 ? 0.0 : (a > 4.0 ? 4.0 : a));
         }
     }
 }
@@ -340,9 +340,9 @@ static double alternate(fast_ctx *c, int rounds, int albedo_steps)
 static void reset_state(fast_ctx *c)
 {
     sp_sunstage *ss = c->ss;
-    size_t nt = (size_t)ss->tw * (size_t)ss->th * 3;
+    size_t nt = (size_t)ss->fit.tw * (size_t)ss->fit.th * 3;
     for (size_t t = 0; t < nt; t++)
-        ss->albedo[t] = 0.5f;
+        ss->fit.albedo[t] = 0.5f;
     memset(c->x, 0, sizeof(c->x));
     c->x[0] = c->use_sun ? 1.0 : 0.0;
     for (int ch = 0; ch < 3; ch++)
@@ -417,7 +417,7 @@ static int update_visibility(fast_ctx *c)
     sp_sunstage *ss = c->ss;
     int ret = 0;
     for (int fi = 0; fi < c->nf && !ret; fi++) {
-        const ss_frame *f = &ss->slots[c->idx[fi]];
+        const ss_frame *f = &ss->res.slots[c->idx[fi]];
         sp_render_outputs o;
         if ((ret = render_white(c, f, c->sun, 1.0, NULL, 0.0, 16.0, &o)))
             break;
@@ -437,7 +437,7 @@ static int update_specular(fast_ctx *c, double shin, float *out)
     sp_sunstage *ss = c->ss;
     int ret = 0;
     for (int fi = 0; fi < c->nf && !ret; fi++) {
-        const ss_frame *f = &ss->slots[c->idx[fi]];
+        const ss_frame *f = &ss->res.slots[c->idx[fi]];
         sp_render_outputs o;
         if ((ret = render_white(c, f, c->sun, 1.0, NULL, 1.0, shin, &o)))
             break;
@@ -500,7 +500,7 @@ static int fit_specular(fast_ctx *c)
         c->o[i].P = k >= 0 ? (double)P[(size_t)pick[k] * c->n + i] : 0.0;
     }
     for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
-        c->ss->shin[k] = shin_grid[pick[k]];
+        c->ss->fit.shin[k] = shin_grid[pick[k]];
     free(P);
     return ret;
 }
@@ -510,11 +510,11 @@ static void report(fast_ctx *c, sp_sunstage_callback cb, void *user, int it, int
     sp_sunstage *ss = c->ss;
     double tr = NAN, ho = NAN;
     ss_evaluate(ss, &c->sc, &tr, &ho);
-    ss->train_psnr = tr;
-    ss->heldout_psnr = ho;
+    ss->fit.train_psnr = tr;
+    ss->fit.heldout_psnr = ho;
     if (!cb)
         return;
-    sp_sunstage_progress p = { "photometric", it, total, (double)(sp_clock_monotonic_ns() - ss->t0) * 1e-9,
+    sp_sunstage_progress p = { "photometric", it, total, (double)(sp_clock_monotonic_ns() - ss->fit.t0) * 1e-9,
                                isfinite(tr) ? pow(10.0, -tr / 10.0) : (double)NAN, ho };
     cb(user, &p);
 }
@@ -524,16 +524,16 @@ static void commit(fast_ctx *c)
 {
     sp_sunstage *ss = c->ss;
     double I = c->use_sun ? c->x[0] : 0.0;
-    ss->sun_I = I;
-    memcpy(ss->sun_dir, c->sun, sizeof(c->sun));
+    ss->fit.sun_I = I;
+    memcpy(ss->fit.sun_dir, c->sun, sizeof(c->sun));
     for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
-        ss->ks[k] = c->use_spec && I > 1e-9 ? c->x[1 + 3 * NK + k] / I : 0.0;
+        ss->fit.ks[k] = c->use_spec && I > 1e-9 ? c->x[1 + 3 * NK + k] / I : 0.0;
     for (int t = 0; t < SP_RENDER_ENV_H * SP_RENDER_ENV_W; t++)
         for (int ch = 0; ch < 3; ch++) {
             double v = 0.0;
             for (int k = 0; k < NK; k++)
                 v += c->x[1 + ch * NK + k] * (double)c->envb[(size_t)k * SP_RENDER_ENV_FLOATS + (size_t)t * 3 + (size_t)ch];
-            ss->env[t * 3 + ch] = (float)v;
+            ss->fit.env[t * 3 + ch] = (float)v;
         }
 }
 
@@ -557,7 +557,7 @@ static void checkpoint(fast_ctx *c, sp_sunstage_callback cb, void *user, int pha
     double ho = NAN;
     ss_evaluate(ss, &c->sc, NULL, &ho);
     sp_sunstage_progress p = { "photometric", phase, SS_FAST_PHASES,
-                               (double)(sp_clock_monotonic_ns() - ss->t0) * 1e-9, loss, ho };
+                               (double)(sp_clock_monotonic_ns() - ss->fit.t0) * 1e-9, loss, ho };
     cb(user, &p);
 }
 
@@ -596,12 +596,12 @@ static int fit_sun(fast_ctx *c, sp_sunstage_callback cb, void *user)
     c->use_sun = 1;
     try_sun(c, c->sun, 1);
     if (!(best < 0.8 * e_nosun) || !(c->x[0] > 0.0)) {
-        snprintf(ss->notes, sizeof(ss->notes),
+        snprintf(ss->fit.notes, sizeof(ss->fit.notes),
                  "overcast: a sun explains %.0f%% of the residual of a sky-only fit (need 20%%); sun, shadows and "
                  "specular dropped",
                  e_nosun > 0.0 ? 100.0 * (1.0 - best / e_nosun) : 0.0);
-        sp_log(SP_LOG_INFO, MOD, "%s", ss->notes);
-        ss->sun_dropped = 1;
+        sp_log(SP_LOG_INFO, MOD, "%s", ss->fit.notes);
+        ss->fit.sun_dropped = 1;
         c->use_sun = 0;
         reset_state(c);
         alternate(c, 6, 3);
@@ -621,7 +621,7 @@ static int fast_run(fast_ctx *c, sp_sunstage_callback cb, void *user)
         sp_log(SP_LOG_ERROR, MOD, "only %zu face pixels in the keyframes: the face is too small or misaligned", c->n);
         return SP_ENODATA;
     }
-    if (ss->unobservable) {
+    if (ss->fit.unobservable) {
         c->use_sun = 0;
         reset_state(c);
         alternate(c, 6, 3);
@@ -641,7 +641,7 @@ static int fast_run(fast_ctx *c, sp_sunstage_callback cb, void *user)
     commit(c);
     report(c, cb, user, 7, SS_FAST_PHASES);
     sp_log(SP_LOG_INFO, MOD, "fast solver: %zu observations, sun (%.3f %.3f %.3f) I %.3f, train %.2f dB", c->n,
-           ss->sun_dir[0], ss->sun_dir[1], ss->sun_dir[2], ss->sun_I, ss->train_psnr);
+           ss->fit.sun_dir[0], ss->fit.sun_dir[1], ss->fit.sun_dir[2], ss->fit.sun_I, ss->fit.train_psnr);
     return 0;
 }
 
@@ -653,7 +653,7 @@ static int fast_main(sp_sunstage *ss, sp_sunstage_callback cb, void *user, int d
     c.stride = 1;
     c.decide_only = decide_only;
     c.nf = ss_list_frames(ss, 0, c.idx, 64);
-    size_t nt = (size_t)ss->tw * (size_t)ss->th * 3;
+    size_t nt = (size_t)ss->fit.tw * (size_t)ss->fit.th * 3;
     int ret = ss_scene_open(&c.sc, ss);
     if (ret)
         return ret;
@@ -683,15 +683,15 @@ int ss_fit_fast(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
 
 int ss_fast_overcast_check(sp_sunstage *ss)
 {
-    size_t n = (size_t)ss->tw * (size_t)ss->th * 3;
+    size_t n = (size_t)ss->fit.tw * (size_t)ss->fit.th * 3;
     float *keep = malloc(sizeof(float) * n);
     if (!keep)
         return -ENOMEM;
-    memcpy(keep, ss->albedo, sizeof(float) * n);
+    memcpy(keep, ss->fit.albedo, sizeof(float) * n);
     int ret = fast_main(ss, NULL, NULL, 1);
-    memcpy(ss->albedo, keep, sizeof(float) * n);
+    memcpy(ss->fit.albedo, keep, sizeof(float) * n);
     free(keep);
     sp_log(SP_LOG_INFO, MOD, "overcast check (fast solver's sun search): %s",
-           ss->sun_dropped ? "overcast, sun dropped" : "a sun is needed");
+           ss->fit.sun_dropped ? "overcast, sun dropped" : "a sun is needed");
     return ret;
 }

@@ -31,27 +31,11 @@ void ss_dlib_close_ctx(void *ctx)
 #endif
 }
 
-static int alloc_buffers(sp_sunstage *ss)
-{
-    size_t px = (size_t)ss->W * (size_t)ss->H * 3;
-    ss->n_slots = ss->set.keyframes + ss->set.heldout;
-    ss->slots = calloc((size_t)ss->n_slots, sizeof(ss_frame));
-    if (!ss->slots)
-        return -ENOMEM;
-    for (int i = 0; i < ss->n_slots; i++) {
-        ss->slots[i].rgb = malloc(px * sizeof(float));
-        ss->slots[i].exp = calloc(ss->model->n_exp + 1, sizeof(double));
-        if (!ss->slots[i].rgb || !ss->slots[i].exp)
-            return -ENOMEM;
-    }
-    return 0;
-}
-
 /* Fixes the fit resolution and intrinsics from the first frame and the metadata. */
 static int setup_geometry(sp_sunstage *ss, uint32_t w, uint32_t h)
 {
-    ss->cap_w = (int)w;
-    ss->cap_h = (int)h;
+    ss->fe.cap_w = (int)w;
+    ss->fe.cap_h = (int)h;
     ss->W = ss->set.fit_width < (int)w ? ss->set.fit_width : (int)w;
     ss->H = (int)lround((double)h * ss->W / (double)w);
     if (ss->H < 16 || ss->W < 16)
@@ -66,16 +50,16 @@ static int setup_geometry(sp_sunstage *ss, uint32_t w, uint32_t h)
     double cx = isfinite(ss->meta.cx) ? ss->meta.cx : 0.5 * ((double)w - 1.0);
     double cy = isfinite(ss->meta.cy) ? ss->meta.cy : 0.5 * ((double)h - 1.0);
     sp_face_camera_init(&ss->cam, f * s, fy * s, (cx + 0.5) * s - 0.5, (cy + 0.5) * s - 0.5);
-    ss->dw = (int)w < SS_DETECT_W ? (int)w : SS_DETECT_W;
-    ss->dh = (int)lround((double)h * ss->dw / (double)w);
-    ss->rgb24 = malloc((size_t)w * h * 3);
-    if (!ss->rgb24)
+    ss->fe.dw = (int)w < SS_DETECT_W ? (int)w : SS_DETECT_W;
+    ss->fe.dh = (int)lround((double)h * ss->fe.dw / (double)w);
+    ss->fe.rgb24 = malloc((size_t)w * h * 3);
+    if (!ss->fe.rgb24)
         return -ENOMEM;
-    ss->work_rgb = malloc((size_t)ss->W * (size_t)ss->H * 3 * sizeof(float));
-    ss->work_gray = malloc((size_t)ss->dw * (size_t)ss->dh);
-    if (!ss->work_rgb || !ss->work_gray)
+    ss->fe.work_rgb = malloc((size_t)ss->W * (size_t)ss->H * 3 * sizeof(float));
+    ss->fe.work_gray = malloc((size_t)ss->fe.dw * (size_t)ss->fe.dh);
+    if (!ss->fe.work_rgb || !ss->fe.work_gray)
         return -ENOMEM;
-    return alloc_buffers(ss);
+    return ss_reservoir_alloc(ss);
 }
 
 /* Box filter from the capture-size RGB24 buffer to dst (dw x dh x ch, floats or gray bytes). */
@@ -131,15 +115,15 @@ static double frame_exposure(sp_sunstage *ss, const sp_frame *frame)
     double e = (double)frame->exposure_us * (double)frame->gain;
     if (!(e > 0.0) || !isfinite(e))
         return 1.0;
-    if (!(ss->expo_ref > 0.0))
-        ss->expo_ref = e;
-    return e / ss->expo_ref;
+    if (!(ss->fe.expo_ref > 0.0))
+        ss->fe.expo_ref = e;
+    return e / ss->fe.expo_ref;
 }
 
 /* Landmarks from the frame's side data, at fit resolution. */
 static void tag_landmarks(const sp_sunstage *ss, const sp_frame_tags *tags, double lm[136])
 {
-    double s = (double)ss->W / (double)ss->cap_w;
+    double s = (double)ss->W / (double)ss->fe.cap_w;
     for (int k = 0; k < 136; k++)
         lm[k] = ((double)tags->landmarks[k] + 0.5) * s - 0.5;
 }
@@ -157,9 +141,9 @@ static int skip_by_quality(sp_sunstage *ss, const float *rgb, double *sharp)
         ss->counts.skipped_saturated++;
         return 1;
     }
-    ss->sharp_n++;
-    ss->sharp_mean += (*sharp - ss->sharp_mean) / (double)(ss->sharp_n < 50 ? ss->sharp_n : 50);
-    if (ss->sharp_n > 5 && *sharp < ss->set.blur_ratio * ss->sharp_mean) {
+    ss->fe.sharp_n++;
+    ss->fe.sharp_mean += (*sharp - ss->fe.sharp_mean) / (double)(ss->fe.sharp_n < 50 ? ss->fe.sharp_n : 50);
+    if (ss->fe.sharp_n > 5 && *sharp < ss->set.blur_ratio * ss->fe.sharp_mean) {
         ss->counts.skipped_blurred++;
         return 1;
     }
@@ -171,19 +155,19 @@ static int detect(sp_sunstage *ss, double lm[136]);
 int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const sp_frame_tags *tags)
 {
     int ret;
-    if (!ss->rgb24 && (ret = setup_geometry(ss, frame->width, frame->height)))
+    if (!ss->fe.rgb24 && (ret = setup_geometry(ss, frame->width, frame->height)))
         return ret;
-    if ((int)frame->width != ss->cap_w || (int)frame->height != ss->cap_h) {
+    if ((int)frame->width != ss->fe.cap_w || (int)frame->height != ss->fe.cap_h) {
         ss->counts.skipped_no_face++; /* a size change mid-capture: not fittable with one camera */
         return 0;
     }
-    ret = sp_pixconv_frame_to_rgb24(frame, ss->rgb24, (size_t)ss->cap_w * (size_t)ss->cap_h * 3,
-                                    (uint32_t)ss->cap_w * 3);
+    ret = sp_pixconv_frame_to_rgb24(frame, ss->fe.rgb24, (size_t)ss->fe.cap_w * (size_t)ss->fe.cap_h * 3,
+                                    (uint32_t)ss->fe.cap_w * 3);
     if (ret)
         return ret;
-    downsample(ss->rgb24, ss->cap_w, ss->cap_h, ss->W, ss->H, ss->work_rgb, NULL);
+    downsample(ss->fe.rgb24, ss->fe.cap_w, ss->fe.cap_h, ss->W, ss->H, ss->fe.work_rgb, NULL);
     double sharp;
-    if (skip_by_quality(ss, ss->work_rgb, &sharp))
+    if (skip_by_quality(ss, ss->fe.work_rgb, &sharp))
         return 0;
     double expo = frame_exposure(ss, frame);
     if (tags->orientation != SP_ORIENTATION_OK) {
@@ -199,10 +183,10 @@ int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const s
     }
     ss->counts.accepted++;
     int slot = -1;
-    ret = ss_reservoir_offer(ss, ss->work_rgb, lm, sharp, expo, frame->sequence, t, tags->camera_to_world, 0, &slot);
+    ret = ss_reservoir_offer(ss, ss->fe.work_rgb, lm, sharp, expo, frame->sequence, t, tags->camera_to_world, 0, &slot);
     if (!ret && slot >= 0) { /* the frame took a slot: attach its truth */
-        ss->slots[slot].has_truth = tags->has_true_orientation;
-        ss->slots[slot].truth_q = tags->true_camera_to_world;
+        ss->res.slots[slot].has_truth = tags->has_true_orientation;
+        ss->res.slots[slot].truth_q = tags->true_camera_to_world;
     }
     return ret;
 }
@@ -211,85 +195,31 @@ int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const s
 static int detect(sp_sunstage *ss, double lm_out[136])
 {
 #if HAVE_DLIB
-    if (!ss->dlib && !ss->dlib_failed) {
+    if (!ss->fe.dlib && !ss->fe.dlib_failed) {
         const char *path = ss->set.dlib_model ? ss->set.dlib_model : DEFAULT_DLIB_MODEL;
-        if (sp_dlib_open(&ss->dlib, path)) {
+        if (sp_dlib_open(&ss->fe.dlib, path)) {
             sp_log(SP_LOG_ERROR, MOD,
                    "cannot load the dlib landmark model %s (Debian package libdlib-data); frames without "
                    "landmark side data are skipped", path);
-            ss->dlib_failed = 1;
+            ss->fe.dlib_failed = 1;
         }
     }
-    if (!ss->dlib)
+    if (!ss->fe.dlib)
         return SP_ENODATA;
-    downsample(ss->rgb24, ss->cap_w, ss->cap_h, ss->dw, ss->dh, NULL, ss->work_gray);
+    downsample(ss->fe.rgb24, ss->fe.cap_w, ss->fe.cap_h, ss->fe.dw, ss->fe.dh, NULL, ss->fe.work_gray);
     float lm[136];
-    if (sp_dlib_landmarks(ss->dlib, ss->work_gray, ss->dw, ss->dh, lm))
+    if (sp_dlib_landmarks(ss->fe.dlib, ss->fe.work_gray, ss->fe.dw, ss->fe.dh, lm))
         return SP_ENODATA;
-    double s = (double)ss->W / (double)ss->dw;
+    double s = (double)ss->W / (double)ss->fe.dw;
     for (int k = 0; k < 136; k++)
         lm_out[k] = ((double)lm[k] + 0.5) * s - 0.5;
     return 0;
 #else
     (void)lm_out;
-    if (!ss->dlib_failed)
+    if (!ss->fe.dlib_failed)
         sp_log(SP_LOG_ERROR, MOD,
                "a frame has no landmark side data and this build has no dlib (meson option -Ddlib=enabled)");
-    ss->dlib_failed = 1;
+    ss->fe.dlib_failed = 1;
     return SP_EDISABLED;
 #endif
-}
-
-static double heading(sp_quat q)
-{
-    sp_vec3 fwd = sp_quat_rotate(q, (sp_vec3){ 0, 0, 1 });
-    return atan2(fwd.y, fwd.x);
-}
-
-int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const double lm[136], double score, double expo,
-                       uint64_t seq, int64_t t, sp_quat q, int heldout_hint, int *slot_out)
-{
-    if (!ss->slots) {
-        int ret = alloc_buffers(ss);
-        if (ret)
-            return ret;
-    }
-    int K = ss->set.keyframes, Hn = ss->set.heldout;
-    double yaw = heading(q);
-    double u = (yaw + M_PI) / (2.0 * M_PI);
-    u = u < 0.0 ? 0.0 : (u >= 1.0 ? 0.999999 : u);
-    int slot = -1, held;
-    if (heldout_hint >= 2) { /* direct: first free slot of the kind */
-        held = heldout_hint == 2;
-        for (int i = held ? K : 0; i < (held ? K + Hn : K); i++)
-            if (!ss->slots[i].used) {
-                slot = i;
-                break;
-            }
-        if (slot < 0)
-            return -ENOSPC;
-    } else {
-        held = Hn > 0 && seq % 7 == 3;
-        slot = held ? K + (int)(u * Hn) : (int)(u * K);
-        if (ss->slots[slot].used && ss->slots[slot].score >= score)
-            return 0;
-    }
-    if (slot_out)
-        *slot_out = slot;
-    ss_frame *f = &ss->slots[slot];
-    f->used = 1;
-    f->heldout = held;
-    f->sequence = seq;
-    f->t = t;
-    f->score = score;
-    f->expo = expo > 0.0 && isfinite(expo) ? expo : 1.0;
-    f->yaw = yaw;
-    f->q_c2w = sp_quat_normalize(q);
-    f->cam = ss->cam;
-    f->has_truth = 0;
-    sp_quat_to_matrix(f->q_c2w, f->R_c2w);
-    memcpy(f->rgb, rgb, (size_t)ss->W * (size_t)ss->H * 3 * sizeof(float));
-    memcpy(f->lm, lm, sizeof(f->lm));
-    memset(f->exp, 0, ss->model->n_exp * sizeof(double));
-    return 0;
 }

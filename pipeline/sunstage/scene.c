@@ -77,14 +77,14 @@ int ss_scene_setup(ss_scene *sc, const sp_sunstage *ss, const ss_frame *f, sp_re
             scene->camera.R[r * 3 + c] = R[c * 3 + r];
     scene->camera.t[0] = scene->camera.t[1] = scene->camera.t[2] = 0.0;
     scene->mesh = &sc->mesh;
-    scene->albedo = (sp_render_texture){ ss->tw, ss->th, ss->albedo };
-    scene->displacement = (sp_render_texture){ ss->tw, ss->th, ss->disp };
+    scene->albedo = (sp_render_texture){ ss->fit.tw, ss->fit.th, ss->fit.albedo };
+    scene->displacement = (sp_render_texture){ ss->fit.tw, ss->fit.th, ss->fit.disp };
     scene->clusters = (sp_render_cluster_map){ (int)m->cluster_width, (int)m->cluster_height, m->cluster_map };
-    memcpy(scene->ks, ss->ks, sizeof(scene->ks));
-    memcpy(scene->shininess, ss->shin, sizeof(scene->shininess));
-    scene->env = ss->env;
-    memcpy(scene->sun_dir, ss->sun_dir, sizeof(scene->sun_dir));
-    scene->sun_intensity = ss->sun_dropped || ss->unobservable ? 0.0 : ss->sun_I;
+    memcpy(scene->ks, ss->fit.ks, sizeof(scene->ks));
+    memcpy(scene->shininess, ss->fit.shin, sizeof(scene->shininess));
+    scene->env = ss->fit.env;
+    memcpy(scene->sun_dir, ss->fit.sun_dir, sizeof(scene->sun_dir));
+    scene->sun_intensity = ss->fit.sun_dropped || ss->fit.unobservable ? 0.0 : ss->fit.sun_I;
     scene->exposure = f->expo;
     scene->shadow_mode = scene->sun_intensity > 0.0 ? SP_RENDER_SHADOW_RENDER : SP_RENDER_SHADOW_OFF;
     return 0;
@@ -129,7 +129,7 @@ static double pooled(sp_sunstage *ss, ss_scene *sc, const int *idx, int n, float
 {
     double se = 0.0, cnt = 0.0;
     for (int i = 0; i < n; i++) {
-        ss_frame *f = &ss->slots[idx[i]];
+        ss_frame *f = &ss->res.slots[idx[i]];
         sp_render_scene scene;
         sp_render_outputs o;
         if (ss_scene_setup(sc, ss, f, &scene) || sp_render(sc->r, &scene, &o))

@@ -440,8 +440,8 @@ int ss_silhouette_residuals(const sp_face_model *m, const sp_face_params *p, con
 int ss_silhouette_prepare(sp_sunstage *ss)
 {
     int found = 0;
-    for (int i = 0; ss->slots && i < ss->n_slots; i++) {
-        ss_frame *f = &ss->slots[i];
+    for (int i = 0; ss->res.slots && i < ss->res.n_slots; i++) {
+        ss_frame *f = &ss->res.slots[i];
         f->sil_ok = 0;
         if (!f->used)
             continue;

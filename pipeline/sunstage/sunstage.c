@@ -49,14 +49,14 @@ static int check_settings(const sp_sunstage_settings *s)
 static void init_lighting(sp_sunstage *ss)
 {
     for (int i = 0; i < SP_RENDER_ENV_FLOATS; i++)
-        ss->env[i] = 0.3f;
-    ss->sun_dir[0] = 0.0;
-    ss->sun_dir[1] = 0.0;
-    ss->sun_dir[2] = 1.0;
-    ss->sun_I = 2.0;
+        ss->fit.env[i] = 0.3f;
+    ss->fit.sun_dir[0] = 0.0;
+    ss->fit.sun_dir[1] = 0.0;
+    ss->fit.sun_dir[2] = 1.0;
+    ss->fit.sun_I = 2.0;
     for (int c = 0; c < SP_RENDER_CLUSTERS; c++) {
-        ss->ks[c] = 0.0;
-        ss->shin[c] = 16.0;
+        ss->fit.ks[c] = 0.0;
+        ss->fit.shin[c] = 16.0;
     }
 }
 
@@ -74,21 +74,21 @@ int sp_sunstage_open(sp_sunstage **out, const sp_sunstage_settings *s, const sp_
     ss->set = *s;
     ss->model = model;
     sp_capture_meta_init(&ss->meta);
-    ss->scale = 1.0;
-    ss->th = s->texture_size;
-    ss->tw = model->cluster_width > model->cluster_height ? 2 * s->texture_size : s->texture_size;
-    size_t texels = (size_t)ss->tw * (size_t)ss->th;
-    ss->id = calloc(model->n_id + 1, sizeof(double));
-    ss->albedo = malloc(texels * 3 * sizeof(float));
-    ss->disp = calloc(texels, sizeof(float));
-    if (!ss->id || !ss->albedo || !ss->disp) {
+    ss->fit.scale = 1.0;
+    ss->fit.th = s->texture_size;
+    ss->fit.tw = model->cluster_width > model->cluster_height ? 2 * s->texture_size : s->texture_size;
+    size_t texels = (size_t)ss->fit.tw * (size_t)ss->fit.th;
+    ss->fit.id = calloc(model->n_id + 1, sizeof(double));
+    ss->fit.albedo = malloc(texels * 3 * sizeof(float));
+    ss->fit.disp = calloc(texels, sizeof(float));
+    if (!ss->fit.id || !ss->fit.albedo || !ss->fit.disp) {
         sp_sunstage_close(&ss);
         return -ENOMEM;
     }
     for (size_t i = 0; i < texels * 3; i++)
-        ss->albedo[i] = 0.5f;
+        ss->fit.albedo[i] = 0.5f;
     init_lighting(ss);
-    ss->train_psnr = ss->heldout_psnr = NAN;
+    ss->fit.train_psnr = ss->fit.heldout_psnr = NAN;
     *out = ss;
     return 0;
 }
@@ -100,19 +100,14 @@ void sp_sunstage_close(sp_sunstage **pss)
     if (!pss || !*pss)
         return;
     sp_sunstage *ss = *pss;
-    ss_dlib_close_ctx(ss->dlib);
-    free(ss->rgb24);
-    free(ss->work_rgb);
-    free(ss->work_gray);
-    for (int i = 0; ss->slots && i < ss->n_slots; i++) {
-        free(ss->slots[i].rgb);
-        free(ss->slots[i].exp);
-        free(ss->slots[i].sil);
-    }
-    free(ss->slots);
-    free(ss->id);
-    free(ss->albedo);
-    free(ss->disp);
+    ss_dlib_close_ctx(ss->fe.dlib);
+    free(ss->fe.rgb24);
+    free(ss->fe.work_rgb);
+    free(ss->fe.work_gray);
+    ss_reservoir_free(ss);
+    free(ss->fit.id);
+    free(ss->fit.albedo);
+    free(ss->fit.disp);
     free(ss);
     *pss = NULL;
 }
@@ -157,32 +152,23 @@ void sp_sunstage_get_counts(const sp_sunstage *ss, sp_sunstage_counts *out)
         return;
     *out = ss->counts;
     out->keyframes = out->heldout = 0;
-    for (int i = 0; ss->slots && i < ss->n_slots; i++)
-        if (ss->slots[i].used) {
-            if (ss->slots[i].heldout)
+    for (int i = 0; ss->res.slots && i < ss->res.n_slots; i++)
+        if (ss->res.slots[i].used) {
+            if (ss->res.slots[i].heldout)
                 out->heldout++;
             else
                 out->keyframes++;
         }
 }
 
-int ss_list_frames(const sp_sunstage *ss, int heldout, int *idx, int cap)
-{
-    int n = 0;
-    for (int i = 0; ss->slots && i < ss->n_slots && n < cap; i++)
-        if (ss->slots[i].used && ss->slots[i].heldout == heldout)
-            idx[n++] = i;
-    return n;
-}
-
 void ss_frame_params(const sp_sunstage *ss, const ss_frame *f, sp_face_params *p)
 {
     sp_face_params_init(p);
-    p->id = ss->id;
+    p->id = ss->fit.id;
     p->exp = f->exp;
     memcpy(p->rotvec, f->rotvec, sizeof(p->rotvec));
     memcpy(p->t, f->t_face, sizeof(p->t));
-    p->s = ss->scale;
+    p->s = ss->fit.scale;
 }
 
 void ss_rotvec_to_matrix(const double r[3], double R[9])
@@ -200,29 +186,11 @@ int sp_sunstage_add_keyframe(sp_sunstage *ss, const float *rgb, int width, int h
         return -EINVAL;
     ss->W = width;
     ss->H = height;
-    ss->cap_w = width;
-    ss->cap_h = height;
+    ss->fe.cap_w = width;
+    ss->fe.cap_h = height;
     sp_face_camera_init(&ss->cam, fx, fy, cx, cy);
     return ss_reservoir_offer(ss, rgb, landmarks, 1.0, 1.0, ss->counts.accepted++, 0, camera_to_world, heldout ? 2 : 3,
                               NULL);
-}
-
-static double yaw_range(const sp_sunstage *ss, const int *idx, int n)
-{
-    /* largest gap between sorted headings; coverage = 2 pi - gap */
-    double y[64];
-    for (int i = 0; i < n; i++)
-        y[i] = ss->slots[idx[i]].yaw;
-    for (int i = 1; i < n; i++)
-        for (int j = i; j > 0 && y[j] < y[j - 1]; j--) {
-            double tmp = y[j];
-            y[j] = y[j - 1];
-            y[j - 1] = tmp;
-        }
-    double gap = n ? y[0] + 2.0 * M_PI - y[n - 1] : 2.0 * M_PI;
-    for (int i = 1; i < n; i++)
-        gap = fmax(gap, y[i] - y[i - 1]);
-    return (2.0 * M_PI - gap) * 180.0 / M_PI;
 }
 
 /* The fast solver, then the photometric refinement of its geometry (Adam's machinery) when enabled. */
@@ -232,17 +200,17 @@ static int solve_fast(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
     if (ret)
         return ret;
     if (ss->set.refine_steps <= 0) {
-        snprintf(ss->disp_note, sizeof(ss->disp_note),
+        snprintf(ss->fit.disp_note, sizeof(ss->fit.disp_note),
                  "the fast solver keeps the stage-1 geometry (photometric refinement off: refine_steps = 0)");
         return 0;
     }
     if ((ret = ss_refine_geometry(ss, ss->set.refine_steps)))
         return ret;
     if (cb) { /* the refinement leaves the PSNRs of the geometry it kept */
-        double tr = ss->train_psnr;
+        double tr = ss->fit.train_psnr;
         sp_sunstage_progress p = { "photometric", SS_FAST_PHASES, SS_FAST_PHASES,
-                                   (double)(sp_clock_monotonic_ns() - ss->t0) * 1e-9,
-                                   isfinite(tr) ? pow(10.0, -tr / 10.0) : (double)NAN, ss->heldout_psnr };
+                                   (double)(sp_clock_monotonic_ns() - ss->fit.t0) * 1e-9,
+                                   isfinite(tr) ? pow(10.0, -tr / 10.0) : (double)NAN, ss->fit.heldout_psnr };
         cb(user, &p);
     }
     return 0;
@@ -251,7 +219,7 @@ static int solve_fast(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
 /* The fast solver's overcast decision, then the Adam reference solver. */
 static int solve_adam(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
 {
-    int ret = ss->unobservable ? 0 : ss_fast_overcast_check(ss);
+    int ret = ss->fit.unobservable ? 0 : ss_fast_overcast_check(ss);
     return ret ? ret : ss_fit_adam(ss, cb, user);
 }
 
@@ -259,7 +227,7 @@ int sp_sunstage_fit(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
 {
     if (!ss)
         return -EINVAL;
-    ss->t0 = sp_clock_monotonic_ns();
+    ss->fit.t0 = sp_clock_monotonic_ns();
     int idx[64];
     int n = ss_list_frames(ss, 0, idx, 64);
     if (ss->counts.frames > 0 && ss->counts.imu_samples == 0) {
@@ -277,14 +245,14 @@ int sp_sunstage_fit(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
                (unsigned long long)c.skipped_no_face, (unsigned long long)c.skipped_no_orientation);
         return SP_ENODATA;
     }
-    ss->yaw_range = yaw_range(ss, idx, n);
-    ss->unobservable = ss->yaw_range < ss->set.min_rotation_deg;
-    if (ss->unobservable) {
-        snprintf(ss->notes, sizeof(ss->notes),
+    ss->fit.yaw_range = ss_reservoir_yaw_range(ss, idx, n);
+    ss->fit.unobservable = ss->fit.yaw_range < ss->set.min_rotation_deg;
+    if (ss->fit.unobservable) {
+        snprintf(ss->fit.notes, sizeof(ss->fit.notes),
                  "lighting unobservable: the keyframes cover %.0f deg of camera yaw (< %.0f); sun not fitted, "
                  "environment is a constant fitted to the mean shading",
-                 ss->yaw_range, ss->set.min_rotation_deg);
-        sp_log(SP_LOG_WARN, MOD, "%s", ss->notes);
+                 ss->fit.yaw_range, ss->set.min_rotation_deg);
+        sp_log(SP_LOG_WARN, MOD, "%s", ss->fit.notes);
     }
     int nsil = ss->set.silhouette_weight > 0.0 ? ss_silhouette_prepare(ss) : 0;
     if (nsil < 0)
@@ -300,12 +268,12 @@ int sp_sunstage_fit(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
         sp_log(SP_LOG_WARN, MOD, "held-out frames could not be aligned");
     sp_log(SP_LOG_INFO, MOD, "stage 1: %d keyframes, landmark RMS %.2f px", n, rms);
     if (cb) {
-        sp_sunstage_progress p = { "align", 1, 1, (double)(sp_clock_monotonic_ns() - ss->t0) * 1e-9, rms, NAN };
+        sp_sunstage_progress p = { "align", 1, 1, (double)(sp_clock_monotonic_ns() - ss->fit.t0) * 1e-9, rms, NAN };
         cb(user, &p);
     }
     int ret = ss->set.solver == SP_SUNSTAGE_SOLVER_ADAM ? solve_adam(ss, cb, user) : solve_fast(ss, cb, user);
-    ss->seconds = (double)(sp_clock_monotonic_ns() - ss->t0) * 1e-9;
-    ss->fitted = ret == 0;
+    ss->fit.seconds = (double)(sp_clock_monotonic_ns() - ss->fit.t0) * 1e-9;
+    ss->fit.fitted = ret == 0;
     return ret;
 }
 
@@ -315,49 +283,32 @@ int sp_sunstage_get_result(const sp_sunstage *ss, sp_sunstage_result *out)
         return -EINVAL;
     memset(out, 0, sizeof(*out));
     out->model = ss->model;
-    out->id = ss->id;
-    out->scale = ss->scale;
-    out->tex_width = ss->tw;
-    out->tex_height = ss->th;
-    out->albedo = ss->albedo;
-    out->displacement = ss->disp;
-    memcpy(out->ks, ss->ks, sizeof(out->ks));
-    memcpy(out->shininess, ss->shin, sizeof(out->shininess));
-    out->env = ss->env;
-    memcpy(out->sun_dir, ss->sun_dir, sizeof(out->sun_dir));
-    out->sun_intensity = ss->sun_I;
-    out->sun_dropped = ss->sun_dropped;
-    out->lighting_unobservable = ss->unobservable;
-    out->notes = ss->notes;
-    out->yaw_range_deg = ss->yaw_range;
+    out->id = ss->fit.id;
+    out->scale = ss->fit.scale;
+    out->tex_width = ss->fit.tw;
+    out->tex_height = ss->fit.th;
+    out->albedo = ss->fit.albedo;
+    out->displacement = ss->fit.disp;
+    memcpy(out->ks, ss->fit.ks, sizeof(out->ks));
+    memcpy(out->shininess, ss->fit.shin, sizeof(out->shininess));
+    out->env = ss->fit.env;
+    memcpy(out->sun_dir, ss->fit.sun_dir, sizeof(out->sun_dir));
+    out->sun_intensity = ss->fit.sun_I;
+    out->sun_dropped = ss->fit.sun_dropped;
+    out->lighting_unobservable = ss->fit.unobservable;
+    out->notes = ss->fit.notes;
+    out->yaw_range_deg = ss->fit.yaw_range;
     int idx[64];
     out->n_frames = ss_list_frames(ss, 0, idx, 64);
-    out->train_psnr = ss->train_psnr;
-    out->heldout_psnr = ss->heldout_psnr;
-    out->seconds = ss->seconds;
+    out->train_psnr = ss->fit.train_psnr;
+    out->heldout_psnr = ss->fit.heldout_psnr;
+    out->seconds = ss->fit.seconds;
     return 0;
-}
-
-int sp_sunstage_n_frames(const sp_sunstage *ss)
-{
-    int n = 0;
-    for (int i = 0; ss && ss->slots && i < ss->n_slots; i++)
-        n += ss->slots[i].used;
-    return n;
-}
-
-/* The i-th used slot (training and held-out alike). */
-static const ss_frame *nth_frame(const sp_sunstage *ss, int i)
-{
-    for (int k = 0; ss && ss->slots && k < ss->n_slots; k++)
-        if (ss->slots[k].used && i-- == 0)
-            return &ss->slots[k];
-    return NULL;
 }
 
 int sp_sunstage_get_frame(const sp_sunstage *ss, int i, sp_sunstage_frame *out)
 {
-    const ss_frame *f = nth_frame(ss, i);
+    const ss_frame *f = ss_nth_frame(ss, i);
     if (!f || !out)
         return -EINVAL;
     memset(out, 0, sizeof(*out));
@@ -369,7 +320,7 @@ int sp_sunstage_get_frame(const sp_sunstage *ss, int i, sp_sunstage_frame *out)
     out->cy = f->cam.cy;
     out->width = ss->W;
     out->height = ss->H;
-    out->scale_to_capture = ss->W > 0 ? (double)ss->cap_w / ss->W : 1.0;
+    out->scale_to_capture = ss->W > 0 ? (double)ss->fe.cap_w / ss->W : 1.0;
     out->camera_to_world = f->q_c2w;
     memcpy(out->rotvec, f->rotvec, sizeof(out->rotvec));
     memcpy(out->t, f->t_face, sizeof(out->t));
@@ -380,7 +331,7 @@ int sp_sunstage_get_frame(const sp_sunstage *ss, int i, sp_sunstage_frame *out)
 
 const float *sp_sunstage_frame_image(const sp_sunstage *ss, int i)
 {
-    const ss_frame *f = nth_frame(ss, i);
+    const ss_frame *f = ss_nth_frame(ss, i);
     return f ? f->rgb : NULL;
 }
 
@@ -390,8 +341,8 @@ int sp_sunstage_align_world(const sp_sunstage *ss, double R[9])
         return -EINVAL;
     sp_quat sum = { 0, 0, 0, 0 }, first = { 1, 0, 0, 0 };
     int n = 0;
-    for (int k = 0; ss->slots && k < ss->n_slots; k++) {
-        const ss_frame *f = &ss->slots[k];
+    for (int k = 0; ss->res.slots && k < ss->res.n_slots; k++) {
+        const ss_frame *f = &ss->res.slots[k];
         if (!f->used || !f->has_truth)
             continue;
         sp_quat a = sp_quat_normalize(sp_quat_mul(f->truth_q, sp_quat_conj(f->q_c2w)));
@@ -413,5 +364,5 @@ int sp_sunstage_align_world(const sp_sunstage *ss, double R[9])
 
 double sp_sunstage_exposure_reference(const sp_sunstage *ss)
 {
-    return ss ? ss->expo_ref : 0.0;
+    return ss ? ss->fe.expo_ref : 0.0;
 }

@@ -34,29 +34,30 @@ typedef struct ss_frame {
     int sil_ok;         /* the mask was found: the silhouette loss applies to this frame */
 } ss_frame;
 
-struct sp_sunstage {
-    sp_sunstage_settings set;
-    const sp_face_model *model;
-    sp_capture_meta meta;       /* as the last META event left it (the source merges) */
+/* The front end's per-stream state (frontend.c). */
+typedef struct ss_frontend {
     void *dlib;                 /* dlib shim context, NULL when unused */
     int dlib_failed;
-    /* geometry of frames */
-    int cap_w, cap_h, W, H, dw, dh;
-    sp_face_camera cam;         /* the capture's intrinsics at fit resolution; every keyframe gets a copy */
+    int cap_w, cap_h, dw, dh;   /* capture size; detector copy size */
     uint8_t *rgb24;             /* capture-size conversion buffer */
     float *work_rgb;            /* W * H * 3: the frame at fit resolution */
     uint8_t *work_gray;         /* dw * dh: grey copy for the landmark detector */
-    double sharp_mean;
-    double expo_ref;            /* exposure_us x gain of the first frame, 0 when unknown */
+    double sharp_mean;          /* running mean of the sharpness (blur check) */
     uint64_t sharp_n;
-    /* reservoir: keyframes bins then held-out bins */
+    double expo_ref;            /* exposure_us x gain of the first frame, 0 when unknown */
+} ss_frontend;
+
+/* The keyframe reservoir (reservoir.c): `keyframes` yaw bins, then the held-out bins. */
+typedef struct ss_reservoir {
     int n_slots;
     ss_frame *slots;
-    sp_sunstage_counts counts;
-    /* shared fitted state */
-    double *id;
+} ss_reservoir;
+
+/* The shared fitted state: what stage 1 and the solvers write, the result and the face directory read. */
+typedef struct ss_fit_state {
+    double *id;                 /* n_id identity coefficients */
     double scale;
-    int tw, th;
+    int tw, th;                 /* texture size */
     float *albedo, *disp;
     double ks[SP_RENDER_CLUSTERS], shin[SP_RENDER_CLUSTERS];
     float env[SP_RENDER_ENV_FLOATS];
@@ -65,7 +66,19 @@ struct sp_sunstage {
     char notes[512];
     char disp_note[160];        /* why the displacement map stays zero, "" when fitted */
     double yaw_range, train_psnr, heldout_psnr, seconds;
-    int64_t t0;
+    int64_t t0;                 /* start of the fit, for progress times */
+} ss_fit_state;
+
+struct sp_sunstage {
+    sp_sunstage_settings set;
+    const sp_face_model *model;
+    sp_capture_meta meta;       /* as the last META event left it (the source merges) */
+    int W, H;                   /* fit resolution */
+    sp_face_camera cam;         /* the capture's intrinsics at fit resolution; every keyframe gets a copy */
+    ss_frontend fe;
+    ss_reservoir res;
+    sp_sunstage_counts counts;
+    ss_fit_state fit;
 };
 
 /* ---- sunstage.c ---- */
@@ -73,15 +86,29 @@ struct sp_sunstage {
 void ss_rotvec_to_matrix(const double r[3], double R[9]);
 /* The face parameters of frame f under the shared fit (views into ss and f). */
 void ss_frame_params(const sp_sunstage *ss, const ss_frame *f, sp_face_params *p);
+
+
+/* ---- reservoir.c ---- */
+/* Allocates the slots (fit resolution known); -ENOMEM. */
+int ss_reservoir_alloc(sp_sunstage *ss);
+void ss_reservoir_free(sp_sunstage *ss);
+/*
+ * Offers a frame to its yaw bin (heldout_hint 0: by sequence; 2 / 3: the first free held-out /
+ * training slot); *slot_out (may be NULL) gets the slot it took, untouched when it lost.
+ */
+int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const double lm[136], double score, double expo,
+                       uint64_t seq, int64_t t, sp_quat q, int heldout_hint, int *slot_out);
 /* Fitted frames in slot order: fills idx with the used training (heldout = 0) or held-out slots. */
 int ss_list_frames(const sp_sunstage *ss, int heldout, int *idx, int cap);
+/* The i-th used slot, training and held-out alike; NULL past the end. */
+const ss_frame *ss_nth_frame(const sp_sunstage *ss, int i);
+/* Camera yaw the listed slots cover, degrees (360 minus the largest gap between headings). */
+double ss_reservoir_yaw_range(const sp_sunstage *ss, const int *idx, int n);
 
 /* ---- frontend.c ---- */
 /* One tagged frame (borrowed) through the checks into the reservoir. */
 int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const sp_frame_tags *tags);
-/* Offers a frame to its yaw bin; *slot_out (may be NULL) gets the slot it took, untouched when it lost. */
-int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const double lm[136], double score, double expo,
-                       uint64_t seq, int64_t t, sp_quat q, int heldout_hint, int *slot_out);
+
 
 /* ---- align.c: stage 1 ---- */
 /* Gauss-Newton (LM) on robust landmark residuals; returns RMS pixel error or a negative error. */

@@ -14,9 +14,9 @@
 
 int sp_sunstage_render_view(sp_sunstage *ss, const sp_sunstage_view *v, float *rgb, float *mask)
 {
-    if (!ss || !v || !v->landmarks || !rgb || !ss->slots || !(v->fx > 0.0) || !(v->fy > 0.0))
+    if (!ss || !v || !v->landmarks || !rgb || !ss->res.slots || !(v->fx > 0.0) || !(v->fy > 0.0))
         return -EINVAL;
-    double k = (double)ss->W / (double)ss->cap_w;
+    double k = (double)ss->W / (double)ss->fe.cap_w;
     ss_frame f;
     memset(&f, 0, sizeof(f));
     double *exp = calloc(ss->model->n_exp + 1, sizeof(double));
