@@ -39,6 +39,7 @@ int sp_cmd_devices(int argc, char **argv);
 int sp_cmd_record(int argc, char **argv);
 int sp_cmd_fit(int argc, char **argv);
 int sp_cmd_relight(int argc, char **argv);
+int sp_cmd_evaluate(int argc, char **argv); /* score a face directory against a capture with ground truth */
 int sp_cmd_export(int argc, char **argv); /* export a face directory (glTF / OBJ / Draco) */
 
 #endif

@@ -17,6 +17,7 @@ static const sp_command commands[] = {
     { "synth", "generate a synthetic capture with ground truth", sp_cmd_synth },
     { "fit", "rotating selfie: fit face geometry, reflectance, sun and sky (SunStage)", sp_cmd_fit },
     { "relight", "render a fitted face directory under a new sun and sky", sp_cmd_relight },
+    { "evaluate", "score a fitted face against a capture with ground truth (gt/relight, gt/nvs)", sp_cmd_evaluate },
     { "export", "fitted face directory to a relightable glTF (Draco), OBJ or Draco asset", sp_cmd_export },
     { "probe", "static camera: learn occlusion, lighting, scale and shadow from passers-by", sp_cmd_probe },
     { "composite", "insert cut-outs into a probed scene with size, occlusion, lighting, shadow", sp_cmd_composite },

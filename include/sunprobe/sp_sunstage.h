@@ -203,6 +203,39 @@ typedef struct sp_face_asset {
 SP_API int sp_face_dir_read(sp_face_asset *asset, const char *dir);
 SP_API void sp_face_asset_free(sp_face_asset *asset);
 
+/*
+ * A view of a fitted face: any camera, any placement of the face, any light.
+ * What evaluation (against held-out photographs), relighting and new views use.
+ * All directions and poses are in one world of the caller's choosing: the
+ * asset's own (the fit's world) unless asset_to_world and env_to_world move it.
+ */
+typedef struct sp_face_view {
+    int width, height;         /* output size, pixels */
+    int supersample;           /* samples per pixel side, 1..4 (default 2) */
+    sp_render_camera camera;   /* intrinsics of the output image and world -> camera */
+    double asset_to_world[12]; /* row-major [M | t]: world = M x + t for the asset's vertices x (M a rotation,
+                                  possibly times a uniform scale) */
+    double sun_dir[3];         /* world, towards the sun */
+    double sun_intensity;      /* 0: no sun, no cast shadows */
+    const float *env;          /* SP_RENDER_ENV_FLOATS radiance in its own frame; NULL: the asset's (borrowed) */
+    double env_to_world[9];    /* rotation (row-major) of the environment into the world */
+    double exposure;           /* default 1 */
+    const uint8_t *vertex_mask; /* per vertex, 1 = face: `mask` covers only triangles of face vertices (e.g. the
+                                   model's face_mask); NULL: the whole mesh (borrowed) */
+} sp_face_view;
+
+/* The asset's own view: keyframe 0's camera and size, the mesh where it is, its sun and sky. */
+SP_API void sp_face_view_init(sp_face_view *v, const sp_face_asset *asset);
+/*
+ * Renders the asset in view v: rgb gets width * height * 3 display values (the
+ * fit's tone map, comparable with the capture's frames), mask (may be NULL)
+ * width * height face coverage in [0, 1]; both caller-owned. Specular follows
+ * the asset's left_out flags; cast shadows come with any sun; the mask is the
+ * fraction of a pixel's samples on the face (see vertex_mask). -EINVAL for a bad
+ * view (size, intrinsics, non-finite pose), -ENOMEM.
+ */
+SP_API int sp_face_asset_render(const sp_face_asset *asset, const sp_face_view *v, float *rgb, float *mask);
+
 #ifdef __cplusplus
 }
 #endif

@@ -186,9 +186,10 @@ static int write_manifest(const sp_sunstage *ss, const char *dir)
                      ss->set.solver == SP_SUNSTAGE_SOLVER_ADAM ? "adam" : "fast", ss->model->mesh.n_vertices,
                      ss->model->mesh.n_triangles);
     sp_strbuf_printf(&b, "\"textures\":{\"width\":%d,\"height\":%d,\"albedo\":\"albedo.f32\",\"albedo_png\":"
-                         "\"albedo.png\",\"displacement\":\"displacement.f32\",\"clusters\":\"clusters.u8\","
+                         "\"albedo.png\",%s\"displacement\":\"displacement.f32\",\"clusters\":\"clusters.u8\","
                          "\"cluster_width\":%u,\"cluster_height\":%u},\n",
-                     ss->fit.tw, ss->fit.th, ss->model->cluster_width, ss->model->cluster_height);
+                     ss->fit.tw, ss->fit.th, ss->fit.have_observed ? "\"albedo_observed\":\"albedo_observed.u8\"," : "",
+                     ss->model->cluster_width, ss->model->cluster_height);
     sp_strbuf_printf(&b, "\"specular\":{\"ks\":");
     sp_strbuf_json_numbers(&b, ss->fit.ks, SP_RENDER_CLUSTERS);
     sp_strbuf_printf(&b, ",\"shininess\":");
@@ -233,6 +234,8 @@ int sp_face_dir_write(const sp_sunstage *ss, const char *dir)
     size_t nt = (size_t)ss->fit.tw * (size_t)ss->fit.th;
     if (!ret)
         ret = write_blob(dir, "albedo.f32", ss->fit.albedo, nt * 3 * sizeof(float));
+    if (!ret && ss->fit.have_observed) /* 1: seen by a keyframe; 0: filled from the observed texels (albedo.c) */
+        ret = write_blob(dir, "albedo_observed.u8", ss->fit.observed, nt);
     if (!ret)
         ret = write_blob(dir, "displacement.f32", ss->fit.disp, nt * sizeof(float));
     if (!ret)

@@ -45,6 +45,7 @@ typedef struct fast_ctx {
     size_t *frame_start;
     float *envb;      /* NK env maps */
     double *num, *den; /* per texel * 3 */
+    float *prev;       /* per texel * 3: the albedo before a Jacobi step */
     double x[NL];     /* lighting unknowns */
     int use_sun, use_spec;
     int decide_only; /* stop after the sun search and the overcast decision */
@@ -270,13 +271,40 @@ static void solve_albedo(fast_ctx *c, int steps)
             }
         for (int ch = 0; ch < 3; ch++)
             mean[ch] = wsum > 0.0 ? mean[ch] / wsum : 0.5;
+        /* priors: a faint pull to the map's mean (unseen texels stay sane), and one to the texel's neighbours
+           scaled to a typical observed texel's data weight, so texels between pixel samples interpolate */
         double lam = 1e-4 * dmax + 1e-30;
-        for (size_t t = 0; t < nt; t++) {
-            double a = ss->fit.albedo[t];
-            a += (c->num[t] + lam * (mean[t % 3] - a)) / (c->den[t] + lam);
-            ss->fit.albedo[t] = (float)(a < 0.0 ? 0.0 : (a > 4.0 ? 4.0 : a));
+        double lam_n = SS_ALBEDO_SMOOTH * ss_albedo_typical_weight(c->den, nt / 3, 1e-3 * dmax);
+        memcpy(c->prev, ss->fit.albedo, nt * sizeof(float));
+        for (size_t t = 0; t < nt; t += 3) {
+            double nb[3];
+            ss_albedo_neighbours(c->prev, ss->fit.tw, ss->fit.th, t, nb);
+            for (int ch = 0; ch < 3; ch++) {
+                size_t q = t + (size_t)ch;
+                double a = (double)c->prev[q];
+                a += (c->num[q] + lam * (mean[ch] - a) + lam_n * (nb[ch] - a)) / (c->den[q] + lam + lam_n);
+                ss->fit.albedo[q] = (float)(a < 0.0 ? 0.0 : (a > 4.0 ? 4.0 : a));
+            }
         }
     }
+}
+
+/* After the last albedo solve: texels no observation reached are filled from the observed ones (albedo.c). */
+static int fill_unseen(fast_ctx *c)
+{
+    sp_sunstage *ss = c->ss;
+    size_t n = (size_t)ss->fit.tw * (size_t)ss->fit.th;
+    double dmax = 0.0;
+    for (size_t t = 0; t < n * 3; t++)
+        dmax = fmax(dmax, c->den[t]);
+    size_t seen = 0;
+    for (size_t t = 0; t < n; t++)
+        seen += ss->fit.observed[t] = c->den[t * 3] > 1e-3 * dmax;
+    if (!seen)
+        return 0; /* nothing observed: the map stays at its prior */
+    ss->fit.have_observed = 1;
+    sp_log(SP_LOG_INFO, MOD, "albedo: %zu of %zu texels observed, the rest filled from them", seen, n);
+    return ss_albedo_fill_unobserved(ss->fit.albedo, ss->fit.tw, ss->fit.th, ss->fit.observed);
 }
 
 /* Lighting unknowns by NNLS given the albedo; terms switched off stay 0. */
@@ -638,6 +666,8 @@ static int fast_run(fast_ctx *c, sp_sunstage_callback cb, void *user)
             return ret;
         alternate(c, 4, 3);
     }
+    if ((ret = fill_unseen(c)))
+        return ret;
     commit(c);
     report(c, cb, user, 7, SS_FAST_PHASES);
     sp_log(SP_LOG_INFO, MOD, "fast solver: %zu observations, sun (%.3f %.3f %.3f) I %.3f, train %.2f dB", c->n,
@@ -661,7 +691,8 @@ static int fast_main(sp_sunstage *ss, sp_sunstage_callback cb, void *user, int d
     c.envb = malloc(sizeof(float) * SP_RENDER_ENV_FLOATS * NK);
     c.num = malloc(sizeof(double) * nt);
     c.den = malloc(sizeof(double) * nt);
-    if (!c.frame_start || !c.envb || !c.num || !c.den)
+    c.prev = malloc(sizeof(float) * nt);
+    if (!c.frame_start || !c.envb || !c.num || !c.den || !c.prev)
         ret = -ENOMEM;
     if (!ret) {
         make_env_basis(c.envb);
@@ -673,6 +704,7 @@ static int fast_main(sp_sunstage *ss, sp_sunstage_callback cb, void *user, int d
     free(c.envb);
     free(c.num);
     free(c.den);
+    free(c.prev);
     return ret;
 }
 

@@ -81,7 +81,8 @@ int sp_sunstage_open(sp_sunstage **out, const sp_sunstage_settings *s, const sp_
     ss->fit.id = calloc(model->n_id + 1, sizeof(double));
     ss->fit.albedo = malloc(texels * 3 * sizeof(float));
     ss->fit.disp = calloc(texels, sizeof(float));
-    if (!ss->fit.id || !ss->fit.albedo || !ss->fit.disp) {
+    ss->fit.observed = calloc(texels, 1);
+    if (!ss->fit.id || !ss->fit.albedo || !ss->fit.disp || !ss->fit.observed) {
         sp_sunstage_close(&ss);
         return -ENOMEM;
     }
@@ -108,6 +109,7 @@ void sp_sunstage_close(sp_sunstage **pss)
     free(ss->fit.id);
     free(ss->fit.albedo);
     free(ss->fit.disp);
+    free(ss->fit.observed);
     free(ss);
     *pss = NULL;
 }

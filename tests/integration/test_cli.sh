@@ -39,6 +39,8 @@ for cmd in info verify recover replay import export-video synth; do
 done
 expect 1 "no command" "$SP"
 expect 1 "unknown command" "$SP" frobnicate
+expect 1 "evaluate without capture dir" "$SP" evaluate "$dir"
+expect 2 "evaluate a non-face directory" "$SP" evaluate "$dir" "$dir"
 expect 1 "info without file" "$SP" info
 expect 1 "replay bad speed" "$SP" replay "$cap" --speed -1
 expect 1 "replay unknown stage" "$SP" replay "$cap" --stage nope

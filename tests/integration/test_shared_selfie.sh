@@ -43,4 +43,19 @@ fi
 [ $rc = 0 ] || exit 1
 # the sun limit is loose: this test is about the cameras; how well the sun is found is issue-tracked fidelity
 "${check[@]}" fit "$tmp/face" "$cap/meta.json" --max-camera-deg 3 --max-up-deg 3 --max-sun-deg 20 || fail=1
+
+# the measuring instrument on the same fit: its registration must agree with the cameras above, and every
+# held-out image must be scored with finite figures (the fidelity targets themselves are tracked, not asserted)
+"$sp" evaluate "$tmp/face" "$cap" --json "$tmp/eval.json" || fail=1
+python3 - "$tmp/eval.json" <<'PY' || fail=1
+import json, math, sys
+e = json.load(open(sys.argv[1]))
+ok = e["camera_error_deg"]["max"] < 3 and e["nvs"]["images"] >= 1 and math.isfinite(e["nvs"]["psnr"])
+ok &= 0 <= e["nvs"]["ssim"] <= 1 and 0 < e["nvs"]["mask_overlap"] <= 1
+if e["relight"]["images"]:
+    ok &= math.isfinite(e["relight"]["psnr"]) and 0 <= e["relight"]["ssim"] <= 1
+    ok &= math.isfinite(e["sun_error_deg"] if e["sun_error_deg"] is not None else float("nan"))
+print("evaluate:", "ok" if ok else "FAILED", json.dumps({k: e[k] for k in ("camera_error_deg", "sun_error_deg", "relight", "nvs")}))
+sys.exit(0 if ok else 1)
+PY
 exit $fail

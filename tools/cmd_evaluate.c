@@ -1,0 +1,600 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * `sunprobe evaluate FACE_DIR CAPTURE_DIR`: scores a fitted face against a
+ * capture directory with ground truth laid out like the folders of ../shared/captures
+ * (meta.json, gt/relight/relight.json, gt/nvs/nvs.json): sun direction error,
+ * training and held-out PSNR, relighting and novel-view PSNR/SSIM inside the
+ * union of the true and rendered face masks, fit time. Table on stdout, JSON
+ * with --json.
+ *
+ * Registration uses the fit's own cameras: the fit's world maps onto the true
+ * one by the rotation that best aligns the keyframe camera orientations, and
+ * the asset's mesh onto the true head frame by the mean over keyframes of
+ * (true head pose)^-1 (true camera) (fitted face pose) (asset placement)^-1.
+ * A held-out image is then drawn with its own camera, head pose and sun.
+ */
+#include <errno.h>
+#include <getopt.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cmd.h"
+#include "common/file_util.h"
+#include "common/image_metrics.h"
+#include "common/json.h"
+#include "export/png.h"
+#include "export/png_read.h"
+#include "sunprobe/sp_face_model.h"
+#include "sunprobe/sp_math.h"
+#include "sunprobe/sp_sunstage.h"
+
+#define MAX_KEYFRAMES 80
+
+typedef struct rigid {
+    double R[9]; /* row-major */
+    double t[3];
+} rigid; /* x' = R x + t */
+
+typedef struct eval_args {
+    const char *face, *capture, *json, *renders;
+} eval_args;
+
+typedef struct scored {
+    int n;
+    double psnr_sum, ssim_sum, psnr_min;
+    double overlap_sum; /* fraction of the true face mask the rendered face covers */
+} scored;
+
+typedef struct eval_ctx {
+    const eval_args *a;
+    sp_face_asset asset;
+    sp_face_model model;        /* for its face mask, when its topology is the asset's */
+    int have_model;
+    const uint8_t *face_mask;   /* per asset vertex, or NULL: the rendered mask is the whole mesh */
+    sp_json *meta, *cams, *manifest;
+    double align[9]; /* fit world -> true world */
+    rigid asset_to_head;
+    int n_keyframes;
+    double camera_err_mean, camera_err_max;
+    double sun_err;  /* NaN: not scored */
+    const char *sun_note;
+    const char *relight_note; /* why relighting was not scored, or NULL */
+    scored relight, nvs;
+    sp_strbuf images; /* per-image JSON rows */
+} eval_ctx;
+
+static void usage(FILE *out)
+{
+    fprintf(out, "usage: sunprobe evaluate FACE_DIR CAPTURE_DIR [--json FILE] [--renders DIR]\n\n"
+                 "Scores a fitted face against a capture with ground truth (laid out as in ../shared/captures):\n"
+                 "sun direction error, training and held-out PSNR, relighting (gt/relight) and novel-view\n"
+                 "(gt/nvs) PSNR and SSIM inside the union of the true and rendered face masks.\n"
+                 "  --json FILE     also write the figures as JSON\n"
+                 "  --renders DIR   write each rendered view beside its ground truth as PNG\n");
+}
+
+/* ---- small rigid algebra ---- */
+
+static rigid rigid_mul(const rigid *a, const rigid *b)
+{
+    rigid r;
+    for (int i = 0; i < 3; i++) {
+        for (int j = 0; j < 3; j++)
+            r.R[i * 3 + j] = a->R[i * 3] * b->R[j] + a->R[i * 3 + 1] * b->R[3 + j] + a->R[i * 3 + 2] * b->R[6 + j];
+        r.t[i] = a->R[i * 3] * b->t[0] + a->R[i * 3 + 1] * b->t[1] + a->R[i * 3 + 2] * b->t[2] + a->t[i];
+    }
+    return r;
+}
+
+static rigid rigid_inv(const rigid *a)
+{
+    rigid r;
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            r.R[i * 3 + j] = a->R[j * 3 + i];
+    for (int i = 0; i < 3; i++)
+        r.t[i] = -(r.R[i * 3] * a->t[0] + r.R[i * 3 + 1] * a->t[1] + r.R[i * 3 + 2] * a->t[2]);
+    return r;
+}
+
+/* A 4x4 row-major JSON matrix (rotation part orthonormal) as a rigid transform; -1 if malformed. */
+static int rigid_from_json(const sp_json *m, rigid *out)
+{
+    for (int i = 0; i < 3; i++) {
+        double row[4];
+        if (sp_json_numbers(sp_json_at(m, (size_t)i), row, 4) != 4)
+            return -1;
+        for (int j = 0; j < 3; j++)
+            out->R[i * 3 + j] = row[j];
+        out->t[i] = row[3];
+    }
+    return 0;
+}
+
+/* Sign-consistent mean of rotations given as quaternions. */
+typedef struct quat_mean {
+    sp_quat sum, first;
+    int n;
+} quat_mean;
+
+static void quat_mean_add(quat_mean *m, sp_quat q)
+{
+    if (m->n++ == 0)
+        m->first = q;
+    double d = q.w * m->first.w + q.x * m->first.x + q.y * m->first.y + q.z * m->first.z;
+    double s = d < 0.0 ? -1.0 : 1.0;
+    m->sum.w += s * q.w;
+    m->sum.x += s * q.x;
+    m->sum.y += s * q.y;
+    m->sum.z += s * q.z;
+}
+
+static sp_quat quat_mean_get(const quat_mean *m)
+{
+    return sp_quat_normalize(m->sum);
+}
+
+static double angle_deg(const double a[3], const double b[3])
+{
+    double na = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]), nb = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+    double d = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / fmax(na * nb, 1e-300);
+    return acos(fmax(-1.0, fmin(1.0, d))) * 180.0 / M_PI;
+}
+
+static void rotate(const double R[9], const double v[3], double out[3])
+{
+    for (int i = 0; i < 3; i++)
+        out[i] = R[i * 3] * v[0] + R[i * 3 + 1] * v[1] + R[i * 3 + 2] * v[2];
+}
+
+/* ---- inputs ---- */
+
+static int load_json(const char *dir, const char *name, sp_json **out)
+{
+    char *path = sp_path_join_alloc(dir, name);
+    void *buf = NULL;
+    size_t n = 0;
+    int ret = path ? sp_read_whole_file(path, 256u << 20, &buf, &n) : -ENOMEM;
+    char err[160] = "";
+    if (!ret && (ret = sp_json_parse(buf, n, out, err, sizeof(err))))
+        fprintf(stderr, "sunprobe evaluate: %s: %s\n", path, err);
+    else if (ret)
+        fprintf(stderr, "sunprobe evaluate: %s: %s\n", path ? path : name, sp_strerror(ret));
+    free(buf);
+    free(path);
+    return ret;
+}
+
+/* The true frame of the capture with this index: its camera and rigid head pose. */
+static const sp_json *true_frame(const eval_ctx *c, double index)
+{
+    const sp_json *frames = sp_json_get(c->meta, "frames");
+    for (size_t i = 0;; i++) {
+        const sp_json *f = sp_json_at(frames, i);
+        if (!f)
+            return NULL;
+        if (sp_json_number(sp_json_get(f, "index"), -1) == index)
+            return f;
+    }
+}
+
+/* A keyframe's fitted camera orientation and face pose (model x s -> camera). */
+static int fitted_keyframe(const sp_json *k, rigid *face, double q_c2w[9])
+{
+    double q[4], rv[3];
+    if (sp_json_numbers(sp_json_get(k, "camera_to_world_wxyz"), q, 4) != 4 ||
+        sp_json_numbers(sp_json_get(k, "face_rotvec"), rv, 3) != 3 ||
+        sp_json_numbers(sp_json_get(k, "face_t"), face->t, 3) != 3)
+        return -1;
+    sp_quat_to_matrix(sp_quat_normalize((sp_quat){ q[0], q[1], q[2], q[3] }), q_c2w);
+    sp_quat_to_matrix(sp_quat_from_rotvec((sp_vec3){ rv[0], rv[1], rv[2] }), face->R);
+    return 0;
+}
+
+/*
+ * The fit's world onto the true world (camera orientations) and the asset onto the true head
+ * frame (every keyframe's fitted face pose against the true one), with the camera errors.
+ */
+static int register_fit(eval_ctx *c)
+{
+    const sp_json *frames = sp_json_get(c->cams, "frames");
+    rigid place0 = { { 0 } }; /* asset -> scaled model frame: inverse of keyframe 0's placement */
+    int have0 = 0;
+    quat_mean world = { { 0, 0, 0, 0 }, { 1, 0, 0, 0 }, 0 }, head = world;
+    double t_sum[3] = { 0, 0, 0 };
+    rigid G[MAX_KEYFRAMES];
+    double E[MAX_KEYFRAMES][9], T[MAX_KEYFRAMES][9];
+    int n = 0;
+    for (size_t i = 0; n < MAX_KEYFRAMES; i++) {
+        const sp_json *k = sp_json_at(frames, i);
+        if (!k)
+            break;
+        rigid face, cam, hd;
+        double e[9];
+        const sp_json *tf = true_frame(c, sp_json_number(sp_json_get(k, "sequence"), -1));
+        if (fitted_keyframe(k, &face, e) || !tf || rigid_from_json(sp_json_get(tf, "cam_to_world"), &cam) ||
+            rigid_from_json(sp_json_get(tf, "head_to_world_rigid_m"), &hd))
+            continue;
+        const sp_json *held = sp_json_get(k, "heldout");
+        if (!have0 && held && held->type == SP_JSON_BOOL && held->number == 0.0) { /* the asset is placed as the first training keyframe */
+            rigid w0 = { { 0 }, { 0, 0, 0 } };
+            memcpy(w0.R, e, sizeof(e));
+            rigid p = rigid_mul(&w0, &face);
+            place0 = rigid_inv(&p);
+            have0 = 1;
+        }
+        memcpy(E[n], e, sizeof(e));
+        memcpy(T[n], cam.R, sizeof(cam.R));
+        double a[9]; /* T E^T */
+        for (int r = 0; r < 3; r++)
+            for (int q = 0; q < 3; q++)
+                a[r * 3 + q] = cam.R[r * 3] * e[q * 3] + cam.R[r * 3 + 1] * e[q * 3 + 1] + cam.R[r * 3 + 2] * e[q * 3 + 2];
+        quat_mean_add(&world, sp_quat_from_matrix(a));
+        rigid hinv = rigid_inv(&hd), hc = rigid_mul(&hinv, &cam);
+        G[n] = rigid_mul(&hc, &face); /* scaled model -> head, composed with place0 below */
+        n++;
+    }
+    if (n < 1 || !have0) {
+        fprintf(stderr, "sunprobe evaluate: no fitted keyframe matches a frame of %s/meta.json\n", c->a->capture);
+        return SP_ENODATA;
+    }
+    sp_quat_to_matrix(quat_mean_get(&world), c->align);
+    c->n_keyframes = n;
+    for (int i = 0; i < n; i++) {
+        double ae[9];
+        for (int r = 0; r < 3; r++)
+            for (int q = 0; q < 3; q++)
+                ae[r * 3 + q] = c->align[r * 3] * E[i][q] + c->align[r * 3 + 1] * E[i][3 + q] +
+                                c->align[r * 3 + 2] * E[i][6 + q];
+        double err = sp_quat_angle_between(sp_quat_from_matrix(ae), sp_quat_from_matrix(T[i])) * 180.0 / M_PI;
+        c->camera_err_mean += err / n;
+        c->camera_err_max = fmax(c->camera_err_max, err);
+        G[i] = rigid_mul(&G[i], &place0);
+        quat_mean_add(&head, sp_quat_from_matrix(G[i].R));
+        for (int k = 0; k < 3; k++)
+            t_sum[k] += G[i].t[k] / n;
+    }
+    sp_quat_to_matrix(quat_mean_get(&head), c->asset_to_head.R);
+    memcpy(c->asset_to_head.t, t_sum, sizeof(t_sum));
+    return 0;
+}
+
+/* ---- one held-out image ---- */
+
+static int read_truth(const char *path, float **rgb, uint8_t **mask, int *w, int *h, int as_mask)
+{
+    uint8_t *px = NULL;
+    uint32_t pw = 0, ph = 0;
+    int ret = sp_png_read_rgba(path, &px, &pw, &ph);
+    if (ret) {
+        fprintf(stderr, "sunprobe evaluate: %s: %s\n", path, sp_strerror(ret));
+        return ret;
+    }
+    size_t n = (size_t)pw * ph;
+    if (as_mask) {
+        *mask = malloc(n);
+        for (size_t i = 0; *mask && i < n; i++)
+            (*mask)[i] = px[i * 4] > 127;
+    } else {
+        *rgb = malloc(sizeof(float) * n * 3);
+        for (size_t i = 0; *rgb && i < n; i++)
+            for (int k = 0; k < 3; k++)
+                (*rgb)[i * 3 + (size_t)k] = (float)px[i * 4 + (size_t)k] / 255.0f;
+    }
+    free(px);
+    *w = (int)pw;
+    *h = (int)ph;
+    return (as_mask ? (void *)*mask : (void *)*rgb) ? 0 : -ENOMEM;
+}
+
+static void save_pair(const eval_ctx *c, const char *kind, int index, const float *render, const float *truth, int w,
+                      int h)
+{
+    char name[64];
+    snprintf(name, sizeof(name), "%s_%02d.png", kind, index);
+    char *path = sp_path_join_alloc(c->a->renders, name);
+    uint8_t *px = malloc((size_t)w * 2 * h * 3);
+    for (int y = 0; px && y < h; y++)
+        for (int x = 0; x < 2 * w; x++)
+            for (int k = 0; k < 3; k++) {
+                const float *src = x < w ? render : truth;
+                double v = src[((size_t)y * w + (size_t)(x % w)) * 3 + (size_t)k];
+                px[((size_t)y * 2 * w + (size_t)x) * 3 + (size_t)k] = (uint8_t)lround(255.0 * fmin(1.0, fmax(0.0, v)));
+            }
+    if (px && path && sp_png_write(path, px, (uint32_t)(2 * w), (uint32_t)h, (uint32_t)(2 * w * 3), 3))
+        fprintf(stderr, "sunprobe evaluate: cannot write %s\n", path);
+    free(px);
+    free(path);
+}
+
+/* Renders one gt/relight or gt/nvs image with its camera, head pose and the given sun; scores it. */
+static int score_image(eval_ctx *c, const char *kind, const sp_json *img, const double K[4], const double sun[3],
+                       double sun_I, scored *acc)
+{
+    rigid cam, head;
+    const char *file = sp_json_string(sp_json_get(img, "file"), NULL);
+    const char *mfile = sp_json_string(sp_json_get(img, "mask"), NULL);
+    if (!file || !mfile || rigid_from_json(sp_json_get(img, "cam_to_world"), &cam) ||
+        rigid_from_json(sp_json_get(img, "head_to_world_rigid_m"), &head))
+        return SP_ECORRUPT;
+    char *path = sp_path_join_alloc(c->a->capture, file), *mpath = sp_path_join_alloc(c->a->capture, mfile);
+    float *truth = NULL, *render = NULL, *cover = NULL;
+    uint8_t *mask = NULL;
+    int w = 0, h = 0, mw = 0, mh = 0;
+    int ret = path && mpath ? read_truth(path, &truth, NULL, &w, &h, 0) : -ENOMEM;
+    if (!ret)
+        ret = read_truth(mpath, NULL, &mask, &mw, &mh, 1);
+    if (!ret && (mw != w || mh != h))
+        ret = SP_ECORRUPT;
+    sp_face_view v;
+    sp_face_view_init(&v, &c->asset);
+    v.width = w;
+    v.height = h;
+    v.vertex_mask = c->face_mask;
+    if (!ret) {
+        render = malloc(sizeof(float) * 3 * (size_t)w * h);
+        cover = malloc(sizeof(float) * (size_t)w * h);
+        ret = render && cover ? 0 : -ENOMEM;
+    }
+    if (!ret) {
+        v.camera.fx = K[0], v.camera.fy = K[1], v.camera.cx = K[2], v.camera.cy = K[3];
+        rigid w2c = rigid_inv(&cam), a2w = rigid_mul(&head, &c->asset_to_head);
+        memcpy(v.camera.R, w2c.R, sizeof(w2c.R));
+        memcpy(v.camera.t, w2c.t, sizeof(w2c.t));
+        for (int i = 0; i < 3; i++) {
+            for (int j = 0; j < 3; j++)
+                v.asset_to_world[i * 4 + j] = a2w.R[i * 3 + j];
+            v.asset_to_world[i * 4 + 3] = a2w.t[i];
+        }
+        memcpy(v.env_to_world, c->align, sizeof(c->align));
+        memcpy(v.sun_dir, sun, sizeof(v.sun_dir));
+        v.sun_intensity = sun_I;
+    }
+    if (!ret)
+        ret = sp_face_asset_render(&c->asset, &v, render, cover);
+    if (!ret) {
+        size_t npx = (size_t)w * h, n_true = 0, n_both = 0;
+        for (size_t i = 0; i < npx; i++) {
+            n_true += mask[i];
+            n_both += mask[i] && cover[i] > 0.5f;
+            mask[i] = mask[i] || cover[i] > 0.5f;
+        }
+        double overlap = n_true ? (double)n_both / (double)n_true : (double)NAN;
+        acc->overlap_sum += overlap;
+        double p = sp_psnr_masked(render, truth, mask, w, h), s = sp_ssim_masked(render, truth, mask, w, h);
+        acc->n++;
+        acc->psnr_sum += p;
+        acc->ssim_sum += s;
+        acc->psnr_min = acc->n == 1 ? p : fmin(acc->psnr_min, p);
+        sp_strbuf_printf(&c->images, "%s{\"kind\":\"%s\",\"file\":", c->images.len ? ",\n" : "\n", kind);
+        sp_strbuf_json_string(&c->images, file);
+        sp_strbuf_printf(&c->images, ",\"psnr\":");
+        sp_strbuf_json_number(&c->images, p);
+        sp_strbuf_printf(&c->images, ",\"ssim\":");
+        sp_strbuf_json_number(&c->images, s);
+        sp_strbuf_printf(&c->images, ",\"mask_overlap\":");
+        sp_strbuf_json_number(&c->images, overlap);
+        sp_strbuf_printf(&c->images, "}");
+        if (c->a->renders)
+            save_pair(c, kind, (int)sp_json_number(sp_json_get(img, "index"), acc->n - 1), render, truth, w, h);
+    }
+    free(path);
+    free(mpath);
+    free(truth);
+    free(render);
+    free(cover);
+    free(mask);
+    return ret;
+}
+
+/* Every image of gt/KIND/KIND.json; the sun per image (relight) or the fitted one (nvs). */
+static int score_set(eval_ctx *c, const char *kind, scored *acc)
+{
+    char rel[64];
+    snprintf(rel, sizeof(rel), "gt/%s/%s.json", kind, kind);
+    sp_json *set = NULL;
+    int ret = load_json(c->a->capture, rel, &set);
+    if (ret)
+        return ret;
+    const sp_json *cam = sp_json_get(set, "camera");
+    if (!cam) {
+        fprintf(stderr, "sunprobe evaluate: %s/%s has no \"camera\"\n", c->a->capture, rel);
+        sp_json_free(set);
+        return SP_ECORRUPT;
+    }
+    double K[4] = { sp_json_number(sp_json_get(cam, "fx"), NAN), sp_json_number(sp_json_get(cam, "fy"), NAN),
+                    sp_json_number(sp_json_get(cam, "cx"), NAN), sp_json_number(sp_json_get(cam, "cy"), NAN) };
+    double fit_sun[3];
+    rotate(c->align, c->asset.sun_dir, fit_sun);
+    double fit_I = c->asset.left_out & SP_FACE_LEFT_OUT_SUN ? 0.0 : c->asset.sun_intensity;
+    const sp_json *imgs = sp_json_get(set, "images");
+    for (size_t i = 0; !ret; i++) {
+        const sp_json *img = sp_json_at(imgs, i);
+        if (!img)
+            break;
+        double sun[3];
+        if (!strcmp(kind, "relight")) {
+            if (sp_json_numbers(sp_json_get(img, "sun_dir_world"), sun, 3) != 3) {
+                ret = SP_ECORRUPT;
+                break;
+            }
+            if (!(fit_I > 0.0)) {
+                c->relight_note = "relighting not scored: the fit has no sun intensity (overcast or unobservable)";
+                break;
+            }
+            ret = score_image(c, kind, img, K, sun, fit_I, acc);
+        } else {
+            ret = score_image(c, kind, img, K, fit_sun, fit_I, acc);
+        }
+    }
+    sp_json_free(set);
+    return ret;
+}
+
+/* ---- the report ---- */
+
+/* what: 0 PSNR, 1 SSIM, 2 mask overlap */
+static double mean_of(const scored *s, int what)
+{
+    double sum = what == 0 ? s->psnr_sum : what == 1 ? s->ssim_sum : s->overlap_sum;
+    return s->n ? sum / s->n : (double)NAN;
+}
+
+static void sun_error(eval_ctx *c)
+{
+    c->sun_err = NAN;
+    const sp_json *sun = sp_json_get(c->meta, "sun");
+    const sp_json *present = sp_json_get(sun, "present");
+    double truth[3];
+    int has_sun = present && present->type == SP_JSON_BOOL && present->number != 0.0 &&
+                  sp_json_numbers(sp_json_get(sun, "dir_world"), truth, 3) == 3;
+    int fitted = !(c->asset.left_out & SP_FACE_LEFT_OUT_SUN) && c->asset.sun_intensity > 0.0;
+    if (has_sun && fitted) {
+        double d[3];
+        rotate(c->align, c->asset.sun_dir, d);
+        c->sun_err = angle_deg(d, truth);
+        c->sun_note = "";
+    } else if (has_sun) {
+        c->sun_note = "the capture has a sun and the fit left it out";
+    } else {
+        c->sun_note = fitted ? "the capture is overcast and the fit kept a sun" : "overcast, and the sun was left out";
+    }
+}
+
+static void print_table(const eval_ctx *c, const sp_json *fit)
+{
+    printf("evaluate: %s against %s\n", c->a->face, c->a->capture);
+    printf("  %-28s %d keyframes, error mean %.2f deg, max %.2f deg\n", "cameras (heading aligned)", c->n_keyframes,
+           c->camera_err_mean, c->camera_err_max);
+    if (isfinite(c->sun_err))
+        printf("  %-28s %.2f deg\n", "sun direction error", c->sun_err);
+    else
+        printf("  %-28s not scored: %s\n", "sun direction error", c->sun_note);
+    printf("  %-28s %.2f dB / %.2f dB\n", "train / held-out PSNR", sp_json_number(sp_json_get(fit, "train_psnr"), NAN),
+           sp_json_number(sp_json_get(fit, "heldout_psnr"), NAN));
+    printf("  %-28s %d images: PSNR %.2f dB (min %.2f), SSIM %.4f; rendered face covers %.0f%% of the true one\n",
+           "relighting (gt/relight)", c->relight.n, mean_of(&c->relight, 0), c->relight.psnr_min,
+           mean_of(&c->relight, 1), 100.0 * mean_of(&c->relight, 2));
+    printf("  %-28s %d images: PSNR %.2f dB (min %.2f), SSIM %.4f; rendered face covers %.0f%% of the true one\n",
+           "novel views (gt/nvs)", c->nvs.n, mean_of(&c->nvs, 0), c->nvs.psnr_min, mean_of(&c->nvs, 1),
+           100.0 * mean_of(&c->nvs, 2));
+    if (c->relight_note)
+        printf("  %s\n", c->relight_note);
+    printf("  %-28s %.1f s\n", "fit wall time", sp_json_number(sp_json_get(fit, "seconds"), NAN));
+}
+
+static int write_json(const eval_ctx *c, const sp_json *fit)
+{
+    sp_strbuf b = { 0 };
+    sp_strbuf_printf(&b, "{\"face_dir\":");
+    sp_strbuf_json_string(&b, c->a->face);
+    sp_strbuf_printf(&b, ",\"capture\":");
+    sp_strbuf_json_string(&b, c->a->capture);
+    sp_strbuf_printf(&b, ",\"keyframes\":%d,\"camera_error_deg\":{\"mean\":", c->n_keyframes);
+    sp_strbuf_json_number(&b, c->camera_err_mean);
+    sp_strbuf_printf(&b, ",\"max\":");
+    sp_strbuf_json_number(&b, c->camera_err_max);
+    sp_strbuf_printf(&b, "},\"sun_error_deg\":");
+    sp_strbuf_json_number(&b, c->sun_err);
+    sp_strbuf_printf(&b, ",\"sun_note\":");
+    sp_strbuf_json_string(&b, c->sun_note ? c->sun_note : "");
+    const char *keys[] = { "train_psnr", "heldout_psnr", "seconds" };
+    for (int i = 0; i < 3; i++) {
+        sp_strbuf_printf(&b, ",\"fit_%s\":", keys[i]);
+        sp_strbuf_json_number(&b, sp_json_number(sp_json_get(fit, keys[i]), NAN));
+    }
+    const scored *sets[2] = { &c->relight, &c->nvs };
+    const char *names[2] = { "relight", "nvs" };
+    for (int i = 0; i < 2; i++) {
+        sp_strbuf_printf(&b, ",\"%s\":{\"images\":%d,\"psnr\":", names[i], sets[i]->n);
+        sp_strbuf_json_number(&b, mean_of(sets[i], 0));
+        sp_strbuf_printf(&b, ",\"psnr_min\":");
+        sp_strbuf_json_number(&b, sets[i]->n ? sets[i]->psnr_min : (double)NAN);
+        sp_strbuf_printf(&b, ",\"ssim\":");
+        sp_strbuf_json_number(&b, mean_of(sets[i], 1));
+        sp_strbuf_printf(&b, ",\"mask_overlap\":");
+        sp_strbuf_json_number(&b, mean_of(sets[i], 2));
+        sp_strbuf_printf(&b, "}");
+    }
+    sp_strbuf_printf(&b, ",\"images\":[%s]}\n", c->images.data ? c->images.data : "");
+    int ret = b.failed ? -ENOMEM : sp_write_whole_file_atomic(c->a->json, b.data, b.len);
+    sp_strbuf_free(&b);
+    return ret;
+}
+
+static int parse_args(int argc, char **argv, eval_args *a)
+{
+    static const struct option opts[] = {
+        { "help", no_argument, NULL, 'h' },
+        { "json", required_argument, NULL, 'j' },
+        { "renders", required_argument, NULL, 'r' },
+        { 0 },
+    };
+    int c;
+    while ((c = getopt_long(argc, argv, "h", opts, NULL)) != -1) {
+        switch (c) {
+        case 'h': usage(stdout); return 1;
+        case 'j': a->json = optarg; break;
+        case 'r': a->renders = optarg; break;
+        default: usage(stderr); return -1;
+        }
+    }
+    if (optind != argc - 2) {
+        fprintf(stderr, "sunprobe evaluate: expected FACE_DIR and CAPTURE_DIR (see --help)\n");
+        return -1;
+    }
+    a->face = argv[optind];
+    a->capture = argv[optind + 1];
+    return 0;
+}
+
+static int run(eval_ctx *c)
+{
+    int ret = sp_face_dir_read(&c->asset, c->a->face);
+    if (ret) {
+        fprintf(stderr, "sunprobe evaluate: %s is not a readable face directory: %s\n", c->a->face, sp_strerror(ret));
+        return sp_exit_for_error(ret == -ENOENT ? SP_EFORMAT : ret);
+    }
+    if ((ret = load_json(c->a->face, "cameras.json", &c->cams)) || (ret = load_json(c->a->face, "manifest.json", &c->manifest)) ||
+        (ret = load_json(c->a->capture, "meta.json", &c->meta)))
+        return sp_exit_for_error(ret == -ENOENT ? SP_EFORMAT : ret);
+    if ((ret = register_fit(c)))
+        return sp_exit_for_error(ret);
+    /* the rendered face mask: the model's skin vertices, if the asset has the model's topology */
+    c->have_model = sp_face_model_load_default(&c->model) == 0;
+    if (c->have_model && c->model.mesh.n_vertices == c->asset.mesh.n_vertices && c->model.face_mask)
+        c->face_mask = c->model.face_mask;
+    else
+        fprintf(stderr, "sunprobe evaluate: the face model does not match the asset's mesh: the rendered mask is "
+                        "the whole mesh\n");
+    if (c->a->renders && (ret = sp_mkdir_p(c->a->renders, 0755)))
+        return sp_cmd_fail("evaluate", ret, c->a->renders);
+    sun_error(c);
+    if ((ret = score_set(c, "relight", &c->relight)) || (ret = score_set(c, "nvs", &c->nvs)))
+        return sp_cmd_fail("evaluate", ret, "scoring the held-out images");
+    const sp_json *fit = sp_json_get(c->manifest, "fit");
+    print_table(c, fit);
+    if (c->a->json && (ret = write_json(c, fit)))
+        return sp_cmd_fail("evaluate", ret, c->a->json);
+    return SP_EXIT_OK;
+}
+
+int sp_cmd_evaluate(int argc, char **argv)
+{
+    eval_args a = { 0 };
+    int p = parse_args(argc, argv, &a);
+    if (p)
+        return p > 0 ? SP_EXIT_OK : SP_EXIT_USAGE;
+    eval_ctx c = { .a = &a, .sun_err = NAN };
+    int code = run(&c);
+    sp_face_asset_free(&c.asset);
+    if (c.have_model)
+        sp_face_model_free(&c.model);
+    sp_json_free(c.meta);
+    sp_json_free(c.cams);
+    sp_json_free(c.manifest);
+    sp_strbuf_free(&c.images);
+    return code;
+}
