@@ -40,7 +40,8 @@ static void fit_usage(FILE *out)
                  "  --solver fast|adam     photometric solver (default fast)\n"
                  "  --keyframes N          training keyframes, one per camera-yaw bin (default 12)\n"
                  "  --heldout N            held-out keyframes (default 3)\n"
-                 "  --fit-width W          fitting resolution (default 128)\n"
+                 "  --fit-width W          fitting resolution: the face crop's side, or the frame's width\n"
+                 "  --face-crop            fit a square crop around the face instead of the whole frame\n"
                  "  --texture N            albedo/displacement rows (default 128)\n"
                  "  --iterations N         Adam steps (default 300)\n"
                  "  --time-budget S        stop the photometric stage after S seconds\n"
@@ -86,7 +87,7 @@ static int parse_fit(int argc, char **argv, fit_args *a)
         { "no-dlib", no_argument, NULL, 'n' },        { "dlib-model", required_argument, NULL, 'd' },
         { "report", required_argument, NULL, 'R' },   { "no-progress", no_argument, NULL, 'P' },
         { "face", required_argument, NULL, 'f' },     { "silhouette", required_argument, NULL, 'S' },
-        { "refine", required_argument, NULL, 'F' },
+        { "refine", required_argument, NULL, 'F' },   { "face-crop", no_argument, NULL, 'C' },
         { 0 },
     };
     int c, bad = 0;
@@ -106,6 +107,7 @@ static int parse_fit(int argc, char **argv, fit_args *a)
         case 'b': bad = parse_double(optarg, 0, 1e6, &a->set.time_budget_s); break;
         case 'r': bad = parse_double(optarg, 0, 360, &a->set.min_rotation_deg); break;
         case 'n': a->set.use_dlib = 0; break;
+        case 'C': a->set.face_crop = 1; break;
         case 'S': bad = parse_double(optarg, 0, 100, &a->set.silhouette_weight); break;
         case 'F': bad = parse_int(optarg, 0, 10000, &a->set.refine_steps); break;
         case 'd': a->set.dlib_model = optarg; break;

@@ -30,7 +30,9 @@ typedef struct sp_sunstage_settings {
     enum sp_sunstage_solver solver; /* default FAST */
     int keyframes;          /* training reservoir: one frame per camera-yaw bin (default 12, 2..64) */
     int heldout;            /* held-out reservoir bins (default 3, 0..16) */
-    int fit_width;          /* frames are box-downsampled to this width for fitting (default 128) */
+    int fit_width;          /* fit image width: the face crop's side, or the whole frame's width (default 128) */
+    int face_crop;          /* 1: fit a square crop around the face (1.8x the landmarks' extent), resampled to
+                               fit_width; 0: the whole frame box-downsampled to fit_width (default 0) */
     int texture_size;       /* albedo/displacement height; width doubles for two-tile UVs (default 128) */
     int adam_iterations;    /* Adam steps (default 300) */
     double time_budget_s;   /* stop the photometric stage after this wall time; 0 = none (default 0) */
@@ -93,6 +95,7 @@ typedef struct sp_sunstage_frame {
     double fx, fy, cx, cy;  /* fit-resolution pixels */
     int width, height;      /* fit resolution */
     double scale_to_capture; /* capture pixels per fit pixel */
+    double crop_x, crop_y;  /* capture pixel position of the fit image's top-left corner (0, 0 without a crop) */
     sp_quat camera_to_world;
     double rotvec[3], t[3]; /* face pose in the camera frame */
     const double *exp;      /* n_exp expression coefficients (owned by the fitter) */

@@ -101,6 +101,9 @@ static int write_cameras(const sp_sunstage *ss, const char *dir)
                          f.heldout ? "true" : "false", f.width, f.height);
         sp_strbuf_printf(&b, "\"capture_pixels_per_pixel\":");
         sp_strbuf_json_number(&b, f.scale_to_capture);
+        double crop[2] = { f.crop_x, f.crop_y };
+        sp_strbuf_printf(&b, ",\"crop_origin\":");
+        sp_strbuf_json_numbers(&b, crop, 2);
         sp_strbuf_printf(&b, ",\"intrinsics\":");
         sp_strbuf_json_numbers(&b, k, 4);
         sp_strbuf_printf(&b, ",\"camera_to_world_wxyz\":");

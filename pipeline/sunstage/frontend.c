@@ -36,8 +36,12 @@ static int setup_geometry(sp_sunstage *ss, uint32_t w, uint32_t h)
 {
     ss->fe.cap_w = (int)w;
     ss->fe.cap_h = (int)h;
-    ss->W = ss->set.fit_width < (int)w ? ss->set.fit_width : (int)w;
-    ss->H = (int)lround((double)h * ss->W / (double)w);
+    if (ss->set.face_crop) { /* square crops, resampled to fit_width whatever the capture size */
+        ss->W = ss->H = ss->set.fit_width;
+    } else {
+        ss->W = ss->set.fit_width < (int)w ? ss->set.fit_width : (int)w;
+        ss->H = (int)lround((double)h * ss->W / (double)w);
+    }
     if (ss->H < 16 || ss->W < 16)
         return SP_EUNSUPPORTED;
     double s = (double)ss->W / (double)w;
@@ -49,7 +53,9 @@ static int setup_geometry(sp_sunstage *ss, uint32_t w, uint32_t h)
     double fy = ss->meta.fy > 0.0 ? ss->meta.fy : f;
     double cx = isfinite(ss->meta.cx) ? ss->meta.cx : 0.5 * ((double)w - 1.0);
     double cy = isfinite(ss->meta.cy) ? ss->meta.cy : 0.5 * ((double)h - 1.0);
-    sp_face_camera_init(&ss->cam, f * s, fy * s, (cx + 0.5) * s - 0.5, (cy + 0.5) * s - 0.5);
+    ss->cap_fx = f, ss->cap_fy = fy, ss->cap_cx = cx, ss->cap_cy = cy;
+    ss->fe.win = (ss_window){ 0.0, 0.0, s };
+    ss_window_camera(ss, &ss->fe.win, &ss->cam);
     ss->fe.dw = (int)w < SS_DETECT_W ? (int)w : SS_DETECT_W;
     ss->fe.dh = (int)lround((double)h * ss->fe.dw / (double)w);
     ss->fe.rgb24 = malloc((size_t)w * h * 3);
@@ -120,12 +126,86 @@ static double frame_exposure(sp_sunstage *ss, const sp_frame *frame)
     return e / ss->fe.expo_ref;
 }
 
+void ss_window_camera(const sp_sunstage *ss, const ss_window *w, sp_face_camera *cam)
+{
+    sp_face_camera_init(cam, ss->cap_fx * w->s, ss->cap_fy * w->s, (ss->cap_cx + 0.5 - w->x0) * w->s - 0.5,
+                        (ss->cap_cy + 0.5 - w->y0) * w->s - 0.5);
+}
+
+#define CROP_MARGIN 1.8 /* crop side over the landmarks' extent: room for the scalp, ears and silhouette */
+
+void ss_window_around(const sp_sunstage *ss, const double *lm, ss_window *w)
+{
+    double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
+    for (int k = 0; k < 68; k++) {
+        x0 = fmin(x0, (double)lm[2 * k]);
+        x1 = fmax(x1, (double)lm[2 * k]);
+        y0 = fmin(y0, (double)lm[2 * k + 1]);
+        y1 = fmax(y1, (double)lm[2 * k + 1]);
+    }
+    double side = fmax(8.0, CROP_MARGIN * fmax(x1 - x0, y1 - y0));
+    /* the landmarks run from the brows to the chin: centre a little above them for the forehead */
+    double cx = 0.5 * (x0 + x1) + 0.5, cy = 0.5 * (y0 + y1) + 0.5 - 0.08 * side;
+    w->x0 = cx - 0.5 * side;
+    w->y0 = cy - 0.5 * side;
+    w->s = (double)ss->W / side;
+}
+
+/* Capture pixels (x, y) into the window's fit pixels. */
+static void window_landmarks(const ss_window *w, const double *src, double lm[136])
+{
+    for (int k = 0; k < 68; k++) {
+        lm[2 * k] = ((double)src[2 * k] + 0.5 - w->x0) * w->s - 0.5;
+        lm[2 * k + 1] = ((double)src[2 * k + 1] + 0.5 - w->y0) * w->s - 0.5;
+    }
+}
+
 /* Landmarks from the frame's side data, at fit resolution. */
 static void tag_landmarks(const sp_sunstage *ss, const sp_frame_tags *tags, double lm[136])
 {
-    double s = (double)ss->W / (double)ss->fe.cap_w;
+    double cap[136];
     for (int k = 0; k < 136; k++)
-        lm[k] = ((double)tags->landmarks[k] + 0.5) * s - 0.5;
+        cap[k] = (double)tags->landmarks[k];
+    window_landmarks(&ss->fe.win, cap, lm);
+}
+
+/*
+ * The window of the capture-size RGB24 frame into out (W x H floats): each fit
+ * pixel averages n x n bilinear taps over its footprint (n = capture pixels per
+ * fit pixel, at least 1). Outside the frame: white, which the face mask drops
+ * as saturated.
+ */
+static void resample_window(const uint8_t *src, int sw, int sh, const ss_window *w, int W, int H, float *out)
+{
+    int n = (int)ceil(1.0 / w->s - 1e-9);
+    n = n < 1 ? 1 : (n > 8 ? 8 : n);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            double acc[3] = { 0, 0, 0 };
+            for (int j = 0; j < n; j++)
+                for (int i = 0; i < n; i++) {
+                    double u = w->x0 + ((double)x + ((double)i + 0.5) / n) / w->s - 0.5;
+                    double v = w->y0 + ((double)y + ((double)j + 0.5) / n) / w->s - 0.5;
+                    if (u < -0.5 || v < -0.5 || u > sw - 0.5 || v > sh - 0.5) {
+                        for (int c = 0; c < 3; c++)
+                            acc[c] += 255.0;
+                        continue;
+                    }
+                    int u0 = (int)floor(u), v0 = (int)floor(v);
+                    double fu = u - u0, fv = v - v0;
+                    for (int q = 0; q < 4; q++) {
+                        int uu = u0 + (q & 1), vv = v0 + (q >> 1);
+                        uu = uu < 0 ? 0 : (uu >= sw ? sw - 1 : uu);
+                        vv = vv < 0 ? 0 : (vv >= sh ? sh - 1 : vv);
+                        double wt = ((q & 1) ? fu : 1.0 - fu) * ((q >> 1) ? fv : 1.0 - fv);
+                        const uint8_t *p = src + ((size_t)vv * (size_t)sw + (size_t)uu) * 3;
+                        for (int c = 0; c < 3; c++)
+                            acc[c] += wt * p[c];
+                    }
+                }
+            for (int c = 0; c < 3; c++)
+                out[((size_t)y * (size_t)W + (size_t)x) * 3 + (size_t)c] = (float)(acc[c] / (255.0 * n * n));
+        }
 }
 
 /* Dark, saturated or blurred: counted and 1 when the frame is skipped (the sharpness mean is updated). */
@@ -152,6 +232,45 @@ static int skip_by_quality(sp_sunstage *ss, const float *rgb, double *sharp)
 
 static int detect(sp_sunstage *ss, double lm[136]);
 
+/* Offers the frame in ss->fe.work_rgb and attaches its truth when it takes a slot. */
+static int offer(sp_sunstage *ss, const sp_frame *frame, int64_t t, const sp_frame_tags *tags, const double lm[136],
+                 double sharp, double expo)
+{
+    ss->counts.accepted++;
+    int slot = -1;
+    int ret = ss_reservoir_offer(ss, ss->fe.work_rgb, lm, sharp, expo, frame->sequence, t, tags->camera_to_world, 0,
+                                 &slot);
+    if (!ret && slot >= 0) {
+        ss->res.slots[slot].has_truth = tags->has_true_orientation;
+        ss->res.slots[slot].truth_q = tags->true_camera_to_world;
+    }
+    return ret;
+}
+
+/* Face-crop mode: landmarks first (they place the crop), then the crop's quality checks. */
+static int crop_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const sp_frame_tags *tags)
+{
+    if (tags->orientation != SP_ORIENTATION_OK) {
+        ss->counts.skipped_no_orientation++;
+        return 0;
+    }
+    double lmc[136];
+    for (int k = 0; tags->has_landmarks && k < 136; k++)
+        lmc[k] = (double)tags->landmarks[k];
+    if (!tags->has_landmarks && (!ss->set.use_dlib || detect(ss, lmc) != 0)) {
+        ss->counts.skipped_no_face++;
+        return 0;
+    }
+    ss_window_around(ss, lmc, &ss->fe.win);
+    resample_window(ss->fe.rgb24, ss->fe.cap_w, ss->fe.cap_h, &ss->fe.win, ss->W, ss->H, ss->fe.work_rgb);
+    double sharp;
+    if (skip_by_quality(ss, ss->fe.work_rgb, &sharp))
+        return 0;
+    double lm[136];
+    window_landmarks(&ss->fe.win, lmc, lm);
+    return offer(ss, frame, t, tags, lm, sharp, frame_exposure(ss, frame));
+}
+
 int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const sp_frame_tags *tags)
 {
     int ret;
@@ -165,6 +284,8 @@ int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const s
                                     (uint32_t)ss->fe.cap_w * 3);
     if (ret)
         return ret;
+    if (ss->set.face_crop)
+        return crop_frame(ss, frame, t, tags);
     downsample(ss->fe.rgb24, ss->fe.cap_w, ss->fe.cap_h, ss->W, ss->H, ss->fe.work_rgb, NULL);
     double sharp;
     if (skip_by_quality(ss, ss->fe.work_rgb, &sharp))
@@ -174,24 +295,19 @@ int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const s
         ss->counts.skipped_no_orientation++;
         return 0;
     }
-    double lm[136];
+    double lm[136], found[136];
     if (tags->has_landmarks) {
         tag_landmarks(ss, tags, lm);
-    } else if (!ss->set.use_dlib || detect(ss, lm) != 0) {
+    } else if (!ss->set.use_dlib || detect(ss, found) != 0) {
         ss->counts.skipped_no_face++;
         return 0;
+    } else {
+        window_landmarks(&ss->fe.win, found, lm);
     }
-    ss->counts.accepted++;
-    int slot = -1;
-    ret = ss_reservoir_offer(ss, ss->fe.work_rgb, lm, sharp, expo, frame->sequence, t, tags->camera_to_world, 0, &slot);
-    if (!ret && slot >= 0) { /* the frame took a slot: attach its truth */
-        ss->res.slots[slot].has_truth = tags->has_true_orientation;
-        ss->res.slots[slot].truth_q = tags->true_camera_to_world;
-    }
-    return ret;
+    return offer(ss, frame, t, tags, lm, sharp, expo);
 }
 
-/* dlib on a detector-size grey copy of the frame; 0 with landmarks at fit resolution, SP_ENODATA without a face. */
+/* dlib on a detector-size grey copy of the frame; 0 with landmarks in capture pixels, SP_ENODATA without a face. */
 static int detect(sp_sunstage *ss, double lm_out[136])
 {
 #if HAVE_DLIB
@@ -210,8 +326,8 @@ static int detect(sp_sunstage *ss, double lm_out[136])
     float lm[136];
     if (sp_dlib_landmarks(ss->fe.dlib, ss->fe.work_gray, ss->fe.dw, ss->fe.dh, lm))
         return SP_ENODATA;
-    double s = (double)ss->W / (double)ss->fe.dw;
-    for (int k = 0; k < 136; k++)
+    double s = (double)ss->fe.cap_w / (double)ss->fe.dw;
+    for (int k = 0; k < 136; k++) /* detector pixels to capture pixels */
         lm_out[k] = ((double)lm[k] + 0.5) * s - 0.5;
     return 0;
 #else

@@ -86,6 +86,9 @@ int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const double lm[136], 
     f->yaw = yaw;
     f->q_c2w = sp_quat_normalize(q);
     f->cam = ss->cam;
+    f->win = ss->fe.win;
+    if (ss->set.face_crop)
+        ss_window_camera(ss, &f->win, &f->cam);
     f->has_truth = 0;
     sp_quat_to_matrix(f->q_c2w, f->R_c2w);
     memcpy(f->rgb, rgb, (size_t)ss->W * (size_t)ss->H * 3 * sizeof(float));

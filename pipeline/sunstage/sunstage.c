@@ -41,6 +41,8 @@ static int check_settings(const sp_sunstage_settings *s)
         !(s->silhouette_weight >= 0.0 && s->silhouette_weight <= 100.0) || s->refine_steps < 0 ||
         s->refine_steps > 10000)
         return -EINVAL;
+    if (s->face_crop != 0 && s->face_crop != 1)
+        return -EINVAL;
     if (s->solver != SP_SUNSTAGE_SOLVER_FAST && s->solver != SP_SUNSTAGE_SOLVER_ADAM)
         return -EINVAL;
     return 0;
@@ -191,6 +193,8 @@ int sp_sunstage_add_keyframe(sp_sunstage *ss, const float *rgb, int width, int h
     ss->fe.cap_w = width;
     ss->fe.cap_h = height;
     sp_face_camera_init(&ss->cam, fx, fy, cx, cy);
+    ss->cap_fx = fx, ss->cap_fy = fy, ss->cap_cx = cx, ss->cap_cy = cy;
+    ss->fe.win = (ss_window){ 0.0, 0.0, 1.0 }; /* the image is the fit image */
     return ss_reservoir_offer(ss, rgb, landmarks, 1.0, 1.0, ss->counts.accepted++, 0, camera_to_world, heldout ? 2 : 3,
                               NULL);
 }
@@ -322,7 +326,9 @@ int sp_sunstage_get_frame(const sp_sunstage *ss, int i, sp_sunstage_frame *out)
     out->cy = f->cam.cy;
     out->width = ss->W;
     out->height = ss->H;
-    out->scale_to_capture = ss->W > 0 ? (double)ss->fe.cap_w / ss->W : 1.0;
+    out->scale_to_capture = f->win.s > 0.0 ? 1.0 / f->win.s : 1.0;
+    out->crop_x = f->win.x0;
+    out->crop_y = f->win.y0;
     out->camera_to_world = f->q_c2w;
     memcpy(out->rotvec, f->rotvec, sizeof(out->rotvec));
     memcpy(out->t, f->t_face, sizeof(out->t));

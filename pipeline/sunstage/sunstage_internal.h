@@ -13,6 +13,12 @@
 #define SS_DETECT_W 480 /* grey copy kept for the landmark detector, at most this wide */
 #define SS_ENV_BASIS 9 /* non-negative environment lobes used by the fast solver */
 
+/* Where a fit image lies in its capture frame: fit pixel = (capture pixel + 0.5 - x0) * s - 0.5. */
+typedef struct ss_window {
+    double x0, y0; /* capture position of the fit image's top-left corner */
+    double s;      /* fit pixels per capture pixel */
+} ss_window;
+
 /* One reservoir slot: a fit-resolution frame and its per-frame parameters. */
 typedef struct ss_frame {
     int used, heldout;
@@ -24,6 +30,7 @@ typedef struct ss_frame {
     float *rgb;         /* W * H * 3 display values */
     double lm[136];     /* landmarks at fit resolution */
     sp_face_camera cam; /* the frame's intrinsics at fit resolution (identity pose) */
+    ss_window win;      /* where the fit image lies in the capture frame */
     double R_c2w[9];    /* camera to world */
     sp_quat q_c2w;
     int has_truth;      /* true orientation side data (synthetic captures) */
@@ -45,6 +52,7 @@ typedef struct ss_frontend {
     double sharp_mean;          /* running mean of the sharpness (blur check) */
     uint64_t sharp_n;
     double expo_ref;            /* exposure_us x gain of the first frame, 0 when unknown */
+    ss_window win;              /* the current frame's window (whole frame, or its face crop) */
 } ss_frontend;
 
 /* The keyframe reservoir (reservoir.c): `keyframes` yaw bins, then the held-out bins. */
@@ -76,7 +84,9 @@ struct sp_sunstage {
     const sp_face_model *model;
     sp_capture_meta meta;       /* as the last META event left it (the source merges) */
     int W, H;                   /* fit resolution */
-    sp_face_camera cam;         /* the capture's intrinsics at fit resolution; every keyframe gets a copy */
+    sp_face_camera cam;         /* the capture's intrinsics at fit resolution (whole-frame mode); every keyframe gets
+                                   a copy, moved to its window in face-crop mode */
+    double cap_fx, cap_fy, cap_cx, cap_cy; /* the capture's intrinsics in capture pixels */
     ss_frontend fe;
     ss_reservoir res;
     sp_sunstage_counts counts;
@@ -100,6 +110,10 @@ void ss_reservoir_free(sp_sunstage *ss);
  */
 int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const double lm[136], double score, double expo,
                        uint64_t seq, int64_t t, sp_quat q, int heldout_hint, int *slot_out);
+/* The fit camera of a window: the capture's intrinsics moved and scaled into it. */
+void ss_window_camera(const sp_sunstage *ss, const ss_window *w, sp_face_camera *cam);
+/* The face-crop window around 68 landmarks in capture pixels (W x W fit pixels). */
+void ss_window_around(const sp_sunstage *ss, const double *lm_capture, ss_window *w);
 /* Fitted frames in slot order: fills idx with the used training (heldout = 0) or held-out slots. */
 int ss_list_frames(const sp_sunstage *ss, int heldout, int *idx, int cap);
 /* The i-th used slot, training and held-out alike; NULL past the end. */

@@ -16,7 +16,10 @@ int sp_sunstage_render_view(sp_sunstage *ss, const sp_sunstage_view *v, float *r
 {
     if (!ss || !v || !v->landmarks || !rgb || !ss->res.slots || !(v->fx > 0.0) || !(v->fy > 0.0))
         return -EINVAL;
-    double k = (double)ss->W / (double)ss->fe.cap_w;
+    /* the view's window: its face crop (face-crop mode) or the whole frame, like the keyframes' */
+    ss_window win = { 0.0, 0.0, (double)ss->W / (double)ss->fe.cap_w };
+    if (ss->set.face_crop)
+        ss_window_around(ss, v->landmarks, &win);
     ss_frame f;
     memset(&f, 0, sizeof(f));
     double *exp = calloc(ss->model->n_exp + 1, sizeof(double));
@@ -26,10 +29,13 @@ int sp_sunstage_render_view(sp_sunstage *ss, const sp_sunstage_view *v, float *r
     f.expo = v->exposure > 0.0 ? v->exposure : 1.0;
     f.q_c2w = sp_quat_normalize(v->camera_to_world);
     sp_quat_to_matrix(f.q_c2w, f.R_c2w);
-    for (int i = 0; i < 136; i++)
-        f.lm[i] = (v->landmarks[i] + 0.5) * k - 0.5;
-    /* the view's own intrinsics, at fit resolution, drive its alignment and rendering */
-    sp_face_camera_init(&f.cam, v->fx * k, v->fy * k, (v->cx + 0.5) * k - 0.5, (v->cy + 0.5) * k - 0.5);
+    for (int i = 0; i < 68; i++) {
+        f.lm[2 * i] = (v->landmarks[2 * i] + 0.5 - win.x0) * win.s - 0.5;
+        f.lm[2 * i + 1] = (v->landmarks[2 * i + 1] + 0.5 - win.y0) * win.s - 0.5;
+    }
+    /* the view's own intrinsics, in its window, drive its alignment and rendering */
+    sp_face_camera_init(&f.cam, v->fx * win.s, v->fy * win.s, (v->cx + 0.5 - win.x0) * win.s - 0.5,
+                        (v->cy + 0.5 - win.y0) * win.s - 0.5);
     ss_scene sc;
     int ret = ss_align_one(ss, &f, 20) < 0 ? -EINVAL : ss_scene_open(&sc, ss);
     if (!ret) {

@@ -277,6 +277,47 @@ static void test_bad_args(const sp_face_model *m)
     sp_sunstage_close(NULL);
 }
 
+/* Face-crop windows: the crop camera projects a point where the window maps its capture projection. */
+static void test_crop_window(const sp_face_model *m)
+{
+    sp_sunstage_settings set;
+    sp_sunstage_default_settings(&set);
+    set.face_crop = 1;
+    set.fit_width = 256;
+    sp_sunstage *ss = NULL;
+    CHECK(sp_sunstage_open(&ss, &set, m) == 0);
+    if (!ss)
+        return;
+#undef W
+#undef H
+    ss->W = ss->H = 256;
+#define W 96
+#define H 80
+    ss->cap_fx = 370.0, ss->cap_fy = 372.0, ss->cap_cx = 239.5, ss->cap_cy = 179.5;
+    double lm[136];
+    for (int k = 0; k < 68; k++) { /* a 60 x 80 px face near the right edge */
+        lm[2 * k] = 400.0 + 60.0 * (k % 9) / 8.0;
+        lm[2 * k + 1] = 150.0 + 80.0 * (k / 9) / 7.0;
+    }
+    ss_window w;
+    ss_window_around(ss, lm, &w);
+    CHECK_NEAR(w.s, 256.0 / (1.8 * 80.0), 1e-12); /* the side follows the larger extent */
+    sp_face_camera cam;
+    ss_window_camera(ss, &w, &cam);
+    const double X[3] = { 0.05, -0.02, 0.6 };
+    double u = ss->cap_fx * X[0] / X[2] + ss->cap_cx, v = ss->cap_fy * X[1] / X[2] + ss->cap_cy;
+    double uf = cam.fx * X[0] / X[2] + cam.cx, vf = cam.fy * X[1] / X[2] + cam.cy;
+    CHECK_NEAR(uf, (u + 0.5 - w.x0) * w.s - 0.5, 1e-9);
+    CHECK_NEAR(vf, (v + 0.5 - w.y0) * w.s - 0.5, 1e-9);
+    /* the landmarks' centre column maps to the crop's centre; the crop reaches past the 480 px frame */
+    CHECK_NEAR((430.0 + 0.5 - w.x0) * w.s - 0.5, 127.5, 1e-9);
+    CHECK(w.x0 + 256.0 / w.s > 480.0);
+    set.face_crop = 2;
+    sp_sunstage *bad = NULL;
+    CHECK(sp_sunstage_open(&bad, &set, m) == -EINVAL && bad == NULL);
+    sp_sunstage_close(&ss);
+}
+
 int main(int argc, char **argv)
 {
     sp_log_set_level(getenv("SP_LOG") ? SP_LOG_INFO : SP_LOG_WARN);
@@ -285,6 +326,7 @@ int main(int argc, char **argv)
     sp_face_model m;
     CHECK(sp_face_model_generic(&m) == 0);
     test_bad_args(&m);
+    test_crop_window(&m);
     test_end_to_end(&m, SP_SUNSTAGE_SOLVER_FAST);
     if (argc < 2 || strcmp(argv[1], "--fast-only"))
         test_end_to_end(&m, SP_SUNSTAGE_SOLVER_ADAM);
