@@ -30,33 +30,32 @@ double sp_psnr_masked(const float *a, const float *b, const uint8_t *mask, int w
     return -10.0 * log10(se / (double)n);
 }
 
-/* Separable Gaussian blur of one plane, clamping at the borders (normalised by the weights inside). */
+/*
+ * One 1-D Gaussian pass over `lines` lines of `len` samples: sample i of line l at
+ * l * line_step + i * step. Borders are clamped (normalised by the weights inside).
+ */
+static void blur_pass(const double *src, double *dst, int lines, int len, size_t line_step, size_t step,
+                      const double *k)
+{
+    for (int l = 0; l < lines; l++)
+        for (int i = 0; i < len; i++) {
+            double s = 0.0, ws = 0.0;
+            for (int d = -SSIM_RADIUS; d <= SSIM_RADIUS; d++) {
+                int j = i + d;
+                if (j < 0 || j >= len)
+                    continue;
+                s += k[d + SSIM_RADIUS] * src[(size_t)l * line_step + (size_t)j * step];
+                ws += k[d + SSIM_RADIUS];
+            }
+            dst[(size_t)l * line_step + (size_t)i * step] = s / ws;
+        }
+}
+
+/* Separable Gaussian blur of one plane: rows, then columns. */
 static void blur(const double *src, double *tmp, double *dst, int w, int h, const double *k)
 {
-    for (int y = 0; y < h; y++)
-        for (int x = 0; x < w; x++) {
-            double s = 0.0, ws = 0.0;
-            for (int d = -SSIM_RADIUS; d <= SSIM_RADIUS; d++) {
-                int xx = x + d;
-                if (xx < 0 || xx >= w)
-                    continue;
-                s += k[d + SSIM_RADIUS] * src[(size_t)y * (size_t)w + (size_t)xx];
-                ws += k[d + SSIM_RADIUS];
-            }
-            tmp[(size_t)y * (size_t)w + (size_t)x] = s / ws;
-        }
-    for (int y = 0; y < h; y++)
-        for (int x = 0; x < w; x++) {
-            double s = 0.0, ws = 0.0;
-            for (int d = -SSIM_RADIUS; d <= SSIM_RADIUS; d++) {
-                int yy = y + d;
-                if (yy < 0 || yy >= h)
-                    continue;
-                s += k[d + SSIM_RADIUS] * tmp[(size_t)yy * (size_t)w + (size_t)x];
-                ws += k[d + SSIM_RADIUS];
-            }
-            dst[(size_t)y * (size_t)w + (size_t)x] = s / ws;
-        }
+    blur_pass(src, tmp, h, w, (size_t)w, 1, k);
+    blur_pass(tmp, dst, w, h, 1, (size_t)w, k);
 }
 
 double sp_ssim_masked(const float *a, const float *b, const uint8_t *mask, int width, int height)

@@ -11,6 +11,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pipeline/render/envlight.h"
+
 void sp_face_view_init(sp_face_view *v, const sp_face_asset *a)
 {
     if (!v)
@@ -64,9 +66,8 @@ static void env_rotate(const float *env, const double R[9], float *world)
 {
     for (int row = 0; row < SP_RENDER_ENV_H; row++)
         for (int col = 0; col < SP_RENDER_ENV_W; col++) {
-            double th = ((double)row + 0.5) * M_PI / SP_RENDER_ENV_H;
-            double ph = ((double)col + 0.5) * 2.0 * M_PI / SP_RENDER_ENV_W;
-            double d[3] = { sin(th) * cos(ph), sin(th) * sin(ph), cos(th) }, e[3];
+            double d[3], e[3];
+            env_texel_dir(row, col, d); /* the renderer's own texel directions */
             for (int i = 0; i < 3; i++)
                 e[i] = R[i] * d[0] + R[3 + i] * d[1] + R[6 + i] * d[2];
             env_lookup(env, e, world + ((size_t)row * SP_RENDER_ENV_W + (size_t)col) * 3);
