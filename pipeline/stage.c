@@ -13,6 +13,7 @@ static const sp_stage_ops *const registry[] = {
     &sp_stage_null,
     &sp_stage_stats,
     &sp_stage_orientation,
+    &sp_stage_landmarks,
     NULL,
 };
 

@@ -10,7 +10,7 @@
 #include "sunprobe/sp_probe.h"
 #include "sunprobe/sp_sunstage.h"
 
-/* Settings of the replay stages (null, stats, orientation). */
+/* Settings of the replay stages (null, stats, orientation, landmarks). */
 typedef struct sp_stage_options {
     const char *output_path; /* stage-specific output file (CSV), may be NULL */
 } sp_stage_options;
@@ -18,6 +18,7 @@ typedef struct sp_stage_options {
 extern const sp_stage_ops sp_stage_null;
 extern const sp_stage_ops sp_stage_stats;
 extern const sp_stage_ops sp_stage_orientation; /* tagged: writes the tagger's orientation per frame */
+extern const sp_stage_ops sp_stage_landmarks;   /* the landmark tracker on every frame */
 
 /* "fit": the SunStage front end (tagged frames into the keyframe reservoir); ctx is the sp_sunstage. */
 typedef struct sp_fit_stage_settings {

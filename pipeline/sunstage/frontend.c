@@ -14,22 +14,10 @@
 #include <string.h>
 
 #include "common/pixconv.h"
-#include "pipeline/sunstage/dlib_shim.h"
-#include "sp_config.h"
+#include "pipeline/sunstage/landmarks.h"
 #include "sunprobe/sp_capture.h"
 
 #define MOD "sunstage"
-#define DEFAULT_DLIB_MODEL "/usr/share/dlib/shape_predictor_68_face_landmarks.dat"
-
-void ss_dlib_close_ctx(void *ctx);
-void ss_dlib_close_ctx(void *ctx)
-{
-#if HAVE_DLIB
-    sp_dlib_close(ctx);
-#else
-    (void)ctx;
-#endif
-}
 
 /* Fixes the fit resolution and intrinsics from the first frame and the metadata. */
 static int setup_geometry(sp_sunstage *ss, uint32_t w, uint32_t h)
@@ -56,20 +44,17 @@ static int setup_geometry(sp_sunstage *ss, uint32_t w, uint32_t h)
     ss->cap_fx = f, ss->cap_fy = fy, ss->cap_cx = cx, ss->cap_cy = cy;
     ss->fe.win = (ss_window){ 0.0, 0.0, s };
     ss_window_camera(ss, &ss->fe.win, &ss->cam);
-    ss->fe.dw = (int)w < SS_DETECT_W ? (int)w : SS_DETECT_W;
-    ss->fe.dh = (int)lround((double)h * ss->fe.dw / (double)w);
     ss->fe.rgb24 = malloc((size_t)w * h * 3);
     if (!ss->fe.rgb24)
         return -ENOMEM;
     ss->fe.work_rgb = malloc((size_t)ss->W * (size_t)ss->H * 3 * sizeof(float));
-    ss->fe.work_gray = malloc((size_t)ss->fe.dw * (size_t)ss->fe.dh);
-    if (!ss->fe.work_rgb || !ss->fe.work_gray)
+    if (!ss->fe.work_rgb)
         return -ENOMEM;
     return ss_reservoir_alloc(ss);
 }
 
-/* Box filter from the capture-size RGB24 buffer to dst (dw x dh x ch, floats or gray bytes). */
-static void downsample(const uint8_t *src, int sw, int sh, int dw, int dh, float *rgb, uint8_t *gray)
+/* Box filter from the capture-size RGB24 buffer to dst (dw x dh RGB floats). */
+static void downsample(const uint8_t *src, int sw, int sh, int dw, int dh, float *rgb)
 {
     for (int y = 0; y < dh; y++) {
         int y0 = y * sh / dh, y1 = (y + 1) * sh / dh;
@@ -86,11 +71,8 @@ static void downsample(const uint8_t *src, int sw, int sh, int dw, int dh, float
                         acc[c] += src[((size_t)yy * (size_t)sw + (size_t)xx) * 3 + (size_t)c];
             double n = (double)((y1 - y0) * (x1 - x0)) * 255.0;
             size_t o = (size_t)y * (size_t)dw + (size_t)x;
-            if (rgb)
-                for (int c = 0; c < 3; c++)
-                    rgb[o * 3 + (size_t)c] = (float)(acc[c] / n);
-            if (gray)
-                gray[o] = (uint8_t)lround(255.0 * (0.299 * acc[0] + 0.587 * acc[1] + 0.114 * acc[2]) / n);
+            for (int c = 0; c < 3; c++)
+                rgb[o * 3 + (size_t)c] = (float)(acc[c] / n);
         }
     }
 }
@@ -286,7 +268,7 @@ int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const s
         return ret;
     if (ss->set.face_crop)
         return crop_frame(ss, frame, t, tags);
-    downsample(ss->fe.rgb24, ss->fe.cap_w, ss->fe.cap_h, ss->W, ss->H, ss->fe.work_rgb, NULL);
+    downsample(ss->fe.rgb24, ss->fe.cap_w, ss->fe.cap_h, ss->W, ss->H, ss->fe.work_rgb);
     double sharp;
     if (skip_by_quality(ss, ss->fe.work_rgb, &sharp))
         return 0;
@@ -307,35 +289,26 @@ int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const s
     return offer(ss, frame, t, tags, lm, sharp, expo);
 }
 
-/* dlib on a detector-size grey copy of the frame; 0 with landmarks in capture pixels, SP_ENODATA without a face. */
+/* The landmark tracker on the capture-size frame; 0 with landmarks in capture pixels, SP_ENODATA without a face. */
 static int detect(sp_sunstage *ss, double lm_out[136])
 {
-#if HAVE_DLIB
-    if (!ss->fe.dlib && !ss->fe.dlib_failed) {
-        const char *path = ss->set.dlib_model ? ss->set.dlib_model : DEFAULT_DLIB_MODEL;
-        if (sp_dlib_open(&ss->fe.dlib, path)) {
-            sp_log(SP_LOG_ERROR, MOD,
-                   "cannot load the dlib landmark model %s (Debian package libdlib-data); frames without "
-                   "landmark side data are skipped", path);
-            ss->fe.dlib_failed = 1;
+    if (!ss->fe.landmarks && !ss->fe.landmarks_failed) {
+        ss_lm_settings ls;
+        ss_lm_default_settings(&ls);
+        ls.model_path = ss->set.dlib_model;
+        if (ss_lm_tracker_open(&ss->fe.landmarks, &ls)) { /* the tracker logged why */
+            sp_log(SP_LOG_ERROR, MOD, "frames without landmark side data are skipped");
+            ss->fe.landmarks_failed = 1;
         }
     }
-    if (!ss->fe.dlib)
+    if (!ss->fe.landmarks)
         return SP_ENODATA;
-    downsample(ss->fe.rgb24, ss->fe.cap_w, ss->fe.cap_h, ss->fe.dw, ss->fe.dh, NULL, ss->fe.work_gray);
-    float lm[136];
-    if (sp_dlib_landmarks(ss->fe.dlib, ss->fe.work_gray, ss->fe.dw, ss->fe.dh, lm))
+    ss_lm_result r;
+    int ret = ss_lm_tracker_frame(ss->fe.landmarks, ss->fe.rgb24, ss->fe.cap_w, ss->fe.cap_h, &r);
+    if (ret)
+        return ret;
+    if (r.source == SS_LM_NONE)
         return SP_ENODATA;
-    double s = (double)ss->fe.cap_w / (double)ss->fe.dw;
-    for (int k = 0; k < 136; k++) /* detector pixels to capture pixels */
-        lm_out[k] = ((double)lm[k] + 0.5) * s - 0.5;
+    memcpy(lm_out, r.lm, sizeof(r.lm));
     return 0;
-#else
-    (void)lm_out;
-    if (!ss->fe.dlib_failed)
-        sp_log(SP_LOG_ERROR, MOD,
-               "a frame has no landmark side data and this build has no dlib (meson option -Ddlib=enabled)");
-    ss->fe.dlib_failed = 1;
-    return SP_EDISABLED;
-#endif
 }

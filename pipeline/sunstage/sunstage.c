@@ -11,6 +11,8 @@
 #include "common/clock.h"
 #include "pipeline/sunstage/sunstage_internal.h"
 
+#include "pipeline/sunstage/landmarks.h"
+
 #define MOD "sunstage"
 
 void sp_sunstage_default_settings(sp_sunstage_settings *s)
@@ -96,17 +98,15 @@ int sp_sunstage_open(sp_sunstage **out, const sp_sunstage_settings *s, const sp_
     return 0;
 }
 
-void ss_dlib_close_ctx(void *ctx);
 
 void sp_sunstage_close(sp_sunstage **pss)
 {
     if (!pss || !*pss)
         return;
     sp_sunstage *ss = *pss;
-    ss_dlib_close_ctx(ss->fe.dlib);
+    ss_lm_tracker_close(&ss->fe.landmarks);
     free(ss->fe.rgb24);
     free(ss->fe.work_rgb);
-    free(ss->fe.work_gray);
     ss_reservoir_free(ss);
     free(ss->fit.id);
     free(ss->fit.albedo);

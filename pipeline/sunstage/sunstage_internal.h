@@ -10,7 +10,6 @@
 #include "sunprobe/sp_render.h"
 #include "sunprobe/sp_sunstage.h"
 
-#define SS_DETECT_W 480 /* grey copy kept for the landmark detector, at most this wide */
 #define SS_ENV_BASIS 9 /* non-negative environment lobes used by the fast solver */
 
 /* Where a fit image lies in its capture frame: fit pixel = (capture pixel + 0.5 - x0) * s - 0.5. */
@@ -43,12 +42,11 @@ typedef struct ss_frame {
 
 /* The front end's per-stream state (frontend.c). */
 typedef struct ss_frontend {
-    void *dlib;                 /* dlib shim context, NULL when unused */
-    int dlib_failed;
-    int cap_w, cap_h, dw, dh;   /* capture size; detector copy size */
+    struct ss_lm_tracker *landmarks; /* landmark tracker (landmarks.h), opened at the first frame that needs it */
+    int landmarks_failed;
+    int cap_w, cap_h;           /* capture size */
     uint8_t *rgb24;             /* capture-size conversion buffer */
     float *work_rgb;            /* W * H * 3: the frame at fit resolution */
-    uint8_t *work_gray;         /* dw * dh: grey copy for the landmark detector */
     double sharp_mean;          /* running mean of the sharpness (blur check) */
     uint64_t sharp_n;
     double expo_ref;            /* exposure_us x gain of the first frame, 0 when unknown */

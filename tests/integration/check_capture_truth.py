@@ -5,11 +5,14 @@
 usage: check_capture_truth.py fit FACE_DIR META_JSON [limits]     a fit's keyframe cameras and its sun
        check_capture_truth.py orientation CSV META_JSON [limits]  `sunprobe replay --stage orientation -o CSV`
        check_capture_truth.py to-camera META_JSON                 prints imu.to_camera (w,x,y,z) from R_dev_from_cam
-limits: --max-camera-deg D --max-up-deg D --max-sun-deg D
+       check_capture_truth.py landmarks CSV LANDMARKS_CSV [limits] `sunprobe replay --stage landmarks -o CSV` against
+                                                                  gt/landmarks.csv (visible points only)
+limits: --max-camera-deg D --max-up-deg D --max-sun-deg D --min-coverage F --max-landmark-error F
 Frames are matched by sequence = the capture's frame index. The fit's world has an arbitrary heading; it
 is mapped onto the truth's world by the rotation that best aligns the cameras (a sign-consistent
-quaternion mean). The camera tilt (its up axis against the world's up) needs no alignment. Prints the
-figures; exits 1 when a limit is exceeded.
+quaternion mean). The camera tilt (its up axis against the world's up) needs no alignment. Landmark errors
+are over the true inter-ocular distance (outer eye corners, points 36 and 45); coverage counts frames with
+a visible face that got landmarks. Prints the figures; exits 1 when a limit is exceeded.
 """
 import argparse, csv, json, math, sys
 
@@ -64,14 +67,41 @@ def score_cameras(label, pairs, a):
           f"{max(errs):.2f} deg; tilt error mean {sum(ups) / len(ups):.2f} max {max(ups):.2f} deg")
     return align, max(errs) > a.max_camera_deg or max(ups) > a.max_up_deg
 
+def score_landmarks(a):
+    truth = {}
+    for r in csv.DictReader(open(a.paths[1])):
+        truth.setdefault(int(r["frame"]), {})[int(r["landmark"])] = (float(r["u"]), float(r["v"]), r["visible"] == "1")
+    found = {int(r["sequence"]): r for r in csv.DictReader(open(a.paths[0])) if r["source"] != "none"}
+    faces = [f for f, pts in truth.items() if sum(v for _, _, v in pts.values()) >= 17]  # a quarter of the points seen
+    errs = []
+    for f in faces:
+        if f not in found:
+            continue
+        pts = truth[f]
+        iod = math.hypot(pts[45][0] - pts[36][0], pts[45][1] - pts[36][1])
+        e = [math.hypot(float(found[f][f"x{k}"]) - u, float(found[f][f"y{k}"]) - v) for k, (u, v, vis) in pts.items() if vis]
+        errs.append(sum(e) / len(e) / iod)
+    cov = len(errs) / len(faces) if faces else 0.0
+    errs.sort()
+    mean = sum(errs) / len(errs) if errs else math.inf
+    worst = errs[-1] if errs else math.inf
+    p90 = errs[int(0.9 * (len(errs) - 1))] if errs else math.inf
+    print(f"landmarks: {len(errs)} of {len(faces)} frames with a visible face ({100 * cov:.1f}%); error over the "
+          f"inter-ocular distance mean {100 * mean:.2f}%, 90th percentile {100 * p90:.2f}%, max {100 * worst:.2f}%")
+    return 1 if cov < a.min_coverage or mean > a.max_landmark_error else 0
+
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("mode", choices=["fit", "orientation", "to-camera"])
+    ap.add_argument("mode", choices=["fit", "orientation", "to-camera", "landmarks"])
     ap.add_argument("paths", nargs="+")
     ap.add_argument("--max-camera-deg", type=float, default=math.inf)
     ap.add_argument("--max-up-deg", type=float, default=math.inf)
     ap.add_argument("--max-sun-deg", type=float, default=math.inf)
+    ap.add_argument("--min-coverage", type=float, default=0.0)
+    ap.add_argument("--max-landmark-error", type=float, default=math.inf)
     a = ap.parse_args()
+    if a.mode == "landmarks":
+        return score_landmarks(a)
     meta = json.load(open(a.paths[-1]))
     if a.mode == "to-camera":  # camera = R_dev_from_cam^T device: the rotation taking IMU axes to camera axes
         print(",".join(f"{v:.12g}" for v in m_to_q(tr(meta["R_dev_from_cam"]))))
