@@ -125,8 +125,10 @@ int sp_sunstage_push(sp_sunstage *ss, const sp_event *ev)
         if (ev->meta)
             ss->meta = *ev->meta;
         return 0;
-    case SP_EVENT_IMU:
-        ss->counts.imu_samples++; /* orientation comes with the frames; counted to explain a fit without it */
+    case SP_EVENT_IMU: /* orientation comes with the frames; counted to explain a fit without it */
+        if (!ss->counts.imu_samples++)
+            ss->fe.imu_t[0] = ev->timestamp_ns;
+        ss->fe.imu_t[1] = ev->timestamp_ns;
         return 0;
     case SP_EVENT_SIDE:
         return 0; /* what the fit uses comes attached to the frames */
@@ -138,7 +140,9 @@ int sp_sunstage_push(sp_sunstage *ss, const sp_event *ev)
                    "(sp_tagger.h)", (unsigned long long)ev->frame->sequence);
             return -EINVAL;
         }
-        ss->counts.frames++;
+        if (!ss->counts.frames++)
+            ss->fe.frame_t[0] = ev->timestamp_ns;
+        ss->fe.frame_t[1] = ev->timestamp_ns;
         ss->counts.thinned_early = ev->tags->thinned;
         return ss_frontend_frame(ss, ev->frame, ev->timestamp_ns, ev->tags);
     }
@@ -222,6 +226,54 @@ static int solve_fast(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
     return 0;
 }
 
+#define MIN_FACE_FRAMES 5 /* the face from several sides: fewer cannot separate shape, albedo and light */
+
+/* Whether the stream can be fitted; when not, logs what is missing, most telling reason first. */
+static int fittable(const sp_sunstage *ss, int n_keyframes)
+{
+    sp_sunstage_counts c;
+    sp_sunstage_get_counts(ss, &c);
+    unsigned long long frames = c.frames, most = c.frames - c.frames / 10; /* 90 %: "all but a few" */
+    if (!frames) { /* keyframes given directly (sp_sunstage_add_keyframe), not streamed */
+        if (n_keyframes >= 2)
+            return 1;
+        sp_log(SP_LOG_ERROR, MOD, "%d keyframe(s) and no frames streamed: nothing to fit", n_keyframes);
+        return 0;
+    }
+    if (!c.imu_samples) {
+        sp_log(SP_LOG_ERROR, MOD, "the capture has no IMU samples: SunStage needs the camera orientation per frame");
+        return 0;
+    }
+    if (c.accepted >= MIN_FACE_FRAMES && n_keyframes >= 2)
+        return 1;
+    const int64_t *ft = ss->fe.frame_t, *it = ss->fe.imu_t;
+    if (c.skipped_no_orientation >= most && (it[1] < ft[0] || it[0] > ft[1]))
+        sp_log(SP_LOG_ERROR, MOD,
+               "the IMU samples (%.3f to %.3f s) and the frames (%.3f to %.3f s) never overlap in time: no frame has "
+               "a camera orientation (import --imu-offset shifts the IMU clock)",
+               (double)it[0] * 1e-9, (double)it[1] * 1e-9, (double)ft[0] * 1e-9, (double)ft[1] * 1e-9);
+    else if (c.skipped_no_orientation >= most)
+        sp_log(SP_LOG_ERROR, MOD, "%llu of %llu frames have no camera orientation (IMU gaps or a filter that never "
+               "settled): nothing to fit", (unsigned long long)c.skipped_no_orientation, frames);
+    else if (c.skipped_dark >= most)
+        sp_log(SP_LOG_ERROR, MOD, "%llu of %llu frames are too dark to fit (mean below 3%% of white): backlit to "
+               "black, the lens covered, or the exposure far too short", (unsigned long long)c.skipped_dark, frames);
+    else if (c.skipped_saturated >= most)
+        sp_log(SP_LOG_ERROR, MOD, "%llu of %llu frames are over-exposed (a quarter of the pixels saturated)",
+               (unsigned long long)c.skipped_saturated, frames);
+    else if (c.accepted < MIN_FACE_FRAMES)
+        sp_log(SP_LOG_ERROR, MOD,
+               "a face was found in %llu of %llu frames, need at least %d seen from different sides (skipped: dark "
+               "%llu, saturated %llu, blurred %llu, no face %llu, no orientation %llu)",
+               (unsigned long long)c.accepted, frames, MIN_FACE_FRAMES, (unsigned long long)c.skipped_dark,
+               (unsigned long long)c.skipped_saturated, (unsigned long long)c.skipped_blurred,
+               (unsigned long long)c.skipped_no_face, (unsigned long long)c.skipped_no_orientation);
+    else
+        sp_log(SP_LOG_ERROR, MOD, "%d usable keyframe(s), need at least 2: the %llu frames with a face are all "
+               "from one direction", n_keyframes, (unsigned long long)c.accepted);
+    return 0;
+}
+
 /* The fast solver's overcast decision, then the Adam reference solver. */
 static int solve_adam(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
 {
@@ -236,21 +288,8 @@ int sp_sunstage_fit(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
     ss->fit.t0 = sp_clock_monotonic_ns();
     int idx[64];
     int n = ss_list_frames(ss, 0, idx, 64);
-    if (ss->counts.frames > 0 && ss->counts.imu_samples == 0) {
-        sp_log(SP_LOG_ERROR, MOD, "the capture has no IMU samples: SunStage needs the camera orientation per frame");
+    if (!fittable(ss, n))
         return SP_ENODATA;
-    }
-    if (n < 2) {
-        sp_sunstage_counts c;
-        sp_sunstage_get_counts(ss, &c);
-        sp_log(SP_LOG_ERROR, MOD,
-               "%d usable keyframe(s), need at least 2 (frames %llu: dark %llu, saturated %llu, blurred %llu, "
-               "no face %llu, no orientation %llu)",
-               n, (unsigned long long)c.frames, (unsigned long long)c.skipped_dark,
-               (unsigned long long)c.skipped_saturated, (unsigned long long)c.skipped_blurred,
-               (unsigned long long)c.skipped_no_face, (unsigned long long)c.skipped_no_orientation);
-        return SP_ENODATA;
-    }
     ss->fit.yaw_range = ss_reservoir_yaw_range(ss, idx, n);
     ss->fit.unobservable = ss->fit.yaw_range < ss->set.min_rotation_deg;
     if (ss->fit.unobservable) {

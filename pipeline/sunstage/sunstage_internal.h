@@ -51,6 +51,7 @@ typedef struct ss_frontend {
     uint64_t sharp_n;
     double expo_ref;            /* exposure_us x gain of the first frame, 0 when unknown */
     ss_window win;              /* the current frame's window (whole frame, or its face crop) */
+    int64_t frame_t[2], imu_t[2]; /* first and last timestamps seen: explain frames the IMU never covered */
 } ss_frontend;
 
 /* The keyframe reservoir (reservoir.c): `keyframes` yaw bins, then the held-out bins. */

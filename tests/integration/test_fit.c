@@ -287,8 +287,8 @@ int main(int argc, char **argv)
         synth_fit();
     } else {
         bad_input("noimu", 12, CONTENT_NOISE, 0, "no IMU");
-        bad_input("oneframe", 1, CONTENT_NOISE, 1, "need at least 2");
-        bad_input("black", 12, CONTENT_BLACK, 1, "dark 12");
+        bad_input("oneframe", 1, CONTENT_NOISE, 1, "no camera orientation");
+        bad_input("black", 12, CONTENT_BLACK, 1, "12 of 12 frames are too dark");
         bad_input("noface", 12, CONTENT_NOISE, 1, "no face");
     }
     char cmd[300];
