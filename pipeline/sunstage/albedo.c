@@ -19,16 +19,16 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-double ss_albedo_typical_weight(const double *den, size_t n_texels, double floor)
+double ss_albedo_typical_weight(const double *den, const uint8_t *seen, size_t n_texels)
 {
     double *v = malloc(sizeof(double) * (n_texels ? n_texels : 1));
     if (!v)
-        return floor;
+        return 0.0;
     size_t m = 0;
     for (size_t t = 0; t < n_texels; t++)
-        if (den[t * 3] > floor)
+        if (seen[t] && den[t * 3] > 0.0)
             v[m++] = den[t * 3];
-    double med = floor;
+    double med = 0.0;
     if (m) {
         qsort(v, m, sizeof(double), cmp_double);
         med = v[m / 2];

@@ -46,6 +46,7 @@ typedef struct fast_ctx {
     float *envb;      /* NK env maps */
     double *num, *den; /* per texel * 3 */
     float *prev;       /* per texel * 3: the albedo before a Jacobi step */
+    uint8_t *seen;     /* per texel: 1 when the training pixels' taps cover it (geometry, not photometric weight) */
     double x[NL];     /* lighting unknowns */
     int use_sun, use_spec;
     int decide_only; /* stop after the sun search and the overcast decision */
@@ -128,6 +129,28 @@ static int render_white(fast_ctx *c, const ss_frame *f, const double sun[3], dou
     return sp_render(c->sc.r, &scene, out);
 }
 
+#define TEXEL_SEEN 0.25 /* summed tap weight that makes a texel observed: a quarter of one pixel's footprint */
+
+/*
+ * Which texels the data reaches. Decided by the taps alone: the photometric
+ * weights span decades (the display transform is steep in the shadows), so a
+ * threshold on them would call most of a sunlit face unobserved.
+ */
+static int mark_seen(fast_ctx *c)
+{
+    size_t nt = (size_t)c->ss->fit.tw * (size_t)c->ss->fit.th;
+    double *cover = calloc(nt, sizeof(double));
+    if (!cover)
+        return -ENOMEM;
+    for (size_t i = 0; i < c->n; i++)
+        for (int k = 0; k < 4; k++)
+            cover[c->o[i].tex[k]] += c->o[i].tw[k];
+    for (size_t t = 0; t < nt; t++)
+        c->seen[t] = cover[t] >= TEXEL_SEEN;
+    free(cover);
+    return 0;
+}
+
 /* Collects the masked pixels of every training frame with their geometry and env-lobe shading. */
 static int gather(fast_ctx *c)
 {
@@ -190,6 +213,8 @@ static int gather(fast_ctx *c)
     }
     c->frame_start[c->nf] = c->n;
     free(mask);
+    if (!ret)
+        ret = mark_seen(c);
     return ret;
 }
 
@@ -260,11 +285,9 @@ static void solve_albedo(fast_ctx *c, int steps)
                 }
             }
         }
-        double mean[3] = { 0, 0, 0 }, wsum = 0.0, dmax = 0.0;
-        for (size_t t = 0; t < nt; t++)
-            dmax = fmax(dmax, c->den[t]);
+        double mean[3] = { 0, 0, 0 }, wsum = 0.0;
         for (size_t t = 0; t < nt; t += 3)
-            if (c->den[t] > 1e-3 * dmax) {
+            if (c->seen[t / 3]) {
                 for (int ch = 0; ch < 3; ch++)
                     mean[ch] += (double)ss->fit.albedo[t + (size_t)ch];
                 wsum += 1.0;
@@ -273,8 +296,9 @@ static void solve_albedo(fast_ctx *c, int steps)
             mean[ch] = wsum > 0.0 ? mean[ch] / wsum : 0.5;
         /* priors: a faint pull to the map's mean (unseen texels stay sane), and one to the texel's neighbours
            scaled to a typical observed texel's data weight, so texels between pixel samples interpolate */
-        double lam = 1e-4 * dmax + 1e-30;
-        double lam_n = SS_ALBEDO_SMOOTH * ss_albedo_typical_weight(c->den, nt / 3, 1e-3 * dmax);
+        double typical = ss_albedo_typical_weight(c->den, c->seen, nt / 3);
+        double lam = 1e-3 * typical + 1e-30;
+        double lam_n = SS_ALBEDO_SMOOTH * typical;
         memcpy(c->prev, ss->fit.albedo, nt * sizeof(float));
         for (size_t t = 0; t < nt; t += 3) {
             double nb[3];
@@ -294,12 +318,9 @@ static int fill_unseen(fast_ctx *c)
 {
     sp_sunstage *ss = c->ss;
     size_t n = (size_t)ss->fit.tw * (size_t)ss->fit.th;
-    double dmax = 0.0;
-    for (size_t t = 0; t < n * 3; t++)
-        dmax = fmax(dmax, c->den[t]);
     size_t seen = 0;
     for (size_t t = 0; t < n; t++)
-        seen += ss->fit.observed[t] = c->den[t * 3] > 1e-3 * dmax;
+        seen += ss->fit.observed[t] = c->seen[t];
     if (!seen)
         return 0; /* nothing observed: the map stays at its prior */
     ss->fit.have_observed = 1;
@@ -692,7 +713,8 @@ static int fast_main(sp_sunstage *ss, sp_sunstage_callback cb, void *user, int d
     c.num = malloc(sizeof(double) * nt);
     c.den = malloc(sizeof(double) * nt);
     c.prev = malloc(sizeof(float) * nt);
-    if (!c.frame_start || !c.envb || !c.num || !c.den || !c.prev)
+    c.seen = malloc(nt / 3);
+    if (!c.frame_start || !c.envb || !c.num || !c.den || !c.prev || !c.seen)
         ret = -ENOMEM;
     if (!ret) {
         make_env_basis(c.envb);
@@ -705,6 +727,7 @@ static int fast_main(sp_sunstage *ss, sp_sunstage_callback cb, void *user, int d
     free(c.num);
     free(c.den);
     free(c.prev);
+    free(c.seen);
     return ret;
 }
 

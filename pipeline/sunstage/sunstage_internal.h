@@ -192,8 +192,8 @@ int ss_refine_geometry(sp_sunstage *ss, int steps);
 /* ---- albedo.c: priors and fill of the albedo map ---- */
 #define SS_ALBEDO_SMOOTH 0.1 /* neighbour prior, relative to the median observed texel's data weight (chosen over 0.01..0.5 on
                                  synthetic seeds 1-3 and both path-traced selfies: each gains held-out PSNR, summed sun error falls) */
-/* Median data weight (den[t * 3]) of the texels above floor; floor when none. */
-double ss_albedo_typical_weight(const double *den, size_t n_texels, double floor);
+/* Median data weight (den[t * 3]) of the seen texels with data; 0 when none. */
+double ss_albedo_typical_weight(const double *den, const uint8_t *seen, size_t n_texels);
 /* Mean of the 4 neighbours of texel t3 / 3 (rows of w texels, RGB; mirrored at the borders) into out. */
 void ss_albedo_neighbours(const float *albedo, int w, int h, size_t t3, double out[3]);
 /* Replaces the texels with observed == 0 by a push-pull interpolation of the others; -ENOMEM. */
