@@ -49,6 +49,8 @@ static void fit_usage(FILE *out)
                  "  --silhouette W         silhouette loss weight per outline vertex (default 0.5; 0 = off)\n"
                  "  --refine N             fast solver: photometric refinement steps of geometry and\n"
                  "                         displacement, kept if the held-out PSNR rises (default 20; 0 = off)\n"
+                 "  --threads N            solver threads (default 0 = the online CPUs; the result does not\n"
+                 "                         depend on it)\n"
                  "  --no-dlib              never run the dlib detector\n"
                  "  --dlib-model PATH      shape_predictor_68_face_landmarks.dat location\n"
                  "  --report PREFIX        error against run time: PREFIX.csv and PREFIX.svg\n"
@@ -88,6 +90,7 @@ static int parse_fit(int argc, char **argv, fit_args *a)
         { "report", required_argument, NULL, 'R' },   { "no-progress", no_argument, NULL, 'P' },
         { "face", required_argument, NULL, 'f' },     { "silhouette", required_argument, NULL, 'S' },
         { "refine", required_argument, NULL, 'F' },   { "face-crop", no_argument, NULL, 'C' },
+        { "threads", required_argument, NULL, 'T' },
         { 0 },
     };
     int c, bad = 0;
@@ -110,6 +113,7 @@ static int parse_fit(int argc, char **argv, fit_args *a)
         case 'C': a->set.face_crop = 1; break;
         case 'S': bad = parse_double(optarg, 0, 100, &a->set.silhouette_weight); break;
         case 'F': bad = parse_int(optarg, 0, 10000, &a->set.refine_steps); break;
+        case 'T': bad = parse_int(optarg, 0, 64, &a->set.threads); break;
         case 'd': a->set.dlib_model = optarg; break;
         case 'R': a->report = optarg; break;
         case 'P': a->progress = 0; break;
@@ -244,6 +248,9 @@ static void print_summary(const sp_sunstage *ss)
     printf("fit: sun (%.3f, %.3f, %.3f) intensity %.3f%s%s; train PSNR %.2f dB, held-out %.2f dB; %.1f s\n",
            r.sun_dir[0], r.sun_dir[1], r.sun_dir[2], r.sun_intensity, r.sun_dropped ? " [dropped: overcast]" : "",
            r.lighting_unobservable ? " [lighting unobservable]" : "", r.train_psnr, r.heldout_psnr, r.seconds);
+    printf("fit: time: front end %.1f s (while streaming), alignment %.1f s, photometric solve %.1f s, refinement "
+           "%.1f s; %d solver thread(s)\n",
+           r.frontend_seconds, r.align_seconds, r.solve_seconds, r.refine_seconds, r.threads);
     if (r.notes[0])
         printf("fit: %s\n", r.notes);
 }

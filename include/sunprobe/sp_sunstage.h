@@ -44,6 +44,8 @@ typedef struct sp_sunstage_settings {
     int refine_steps;       /* fast solver: Adam steps refining pose, expression, shape and displacement
                                photometrically after the solve, kept only if the held-out PSNR rises;
                                0 = off (default 20) */
+    int threads;            /* worker threads of the solvers, the caller included; 0 = the online CPUs (default 0).
+                               The result does not depend on it. */
 } sp_sunstage_settings;
 
 /* What the front end kept and skipped. */
@@ -86,6 +88,10 @@ typedef struct sp_sunstage_result {
     int n_frames;                /* keyframes fitted */
     double train_psnr, heldout_psnr; /* dB, display values on the face mask; NaN if unknown */
     double seconds;              /* fit wall time */
+    /* wall time per phase: the front end's per-frame work while streaming, stage-1 alignment, the photometric
+       solve, its refinement */
+    double frontend_seconds, align_seconds, solve_seconds, refine_seconds;
+    int threads;                 /* solver threads used */
 } sp_sunstage_result;
 
 /* One fitted keyframe camera: the face in the camera frame and the camera in the world. */

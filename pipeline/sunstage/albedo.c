@@ -13,10 +13,35 @@
 #include <stdlib.h>
 #include <string.h>
 
-static int cmp_double(const void *a, const void *b)
+/* The k-th smallest of v[0..n) (quickselect; v is reordered). */
+static double kth_smallest(double *v, size_t n, size_t k)
 {
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
+    size_t lo = 0, hi = n - 1;
+    while (lo < hi) {
+        double pivot = v[lo + (hi - lo) / 2];
+        size_t i = lo, j = hi;
+        while (i <= j) {
+            while (v[i] < pivot)
+                i++;
+            while (v[j] > pivot)
+                j--;
+            if (i <= j) {
+                double t = v[i];
+                v[i] = v[j], v[j] = t;
+                i++;
+                if (j == 0)
+                    break;
+                j--;
+            }
+        }
+        if (k <= j)
+            hi = j;
+        else if (k >= i)
+            lo = i;
+        else
+            break;
+    }
+    return v[k];
 }
 
 double ss_albedo_typical_weight(const double *den, const uint8_t *seen, size_t n_texels)
@@ -28,11 +53,7 @@ double ss_albedo_typical_weight(const double *den, const uint8_t *seen, size_t n
     for (size_t t = 0; t < n_texels; t++)
         if (seen[t] && den[t * 3] > 0.0)
             v[m++] = den[t * 3];
-    double med = 0.0;
-    if (m) {
-        qsort(v, m, sizeof(double), cmp_double);
-        med = v[m / 2];
-    }
+    double med = m ? kth_smallest(v, m, m / 2) : 0.0;
     free(v);
     return med;
 }

@@ -18,6 +18,8 @@
 #include "common/json.h"
 #include "pipeline/sunstage/sunstage_internal.h"
 
+#include "common/parallel.h"
+
 #define MESH_MAGIC "SPFMESH1"
 
 static int write_blob(const char *dir, const char *name, const void *data, size_t size)
@@ -210,6 +212,15 @@ static int write_manifest(const sp_sunstage *ss, const char *dir)
     sp_strbuf_json_number(&b, ss->fit.heldout_psnr);
     sp_strbuf_printf(&b, ",\"seconds\":");
     sp_strbuf_json_number(&b, ss->fit.seconds);
+    sp_strbuf_printf(&b, ",\"phase_seconds\":{\"frontend\":");
+    sp_strbuf_json_number(&b, ss->fit.frontend_s);
+    sp_strbuf_printf(&b, ",\"align\":");
+    sp_strbuf_json_number(&b, ss->fit.align_s);
+    sp_strbuf_printf(&b, ",\"solve\":");
+    sp_strbuf_json_number(&b, ss->fit.solve_s);
+    sp_strbuf_printf(&b, ",\"refine\":");
+    sp_strbuf_json_number(&b, ss->fit.refine_s);
+    sp_strbuf_printf(&b, "},\"threads\":%d", ss->set.threads > 0 ? ss->set.threads : sp_cpu_count());
     sp_strbuf_printf(&b, ",\"frames\":%llu,\"keyframes\":%d,\"heldout\":%d,\"skipped\":{\"dark\":%llu,"
                          "\"saturated\":%llu,\"blurred\":%llu,\"no_face\":%llu,\"no_orientation\":%llu},"
                          "\"thinned_early\":%llu}}\n",

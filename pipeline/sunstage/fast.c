@@ -19,11 +19,15 @@
 #include <string.h>
 
 #include "common/clock.h"
+#include "common/parallel.h"
 
 #define MOD "sunstage"
 #define NK SS_ENV_BASIS
 #define NL (1 + 3 * NK + SP_RENDER_CLUSTERS) /* I, env per channel, I ks per cluster */
 #define N_SHIN 7
+#define CHUNKS 64
+#define PART (NL * NL + NL)
+#define LANES 4 /* at most this many albedo lanes: a board's cores, at 6 doubles per texel each */
 static const double shin_grid[N_SHIN] = { 4, 8, 16, 32, 64, 128, 256 };
 
 typedef struct obs {
@@ -47,6 +51,15 @@ typedef struct fast_ctx {
     double *num, *den; /* per texel * 3 */
     float *prev;       /* per texel * 3: the albedo before a Jacobi step */
     uint8_t *seen;     /* per texel: 1 when the training pixels' taps cover it (geometry, not photometric weight) */
+    /* parallel loops (common/parallel.h): observations and texels in fixed ranges (their number set by the data
+       alone), each writing its own partial, summed in range order: the result does not depend on the threads */
+    sp_pool *pool;
+    int obs_chunks, tex_chunks;
+    double *part;      /* CHUNKS x PART: per-chunk partial sums */
+    int lanes;         /* albedo sums: observation ranges scattered into their own per-texel arrays */
+    double *lane;      /* lanes x texels x 6 (numerator, denominator per channel); zero between steps */
+    size_t nt;         /* texels */
+    double prior[5];   /* albedo step priors: the seen texels' mean per channel, the mean pull, the neighbour pull */
     double x[NL];     /* lighting unknowns */
     int use_sun, use_spec;
     int decide_only; /* stop after the sun search and the overcast decision */
@@ -132,11 +145,12 @@ static int render_white(fast_ctx *c, const ss_frame *f, const double sun[3], dou
 #define TEXEL_SEEN 0.25 /* summed tap weight that makes a texel observed: a quarter of one pixel's footprint */
 
 /*
- * Which texels the data reaches. Decided by the taps alone: the photometric
+ * Which texels the data reaches, decided by the taps alone: the photometric
  * weights span decades (the display transform is steep in the shadows), so a
- * threshold on them would call most of a sunlit face unobserved.
+ * threshold on them would call most of a sunlit face unobserved. Then how the
+ * sums over observations and texels are cut into ranges.
  */
-static int mark_seen(fast_ctx *c)
+static int plan_sums(fast_ctx *c)
 {
     size_t nt = (size_t)c->ss->fit.tw * (size_t)c->ss->fit.th;
     double *cover = calloc(nt, sizeof(double));
@@ -148,7 +162,13 @@ static int mark_seen(fast_ctx *c)
     for (size_t t = 0; t < nt; t++)
         c->seen[t] = cover[t] >= TEXEL_SEEN;
     free(cover);
-    return 0;
+    /* chunk counts: set by the data alone, large enough that the partial sums cost little beside the work */
+    c->obs_chunks = (int)(c->n / 4096 < 1 ? 1 : (c->n / 4096 > CHUNKS ? CHUNKS : c->n / 4096));
+    c->tex_chunks = (int)(nt / 4096 < 1 ? 1 : (nt / 4096 > CHUNKS ? CHUNKS : nt / 4096));
+    c->lanes = (int)(c->n / 16384 < 1 ? 1 : (c->n / 16384 > LANES ? LANES : c->n / 16384));
+    free(c->lane);
+    c->lane = calloc((size_t)c->lanes * nt * 6, sizeof(double));
+    return c->lane ? 0 : -ENOMEM;
 }
 
 /* Collects the masked pixels of every training frame with their geometry and env-lobe shading. */
@@ -214,7 +234,7 @@ static int gather(fast_ctx *c)
     c->frame_start[c->nf] = c->n;
     free(mask);
     if (!ret)
-        ret = mark_seen(c);
+        ret = plan_sums(c);
     return ret;
 }
 
@@ -248,11 +268,21 @@ static double spec_of(const fast_ctx *c, const obs *o)
     return c->use_spec && o->cluster >= 0 ? c->x[1 + 3 * NK + o->cluster] * o->P : 0.0;
 }
 
-/* Weighted squared residual of the current model. */
-static double cost(const fast_ctx *c)
+/* The observations of chunk k (a fixed range), stepping by the stride from a multiple of it. */
+static void chunk_range(const fast_ctx *c, int k, size_t *lo, size_t *hi)
 {
+    size_t a = c->n * (size_t)k / (size_t)c->obs_chunks, b = c->n * (size_t)(k + 1) / (size_t)c->obs_chunks;
+    *lo = (a + c->stride - 1) / c->stride * c->stride;
+    *hi = b;
+}
+
+static void cost_task(void *ctx, int k)
+{
+    fast_ctx *c = ctx;
+    size_t lo, hi;
+    chunk_range(c, k, &lo, &hi);
     double e = 0.0;
-    for (size_t i = 0; i < c->n; i += c->stride) {
+    for (size_t i = lo; i < hi; i += c->stride) {
         const obs *o = &c->o[i];
         double sp = spec_of(c, o);
         for (int ch = 0; ch < 3; ch++) {
@@ -260,56 +290,108 @@ static double cost(const fast_ctx *c)
             e += o->w * r * r;
         }
     }
+    c->part[(size_t)k * PART] = e;
+}
+
+/* Weighted squared residual of the current model. */
+static double cost(fast_ctx *c)
+{
+    sp_pool_for(c->pool, c->obs_chunks, cost_task, c);
+    double e = 0.0;
+    for (int k = 0; k < c->obs_chunks; k++)
+        e += c->part[(size_t)k * PART];
     return e;
+}
+
+/* Albedo pass 1, per lane: scatters its observations' data terms into the lane's texel sums. */
+static void lane_task(void *ctx, int j)
+{
+    fast_ctx *c = ctx;
+    double *restrict sum = c->lane + (size_t)j * c->nt * 6;
+    size_t a = c->n * (size_t)j / (size_t)c->lanes, b = c->n * (size_t)(j + 1) / (size_t)c->lanes;
+    for (size_t i = (a + c->stride - 1) / c->stride * c->stride; i < b; i += c->stride) {
+        const obs *restrict o = &c->o[i];
+        double sp = spec_of(c, o);
+        for (int ch = 0; ch < 3; ch++) {
+            double S = shading(c, o, ch);
+            double r = o->L[ch] - sp - albedo_at(c->ss, o, ch) * S;
+            for (int k = 0; k < 4; k++) {
+                double *t = sum + (size_t)o->tex[k] * 6 + (size_t)ch * 2;
+                double ws = o->w * o->tw[k] * S;
+                t[0] += ws * r;
+                t[1] += ws * S; /* sum of taps is 1: a majoriser, so the Jacobi step never overshoots */
+            }
+        }
+    }
+}
+
+/* Albedo pass 2, per texel chunk: the lanes summed in order (and zeroed), and the albedo's sum over seen texels. */
+static void texel_sums_task(void *ctx, int k)
+{
+    fast_ctx *c = ctx;
+    size_t t0 = c->nt * (size_t)k / (size_t)c->tex_chunks, t1 = c->nt * (size_t)(k + 1) / (size_t)c->tex_chunks;
+    double *acc = c->part + (size_t)k * PART; /* seen-texel albedo sum per channel, and their count */
+    acc[0] = acc[1] = acc[2] = acc[3] = 0.0;
+    for (size_t t = t0; t < t1; t++) {
+        for (int ch = 0; ch < 3; ch++) {
+            double num = 0.0, den = 0.0;
+            for (int j = 0; j < c->lanes; j++) {
+                double *l = c->lane + ((size_t)j * c->nt + t) * 6 + (size_t)ch * 2;
+                num += l[0], den += l[1];
+                l[0] = l[1] = 0.0;
+            }
+            c->num[t * 3 + (size_t)ch] = num;
+            c->den[t * 3 + (size_t)ch] = den;
+        }
+        if (c->seen[t]) {
+            for (int ch = 0; ch < 3; ch++)
+                acc[ch] += (double)c->ss->fit.albedo[t * 3 + (size_t)ch];
+            acc[3] += 1.0;
+        }
+    }
+}
+
+/* Albedo pass 3, per texel chunk: the Jacobi update with the priors. */
+static void texel_update_task(void *ctx, int k)
+{
+    fast_ctx *c = ctx;
+    sp_sunstage *ss = c->ss;
+    const double *pri = c->prior;
+    size_t t0 = c->nt * (size_t)k / (size_t)c->tex_chunks, t1 = c->nt * (size_t)(k + 1) / (size_t)c->tex_chunks;
+    for (size_t t = t0 * 3; t < t1 * 3; t += 3) {
+        double nb[3];
+        ss_albedo_neighbours(c->prev, ss->fit.tw, ss->fit.th, t, nb);
+        for (int ch = 0; ch < 3; ch++) {
+            size_t q = t + (size_t)ch;
+            double a = (double)c->prev[q];
+            a += (c->num[q] + pri[3] * (pri[ch] - a) + pri[4] * (nb[ch] - a)) / (c->den[q] + pri[3] + pri[4]);
+            ss->fit.albedo[q] = (float)(a < 0.0 ? 0.0 : (a > 4.0 ? 4.0 : a));
+        }
+    }
 }
 
 /* Jacobi steps of the per-texel closed form a = sum w S (L - spec) / sum w S^2, with a weak pull to the mean. */
 static void solve_albedo(fast_ctx *c, int steps)
 {
     sp_sunstage *ss = c->ss;
-    size_t nt = (size_t)ss->fit.tw * (size_t)ss->fit.th * 3;
+    size_t nt = c->nt * 3;
     for (int it = 0; it < steps; it++) {
-        memset(c->num, 0, nt * sizeof(double));
-        memset(c->den, 0, nt * sizeof(double));
-        for (size_t i = 0; i < c->n; i += c->stride) {
-            const obs *o = &c->o[i];
-            double sp = spec_of(c, o);
-            for (int ch = 0; ch < 3; ch++) {
-                double S = shading(c, o, ch);
-                double r = o->L[ch] - sp - albedo_at(ss, o, ch) * S;
-                for (int k = 0; k < 4; k++) {
-                    size_t t = (size_t)o->tex[k] * 3 + (size_t)ch;
-                    double ws = (double)o->w * (double)o->tw[k] * S;
-                    c->num[t] += ws * r;
-                    c->den[t] += ws * S; /* sum of taps is 1: a majoriser, so the Jacobi step never overshoots */
-                }
-            }
-        }
-        double mean[3] = { 0, 0, 0 }, wsum = 0.0;
-        for (size_t t = 0; t < nt; t += 3)
-            if (c->seen[t / 3]) {
-                for (int ch = 0; ch < 3; ch++)
-                    mean[ch] += (double)ss->fit.albedo[t + (size_t)ch];
-                wsum += 1.0;
-            }
-        for (int ch = 0; ch < 3; ch++)
-            mean[ch] = wsum > 0.0 ? mean[ch] / wsum : 0.5;
+        sp_pool_for(c->pool, c->lanes, lane_task, c);
+        sp_pool_for(c->pool, c->tex_chunks, texel_sums_task, c);
+        double mean[4] = { 0, 0, 0, 0 };
+        for (int k = 0; k < c->tex_chunks; k++)
+            for (int j = 0; j < 4; j++)
+                mean[j] += c->part[(size_t)k * PART + (size_t)j];
         /* priors: a faint pull to the map's mean (unseen texels stay sane), and one to the texel's neighbours
            scaled to a typical observed texel's data weight, so texels between pixel samples interpolate */
-        double typical = ss_albedo_typical_weight(c->den, c->seen, nt / 3);
-        double lam = 1e-3 * typical + 1e-30;
-        double lam_n = SS_ALBEDO_SMOOTH * typical;
+        double typical = ss_albedo_typical_weight(c->den, c->seen, c->nt);
+        double *pri = c->prior;
+        for (int ch = 0; ch < 3; ch++)
+            pri[ch] = mean[3] > 0.0 ? mean[ch] / mean[3] : 0.5;
+        pri[3] = 1e-3 * typical + 1e-30;
+        pri[4] = SS_ALBEDO_SMOOTH * typical;
         memcpy(c->prev, ss->fit.albedo, nt * sizeof(float));
-        for (size_t t = 0; t < nt; t += 3) {
-            double nb[3];
-            ss_albedo_neighbours(c->prev, ss->fit.tw, ss->fit.th, t, nb);
-            for (int ch = 0; ch < 3; ch++) {
-                size_t q = t + (size_t)ch;
-                double a = (double)c->prev[q];
-                a += (c->num[q] + lam * (mean[ch] - a) + lam_n * (nb[ch] - a)) / (c->den[q] + lam + lam_n);
-                ss->fit.albedo[q] = (float)(a < 0.0 ? 0.0 : (a > 4.0 ? 4.0 : a));
-            }
-        }
+        sp_pool_for(c->pool, c->tex_chunks, texel_update_task, c);
     }
 }
 
@@ -328,13 +410,16 @@ static int fill_unseen(fast_ctx *c)
     return ss_albedo_fill_unobserved(ss->fit.albedo, ss->fit.tw, ss->fit.th, ss->fit.observed);
 }
 
-/* Lighting unknowns by NNLS given the albedo; terms switched off stay 0. */
-static int solve_lighting(fast_ctx *c)
+/* The normal equations' share of one observation chunk. */
+static void lighting_task(void *ctx, int k)
 {
-    double A[NL * NL], b[NL], x[NL];
+    fast_ctx *c = ctx;
+    double A[PART]; /* local, so the compiler knows the stores below touch no observation */
+    double *b = A + NL * NL;
     memset(A, 0, sizeof(A));
-    memset(b, 0, sizeof(b));
-    for (size_t i = 0; i < c->n; i += c->stride) {
+    size_t lo, hi;
+    chunk_range(c, k, &lo, &hi);
+    for (size_t i = lo; i < hi; i += c->stride) {
         const obs *o = &c->o[i];
         for (int ch = 0; ch < 3; ch++) {
             double a = albedo_at(c->ss, o, ch);
@@ -344,9 +429,9 @@ static int solve_lighting(fast_ctx *c)
                 g[ng] = a * o->D;
                 gi[ng++] = 0;
             }
-            for (int k = 0; k < NK; k++) {
-                g[ng] = a * o->A[k];
-                gi[ng++] = 1 + ch * NK + k;
+            for (int j = 0; j < NK; j++) {
+                g[ng] = a * o->A[j];
+                gi[ng++] = 1 + ch * NK + j;
             }
             if (c->use_spec && o->cluster >= 0) {
                 g[ng] = o->P;
@@ -361,6 +446,19 @@ static int solve_lighting(fast_ctx *c)
             }
         }
     }
+    memcpy(c->part + (size_t)k * PART, A, sizeof(A));
+}
+
+/* Lighting unknowns by NNLS given the albedo; terms switched off stay 0. */
+static int solve_lighting(fast_ctx *c)
+{
+    double A[PART], x[NL];
+    sp_pool_for(c->pool, c->obs_chunks, lighting_task, c);
+    memset(A, 0, sizeof(A));
+    for (int k = 0; k < c->obs_chunks; k++)
+        for (int j = 0; j < PART; j++)
+            A[j] += c->part[(size_t)k * PART + (size_t)j];
+    double *b = A + NL * NL;
     double tr = 0.0;
     for (int i = 0; i < NL; i++)
         tr += A[i * NL + i];
@@ -714,7 +812,11 @@ static int fast_main(sp_sunstage *ss, sp_sunstage_callback cb, void *user, int d
     c.den = malloc(sizeof(double) * nt);
     c.prev = malloc(sizeof(float) * nt);
     c.seen = malloc(nt / 3);
-    if (!c.frame_start || !c.envb || !c.num || !c.den || !c.prev || !c.seen)
+    c.nt = nt / 3;
+    c.part = malloc(sizeof(double) * CHUNKS * PART);
+    if (!ret)
+        ret = sp_pool_open(&c.pool, ss->set.threads);
+    if (!c.frame_start || !c.envb || !c.num || !c.den || !c.prev || !c.seen || !c.part)
         ret = -ENOMEM;
     if (!ret) {
         make_env_basis(c.envb);
@@ -728,6 +830,9 @@ static int fast_main(sp_sunstage *ss, sp_sunstage_callback cb, void *user, int d
     free(c.den);
     free(c.prev);
     free(c.seen);
+    free(c.part);
+    free(c.lane);
+    sp_pool_close(&c.pool);
     return ret;
 }
 

@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "common/clock.h"
+#include "common/parallel.h"
 #include "pipeline/sunstage/sunstage_internal.h"
 
 #include "pipeline/sunstage/landmarks.h"
@@ -44,6 +45,8 @@ static int check_settings(const sp_sunstage_settings *s)
         s->refine_steps > 10000)
         return -EINVAL;
     if (s->face_crop != 0 && s->face_crop != 1)
+        return -EINVAL;
+    if (s->threads < 0 || s->threads > 64)
         return -EINVAL;
     if (s->solver != SP_SUNSTAGE_SOLVER_FAST && s->solver != SP_SUNSTAGE_SOLVER_ADAM)
         return -EINVAL;
@@ -144,7 +147,10 @@ int sp_sunstage_push(sp_sunstage *ss, const sp_event *ev)
             ss->fe.frame_t[0] = ev->timestamp_ns;
         ss->fe.frame_t[1] = ev->timestamp_ns;
         ss->counts.thinned_early = ev->tags->thinned;
-        return ss_frontend_frame(ss, ev->frame, ev->timestamp_ns, ev->tags);
+        int64_t t = sp_clock_monotonic_ns();
+        int ret = ss_frontend_frame(ss, ev->frame, ev->timestamp_ns, ev->tags);
+        ss->fit.frontend_s += (double)(sp_clock_monotonic_ns() - t) * 1e-9;
+        return ret;
     }
     return 0;
 }
@@ -206,7 +212,9 @@ int sp_sunstage_add_keyframe(sp_sunstage *ss, const float *rgb, int width, int h
 /* The fast solver, then the photometric refinement of its geometry (Adam's machinery) when enabled. */
 static int solve_fast(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
 {
+    int64_t t = sp_clock_monotonic_ns();
     int ret = ss_fit_fast(ss, cb, user);
+    ss->fit.solve_s = (double)(sp_clock_monotonic_ns() - t) * 1e-9;
     if (ret)
         return ret;
     if (ss->set.refine_steps <= 0) {
@@ -214,7 +222,10 @@ static int solve_fast(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
                  "the fast solver keeps the stage-1 geometry (photometric refinement off: refine_steps = 0)");
         return 0;
     }
-    if ((ret = ss_refine_geometry(ss, ss->set.refine_steps)))
+    t = sp_clock_monotonic_ns();
+    ret = ss_refine_geometry(ss, ss->set.refine_steps);
+    ss->fit.refine_s = (double)(sp_clock_monotonic_ns() - t) * 1e-9;
+    if (ret)
         return ret;
     if (cb) { /* the refinement leaves the PSNRs of the geometry it kept */
         double tr = ss->fit.train_psnr;
@@ -277,8 +288,11 @@ static int fittable(const sp_sunstage *ss, int n_keyframes)
 /* The fast solver's overcast decision, then the Adam reference solver. */
 static int solve_adam(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
 {
+    int64_t t = sp_clock_monotonic_ns();
     int ret = ss->fit.unobservable ? 0 : ss_fast_overcast_check(ss);
-    return ret ? ret : ss_fit_adam(ss, cb, user);
+    ret = ret ? ret : ss_fit_adam(ss, cb, user);
+    ss->fit.solve_s = (double)(sp_clock_monotonic_ns() - t) * 1e-9;
+    return ret;
 }
 
 int sp_sunstage_fit(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
@@ -312,6 +326,7 @@ int sp_sunstage_fit(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
     if (nh > 0 && ss_align_landmarks(ss, hidx, nh, 0, 20) < 0)
         sp_log(SP_LOG_WARN, MOD, "held-out frames could not be aligned");
     sp_log(SP_LOG_INFO, MOD, "stage 1: %d keyframes, landmark RMS %.2f px", n, rms);
+    ss->fit.align_s = (double)(sp_clock_monotonic_ns() - ss->fit.t0) * 1e-9;
     if (cb) {
         sp_sunstage_progress p = { "align", 1, 1, (double)(sp_clock_monotonic_ns() - ss->fit.t0) * 1e-9, rms, NAN };
         cb(user, &p);
@@ -348,6 +363,11 @@ int sp_sunstage_get_result(const sp_sunstage *ss, sp_sunstage_result *out)
     out->train_psnr = ss->fit.train_psnr;
     out->heldout_psnr = ss->fit.heldout_psnr;
     out->seconds = ss->fit.seconds;
+    out->frontend_seconds = ss->fit.frontend_s;
+    out->align_seconds = ss->fit.align_s;
+    out->solve_seconds = ss->fit.solve_s;
+    out->refine_seconds = ss->fit.refine_s;
+    out->threads = ss->set.threads > 0 ? ss->set.threads : sp_cpu_count();
     return 0;
 }
 

@@ -75,6 +75,7 @@ typedef struct ss_fit_state {
     char notes[512];
     char disp_note[160];        /* why the displacement map stays zero, "" when fitted */
     double yaw_range, train_psnr, heldout_psnr, seconds;
+    double frontend_s, align_s, solve_s, refine_s; /* wall time per phase */
     int64_t t0;                 /* start of the fit, for progress times */
 } ss_fit_state;
 
