@@ -35,8 +35,10 @@ int sp_atomic_file_finish(sp_atomic_file *af, int status)
         return status ? status : -EINVAL;
     if (status == 0 && (fflush(af->file) != 0 || fsync(fileno(af->file)) != 0))
         status = -errno;
-    if (fclose(af->file) != 0 && status == 0)
+    if (status == 0 && ferror(af->file)) /* a write the caller did not check failed */
         status = -EIO;
+    if (fclose(af->file) != 0 && status == 0)
+        status = errno ? -errno : -EIO;
     if (status == 0 && rename(af->temp_path, af->final_path) != 0)
         status = -errno;
     if (status != 0)
