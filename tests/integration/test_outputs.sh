@@ -65,5 +65,39 @@ expect 2 "replay orientation of a corrupt capture" "$SP" replay "$dir/damaged.sp
 same "$dir/orient.csv" "$dir/orient0.csv" "replay orientation of a corrupt capture"
 no_temps "replay"
 
+# ---- export-video .avi: a failed write keeps the previous video, even with --force
+v=$dir/v.avi
+"$SP" export-video "$a" -o "$v" -q >"$dir/out.txt" 2>"$dir/err.txt"
+rc=$?
+if [ "$rc" -eq 4 ]; then
+    echo "note: export-video to .avi not tested: this build has no OpenCV"
+else
+    [ "$rc" -eq 0 ] || fail "export-video to .avi: exit $rc"
+    cp "$v" "$dir/v0.avi"
+    expect 3 "export-video under a write limit" limited 40 "$SP" export-video "$b" -o "$v" -f -q
+    contains "$dir/err.txt" "v\.avi: writing the video: File too large" "export-video write-failure message"
+    same "$v" "$dir/v0.avi" "export-video under a write limit"
+    expect 0 "export-video --force" "$SP" export-video "$b" -o "$v" -f -q
+    cmp -s "$v" "$dir/v0.avi" && fail "export-video --force did not replace the video"
+    cp "$dir/v0.avi" "$v"
+    # a really full file system: a tmpfs with room for the old video but not the new one
+    mnt=$dir/mnt
+    mkdir "$mnt"
+    if unshare -m sh -c 'mount -t tmpfs -o size=64k tmpfs "$1"' sh "$mnt" 2>/dev/null; then
+        size_k=$(($(stat -c %s "$v") * 3 / 2 / 1024 + 8))
+        expect 3 "export-video on a full tmpfs" unshare -m bash -c '
+            mount -t tmpfs -o size="$1"k tmpfs "$2" || exit 99
+            cp "$3" "$2/v.avi" || exit 98
+            "$4" export-video "$5" -o "$2/v.avi" -f -q; rc=$?
+            cmp -s "$3" "$2/v.avi" || { echo "the old video was changed" >&2; exit 97; }
+            [ "$(ls -A "$2")" = v.avi ] || { ls -A "$2" >&2; exit 96; }
+            exit $rc' sh "$size_k" "$mnt" "$dir/v0.avi" "$SP" "$b"
+        contains "$dir/err.txt" "v\.avi: writing the video: no space left on device" "export-video ENOSPC message"
+    else
+        echo "note: SKIP the full-tmpfs case: mounting a tmpfs is not permitted here (needs CAP_SYS_ADMIN)"
+    fi
+    no_temps "export-video"
+fi
+
 [ "$fails" -eq 0 ] || { echo "$fails check(s) failed"; exit 1; }
 echo "all output checks passed"
