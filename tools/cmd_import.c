@@ -40,7 +40,7 @@ static void usage(FILE *out)
             "      --store M           jpeg (default) or rgb: how non-JPEG frames are stored\n"
             "      --quality Q         JPEG quality for re-encoded frames, 1..100 (default 92)\n"
             "      --max-frames N      stop after N frames\n"
-            "  -f, --force             replace OUT if it exists\n"
+            "  -f, --force             replace OUT if it exists (never one of the inputs)\n"
             "  -q, --quiet             no progress bar or summary\n"
             "  -h, --help              this text\n\n"
             "Layouts and examples: capture/IMPORT.md.\n");

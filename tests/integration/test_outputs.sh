@@ -99,5 +99,26 @@ else
     no_temps "export-video"
 fi
 
+# ---- import never overwrites one of its inputs (same device and inode, whatever the name)
+expect 0 "frames to PNG" "$SP" export-video "$a" -o "$dir/imgs" --max-frames 3 -q
+img=$dir/img.png
+cp "$dir/imgs/frame_000000.png" "$img"
+cp "$img" "$dir/img0.png"
+expect 1 "import onto its own input" "$SP" import "$img" -o "$img" -f --fps 30 -q
+contains "$dir/err.txt" "same file as the input" "import-onto-input message"
+ln "$img" "$dir/alias.spcap"
+expect 1 "import onto a hard link of its input" "$SP" import "$img" -o "$dir/alias.spcap" -f --fps 30 -q
+expect 1 "import onto a file of its input directory" "$SP" import "$dir/imgs" -o "$dir/imgs/frame_000001.png" \
+    -f --fps 30 -q
+echo '{"camera":{"name":"x"}}' >"$dir/meta.json"
+cp "$dir/meta.json" "$dir/meta0.json"
+expect 1 "import onto its --meta" "$SP" import "$dir/imgs" -o "$dir/meta.json" -f --fps 30 --meta "$dir/meta.json" -q
+same "$img" "$dir/img0.png" "import onto its own input"
+same "$dir/meta.json" "$dir/meta0.json" "import onto its --meta"
+cmp -s "$dir/imgs/frame_000001.png" "$dir/imgs/frame_000000.png" && fail "input directory damaged"
+expect 0 "import (control)" "$SP" import "$dir/imgs" -o "$dir/ok.spcap" --fps 30 -q
+
+no_temps "import"
+
 [ "$fails" -eq 0 ] || { echo "$fails check(s) failed"; exit 1; }
 echo "all output checks passed"
