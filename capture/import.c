@@ -396,8 +396,8 @@ static int check_settings(import_ctx *c)
         return FAIL(c, -EINVAL, "an input and an output path are required");
     if (s->quality < 1 || s->quality > 100)
         return FAIL(c, -EINVAL, "JPEG quality %d is not in 1..100", s->quality);
-    if (!isfinite(s->fps) || s->fps < 0 || s->fps > 1e4)
-        return FAIL(c, -EINVAL, "frame rate %g is not in (0, 10000]", s->fps);
+    if (!isfinite(s->fps) || s->fps < 0 || (s->fps > 0 && s->fps < SP_IMPORT_MIN_FPS) || s->fps > SP_IMPORT_MAX_FPS)
+        return FAIL(c, -EINVAL, "frame rate %g is not in [0.001, 10000]", s->fps);
     if (!isfinite(s->imu_offset_s) || fabs(s->imu_offset_s) > MAX_IMU_OFFSET_S)
         return FAIL(c, -EINVAL, "IMU offset %g s is not a finite number of at most 1e6 s", s->imu_offset_s);
     if (s->store != SP_IMPORT_STORE_JPEG && s->store != SP_IMPORT_STORE_RGB)

@@ -118,6 +118,15 @@ same "$dir/meta.json" "$dir/meta0.json" "import onto its --meta"
 cmp -s "$dir/imgs/frame_000001.png" "$dir/imgs/frame_000000.png" && fail "input directory damaged"
 expect 0 "import (control)" "$SP" import "$dir/imgs" -o "$dir/ok.spcap" --fps 30 -q
 
+# ---- import --fps: 0.001..10000, else the usage code naming the option
+for fps in 1e-300 0 -1 0.0009 10001 inf nan; do
+    expect 1 "import --fps $fps" "$SP" import "$dir/imgs" -o "$dir/fps.spcap" -f --fps "$fps" -q
+    contains "$dir/err.txt" "bad value for --fps" "import --fps $fps message"
+done
+for fps in 0.001 10000; do
+    expect 0 "import --fps $fps" "$SP" import "$dir/imgs" -o "$dir/fps.spcap" -f --fps "$fps" -q
+done
+expect 0 "info of an import at --fps 10000" "$SP" info "$dir/fps.spcap"
 no_temps "import"
 
 [ "$fails" -eq 0 ] || { echo "$fails check(s) failed"; exit 1; }
