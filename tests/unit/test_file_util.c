@@ -146,6 +146,16 @@ static void test_write(void)
         printf("note: running as root, the read-only directory case is not tested\n");
     }
     CHECK_EQ_INT(sp_write_whole_file_atomic(NULL, "a", 1), -EINVAL);
+    /* devices are written in place (a rename would replace the node); reached through links here, so a
+       regression replaces only the link, never /dev/null itself */
+    struct stat st;
+    CHECK_EQ_INT(symlink("/dev/null", at("null")), 0);
+    CHECK_EQ_INT(sp_write_whole_file_atomic(at("null"), "a", 1), 0);
+    CHECK(lstat(at("null"), &st) == 0 && S_ISLNK(st.st_mode));
+    if (stat("/dev/full", &st) == 0 && S_ISCHR(st.st_mode) && symlink("/dev/full", at("full")) == 0) {
+        CHECK_EQ_INT(sp_write_whole_file_atomic(at("full"), "a", 1), -ENOSPC);
+        CHECK(lstat(at("full"), &st) == 0 && S_ISLNK(st.st_mode));
+    }
 }
 
 static void test_paths(void)
