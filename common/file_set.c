@@ -36,8 +36,11 @@ int sp_file_set_add(sp_file_set *fs, const char *final_path, const char **temp_p
         fs->cap = cap;
     }
     sp_file_set_entry *e = &fs->files[fs->count];
+    struct stat st;
+    /* a device or FIFO (-o /dev/stdout) is written in place: renaming over it would replace the node */
+    e->in_place = stat(final_path, &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode);
     e->final_path = strdup(final_path);
-    e->temp_path = tagged(final_path, "new");
+    e->temp_path = e->in_place ? strdup(final_path) : tagged(final_path, "new");
     if (!e->final_path || !e->temp_path) {
         free(e->final_path);
         free(e->temp_path);
@@ -63,7 +66,7 @@ void sp_file_set_abort(sp_file_set *fs)
     if (!fs)
         return;
     for (size_t i = 0; i < fs->count; i++)
-        if (unlink(fs->files[i].temp_path) != 0 && errno != ENOENT)
+        if (!fs->files[i].in_place && unlink(fs->files[i].temp_path) != 0 && errno != ENOENT)
             sp_log(SP_LOG_WARN, LOG_MODULE, "%s: could not remove: %s", fs->files[i].temp_path, strerror(errno));
     reset(fs);
 }
@@ -101,15 +104,18 @@ int sp_file_set_commit(sp_file_set *fs)
     char **old = calloc(n ? n : 1, sizeof(*old));
     int err = old ? 0 : -ENOMEM;
     for (size_t i = 0; !err && i < n; i++)
-        err = keep_old(fs->files[i].final_path, &old[i]);
+        if (!fs->files[i].in_place)
+            err = keep_old(fs->files[i].final_path, &old[i]);
     while (!err && done < n) {
-        if (rename(fs->files[done].temp_path, fs->files[done].final_path) != 0)
+        if (!fs->files[done].in_place && rename(fs->files[done].temp_path, fs->files[done].final_path) != 0)
             err = -errno;
         else
             done++;
     }
     for (size_t i = 0; err && old && i < n; i++) { /* put the old set back */
         const char *final_path = fs->files[i].final_path;
+        if (fs->files[i].in_place)
+            continue;
         if (old[i] ? rename(old[i], final_path) != 0 : i < done && unlink(final_path) != 0)
             sp_log(SP_LOG_ERROR, LOG_MODULE, "%s: could not restore the previous file: %s", final_path,
                    strerror(errno));
@@ -121,6 +127,8 @@ int sp_file_set_commit(sp_file_set *fs)
     }
     free(old);
     for (size_t i = 0; !err && i < n; i++) {
+        if (fs->files[i].in_place)
+            continue;
         int serr = sp_sync_parent_dir(fs->files[i].final_path);
         if (serr) /* the files are complete; only the durability of their names is in doubt */
             sp_log(SP_LOG_WARN, LOG_MODULE, "%s: syncing its directory: %s", fs->files[i].final_path,

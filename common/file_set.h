@@ -13,6 +13,7 @@
 
 typedef struct sp_file_set_entry {
     char *final_path, *temp_path;
+    int in_place; /* final_path is a device or FIFO: written directly, never renamed or removed */
 } sp_file_set_entry;
 
 /* Zero-initialise before use ({ 0 }). */
@@ -24,7 +25,8 @@ typedef struct sp_file_set {
 /*
  * Adds final_path (borrowed) to the set and sets *temp_path to the name to
  * write it under, "<final_path>.new.<pid>" (owned by the set, valid until
- * commit or abort). The caller creates, fills, syncs and closes that file.
+ * commit or abort; final_path itself for an existing device or FIFO). The
+ * caller creates, fills, syncs and closes that file.
  */
 int sp_file_set_add(sp_file_set *fs, const char *final_path, const char **temp_path);
 /*

@@ -378,6 +378,14 @@ static void test_file_set(void)
     CHECK(text_is(at("set.glb"), "glb1") && text_is(at("set.png/x"), "x"));
     CHECK(!count_tagged(".new.") && !count_tagged(".old."));
 
+    /* a device in the set (a link to /dev/null here) is written in place and survives the commit */
+    struct stat st;
+    CHECK_EQ_INT(symlink("/dev/null", at("set-null")), 0);
+    stage(&fs, at("set-null"), "dev");
+    stage(&fs, at("set.glb"), "glb5");
+    CHECK_EQ_INT(sp_file_set_commit(&fs), 0);
+    CHECK(lstat(at("set-null"), &st) == 0 && S_ISLNK(st.st_mode) && text_is(at("set.glb"), "glb5"));
+
     CHECK_EQ_INT(sp_file_set_add(&fs, "", &(const char *){ NULL }), -EINVAL);
     CHECK_EQ_INT(sp_file_set_commit(&fs), 0); /* an empty set */
     sp_file_set_abort(&fs);
