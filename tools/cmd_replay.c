@@ -141,7 +141,7 @@ static int run_stage(const replay_args *a, const sp_stage_ops *ops, const sp_run
         code = sp_cmd_fail("replay", ret, "stage holds every frame");
     else if (st.failed_in == SP_RUN_FAILED_FINISH && a->output) {
         char what[4200];
-        snprintf(what, sizeof(what), "finishing the stage (writing %s)", a->output);
+        snprintf(what, sizeof(what), "finishing the stage (output %s not written)", a->output);
         code = sp_cmd_fail("replay", ret, what);
     } else if (st.failed_in == SP_RUN_FAILED_FINISH)
         code = sp_cmd_fail("replay", ret, "finishing the stage");

@@ -48,7 +48,7 @@ printf '\xff' | dd of="$dir/damaged.spcap" bs=1 seek=$((size / 2)) conv=notrunc 
 expect 2 "replay of a corrupt capture" "$SP" replay "$dir/damaged.spcap" --stage stats -o "$csv"
 same "$csv" "$dir/stats0.csv" "replay of a corrupt capture"
 expect 3 "replay under a write limit" limited 1 "$SP" replay "$b" --stage stats -o "$csv"
-contains "$dir/err.txt" "writing .*stats.csv.*File too large" "replay write-failure message"
+contains "$dir/err.txt" "stats.csv not written.*File too large" "replay write-failure message"
 same "$csv" "$dir/stats0.csv" "replay under a write limit"
 "$SP" replay "$b" --stage stats -o "$csv" --realtime >"$dir/out.txt" 2>"$dir/err.txt" &
 pid=$!
@@ -63,6 +63,10 @@ cp "$dir/orient.csv" "$dir/orient0.csv"
 expect 2 "replay orientation of a corrupt capture" "$SP" replay "$dir/damaged.spcap" --stage orientation \
     -o "$dir/orient.csv"
 same "$dir/orient.csv" "$dir/orient0.csv" "replay orientation of a corrupt capture"
+cp "$dir/stats0.csv" "$dir/lm.csv" # any previous content; the landmarks stage (dlib) may be missing
+"$SP" replay "$dir/damaged.spcap" --stage landmarks -o "$dir/lm.csv" >"$dir/out.txt" 2>"$dir/err.txt" &&
+    fail "replay landmarks of a corrupt capture: exit 0"
+same "$dir/lm.csv" "$dir/stats0.csv" "replay landmarks of a corrupt capture"
 no_temps "replay"
 
 # ---- export-video .avi: a failed write keeps the previous video, even with --force
