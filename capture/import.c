@@ -292,6 +292,33 @@ static int load_frame_times(import_ctx *c, const char *path)
     return rc;
 }
 
+static int same_file(const char *path, const struct stat *st)
+{
+    struct stat in;
+    return stat(path, &in) == 0 && in.st_dev == st->st_dev && in.st_ino == st->st_ino;
+}
+
+/* Refuses an output that is one of the inputs, by device and inode (so links and other spellings too). */
+static int check_output_not_input(import_ctx *c)
+{
+    const sp_import_settings *s = c->s;
+    struct stat out;
+    if (stat(s->output, &out) != 0)
+        return 0; /* not there yet: cannot be an input */
+    const char *named[] = { s->input, s->frame_times_csv, s->imu_csv, s->meta_json };
+    const char *hit = NULL;
+    for (size_t i = 0; !hit && i < sizeof(named) / sizeof(named[0]); i++)
+        if (named[i] && same_file(named[i], &out))
+            hit = named[i];
+    for (size_t i = 0; !hit && i < c->images.count; i++)
+        if (same_file(c->images.items[i], &out))
+            hit = c->images.items[i];
+    if (hit)
+        return FAIL(c, -EINVAL, "%s: the output is the same file as the input %s; it would be overwritten",
+                    s->output, hit);
+    return 0;
+}
+
 static int frame_time(import_ctx *c, uint64_t i, int64_t *out)
 {
     if (c->times) {
@@ -369,8 +396,8 @@ static int check_settings(import_ctx *c)
         return FAIL(c, -EINVAL, "an input and an output path are required");
     if (s->quality < 1 || s->quality > 100)
         return FAIL(c, -EINVAL, "JPEG quality %d is not in 1..100", s->quality);
-    if (!isfinite(s->fps) || s->fps < 0 || s->fps > 1e4)
-        return FAIL(c, -EINVAL, "frame rate %g is not in (0, 10000]", s->fps);
+    if (!isfinite(s->fps) || s->fps < 0 || (s->fps > 0 && s->fps < SP_IMPORT_MIN_FPS) || s->fps > SP_IMPORT_MAX_FPS)
+        return FAIL(c, -EINVAL, "frame rate %g is not in [0.001, 10000]", s->fps);
     if (!isfinite(s->imu_offset_s) || fabs(s->imu_offset_s) > MAX_IMU_OFFSET_S)
         return FAIL(c, -EINVAL, "IMU offset %g s is not a finite number of at most 1e6 s", s->imu_offset_s);
     if (s->store != SP_IMPORT_STORE_JPEG && s->store != SP_IMPORT_STORE_RGB)
@@ -557,6 +584,8 @@ int sp_import_run(const sp_import_settings *s, sp_import_report *report)
     int rc = check_settings(&c);
     if (!rc)
         rc = open_input(&c);
+    if (!rc)
+        rc = check_output_not_input(&c);
     if (!rc && s->frame_times_csv)
         rc = load_frame_times(&c, s->frame_times_csv);
     if (!rc && s->meta_json)

@@ -8,10 +8,14 @@
 typedef struct sp_atomic_file {
     FILE *file;      /* write here */
     char *final_path;
-    char *temp_path;
+    char *temp_path; /* NULL when writing a special file in place */
 } sp_atomic_file;
 
-/* Opens "<path>.tmp.<pid>" beside path. */
+/*
+ * Opens "<path>.tmp.<pid>" beside path. An existing path that is neither a
+ * regular file nor a directory (a device such as /dev/stdout, a FIFO) is
+ * opened and written in place instead: temp_path is then NULL.
+ */
 int sp_atomic_file_open(sp_atomic_file *af, const char *path);
 /*
  * status 0: flush, fsync and rename into place; otherwise (or if any of those

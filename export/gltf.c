@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "common/atomic_file.h"
+#include "common/file_set.h"
 #include "common/file_util.h"
 #include "common/jpeg.h"
 #include "common/json.h"
@@ -81,6 +82,7 @@ typedef struct export_ctx {
     char *reasons[N_PARTS]; /* the manifest's reason per left-out part (owned), NULL if none */
     sp_strbuf left_out;     /* JSON array body of what was left out, why, and what the export omitted */
     char env_name[256];     /* basename of the .hdr beside the output, "" if none */
+    sp_file_set files;      /* the asset's files, committed together at the end */
     sp_export_stats st;
 } export_ctx;
 
@@ -382,8 +384,11 @@ static int export_glb(export_ctx *c)
         ret = j.failed || acc.failed || mat.failed || texs.failed || images.failed || b.views.failed ||
                       draco_ext.failed ? -ENOMEM : 0;
     }
+    const char *tmp;
     if (!ret)
-        ret = write_glb(c->out_path, &j, &b, &c->st.total_bytes);
+        ret = sp_file_set_add(&c->files, c->out_path, &tmp);
+    if (!ret)
+        ret = write_glb(tmp, &j, &b, &c->st.total_bytes);
     free(b.data);
     sp_strbuf_free(&b.views);
     sp_strbuf_free(&acc);
@@ -405,7 +410,10 @@ static int export_drc(export_ctx *c)
     if (ret)
         return ret;
     sp_atomic_file af;
-    ret = sp_atomic_file_open(&af, c->out_path);
+    const char *tmp;
+    ret = sp_file_set_add(&c->files, c->out_path, &tmp);
+    if (!ret)
+        ret = sp_atomic_file_open(&af, tmp);
     if (!ret) {
         if (fwrite(d.data, 1, d.size, af.file) != d.size)
             ret = -EIO;
@@ -450,7 +458,10 @@ static int write_env(export_ctx *c)
     if (stem + 9 > sizeof(path))
         return -ENAMETOOLONG;
     snprintf(path, sizeof(path), "%.*s.env.hdr", (int)stem, c->out_path);
-    int ret = sp_hdr_write(path, c->asset.env, SP_RENDER_ENV_W, SP_RENDER_ENV_H);
+    const char *tmp;
+    int ret = sp_file_set_add(&c->files, path, &tmp);
+    if (!ret)
+        ret = sp_hdr_write(tmp, c->asset.env, SP_RENDER_ENV_W, SP_RENDER_ENV_H);
     if (ret) {
         sp_log(SP_LOG_ERROR, MOD, "cannot write %s: %s", path, sp_strerror(ret));
         return ret;
@@ -530,10 +541,13 @@ int sp_export_face(const char *face_dir, const char *out_path, const sp_export_s
         else if (settings->format == SP_EXPORT_DRC)
             ret = export_drc(c);
         else
-            ret = sp_export_write_obj(out_path, &c->asset, &c->geom, &c->tex, &c->st);
+            ret = sp_export_write_obj(out_path, &c->files, &c->geom, &c->tex, &c->st);
         if (ret)
             sp_log(SP_LOG_ERROR, MOD, "cannot write %s: %s", out_path, sp_strerror(ret));
     }
+    if (!ret && (ret = sp_file_set_commit(&c->files)))
+        sp_log(SP_LOG_ERROR, MOD, "cannot put %s and its companion files in place: %s", out_path, sp_strerror(ret));
+    sp_file_set_abort(&c->files); /* after a failure: no part of the new asset is left */
     if (!ret && stats)
         *stats = c->st;
     sp_export_textures_free(&c->tex);

@@ -6,6 +6,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "common/file_set.h"
 #include "sunprobe/sp_export.h"
 #include "sunprobe/sp_sunstage.h"
 
@@ -51,8 +52,8 @@ double sp_export_specular(double ks);
 /* Radiance RGBE (.hdr), run-length-free scanlines, written atomically. rgb: w*h*3 linear floats, row 0 = top. */
 int sp_hdr_write(const char *path, const float *rgb, int width, int height);
 
-/* Writes the OBJ + MTL + PNG variant (gltf_obj.c). */
-int sp_export_write_obj(const char *out_path, const sp_face_asset *a, const sp_gltf_geom *g,
-                        const sp_export_textures *t, sp_export_stats *st);
+/* Writes the OBJ + MTL + PNG variant (gltf_obj.c) under temporary names added to fs (committed by the caller). */
+int sp_export_write_obj(const char *out_path, sp_file_set *fs, const sp_gltf_geom *g, const sp_export_textures *t,
+                        sp_export_stats *st);
 
 #endif

@@ -8,17 +8,25 @@
 #include <string.h>
 
 #include "common/atomic_file.h"
+#include "common/file_set.h"
 #include "export/png.h"
 
-/* stem = out_path without extension; name(stem + suffix) into buf, base = its basename. */
-static int sibling(char *buf, size_t n, const char *out_path, const char *suffix, const char **base)
+/*
+ * stem = out_path without extension; adds stem + suffix to the set, *tmp = the
+ * name to write it under, *base = the final name's basename (for references).
+ */
+static int sibling(sp_file_set *fs, const char *out_path, const char *suffix, const char **tmp, const char **base)
 {
+    char buf[4096];
     const char *slash = strrchr(out_path, '/'), *dot = strrchr(out_path, '.');
     size_t stem = dot && (!slash || dot > slash) ? (size_t)(dot - out_path) : strlen(out_path);
-    if ((size_t)snprintf(buf, n, "%.*s%s", (int)stem, out_path, suffix) >= n)
+    if ((size_t)snprintf(buf, sizeof(buf), "%.*s%s", (int)stem, out_path, suffix) >= sizeof(buf))
         return -ENAMETOOLONG;
-    const char *s = strrchr(buf, '/');
-    *base = s ? s + 1 : buf;
+    int ret = sp_file_set_add(fs, buf, tmp);
+    if (ret)
+        return ret;
+    const char *f = fs->files[fs->count - 1].final_path, *s = strrchr(f, '/');
+    *base = s ? s + 1 : f;
     return 0;
 }
 
@@ -36,27 +44,26 @@ static int write_channel(const char *path, const sp_export_image *im, int ch)
     return ret;
 }
 
-static int write_mtl(const char *out_path, const sp_export_textures *t, const char **mtl_base)
+static int write_mtl(const char *out_path, sp_file_set *fs, const sp_export_textures *t, const char **mtl_base)
 {
-    char path[4096], tex[4096];
-    const char *base;
-    int ret = sibling(path, sizeof(path), out_path, ".mtl", mtl_base);
+    const char *path, *tex, *base;
+    int ret = sibling(fs, out_path, ".mtl", &path, mtl_base);
     sp_atomic_file af;
     if (ret || (ret = sp_atomic_file_open(&af, path)))
         return ret;
     fprintf(af.file, "# sunprobe face material\nnewmtl skin\nKa 0 0 0\nKd 1 1 1\nKs 0 0 0\nillum 2\n");
-    if (!(ret = sibling(tex, sizeof(tex), out_path, "_albedo.png", &base)))
+    if (!(ret = sibling(fs, out_path, "_albedo.png", &tex, &base)))
         ret = sp_png_write(tex, t->albedo.pixels, (uint32_t)t->albedo.width, (uint32_t)t->albedo.height,
                            (uint32_t)(t->albedo.width * 3), 3);
     if (!ret)
         fprintf(af.file, "map_Kd %s\n", base);
-    if (!ret && t->has_specular && !(ret = sibling(tex, sizeof(tex), out_path, "_specular.png", &base)) &&
+    if (!ret && t->has_specular && !(ret = sibling(fs, out_path, "_specular.png", &tex, &base)) &&
         !(ret = write_channel(tex, &t->spec_rough, 3)))
         fprintf(af.file, "Ks 1 1 1\nmap_Ks %s\n", base);
-    if (!ret && t->has_specular && !(ret = sibling(tex, sizeof(tex), out_path, "_roughness.png", &base)) &&
+    if (!ret && t->has_specular && !(ret = sibling(fs, out_path, "_roughness.png", &tex, &base)) &&
         !(ret = write_channel(tex, &t->spec_rough, 1)))
         fprintf(af.file, "map_Pr %s\n", base);
-    if (!ret && t->has_normal && !(ret = sibling(tex, sizeof(tex), out_path, "_normal.png", &base)) &&
+    if (!ret && t->has_normal && !(ret = sibling(fs, out_path, "_normal.png", &tex, &base)) &&
         !(ret = sp_png_write(tex, t->normal.pixels, (uint32_t)t->normal.width, (uint32_t)t->normal.height,
                              (uint32_t)(t->normal.width * 3), 3)))
         fprintf(af.file, "norm %s\n", base);
@@ -65,14 +72,15 @@ static int write_mtl(const char *out_path, const sp_export_textures *t, const ch
     return sp_atomic_file_finish(&af, ret);
 }
 
-int sp_export_write_obj(const char *out_path, const sp_face_asset *a, const sp_gltf_geom *g,
-                        const sp_export_textures *t, sp_export_stats *st)
+int sp_export_write_obj(const char *out_path, sp_file_set *fs, const sp_gltf_geom *g, const sp_export_textures *t,
+                        sp_export_stats *st)
 {
-    (void)a;
-    const char *mtl;
-    int ret = write_mtl(out_path, t, &mtl);
+    const char *mtl, *obj;
+    int ret = write_mtl(out_path, fs, t, &mtl);
+    if (!ret)
+        ret = sp_file_set_add(fs, out_path, &obj);
     sp_atomic_file af;
-    if (ret || (ret = sp_atomic_file_open(&af, out_path)))
+    if (ret || (ret = sp_atomic_file_open(&af, obj)))
         return ret;
     FILE *f = af.file;
     fprintf(f, "# sunprobe face (metres, y up)\nmtllib %s\nusemtl skin\n", mtl);

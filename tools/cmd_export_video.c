@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* `sunprobe export-video`: capture frames to numbered PNG files or to an .avi (MJPG) / .mp4 (mp4v) file. */
 #include <errno.h>
+#include <fcntl.h>
 #include <getopt.h>
 #include <math.h>
 #include <stdio.h>
@@ -315,6 +316,59 @@ static int prepare_output(exporter *e)
 #endif
 }
 
+#if HAVE_OPENCV
+/* Why writing to path fails: appends up to 1 MiB to it (it is discarded anyway); -EIO if that works. */
+static int write_error(const char *path)
+{
+    static const char block[65536];
+    int fd = open(path, O_WRONLY | O_APPEND | O_CLOEXEC);
+    if (fd < 0)
+        return -errno;
+    int err = -EIO;
+    for (int i = 0; i < 16 && err == -EIO; i++)
+        if (write(fd, block, sizeof(block)) < 0)
+            err = -errno;
+    if (err == -EIO && fsync(fd) != 0)
+        err = -errno;
+    close(fd);
+    return err;
+}
+
+/*
+ * OpenCV's writer drops write errors: on a full disk it leaves a truncated
+ * file and reports nothing. So the finished file is read back, and it must
+ * hold every frame written.
+ */
+static int check_video(const exporter *e)
+{
+    sp_cv_video_reader *r = NULL;
+    sp_cv_video_info info = { 0 };
+    uint64_t frames = 0;
+    uint8_t *buf = NULL;
+    int rc = sp_cv_video_open(&r, e->video_tmp, &info);
+    size_t size = (size_t)info.width * info.height * 3;
+    if (!rc && !(buf = malloc(size ? size : 1)))
+        rc = -ENOMEM;
+    while (!rc && (rc = sp_cv_video_read(r, buf, size, info.width * 3)) == 0)
+        frames++;
+    sp_cv_video_close(&r);
+    free(buf);
+    if (rc == -ENOMEM)
+        return rc;
+    return (rc == SP_EOS || rc == 0) && frames == e->written ? 0 : write_error(e->video_tmp);
+}
+
+static int sync_file(const char *path)
+{
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0)
+        return -errno;
+    int err = fsync(fd) != 0 ? -errno : 0;
+    close(fd);
+    return err;
+}
+#endif
+
 static int finish_video(exporter *e, int rc)
 {
 #if HAVE_OPENCV
@@ -322,6 +376,10 @@ static int finish_video(exporter *e, int rc)
         int crc = sp_cv_video_writer_close(&e->writer);
         rc = rc ? rc : crc;
     }
+    if (!rc && e->video_tmp)
+        rc = check_video(e);
+    if (!rc && e->video_tmp)
+        rc = sync_file(e->video_tmp);
 #endif
     if (!e->video_tmp)
         return rc;
@@ -383,7 +441,7 @@ int sp_cmd_export_video(int argc, char **argv)
     }
     rc = finish_video(&e, code == SP_EXIT_OK ? 0 : -EIO);
     if (rc && code == SP_EXIT_OK) {
-        fprintf(stderr, "sunprobe " CMD ": %s: %s\n", o.out, sp_strerror(rc));
+        fprintf(stderr, "sunprobe " CMD ": %s: writing the video: %s\n", o.out, sp_strerror(rc));
         code = sp_exit_for_error(rc);
     }
     if (code == SP_EXIT_OK && !o.quiet)

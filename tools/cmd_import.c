@@ -29,8 +29,8 @@ static void usage(FILE *out)
             "JPEG files are stored byte-for-byte; other images and video frames are re-encoded.\n\n"
             "options:\n"
             "  -o, --output FILE       capture to create (written as FILE.partial, renamed when complete)\n"
-            "      --fps F             frame rate for timestamps (default: frame-times CSV, the video's\n"
-            "                          rate, or camera.fps of --meta; required otherwise)\n"
+            "      --fps F             frame rate for timestamps, 0.001..10000 (default: frame-times CSV,\n"
+            "                          the video's rate, or camera.fps of --meta; required otherwise)\n"
             "      --frame-times CSV   per-frame times: column t (seconds) or t_ns, one row per frame\n"
             "      --imu CSV           IMU samples: t or t_ns, then gx,gy,gz (rad/s) ax,ay,az (m/s^2)\n"
             "                          mx,my,mz (uT); times on the frame clock, 0 = first frame\n"
@@ -40,7 +40,7 @@ static void usage(FILE *out)
             "      --store M           jpeg (default) or rgb: how non-JPEG frames are stored\n"
             "      --quality Q         JPEG quality for re-encoded frames, 1..100 (default 92)\n"
             "      --max-frames N      stop after N frames\n"
-            "  -f, --force             replace OUT if it exists\n"
+            "  -f, --force             replace OUT if it exists (never one of the inputs)\n"
             "  -q, --quiet             no progress bar or summary\n"
             "  -h, --help              this text\n\n"
             "Layouts and examples: capture/IMPORT.md.\n");
@@ -106,8 +106,8 @@ static int parse_args(int argc, char **argv, sp_import_settings *s, int *quiet)
         switch (c) {
         case 'o': s->output = optarg; break;
         case OPT_FPS:
-            if (parse_double(optarg, &s->fps) || !(s->fps > 0))
-                return bad_value("--fps", optarg);
+            if (parse_double(optarg, &s->fps) || !(s->fps >= SP_IMPORT_MIN_FPS && s->fps <= SP_IMPORT_MAX_FPS))
+                return bad_value("--fps (0.001..10000 frames per second)", optarg);
             break;
         case OPT_FRAME_TIMES: s->frame_times_csv = optarg; break;
         case OPT_IMU: s->imu_csv = optarg; break;

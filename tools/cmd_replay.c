@@ -4,6 +4,7 @@
 #include <getopt.h>
 #include <inttypes.h>
 #include <math.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 
@@ -11,6 +12,13 @@
 #include "cmd.h"
 #include "pipeline/stages/stages.h"
 #include "sunprobe/sp_replay.h"
+
+static volatile sig_atomic_t interrupted;
+
+static void on_signal(int sig)
+{
+    interrupted = sig;
+}
 
 static void usage(FILE *out)
 {
@@ -116,11 +124,26 @@ static int run_stage(const replay_args *a, const sp_stage_ops *ops, const sp_run
     if (ret)
         return sp_cmd_fail("replay", ret, "opening the stage");
     sp_run_stats st;
+    /* Ctrl-C stops before the next event, without finish: a stage output is not committed */
+    struct sigaction sa = { .sa_handler = on_signal }, old_int, old_term;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, &old_int);
+    sigaction(SIGTERM, &sa, &old_term);
     ret = sp_stage_run(a->path, &stage, rs, &st);
+    sigaction(SIGINT, &old_int, NULL);
+    sigaction(SIGTERM, &old_term, NULL);
     int code = SP_EXIT_OK;
-    if (ret == -EAGAIN && st.failed_in == SP_RUN_FAILED_SOURCE)
+    if (interrupted) {
+        fprintf(stderr, "sunprobe replay: interrupted after %" PRIu64 " frames%s\n", st.frames,
+                a->output ? "; output not written" : "");
+        code = 128 + (int)interrupted;
+    } else if (ret == -EAGAIN && st.failed_in == SP_RUN_FAILED_SOURCE)
         code = sp_cmd_fail("replay", ret, "stage holds every frame");
-    else if (st.failed_in == SP_RUN_FAILED_FINISH)
+    else if (st.failed_in == SP_RUN_FAILED_FINISH && a->output) {
+        char what[4200];
+        snprintf(what, sizeof(what), "finishing the stage (output %s not written)", a->output);
+        code = sp_cmd_fail("replay", ret, what);
+    } else if (st.failed_in == SP_RUN_FAILED_FINISH)
         code = sp_cmd_fail("replay", ret, "finishing the stage");
     else if (ret)
         code = sp_tool_capture_error("replay", a->path, ret, 0);
@@ -157,6 +180,7 @@ int sp_cmd_replay(int argc, char **argv)
     sp_run_settings run;
     sp_run_default_settings(&run);
     run.progress_label = "replay";
+    run.stop = &interrupted;
     sp_replay_settings *rs = &run.replay;
     rs->realtime = a.realtime;
     rs->speed = a.speed;

@@ -23,6 +23,10 @@ enum sp_import_store {
     SP_IMPORT_STORE_RGB = 1,  /* raw RGB24; JPEG files are decoded too (needs libjpeg for those) */
 };
 
+/* The --fps range: what a capture's META camera.fps may hold (capture/FORMAT.md). */
+#define SP_IMPORT_MIN_FPS 1e-3
+#define SP_IMPORT_MAX_FPS 1e4
+
 typedef struct sp_import_settings {
     /*
      * A directory of .jpg/.jpeg/.png files (sorted by name, digit runs compared
@@ -32,7 +36,10 @@ typedef struct sp_import_settings {
     const char *input;
     /* The capture to create. Written as "<output>.partial", renamed when complete, removed on failure. */
     const char *output;
-    /* Frames per second for timestamps; 0: the frame-times CSV, else the video's rate, else camera.fps. */
+    /*
+     * Frames per second for timestamps, SP_IMPORT_MIN_FPS..SP_IMPORT_MAX_FPS; 0: the
+     * frame-times CSV, else the video's rate, else camera.fps. -EINVAL outside.
+     */
     double fps;
     const char *frame_times_csv; /* optional: one row per frame, column t (s) or t_ns */
     const char *imu_csv;         /* optional: t or t_ns, then gx,gy,gz / ax,ay,az / mx,my,mz */

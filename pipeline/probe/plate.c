@@ -146,14 +146,19 @@ int plate_offer(probe_plate *pl, const uint8_t *rgb, int64_t t_ns)
 {
     if (pl->next_sample_ns != INT64_MIN && t_ns < pl->next_sample_ns)
         return 0;
+    /* schedule from the due time, not the frame time, so jitter does not stretch the window */
+    int64_t next = pl->next_sample_ns, step = pl->interval_ns; /* step >= 0 (plate_open) */
+    /* t_ns >= next here, so t_ns - next overflows only when next < 0: then it is certainly late */
+    int from_frame = next == INT64_MIN || (next < 0 && t_ns > INT64_MAX + next) || t_ns - next > step;
+    int64_t base = from_frame ? t_ns : next;
+    if (base > INT64_MAX - step)
+        return -ERANGE; /* timestamps at the end of the clock's range */
+    int64_t due = base + step;
     memcpy(pl->ring + (size_t)pl->next * pl->bytes, rgb, pl->bytes);
     pl->next = (pl->next + 1) % pl->k;
     if (pl->filled < pl->k)
         pl->filled++;
-    /* schedule from the due time, not the frame time, so jitter does not stretch the window */
-    pl->next_sample_ns = pl->next_sample_ns == INT64_MIN || t_ns - pl->next_sample_ns > pl->interval_ns
-                             ? t_ns + pl->interval_ns
-                             : pl->next_sample_ns + pl->interval_ns;
+    pl->next_sample_ns = due;
     if (!plate_ready(pl))
         return 0;
     const uint8_t *in[PROBE_MAX_WIRES];

@@ -275,6 +275,12 @@ static int probe_frame(sp_probe *p, int64_t t)
     if (camera_moves(p, 10, 0.8))
         return SP_ENODATA;
     int updated = plate_offer(&p->plate, p->rgb, t);
+    if (updated < 0) {
+        snprintf(p->message, sizeof(p->message),
+                 "frame %llu: timestamp %lld ns is too close to the end of the clock's range (int64 overflow)",
+                 (unsigned long long)(p->st.frames - 1), (long long)t);
+        return SP_ENODATA;
+    }
     p->segmented = 0;
     if (!plate_ready(&p->plate))
         return 0;

@@ -34,7 +34,8 @@ typedef struct probe_plate {
 
 int plate_open(probe_plate *pl, uint32_t width, uint32_t height, unsigned k, int64_t window_ns);
 void plate_close(probe_plate *pl);
-/* Samples the frame when the interval has passed; 1 when the plate was recomputed, else 0. */
+/* Samples the frame when the interval has passed; 1 when the plate was recomputed, else 0; -ERANGE
+ * when the next sampling time would overflow int64. */
 int plate_offer(probe_plate *pl, const uint8_t *rgb, int64_t t_ns);
 static inline int plate_ready(const probe_plate *pl) { return pl->filled == pl->k; }
 /* Element-wise median of `k` (3..PROBE_MAX_WIRES) byte arrays of n bytes into out: exposed for tests. */

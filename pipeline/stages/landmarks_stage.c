@@ -12,11 +12,13 @@
 #include <math.h>
 #include <stdlib.h>
 
+#include "common/atomic_file.h"
 #include "common/pixconv.h"
 #include "pipeline/sunstage/landmarks.h"
 
 typedef struct landmarks_stage {
-    FILE *csv;
+    FILE *csv;          /* = out.file while the CSV is written, else NULL */
+    sp_atomic_file out; /* the CSV under a temporary name until finish succeeds */
     ss_lm_tracker *tracker;
     uint8_t *rgb;
     size_t rgb_size;
@@ -29,8 +31,8 @@ static const char *const source_names[] = { "none", "tracked", "detected", "sear
 static void lm_close(void *ctx)
 {
     landmarks_stage *s = ctx;
-    if (s->csv)
-        fclose(s->csv);
+    if (s->csv) /* not finished, or finish failed: the previous CSV (if any) stays */
+        sp_atomic_file_finish(&s->out, -ECANCELED);
     ss_lm_tracker_close(&s->tracker);
     free(s->rgb);
     free(s);
@@ -45,8 +47,8 @@ static int lm_open(void **ctx, const void *settings)
     ss_lm_settings ls;
     ss_lm_default_settings(&ls);
     int ret = ss_lm_tracker_open(&s->tracker, &ls);
-    if (!ret && options && options->output_path && !(s->csv = fopen(options->output_path, "w")))
-        ret = -errno;
+    if (!ret && options && options->output_path && !(ret = sp_atomic_file_open(&s->out, options->output_path)))
+        s->csv = s->out.file;
     if (ret) {
         lm_close(s);
         return ret;
@@ -110,9 +112,11 @@ static int lm_finish(void *ctx, FILE *summary)
             "face, %" PRIu64 " searched); mean drift %.4f of the inter-ocular distance\n",
             found, s->frames, s->by_source[SS_LM_TRACKED], s->by_source[SS_LM_DETECTED], s->by_source[SS_LM_SEARCHED],
             found ? s->drift_sum / (double)found : (double)NAN);
-    if (s->csv && fflush(s->csv) != 0)
-        return -errno;
-    return found ? 0 : SP_ENODATA;
+    int status = found ? 0 : SP_ENODATA;
+    if (!s->csv)
+        return status;
+    s->csv = NULL; /* committed (status 0) or removed */
+    return sp_atomic_file_finish(&s->out, status);
 }
 
 const sp_stage_ops sp_stage_landmarks = {

@@ -14,8 +14,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/atomic_file.h"
+
 typedef struct orientation_stage {
-    FILE *csv;
+    FILE *csv;                 /* = out.file while the CSV is written, else NULL */
+    sp_atomic_file out;        /* the CSV under a temporary name until finish succeeds */
     uint64_t resolved, unresolved, imu_samples;
     int have_align;
     sp_quat align; /* maps the filter's world onto the truth's world */
@@ -30,11 +33,12 @@ static int orient_open(void **ctx, const void *settings)
     if (!s)
         return -ENOMEM;
     if (options && options->output_path) {
-        if (!(s->csv = fopen(options->output_path, "w"))) {
-            int err = -errno;
+        int err = sp_atomic_file_open(&s->out, options->output_path);
+        if (err) {
             free(s);
             return err;
         }
+        s->csv = s->out.file;
         fprintf(s->csv, "sequence,timestamp_s,qw,qx,qy,qz,heading_deg,elevation_deg,error_deg\n");
     }
     *ctx = s;
@@ -91,6 +95,15 @@ static int orient_push(void *ctx, const sp_event *ev)
     return 0;
 }
 
+/* Puts the CSV in place only after a complete run (status 0); else removes it. Returns status or the error. */
+static int commit_csv(orientation_stage *s, int status)
+{
+    if (!s->csv)
+        return status;
+    s->csv = NULL;
+    return sp_atomic_file_finish(&s->out, status);
+}
+
 static int orient_finish(void *ctx, FILE *summary)
 {
     orientation_stage *s = ctx;
@@ -101,16 +114,14 @@ static int orient_finish(void *ctx, FILE *summary)
     if (s->err_n)
         fprintf(summary, "orientation: error against ground truth: mean %.3f deg, max %.3f deg, last frame %.3f deg\n",
                 s->err_sum / (double)s->err_n, s->err_max, s->err_last);
-    if (s->csv && fflush(s->csv) != 0)
-        return -EIO;
-    return s->imu_samples ? 0 : SP_ENODATA;
+    return commit_csv(s, s->imu_samples ? 0 : SP_ENODATA);
 }
 
 static void orient_close(void *ctx)
 {
     orientation_stage *s = ctx;
-    if (s->csv)
-        fclose(s->csv);
+    if (s->csv) /* not finished, or finish failed: the previous CSV (if any) stays */
+        sp_atomic_file_finish(&s->out, -ECANCELED);
     free(s);
 }
 

@@ -12,7 +12,8 @@
 
 /* Settings of the replay stages (null, stats, orientation, landmarks). */
 typedef struct sp_stage_options {
-    const char *output_path; /* stage-specific output file (CSV), may be NULL */
+    const char *output_path; /* stage-specific output file (CSV), may be NULL; stages write it under a
+                                temporary name and commit it only when finish succeeds (atomic_file.h) */
 } sp_stage_options;
 
 extern const sp_stage_ops sp_stage_null;

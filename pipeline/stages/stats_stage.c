@@ -11,6 +11,7 @@
 #include <math.h>
 #include <stdlib.h>
 
+#include "common/atomic_file.h"
 #include "common/pixconv.h"
 
 #define BLACK_LEVEL 16
@@ -18,7 +19,8 @@
 #define BAD_FRACTION 0.9   /* a frame this black or saturated is unusable */
 
 typedef struct stats_stage {
-    FILE *csv;
+    FILE *csv;                 /* = out.file while the CSV is written, else NULL */
+    sp_atomic_file out;        /* the CSV under a temporary name until finish succeeds */
     uint8_t *gray;
     size_t gray_size;
     uint64_t frames, black_frames, saturated_frames, undecodable;
@@ -38,12 +40,12 @@ static int stats_open(void **ctx, const void *settings)
     s->luma_min = s->sharp_min = INFINITY;
     s->luma_max = s->sharp_max = -INFINITY;
     if (options && options->output_path) {
-        s->csv = fopen(options->output_path, "w");
-        if (!s->csv) {
-            int err = -errno;
+        int err = sp_atomic_file_open(&s->out, options->output_path);
+        if (err) {
             free(s);
             return err;
         }
+        s->csv = s->out.file;
         fprintf(s->csv, "sequence,timestamp_s,mean_luma,black_fraction,saturated_fraction,sharpness,exposure_us\n");
     }
     *ctx = s;
@@ -110,26 +112,33 @@ static int stats_process(void *ctx, const sp_event *ev)
     return 0;
 }
 
+/* Puts the CSV in place only after a complete run (status 0); else removes it. Returns status or the error. */
+static int commit_csv(stats_stage *s, int status)
+{
+    if (!s->csv)
+        return status;
+    s->csv = NULL;
+    return sp_atomic_file_finish(&s->out, status);
+}
+
 static int stats_finish(void *ctx, FILE *summary)
 {
     stats_stage *s = ctx;
     if (!s->frames) {
         fprintf(summary, "stats: no decodable frames (%" PRIu64 " undecodable)\n", s->undecodable);
-        return 0;
+        return commit_csv(s, 0);
     }
     fprintf(summary, "stats: %" PRIu64 " frames, mean luma %.1f..%.1f, sharpness %.1f..%.1f, %" PRIu64
                      " black, %" PRIu64 " saturated, %" PRIu64 " undecodable\n", s->frames, s->luma_min,
             s->luma_max, s->sharp_min, s->sharp_max, s->black_frames, s->saturated_frames, s->undecodable);
-    if (s->csv && fflush(s->csv) != 0)
-        return -EIO;
-    return 0;
+    return commit_csv(s, 0);
 }
 
 static void stats_close(void *ctx)
 {
     stats_stage *s = ctx;
-    if (s->csv)
-        fclose(s->csv);
+    if (s->csv) /* not finished, or finish failed: the previous CSV (if any) stays */
+        sp_atomic_file_finish(&s->out, -ECANCELED);
     free(s->gray);
     free(s);
 }

@@ -14,6 +14,13 @@
 #define MOD "sunstage"
 #define MAX_FILE ((size_t)1 << 30)
 
+/* Logs "dir/file: what" for content that would render as a blank image; returns SP_ECORRUPT. */
+static int bad_field(const char *dir, const char *file, const char *what)
+{
+    sp_log(SP_LOG_ERROR, MOD, "%s/%s: %s", dir, file, what);
+    return SP_ECORRUPT;
+}
+
 /* Reads dir/name into a malloc'd buffer (NUL appended); SP_ETRUNCATED if want > 0 and the size differs. */
 static int read_file(const char *dir, const char *name, size_t want, char **out, size_t *size)
 {
@@ -68,7 +75,11 @@ static int read_mesh(sp_face_asset *a, const char *dir)
     memcpy(a->mesh.tri_vertices, p += 8 * (size_t)c[1], 12 * (size_t)c[2]);
     memcpy(a->mesh.tri_uvs, p + 12 * (size_t)c[2], 12 * (size_t)c[2]);
     free(buf);
-    return sp_mesh_validate(&a->mesh);
+    if (c[2] == 0)
+        return bad_field(dir, "mesh.bin", "triangle count is 0");
+    ret = sp_mesh_validate(&a->mesh);
+    return ret == SP_ECORRUPT ? bad_field(dir, "mesh.bin", "a position or UV is NaN or Inf, or an index is out of range")
+                              : ret;
 }
 
 static int read_maps(sp_face_asset *a, const char *dir, const sp_json *tex)
@@ -98,7 +109,10 @@ static int read_maps(sp_face_asset *a, const char *dir, const sp_json *tex)
     free(buf);
     for (size_t i = 0; i < nt * 3; i++)
         if (!isfinite(a->albedo[i]))
-            return SP_ECORRUPT;
+            return bad_field(dir, "albedo.f32", "a value is NaN or Inf");
+    for (size_t i = 0; i < nt; i++)
+        if (!isfinite(a->displacement[i]))
+            return bad_field(dir, "displacement.f32", "a value is NaN or Inf");
     return 0;
 }
 
@@ -126,6 +140,9 @@ static int read_camera(sp_face_asset *a, const char *dir)
     sp_json_free(root);
     if (a->width < 1 || a->height < 1 || a->width > 16384 || a->height > 16384 || !(k[0] > 0.0) || !(k[1] > 0.0))
         return SP_ECORRUPT;
+    double qn = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    if (!(qn > 1e-9 && qn < 1e150)) /* zero, NaN or Inf: no rotation to normalise */
+        return bad_field(dir, "cameras.json", "frames[0].camera_to_world_wxyz is zero, NaN or Inf");
     double R[9];
     sp_quat_to_matrix(sp_quat_normalize((sp_quat){ q[0], q[1], q[2], q[3] }), R);
     a->camera.fx = k[0];

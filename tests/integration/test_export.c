@@ -575,6 +575,114 @@ static void check_bad_input(const char *exe, const char *tmp, const char *face)
     CHECK_MSG(system(args) != 0, "a temporary file was left behind in %s", tmp);
 }
 
+/* `sunprobe relight` exit code; stderr into err (for the message). */
+static int run_relight(const char *exe, const char *dir, const char *out, const char *err)
+{
+    char cmd[8192];
+    snprintf(cmd, sizeof(cmd), "'%s' relight '%s' --sun 30,40 --scale 1 -o '%s' >/dev/null 2>'%s'", exe, dir, out, err);
+    int st = system(cmd);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+static int file_contains(const char *path, const char *needle)
+{
+    size_t n;
+    char *t = (char *)slurp(path, &n);
+    int found = t && (t[n] = 0, strstr(t, needle) != NULL);
+    free(t);
+    return found;
+}
+
+/* Face directories that would render blank are refused when read, naming the file and field. */
+static void check_relight_bad(const char *exe, const char *tmp)
+{
+    char dir[512], out[512], err[512], path[1024];
+    snprintf(out, sizeof(out), "%s/relit.png", tmp);
+    snprintf(err, sizeof(err), "%s/relight.err", tmp);
+    const float nan = NAN;
+    snprintf(dir, sizeof(dir), "%s/relight-nan-disp", tmp);
+    CHECK(make_fixture(dir, 0) == 0);
+    CHECK_EQ_INT(run_relight(exe, dir, out, err), 0); /* the fixture itself renders */
+    CHECK(exists(out) && unlink(out) == 0);
+    patch(dir, "displacement.f32", 400, &nan, 4);
+    CHECK_EQ_INT(run_relight(exe, dir, out, err), 2);
+    CHECK(!exists(out) && file_contains(err, "displacement.f32: a value is NaN"));
+
+    snprintf(dir, sizeof(dir), "%s/relight-no-tris", tmp);
+    CHECK(make_fixture(dir, 0) == 0);
+    snprintf(path, sizeof(path), "%s/mesh.bin", dir);
+    uint32_t c[3];
+    FILE *f = fopen(path, "rb");
+    CHECK(f && fseek(f, 8, SEEK_SET) == 0 && fread(c, 4, 3, f) == 3);
+    if (f)
+        fclose(f);
+    const uint32_t zero = 0;
+    patch(dir, "mesh.bin", 16, &zero, 4);
+    CHECK(truncate(path, (off_t)(20 + 4 * (3 * (size_t)c[0] + 2 * (size_t)c[1]))) == 0);
+    CHECK_EQ_INT(run_relight(exe, dir, out, err), 2);
+    CHECK(!exists(out) && file_contains(err, "mesh.bin: triangle count is 0"));
+
+    snprintf(dir, sizeof(dir), "%s/relight-zero-quat", tmp);
+    CHECK(make_fixture(dir, 0) == 0);
+    const char *cams = "{\"frames\":[{\"width\":128,\"height\":128,\"intrinsics\":[150,150,64,64],"
+                       "\"camera_to_world_wxyz\":[0,0,0,0]}]}\n";
+    CHECK(write_file(dir, "cameras.json", cams, strlen(cams)) == 0);
+    CHECK_EQ_INT(run_relight(exe, dir, out, err), 2);
+    CHECK(!exists(out) && file_contains(err, "cameras.json: frames[0].camera_to_world_wxyz"));
+    unlink(err);
+}
+
+/* `sh -c` with the output size limited to 64 blocks (SIGXFSZ ignored, so writes fail with EFBIG). */
+static int run_limited(const char *exe, const char *args)
+{
+    char cmd[8192];
+    snprintf(cmd, sizeof(cmd), "ulimit -f 64; trap '' XFSZ; exec '%s' export %s >/dev/null 2>&1", exe, args);
+    int st = system(cmd);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+static int same_bytes(const char *path, const uint8_t *want, size_t want_n)
+{
+    size_t n;
+    uint8_t *d = slurp(path, &n);
+    int same = d && n == want_n && !memcmp(d, want, n);
+    free(d);
+    return same;
+}
+
+/* An asset is committed whole or not at all: a failed write leaves the previous set as it was, and no new file. */
+static void check_asset_atomic(const char *exe, const char *tmp, const char *face)
+{
+    char dir[512], glb_path[512], env_path[512], path[1024], args[4096];
+    snprintf(glb_path, sizeof(glb_path), "%s/set.glb", tmp);
+    snprintf(env_path, sizeof(env_path), "%s/set.env.hdr", tmp);
+    snprintf(args, sizeof(args), "'%s' -o '%s' --no-draco", face, glb_path);
+    CHECK_EQ_INT(run_cli(exe, args), 0);
+    size_t glb_n = 0, env_n = 0;
+    uint8_t *glb0 = slurp(glb_path, &glb_n), *env0 = slurp(env_path, &env_n);
+    CHECK(glb0 && env0 && glb_n > 64 * 512 && env_n < 64 * 512); /* the limit stops the .glb, not the .hdr */
+    snprintf(dir, sizeof(dir), "%s/other-sky", tmp);
+    CHECK(make_fixture(dir, 0) == 0);
+    const float sky[4] = { 3.0f, 0.1f, 0.2f, 5.0f };
+    patch(dir, "env.f32", 0, sky, sizeof(sky));
+    snprintf(args, sizeof(args), "'%s' -o '%s' --no-draco", dir, glb_path);
+    CHECK_EQ_INT(run_limited(exe, args), 3);
+    CHECK_MSG(same_bytes(glb_path, glb0, glb_n) && same_bytes(env_path, env0, env_n),
+              "the previous .glb + .env.hdr were changed by a failed export");
+    free(glb0);
+    free(env0);
+    static const char *const obj_files[] = { "fresh.obj", "fresh.mtl", "fresh_albedo.png", "fresh_normal.png",
+                                             "fresh.env.hdr" };
+    snprintf(args, sizeof(args), "'%s' -o '%s/fresh.obj' --format obj", dir, tmp);
+    CHECK_EQ_INT(run_limited(exe, args), 3);
+    for (size_t i = 0; i < sizeof(obj_files) / sizeof(obj_files[0]); i++) {
+        snprintf(path, sizeof(path), "%s/%s", tmp, obj_files[i]);
+        CHECK_MSG(!exists(path), "%s was left by a failed export", path);
+    }
+    snprintf(args, sizeof(args), "ls -a '%s' | grep -q '\\.\\(tmp\\|new\\|old\\)\\.'", tmp);
+    CHECK_MSG(system(args) != 0, "a temporary file was left behind in %s", tmp);
+}
+
 int main(int argc, char **argv)
 {
     if (argc >= 4 && !strcmp(argv[2], "fixture")) { /* flat: a new manifest that left everything out */
@@ -596,6 +704,8 @@ int main(int argc, char **argv)
     check_formats(tmp, face, flat);
     check_left_out(tmp);
     check_bad_input(argv[1], tmp, face);
+    check_relight_bad(argv[1], tmp);
+    check_asset_atomic(argv[1], tmp, face);
     char cmd[128];
     snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmp);
     if (system(cmd) != 0)

@@ -6,7 +6,8 @@
  *                                 compositing behind/in front of the pole, removal
  *   test_probe SUNPROBE seeds     occluder recall and false rate on two more synth street seeds
  *   test_probe SUNPROBE overcast  the shadow model is left out, the plane still fits
- *   test_probe SUNPROBE bad       moving camera, nothing moving, 3 frames, missing file:
+ *   test_probe SUNPROBE bad       moving camera, nothing moving, 3 frames, timestamps at the
+ *                                 end of the int64 clock, missing file:
  *                                 a message, exit code 2/3, no output left behind
  *   test_probe SUNPROBE vtest     lamp post and sign occlude the people behind them; the
  *                                 height prediction error on the second half (skips without
@@ -31,6 +32,7 @@
 #include "export/png_read.h"
 #include "export/probe_dir.h"
 #include "sp_config.h"
+#include "sunprobe/sp_capture.h"
 #include "sunprobe/sp_probe.h"
 
 #define VTEST "/usr/share/doc/opencv-doc/examples/data/vtest.avi"
@@ -387,6 +389,42 @@ static void test_overcast(void)
     sp_probe_dir_free(&d);
 }
 
+/* Copies src's META and frames to dst, frame i at end - (n - 1 - i) * step ns: at the end of the clock. */
+static int retime(const char *src, const char *dst, int64_t end, int64_t step)
+{
+    sp_capture_reader *r = NULL;
+    sp_capture_writer *w = NULL;
+    sp_capture_writer_settings ws;
+    sp_capture_writer_default_settings(&ws);
+    int rc = sp_capture_reader_open(&r, src, NULL);
+    uint64_t n = 0;
+    sp_chunk ch;
+    while (!rc && (rc = sp_capture_reader_next(r, &ch)) == 0)
+        n += ch.type == SP_CHUNK_FRAME;
+    sp_capture_reader_close(&r);
+    if (rc == SP_EOS)
+        rc = sp_capture_reader_open(&r, src, NULL);
+    if (!rc)
+        rc = sp_capture_writer_open(&w, dst, &ws);
+    uint64_t i = 0;
+    while (!rc && (rc = sp_capture_reader_next(r, &ch)) == 0) {
+        sp_frame_chunk fc;
+        if (ch.type == SP_CHUNK_META)
+            rc = sp_capture_write_meta(w, end - (int64_t)(n - 1) * step, (const char *)ch.payload, ch.payload_size);
+        if (ch.type != SP_CHUNK_FRAME || rc || (rc = sp_chunk_parse_frame(&ch, &fc)))
+            continue;
+        sp_frame f = { .format = fc.format, .width = fc.width, .height = fc.height, .stride = fc.stride,
+                       .data = (uint8_t *)fc.data, .capacity = fc.data_size, .bytes_used = fc.data_size,
+                       .timestamp_ns = end - (int64_t)(n - 1 - i) * step, .sequence = i,
+                       .stream_id = fc.stream_id, .exposure_us = fc.exposure_us, .gain = fc.gain };
+        rc = sp_capture_write_frame(w, &f);
+        i++;
+    }
+    sp_capture_reader_close(&r);
+    int crc = w ? sp_capture_writer_close(&w) : 0;
+    return rc == SP_EOS ? crc : rc;
+}
+
 static void test_bad(void)
 {
     CHECK(run("synth", "street", "-o", path_in("pan.spcap"), "--pan", "4", "--seconds", "6", NULL) == 0);
@@ -398,6 +436,11 @@ static void test_bad(void)
     CHECK(run("synth", "street", "-o", path_in("three.spcap"), "--seconds", "0.3", NULL) == 0);
     CHECK(run("probe", path_in("three.spcap"), "-o", path_in("threep"), NULL) == 2);
     CHECK(file_has("err.txt", "too short") && !exists("threep") && no_partial_left());
+    /* frames at the end of int64's clock: the plate's next sampling time would overflow */
+    CHECK(run("synth", "street", "-o", path_in("street.spcap"), "--seconds", "8", NULL) == 0);
+    CHECK_EQ_INT(retime(path_in("street.spcap"), path_in("late.spcap"), INT64_MAX - 1000, 100000000), 0);
+    CHECK_EQ_INT(run("probe", path_in("late.spcap"), "-o", path_in("latep"), NULL), 2);
+    CHECK(file_has("err.txt", "overflow") && !exists("latep") && no_partial_left());
     CHECK(run("probe", path_in("nothing.spcap"), "-o", path_in("nop"), NULL) == 3);
     CHECK(run("probe", path_in("three.spcap"), NULL) == 1);
     CHECK(run("probe", path_in("three.spcap"), "-o", path_in("x"), "--samples", "4", NULL) == 1);

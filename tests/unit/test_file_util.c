@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "common/file_set.h"
 #include "common/file_util.h"
 
 static char root[256];
@@ -145,6 +146,16 @@ static void test_write(void)
         printf("note: running as root, the read-only directory case is not tested\n");
     }
     CHECK_EQ_INT(sp_write_whole_file_atomic(NULL, "a", 1), -EINVAL);
+    /* devices are written in place (a rename would replace the node); reached through links here, so a
+       regression replaces only the link, never /dev/null itself */
+    struct stat st;
+    CHECK_EQ_INT(symlink("/dev/null", at("null")), 0);
+    CHECK_EQ_INT(sp_write_whole_file_atomic(at("null"), "a", 1), 0);
+    CHECK(lstat(at("null"), &st) == 0 && S_ISLNK(st.st_mode));
+    if (stat("/dev/full", &st) == 0 && S_ISCHR(st.st_mode) && symlink("/dev/full", at("full")) == 0) {
+        CHECK_EQ_INT(sp_write_whole_file_atomic(at("full"), "a", 1), -ENOSPC);
+        CHECK(lstat(at("full"), &st) == 0 && S_ISLNK(st.st_mode));
+    }
 }
 
 static void test_paths(void)
@@ -314,6 +325,73 @@ static void test_stale_partials(void)
         CHECK_EQ_INT(sp_remove_tree(dirs[i]), 0);
 }
 
+/* Counts the entries of root whose name contains tag (temporaries and kept old files). */
+static int count_tagged(const char *tag)
+{
+    char cmd[700];
+    snprintf(cmd, sizeof(cmd), "ls -a '%s' | grep -c -- '%s' >/dev/null", root, tag);
+    return system(cmd) == 0;
+}
+
+/* Adds final to fs and writes text under its temporary name. */
+static void stage(sp_file_set *fs, const char *final_path, const char *text)
+{
+    const char *tmp = NULL;
+    CHECK_EQ_INT(sp_file_set_add(fs, final_path, &tmp), 0);
+    if (tmp)
+        put(tmp, text);
+}
+
+static void test_file_set(void)
+{
+    sp_file_set fs = { 0 };
+    stage(&fs, at("set.glb"), "glb1");
+    stage(&fs, at("set.env.hdr"), "env1");
+    CHECK(!exists(at("set.glb")) && !exists(at("set.env.hdr"))); /* nothing final before the commit */
+    CHECK_EQ_INT(sp_file_set_commit(&fs), 0);
+    CHECK(text_is(at("set.glb"), "glb1") && text_is(at("set.env.hdr"), "env1"));
+    CHECK(fs.count == 0 && !count_tagged(".new.") && !count_tagged(".old."));
+
+    /* abort: the old set stays, no temporary is left */
+    stage(&fs, at("set.glb"), "glb2");
+    stage(&fs, at("set.env.hdr"), "env2");
+    sp_file_set_abort(&fs);
+    CHECK(text_is(at("set.glb"), "glb1") && text_is(at("set.env.hdr"), "env1") && !count_tagged(".new."));
+
+    /* a rename fails half-way (the third temporary was never written): the first two are put back */
+    const char *tmp = NULL;
+    stage(&fs, at("set.env.hdr"), "env3");
+    stage(&fs, at("set.extra.txt"), "new3");
+    CHECK_EQ_INT(sp_file_set_add(&fs, at("set.png"), &tmp), 0);
+    stage(&fs, at("set.glb"), "glb3");
+    CHECK_EQ_INT(sp_file_set_commit(&fs), -ENOENT);
+    CHECK(text_is(at("set.glb"), "glb1") && text_is(at("set.env.hdr"), "env1"));
+    CHECK(!exists(at("set.extra.txt")) && !exists(at("set.png")));
+    CHECK(fs.count == 0 && !count_tagged(".new.") && !count_tagged(".old."));
+
+    /* a directory in the way of a final name is refused, not moved aside */
+    CHECK_EQ_INT(mkdir(at("set.png"), 0755), 0);
+    put(at("set.png/x"), "x");
+    stage(&fs, at("set.glb"), "glb4");
+    stage(&fs, at("set.png"), "png4");
+    CHECK_EQ_INT(sp_file_set_commit(&fs), -EISDIR);
+    CHECK(text_is(at("set.glb"), "glb1") && text_is(at("set.png/x"), "x"));
+    CHECK(!count_tagged(".new.") && !count_tagged(".old."));
+
+    /* a device in the set (a link to /dev/null here) is written in place and survives the commit */
+    struct stat st;
+    CHECK_EQ_INT(symlink("/dev/null", at("set-null")), 0);
+    stage(&fs, at("set-null"), "dev");
+    stage(&fs, at("set.glb"), "glb5");
+    CHECK_EQ_INT(sp_file_set_commit(&fs), 0);
+    CHECK(lstat(at("set-null"), &st) == 0 && S_ISLNK(st.st_mode) && text_is(at("set.glb"), "glb5"));
+
+    CHECK_EQ_INT(sp_file_set_add(&fs, "", &(const char *){ NULL }), -EINVAL);
+    CHECK_EQ_INT(sp_file_set_commit(&fs), 0); /* an empty set */
+    sp_file_set_abort(&fs);
+    sp_file_set_abort(NULL);
+}
+
 int main(void)
 {
     const char *tmp = getenv("TMPDIR");
@@ -326,6 +404,7 @@ int main(void)
     test_partial_dir();
     test_stale_partials();
     test_partial_file();
+    test_file_set();
     if (!check_failures)
         CHECK_EQ_INT(sp_remove_tree(root), 0);
     else

@@ -218,11 +218,29 @@ static void test_misuse(void)
     CHECK(strlen(sp_probe_message(NULL)) > 0);
 }
 
+/* Timestamps at the end of int64's range are refused with a message, not wrapped around. */
+static void test_clock_overflow(void)
+{
+    static const int64_t times[][2] = { { 0, INT64_MAX - 5 }, { INT64_MIN + 5, INT64_MAX - 5 } };
+    static uint8_t img[W * H * 3];
+    for (int k = 0; k < 2; k++) {
+        sp_probe_settings s;
+        sp_probe *p = NULL;
+        base_settings(&s);
+        CHECK(sp_probe_open(&p, W, H, &s) == 0);
+        CHECK(sp_probe_push_rgb(p, img, W * 3, times[k][0]) == 0);
+        CHECK(sp_probe_push_rgb(p, img, W * 3, times[k][1]) == SP_ENODATA);
+        CHECK_MSG(strstr(sp_probe_message(p), "overflow") != NULL, "%s", sp_probe_message(p));
+        sp_probe_close(&p);
+    }
+}
+
 int main(void)
 {
     make_background();
     test_scene();
     test_bad_input();
     test_misuse();
+    test_clock_overflow();
     return check_exit();
 }
