@@ -111,6 +111,27 @@ double sp_quat_angle_between(sp_quat a, sp_quat b)
     return 2.0 * atan2(s, fabs(d.w)); /* atan2 keeps precision at tiny angles, unlike acos */
 }
 
+void sp_quat_mean_init(sp_quat_mean *m)
+{
+    *m = (sp_quat_mean){ { 0, 0, 0, 0 }, { 1, 0, 0, 0 }, 0 };
+}
+
+void sp_quat_mean_add(sp_quat_mean *m, sp_quat q)
+{
+    if (m->n++ == 0)
+        m->first = q;
+    double s = q.w * m->first.w + q.x * m->first.x + q.y * m->first.y + q.z * m->first.z < 0.0 ? -1.0 : 1.0;
+    m->sum.w += s * q.w;
+    m->sum.x += s * q.x;
+    m->sum.y += s * q.y;
+    m->sum.z += s * q.z;
+}
+
+sp_quat sp_quat_mean_get(const sp_quat_mean *m)
+{
+    return m->n ? sp_quat_normalize(m->sum) : sp_quat_identity();
+}
+
 void sp_quat_to_matrix(sp_quat q, double m[9])
 {
     q = sp_quat_normalize(q);

@@ -113,28 +113,6 @@ static int rigid_from_json(const sp_json *m, rigid *out)
     return 0;
 }
 
-/* Sign-consistent mean of rotations given as quaternions. */
-typedef struct quat_mean {
-    sp_quat sum, first;
-    int n;
-} quat_mean;
-
-static void quat_mean_add(quat_mean *m, sp_quat q)
-{
-    if (m->n++ == 0)
-        m->first = q;
-    double d = q.w * m->first.w + q.x * m->first.x + q.y * m->first.y + q.z * m->first.z;
-    double s = d < 0.0 ? -1.0 : 1.0;
-    m->sum.w += s * q.w;
-    m->sum.x += s * q.x;
-    m->sum.y += s * q.y;
-    m->sum.z += s * q.z;
-}
-
-static sp_quat quat_mean_get(const quat_mean *m)
-{
-    return sp_quat_normalize(m->sum);
-}
 
 static double angle_deg(const double a[3], const double b[3])
 {
@@ -202,7 +180,9 @@ static int register_fit(eval_ctx *c)
     const sp_json *frames = sp_json_get(c->cams, "frames");
     rigid place0 = { { 0 } }; /* asset -> scaled model frame: inverse of keyframe 0's placement */
     int have0 = 0;
-    quat_mean world = { { 0, 0, 0, 0 }, { 1, 0, 0, 0 }, 0 }, head = world;
+    sp_quat_mean world, head;
+    sp_quat_mean_init(&world);
+    sp_quat_mean_init(&head);
     double t_sum[3] = { 0, 0, 0 };
     rigid G[MAX_KEYFRAMES];
     double E[MAX_KEYFRAMES][9], T[MAX_KEYFRAMES][9];
@@ -231,7 +211,7 @@ static int register_fit(eval_ctx *c)
         for (int r = 0; r < 3; r++)
             for (int q = 0; q < 3; q++)
                 a[r * 3 + q] = cam.R[r * 3] * e[q * 3] + cam.R[r * 3 + 1] * e[q * 3 + 1] + cam.R[r * 3 + 2] * e[q * 3 + 2];
-        quat_mean_add(&world, sp_quat_from_matrix(a));
+        sp_quat_mean_add(&world, sp_quat_from_matrix(a));
         rigid hinv = rigid_inv(&hd), hc = rigid_mul(&hinv, &cam);
         G[n] = rigid_mul(&hc, &face); /* scaled model -> head, composed with place0 below */
         n++;
@@ -240,7 +220,7 @@ static int register_fit(eval_ctx *c)
         fprintf(stderr, "sunprobe evaluate: no fitted keyframe matches a frame of %s/meta.json\n", c->a->capture);
         return SP_ENODATA;
     }
-    sp_quat_to_matrix(quat_mean_get(&world), c->align);
+    sp_quat_to_matrix(sp_quat_mean_get(&world), c->align);
     c->n_keyframes = n;
     for (int i = 0; i < n; i++) {
         double ae[9];
@@ -252,11 +232,11 @@ static int register_fit(eval_ctx *c)
         c->camera_err_mean += err / n;
         c->camera_err_max = fmax(c->camera_err_max, err);
         G[i] = rigid_mul(&G[i], &place0);
-        quat_mean_add(&head, sp_quat_from_matrix(G[i].R));
+        sp_quat_mean_add(&head, sp_quat_from_matrix(G[i].R));
         for (int k = 0; k < 3; k++)
             t_sum[k] += G[i].t[k] / n;
     }
-    sp_quat_to_matrix(quat_mean_get(&head), c->asset_to_head.R);
+    sp_quat_to_matrix(sp_quat_mean_get(&head), c->asset_to_head.R);
     memcpy(c->asset_to_head.t, t_sum, sizeof(t_sum));
     return 0;
 }

@@ -34,6 +34,16 @@ SP_API sp_quat sp_quat_slerp(sp_quat a, sp_quat b, double t);
 SP_API double sp_quat_angle_between(sp_quat a, sp_quat b);
 /* Row-major 3x3 rotation matrix from a unit quaternion, and back. */
 SP_API void sp_quat_to_matrix(sp_quat q, double m[9]);
+/* Mean rotation of a set of quaternions: each is sign-flipped to the first one's hemisphere (q and -q are one
+   rotation), summed, normalised. Good for rotations within a few tens of degrees of each other. */
+typedef struct sp_quat_mean {
+    sp_quat sum, first;
+    int n;
+} sp_quat_mean;
+SP_API void sp_quat_mean_init(sp_quat_mean *m);
+SP_API void sp_quat_mean_add(sp_quat_mean *m, sp_quat q);
+/* The mean so far; the identity when nothing was added. */
+SP_API sp_quat sp_quat_mean_get(const sp_quat_mean *m);
 SP_API sp_quat sp_quat_from_matrix(const double m[9]);
 
 SP_API sp_vec3 sp_vec3_add(sp_vec3 a, sp_vec3 b);

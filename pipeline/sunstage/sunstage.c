@@ -406,26 +406,16 @@ int sp_sunstage_align_world(const sp_sunstage *ss, double R[9])
 {
     if (!ss || !R)
         return -EINVAL;
-    sp_quat sum = { 0, 0, 0, 0 }, first = { 1, 0, 0, 0 };
-    int n = 0;
+    sp_quat_mean mean;
+    sp_quat_mean_init(&mean);
     for (int k = 0; ss->res.slots && k < ss->res.n_slots; k++) {
         const ss_frame *f = &ss->res.slots[k];
-        if (!f->used || !f->has_truth)
-            continue;
-        sp_quat a = sp_quat_normalize(sp_quat_mul(f->truth_q, sp_quat_conj(f->q_c2w)));
-        if (n == 0)
-            first = a;
-        double d = a.w * first.w + a.x * first.x + a.y * first.y + a.z * first.z;
-        double s = d < 0.0 ? -1.0 : 1.0; /* q and -q are the same rotation */
-        sum.w += s * a.w;
-        sum.x += s * a.x;
-        sum.y += s * a.y;
-        sum.z += s * a.z;
-        n++;
+        if (f->used && f->has_truth)
+            sp_quat_mean_add(&mean, sp_quat_normalize(sp_quat_mul(f->truth_q, sp_quat_conj(f->q_c2w))));
     }
-    if (!n)
+    if (!mean.n)
         return SP_ENODATA;
-    sp_quat_to_matrix(sp_quat_normalize(sum), R);
+    sp_quat_to_matrix(sp_quat_mean_get(&mean), R);
     return 0;
 }
 

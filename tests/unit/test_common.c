@@ -114,6 +114,15 @@ static void test_quat(void)
     sp_quat half = sp_quat_slerp(sp_quat_identity(), c, 0.5);
     CHECK_NEAR(sp_quat_angle_between(sp_quat_identity(), half), 1.55, 1e-9);
     CHECK_NEAR(sp_vec3_norm((sp_vec3){ 1e300, 1e300, 1e300 }), sqrt(3.0) * 1e300, 1e288);
+    /* the mean of rotations 0.2 rad either side of c, given with both signs, is c */
+    sp_quat_mean mean;
+    sp_quat_mean_init(&mean);
+    CHECK_NEAR(sp_quat_angle_between(sp_quat_mean_get(&mean), sp_quat_identity()), 0, 0);
+    sp_quat lo = sp_quat_mul(c, sp_quat_from_axis_angle((sp_vec3){ 0, 1, 0 }, -0.2));
+    sp_quat hi = sp_quat_mul(c, sp_quat_from_axis_angle((sp_vec3){ 0, 1, 0 }, 0.2));
+    sp_quat_mean_add(&mean, lo);
+    sp_quat_mean_add(&mean, (sp_quat){ -hi.w, -hi.x, -hi.y, -hi.z });
+    CHECK_NEAR(sp_quat_angle_between(sp_quat_mean_get(&mean), c), 0, 1e-12);
 }
 
 static void test_report(void)

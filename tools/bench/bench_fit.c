@@ -10,8 +10,11 @@
  * capture poses; cameras the capture never had) rendered from the fit (face pose aligned to
  * the frame's landmarks, light mapped into the fit's world and scaled by the fitted/true sun
  * intensity ratio), compared at the fit resolution on the rendered face-skin mask.
+ * The fast solver runs on one thread and on all online CPUs (the ratio is printed; the
+ * results are bit-identical). RSS and times of the fast rows are the all-CPU run's.
  * Usage: bench_fit [SECONDS...] [--face generic|auto] [--supersample S] [--no-adam]
- *        (default: 20 120; auto face; the synth's default supersampling)
+ *                  [--face-crop W] [--keyframes N] [--texture ROWS]
+ *        (default: 20 120; auto face; the synth's default supersampling; the fit's defaults)
  */
 #include <errno.h>
 #include <math.h>
@@ -26,11 +29,17 @@
 #include "common/clock.h"
 #include "common/file_util.h"
 #include "common/json.h"
+#include "common/parallel.h"
 #include "pipeline/stages/stages.h"
 #include "sunprobe/sp_sunstage.h"
 #include "sunprobe/sp_synth.h"
 
 #define N_HELDOUT 4 /* relit and novel-view frames each */
+
+/* Fit settings given on the command line (0 = the fit's default) and the solver threads of the next fit. */
+static struct {
+    int crop_width, keyframes, texture, threads;
+} opts;
 
 typedef struct result {
     int ok;
@@ -286,6 +295,13 @@ static int fit_child(const char *cap, enum sp_sunstage_solver solver, const held
     sp_fit_stage_settings fs = { .model = t->model };
     sp_sunstage_default_settings(&fs.fit);
     fs.fit.solver = solver;
+    fs.fit.threads = opts.threads;
+    if (opts.crop_width)
+        fs.fit.face_crop = 1, fs.fit.fit_width = opts.crop_width;
+    if (opts.keyframes)
+        fs.fit.keyframes = opts.keyframes;
+    if (opts.texture)
+        fs.fit.texture_size = opts.texture;
     sp_stage stage = { 0 };
     int ret = sp_stage_open(&stage, &sp_stage_fit, &fs);
     if (ret)
@@ -350,7 +366,7 @@ static int run_fit(const char *cap, enum sp_sunstage_solver solver, const heldou
 
 static void print_row(const char *name, double dur, const result *r)
 {
-    printf("%-5s %5.0f s  %3d kf  wall %7.1f s  sun %6.2f deg  train %6.2f dB  held-out %6.2f dB  albedo RMS %.4f"
+    printf("%-6s %5.0f s  %3d kf  wall %7.1f s  sun %6.2f deg  train %6.2f dB  held-out %6.2f dB  albedo RMS %.4f"
            "  peak RSS %6.1f MB",
            name, dur, r->keyframes, r->seconds, r->sun_err, r->train, r->heldout, r->albedo_err,
            (double)r->rss_kb / 1024.0);
@@ -390,8 +406,15 @@ static int bench_one(double duration, int generic, int supersample, int adam)
         const double none[2] = { INFINITY, -1.0 };
         sp_sunstage_settings defaults;
         sp_sunstage_default_settings(&defaults);
-        if (!(ret = run_fit(cap, SP_SUNSTAGE_SOLVER_FAST, &t, none, &fast))) {
+        result one;
+        opts.threads = 1;
+        if (!(ret = run_fit(cap, SP_SUNSTAGE_SOLVER_FAST, &t, none, &one)))
+            print_row("fast1", duration, &one);
+        opts.threads = 0;
+        if (!ret && !(ret = run_fit(cap, SP_SUNSTAGE_SOLVER_FAST, &t, none, &fast))) {
             print_row("fast", duration, &fast);
+            printf("fast on 1 thread / on %d CPUs: wall %.1f s / %.1f s = %.2fx\n", sp_cpu_count(), one.seconds,
+                   fast.seconds, one.seconds / fast.seconds);
             const double target[2] = { fast.heldout, fast.sun_err };
             if (adam && !(ret = run_fit(cap, SP_SUNSTAGE_SOLVER_ADAM, &t, target, &ad))) {
                 print_row("adam", duration, &ad);
@@ -430,6 +453,12 @@ int main(int argc, char **argv)
             ss = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--no-adam"))
             adam = 0;
+        else if (!strcmp(argv[i], "--face-crop") && i + 1 < argc)
+            opts.crop_width = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--keyframes") && i + 1 < argc)
+            opts.keyframes = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--texture") && i + 1 < argc)
+            opts.texture = atoi(argv[++i]);
         else if (n < 8 && atof(argv[i]) >= 3.0)
             durations[n++] = atof(argv[i]);
     }
