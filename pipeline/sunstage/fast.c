@@ -410,43 +410,85 @@ static int fill_unseen(fast_ctx *c)
     return ss_albedo_fill_unobserved(ss->fit.albedo, ss->fit.tw, ss->fit.th, ss->fit.observed);
 }
 
-/* The normal equations' share of one observation chunk. */
+#define NH (1 + NK)              /* one channel's albedo-scaled shading terms: sun diffuse, then the env lobes */
+#define NTRI (NH * (NH + 1) / 2) /* their outer product's upper triangle */
+
+/* Unknown of shading term p in channel ch (x: I, env per channel, I ks per cluster). */
+static int term_unknown(int p, int ch)
+{
+    return p == 0 ? 0 : 1 + ch * NK + (p - 1);
+}
+
+/*
+ * The normal equations' share of one observation chunk. The rows of an
+ * observation are a * (D, A_0..A_8) for its channel and P for its cluster, so
+ * the sums are kept as dense per-channel blocks and per-cluster cross terms
+ * (no scattered updates into the full matrix), then laid out once per chunk.
+ */
 static void lighting_task(void *ctx, int k)
 {
     fast_ctx *c = ctx;
-    double A[PART]; /* local, so the compiler knows the stores below touch no observation */
-    double *b = A + NL * NL;
-    memset(A, 0, sizeof(A));
+    double blk[3][NTRI], bh[3][NH], cross[SP_RENDER_CLUSTERS][3][NH], pp[SP_RENDER_CLUSTERS], pl[SP_RENDER_CLUSTERS];
+    memset(blk, 0, sizeof(blk));
+    memset(bh, 0, sizeof(bh));
+    memset(cross, 0, sizeof(cross));
+    memset(pp, 0, sizeof(pp));
+    memset(pl, 0, sizeof(pl));
     size_t lo, hi;
     chunk_range(c, k, &lo, &hi);
     for (size_t i = lo; i < hi; i += c->stride) {
         const obs *o = &c->o[i];
+        double h[NH];
+        h[0] = c->use_sun ? o->D : 0.0;
+        for (int j = 0; j < NK; j++)
+            h[1 + j] = o->A[j];
+        int cl = c->use_spec ? o->cluster : -1;
         for (int ch = 0; ch < 3; ch++) {
-            double a = albedo_at(c->ss, o, ch);
-            double g[2 + NK];
-            int gi[2 + NK], ng = 0;
-            if (c->use_sun) {
-                g[ng] = a * o->D;
-                gi[ng++] = 0;
+            double a = albedo_at(c->ss, o, ch), u = o->w * a * a, wl = o->w * a * o->L[ch];
+            double *t = blk[ch];
+            for (int p = 0; p < NH; p++) {
+                double up = u * h[p];
+                for (int q = p; q < NH; q++)
+                    *t++ += up * h[q];
+                bh[ch][p] += wl * h[p];
             }
-            for (int j = 0; j < NK; j++) {
-                g[ng] = a * o->A[j];
-                gi[ng++] = 1 + ch * NK + j;
-            }
-            if (c->use_spec && o->cluster >= 0) {
-                g[ng] = o->P;
-                gi[ng++] = 1 + 3 * NK + o->cluster;
-            }
-            for (int p = 0; p < ng; p++) {
-                double wg = o->w * g[p];
-                b[gi[p]] += wg * o->L[ch];
-                double *row = A + gi[p] * NL;
-                for (int q = 0; q < ng; q++)
-                    row[gi[q]] += wg * g[q];
+            if (cl >= 0) {
+                double wp = o->w * a * o->P;
+                for (int p = 0; p < NH; p++)
+                    cross[cl][ch][p] += wp * h[p];
+                pp[cl] += o->w * o->P * o->P;
+                pl[cl] += o->w * o->P * o->L[ch];
             }
         }
     }
-    memcpy(c->part + (size_t)k * PART, A, sizeof(A));
+    double *A = c->part + (size_t)k * PART, *b = A + NL * NL;
+    memset(A, 0, sizeof(double) * PART);
+    for (int ch = 0; ch < 3; ch++) {
+        const double *t = blk[ch];
+        for (int p = 0; p < NH; p++) {
+            int ip = term_unknown(p, ch);
+            b[ip] += bh[ch][p];
+            for (int q = p; q < NH; q++, t++) {
+                int iq = term_unknown(q, ch);
+                A[ip * NL + iq] += *t;
+                if (iq != ip)
+                    A[iq * NL + ip] += *t;
+            }
+        }
+        for (int cl = 0; cl < SP_RENDER_CLUSTERS; cl++) {
+            int is = 1 + 3 * NK + cl;
+            for (int p = 0; p < NH; p++) {
+                int ip = term_unknown(p, ch);
+                A[is * NL + ip] += cross[cl][ch][p];
+                A[ip * NL + is] += cross[cl][ch][p];
+            }
+        }
+    }
+    for (int cl = 0; cl < SP_RENDER_CLUSTERS; cl++) {
+        int is = 1 + 3 * NK + cl;
+        A[is * NL + is] += pp[cl];
+        b[is] += pl[cl];
+    }
 }
 
 /* Lighting unknowns by NNLS given the albedo; terms switched off stay 0. */
