@@ -4,7 +4,8 @@
  * capture directory with ground truth laid out like the folders of ../shared/captures
  * (meta.json, gt/relight/relight.json, gt/nvs/nvs.json): sun direction error,
  * training and held-out PSNR, relighting and novel-view PSNR/SSIM inside the
- * union of the true and rendered face masks, fit time. Table on stdout, JSON
+ * union of the true and rendered face masks, landmark coverage and error (the
+ * fit's landmarks.csv against gt/landmarks.csv), fit time. Table on stdout, JSON
  * with --json.
  *
  * Registration uses the fit's own cameras: the fit's world maps onto the true
@@ -29,6 +30,7 @@
 #include "sunprobe/sp_face_model.h"
 #include "sunprobe/sp_math.h"
 #include "sunprobe/sp_sunstage.h"
+#include "tools/evaluate_landmarks.h"
 
 #define MAX_KEYFRAMES 80
 
@@ -63,6 +65,8 @@ typedef struct eval_ctx {
     const char *relight_note; /* why relighting was not scored, or NULL */
     scored relight, nvs;
     sp_strbuf images; /* per-image JSON rows */
+    int have_landmarks;      /* the fit's landmark record was scored */
+    landmark_score landmarks;
 } eval_ctx;
 
 static void usage(FILE *out)
@@ -70,7 +74,8 @@ static void usage(FILE *out)
     fprintf(out, "usage: sunprobe evaluate FACE_DIR CAPTURE_DIR [--json FILE] [--renders DIR]\n\n"
                  "Scores a fitted face against a capture with ground truth (laid out as in ../shared/captures):\n"
                  "sun direction error, training and held-out PSNR, relighting (gt/relight) and novel-view\n"
-                 "(gt/nvs) PSNR and SSIM inside the union of the true and rendered face masks.\n"
+                 "(gt/nvs) PSNR and SSIM inside the union of the true and rendered face masks, and the\n"
+                 "coverage and error of the fit's landmarks (landmarks.csv against gt/landmarks.csv).\n"
                  "  --json FILE     also write the figures as JSON\n"
                  "  --renders DIR   write each rendered view beside its ground truth as PNG\n");
 }
@@ -462,6 +467,11 @@ static void print_table(const eval_ctx *c, const sp_json *fit)
            100.0 * mean_of(&c->nvs, 2));
     if (c->relight_note)
         printf("  %s\n", c->relight_note);
+    if (c->have_landmarks)
+        printf("  %-28s on %d of %d frames with a visible face (%d tried, the rest skipped before detection); "
+               "error over the inter-ocular distance mean %.2f%%, 90th percentile %.2f%%\n",
+               "landmarks (gt/landmarks)", c->landmarks.found, c->landmarks.faces, c->landmarks.tried,
+               100.0 * c->landmarks.mean, 100.0 * c->landmarks.p90);
     printf("  %-28s %.1f s\n", "fit wall time", sp_json_number(sp_json_get(fit, "seconds"), NAN));
 }
 
@@ -496,6 +506,14 @@ static int write_json(const eval_ctx *c, const sp_json *fit)
         sp_strbuf_json_number(&b, mean_of(sets[i], 1));
         sp_strbuf_printf(&b, ",\"mask_overlap\":");
         sp_strbuf_json_number(&b, mean_of(sets[i], 2));
+        sp_strbuf_printf(&b, "}");
+    }
+    if (c->have_landmarks) {
+        sp_strbuf_printf(&b, ",\"landmarks\":{\"frames_with_face\":%d,\"tried\":%d,\"found\":%d,\"error_iod\":",
+                         c->landmarks.faces, c->landmarks.tried, c->landmarks.found);
+        sp_strbuf_json_number(&b, c->landmarks.found ? c->landmarks.mean : (double)NAN);
+        sp_strbuf_printf(&b, ",\"error_iod_p90\":");
+        sp_strbuf_json_number(&b, c->landmarks.found ? c->landmarks.p90 : (double)NAN);
         sp_strbuf_printf(&b, "}");
     }
     sp_strbuf_printf(&b, ",\"images\":[%s]}\n", c->images.data ? c->images.data : "");
@@ -554,6 +572,15 @@ static int run(eval_ctx *c)
     sun_error(c);
     if ((ret = score_set(c, "relight", &c->relight)) || (ret = score_set(c, "nvs", &c->nvs)))
         return sp_cmd_fail("evaluate", ret, "scoring the held-out images");
+    if (sp_json_string(sp_json_get(c->manifest, "landmarks"), NULL)) { /* the fit ran its landmark tracker */
+        char fit_csv[4096], truth_csv[4096], err[512] = "";
+        snprintf(fit_csv, sizeof(fit_csv), "%s/landmarks.csv", c->a->face);
+        snprintf(truth_csv, sizeof(truth_csv), "%s/gt/landmarks.csv", c->a->capture);
+        if (!(ret = evaluate_landmarks(fit_csv, truth_csv, &c->landmarks, err, sizeof(err))))
+            c->have_landmarks = 1;
+        else if (ret != -ENOENT)
+            return sp_cmd_fail("evaluate", ret, err[0] ? err : "scoring the landmarks");
+    }
     const sp_json *fit = sp_json_get(c->manifest, "fit");
     print_table(c, fit);
     if (c->a->json && (ret = write_json(c, fit)))

@@ -124,6 +124,33 @@ static int write_cameras(const sp_sunstage *ss, const char *dir)
     return ret;
 }
 
+/* landmarks.csv: what the tracker found on every frame it ran on (none when every frame came with landmarks). */
+static int write_landmarks(const sp_sunstage *ss, const char *dir)
+{
+    static const char *const source[] = { "none", "tracked", "detected", "searched" };
+    sp_strbuf b = { 0 };
+    sp_strbuf_printf(&b, "sequence,source,drift");
+    for (int k = 0; k < 68; k++)
+        sp_strbuf_printf(&b, ",x%d,y%d", k, k);
+    sp_strbuf_printf(&b, "\n");
+    for (size_t i = 0; i < ss->fe.lm_n; i++) {
+        const ss_lm_entry *e = &ss->fe.lm_log[i];
+        int found = e->source > 0 && e->source < 4;
+        sp_strbuf_printf(&b, "%llu,%s,", (unsigned long long)e->sequence, found ? source[e->source] : "none");
+        if (found)
+            sp_strbuf_printf(&b, "%.5f", (double)e->drift);
+        for (int k = 0; k < 136; k++)
+            if (found)
+                sp_strbuf_printf(&b, ",%.3f", (double)e->lm[k]);
+            else
+                sp_strbuf_printf(&b, ",");
+        sp_strbuf_printf(&b, "\n");
+    }
+    int ret = write_text(dir, "landmarks.csv", &b);
+    sp_strbuf_free(&b);
+    return ret;
+}
+
 static void manifest_lighting(const sp_sunstage *ss, sp_strbuf *b)
 {
     sp_strbuf_printf(b, "\"lighting\":{\"sun_direction\":");
@@ -195,6 +222,8 @@ static int write_manifest(const sp_sunstage *ss, const char *dir)
                          "\"cluster_width\":%u,\"cluster_height\":%u},\n",
                      ss->fit.tw, ss->fit.th, ss->fit.have_observed ? "\"albedo_observed\":\"albedo_observed.u8\"," : "",
                      ss->model->cluster_width, ss->model->cluster_height);
+    if (ss->fe.lm_n) /* the landmark tracker's record: every frame it ran on (sunprobe evaluate scores it) */
+        sp_strbuf_printf(&b, "\"landmarks\":\"landmarks.csv\",\n");
     sp_strbuf_printf(&b, "\"specular\":{\"ks\":");
     sp_strbuf_json_numbers(&b, ss->fit.ks, SP_RENDER_CLUSTERS);
     sp_strbuf_printf(&b, ",\"shininess\":");
@@ -258,6 +287,8 @@ int sp_face_dir_write(const sp_sunstage *ss, const char *dir)
         ret = write_blob(dir, "env.f32", ss->fit.env, sizeof(ss->fit.env));
     if (!ret)
         ret = write_cameras(ss, dir);
+    if (!ret && ss->fe.lm_n)
+        ret = write_landmarks(ss, dir);
     if (!ret)
         ret = write_manifest(ss, dir);
     return ret;

@@ -212,7 +212,7 @@ static int skip_by_quality(sp_sunstage *ss, const float *rgb, double *sharp)
     return 0;
 }
 
-static int detect(sp_sunstage *ss, double lm[136]);
+static int detect(sp_sunstage *ss, uint64_t sequence, double lm[136]);
 
 /* Offers the frame in ss->fe.work_rgb and attaches its truth when it takes a slot. */
 static int offer(sp_sunstage *ss, const sp_frame *frame, int64_t t, const sp_frame_tags *tags, const double lm[136],
@@ -239,7 +239,7 @@ static int crop_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const s
     double lmc[136];
     for (int k = 0; tags->has_landmarks && k < 136; k++)
         lmc[k] = (double)tags->landmarks[k];
-    if (!tags->has_landmarks && (!ss->set.use_dlib || detect(ss, lmc) != 0)) {
+    if (!tags->has_landmarks && (!ss->set.use_dlib || detect(ss, frame->sequence, lmc) != 0)) {
         ss->counts.skipped_no_face++;
         return 0;
     }
@@ -280,7 +280,7 @@ int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const s
     double lm[136], found[136];
     if (tags->has_landmarks) {
         tag_landmarks(ss, tags, lm);
-    } else if (!ss->set.use_dlib || detect(ss, found) != 0) {
+    } else if (!ss->set.use_dlib || detect(ss, frame->sequence, found) != 0) {
         ss->counts.skipped_no_face++;
         return 0;
     } else {
@@ -289,8 +289,27 @@ int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const s
     return offer(ss, frame, t, tags, lm, sharp, expo);
 }
 
+/* Keeps the tracker's result for the face directory; failing to keep it costs only the record. */
+static void log_landmarks(sp_sunstage *ss, uint64_t sequence, const ss_lm_result *r)
+{
+    ss_frontend *fe = &ss->fe;
+    if (fe->lm_n == fe->lm_cap) {
+        size_t cap = fe->lm_cap ? 2 * fe->lm_cap : 256;
+        ss_lm_entry *e = realloc(fe->lm_log, cap * sizeof(*e));
+        if (!e)
+            return;
+        fe->lm_log = e, fe->lm_cap = cap;
+    }
+    ss_lm_entry *e = &fe->lm_log[fe->lm_n++];
+    e->sequence = sequence;
+    e->source = (int)r->source;
+    e->drift = (float)r->drift;
+    for (int k = 0; k < 136; k++)
+        e->lm[k] = (float)r->lm[k];
+}
+
 /* The landmark tracker on the capture-size frame; 0 with landmarks in capture pixels, SP_ENODATA without a face. */
-static int detect(sp_sunstage *ss, double lm_out[136])
+static int detect(sp_sunstage *ss, uint64_t sequence, double lm_out[136])
 {
     if (!ss->fe.landmarks && !ss->fe.landmarks_failed) {
         ss_lm_settings ls;
@@ -307,6 +326,7 @@ static int detect(sp_sunstage *ss, double lm_out[136])
     int ret = ss_lm_tracker_frame(ss->fe.landmarks, ss->fe.rgb24, ss->fe.cap_w, ss->fe.cap_h, &r);
     if (ret)
         return ret;
+    log_landmarks(ss, sequence, &r);
     if (r.source == SS_LM_NONE)
         return SP_ENODATA;
     memcpy(lm_out, r.lm, sizeof(r.lm));

@@ -108,6 +108,7 @@ void sp_sunstage_close(sp_sunstage **pss)
         return;
     sp_sunstage *ss = *pss;
     ss_lm_tracker_close(&ss->fe.landmarks);
+    free(ss->fe.lm_log);
     free(ss->fe.rgb24);
     free(ss->fe.work_rgb);
     ss_reservoir_free(ss);

@@ -41,6 +41,14 @@ typedef struct ss_frame {
 } ss_frame;
 
 /* The front end's per-stream state (frontend.c). */
+/* What the landmark tracker found on one frame (the fit's own record, written as landmarks.csv). */
+typedef struct ss_lm_entry {
+    uint64_t sequence;
+    int source;       /* ss_lm_source */
+    float drift;
+    float lm[136];    /* capture pixels */
+} ss_lm_entry;
+
 typedef struct ss_frontend {
     struct ss_lm_tracker *landmarks; /* landmark tracker (landmarks.h), opened at the first frame that needs it */
     int landmarks_failed;
@@ -52,6 +60,8 @@ typedef struct ss_frontend {
     double expo_ref;            /* exposure_us x gain of the first frame, 0 when unknown */
     ss_window win;              /* the current frame's window (whole frame, or its face crop) */
     int64_t frame_t[2], imu_t[2]; /* first and last timestamps seen: explain frames the IMU never covered */
+    ss_lm_entry *lm_log;        /* every frame the tracker ran on, in order (about 0.6 kB a frame) */
+    size_t lm_n, lm_cap;
 } ss_frontend;
 
 /* The keyframe reservoir (reservoir.c): `keyframes` yaw bins, then the held-out bins. */

@@ -65,10 +65,14 @@ import json, math, sys
 e = json.load(open(sys.argv[1]))
 ok = e["camera_error_deg"]["max"] < 3 and e["nvs"]["images"] >= 1 and math.isfinite(e["nvs"]["psnr"])
 ok &= 0 <= e["nvs"]["ssim"] <= 1 and 0 < e["nvs"]["mask_overlap"] <= 1
+if "landmarks" in e:  # the fit's own landmark record, scored like the landmarks stage above
+    lm = e["landmarks"]
+    ok &= lm["found"] >= 0.9 * lm["frames_with_face"] and lm["error_iod"] < 0.06
 if e["relight"]["images"]:
     ok &= math.isfinite(e["relight"]["psnr"]) and 0 <= e["relight"]["ssim"] <= 1
     ok &= math.isfinite(e["sun_error_deg"] if e["sun_error_deg"] is not None else float("nan"))
-print("evaluate:", "ok" if ok else "FAILED", json.dumps({k: e[k] for k in ("camera_error_deg", "sun_error_deg", "relight", "nvs")}))
+print("evaluate:", "ok" if ok else "FAILED",
+      json.dumps({k: e.get(k) for k in ("camera_error_deg", "sun_error_deg", "relight", "nvs", "landmarks")}))
 sys.exit(0 if ok else 1)
 PY
 exit $fail

@@ -1,0 +1,159 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Landmark coverage and error (evaluate_landmarks.h). The truth is per frame
+ * and point (frame, landmark, u, v, visible); the error of a frame is the mean
+ * distance over its visible points divided by the true distance between the
+ * outer eye corners (points 36 and 45), as tests/integration/check_capture_truth.py
+ * scores `replay --stage landmarks`.
+ */
+#include "tools/evaluate_landmarks.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "capture/import_csv.h"
+#include "sunprobe/sp_common.h"
+
+#define MAX_FRAMES 1000000
+
+typedef struct truth_frame {
+    float uv[136];
+    uint8_t visible[68];
+    int n_points;
+} truth_frame;
+
+typedef struct fit_frame {
+    int tried, found;
+    float lm[136];
+} fit_frame;
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* Grows a zeroed array of records to hold index i. */
+static int reserve(void **arr, size_t *cap, size_t size, int64_t i)
+{
+    if (i < 0 || i >= MAX_FRAMES)
+        return SP_ECORRUPT;
+    if ((size_t)i < *cap)
+        return 0;
+    size_t n = *cap ? *cap : 256;
+    while (n <= (size_t)i)
+        n *= 2;
+    void *p = realloc(*arr, n * size);
+    if (!p)
+        return -ENOMEM;
+    memset((char *)p + *cap * size, 0, (n - *cap) * size);
+    *arr = p, *cap = n;
+    return 0;
+}
+
+static int read_truth(const char *path, truth_frame **out, size_t *n, char *err, size_t err_size)
+{
+    sp_csv c;
+    int ret = sp_csv_open(&c, path, err, err_size);
+    if (ret)
+        return ret;
+    int cf = sp_csv_column(&c, "frame"), ck = sp_csv_column(&c, "landmark"), cu = sp_csv_column(&c, "u"),
+        cv = sp_csv_column(&c, "v"), cvis = sp_csv_column(&c, "visible");
+    if (cf < 0 || ck < 0 || cu < 0 || cv < 0 || cvis < 0)
+        ret = sp_csv_fail(&c, SP_ECORRUPT, "needs the columns frame, landmark, u, v, visible");
+    while (!ret && !(ret = sp_csv_next(&c))) {
+        int64_t f, k, vis;
+        double u, v;
+        if ((ret = sp_csv_int64(&c, cf, &f)) || (ret = sp_csv_int64(&c, ck, &k)) || (ret = sp_csv_double(&c, cu, &u)) ||
+            (ret = sp_csv_double(&c, cv, &v)) || (ret = sp_csv_int64(&c, cvis, &vis)))
+            break;
+        if (k < 0 || k >= 68) {
+            ret = sp_csv_fail(&c, SP_ECORRUPT, "landmark %lld is not one of the 68", (long long)k);
+            break;
+        }
+        if ((ret = reserve((void **)out, n, sizeof(truth_frame), f)))
+            break;
+        truth_frame *t = &(*out)[f];
+        t->uv[2 * k] = (float)u, t->uv[2 * k + 1] = (float)v;
+        t->visible[k] = vis != 0;
+        t->n_points++;
+    }
+    sp_csv_close(&c);
+    return ret == SP_EOS ? 0 : ret;
+}
+
+static int read_fit(const char *path, fit_frame **out, size_t *n, char *err, size_t err_size)
+{
+    sp_csv c;
+    int ret = sp_csv_open(&c, path, err, err_size);
+    if (ret)
+        return ret;
+    int cs = sp_csv_column(&c, "sequence"), csrc = sp_csv_column(&c, "source"), cx = sp_csv_column(&c, "x0");
+    if (cs < 0 || csrc < 0 || cx < 0 || (size_t)cx + 136 > c.nnames)
+        ret = sp_csv_fail(&c, SP_ECORRUPT, "needs the columns sequence, source and x0, y0 .. x67, y67");
+    while (!ret && !(ret = sp_csv_next(&c))) {
+        int64_t s;
+        if ((ret = sp_csv_int64(&c, cs, &s)) || (ret = reserve((void **)out, n, sizeof(fit_frame), s)))
+            break;
+        fit_frame *f = &(*out)[s];
+        f->tried = 1;
+        f->found = strcmp(c.fields[csrc], "none") != 0;
+        for (int k = 0; f->found && k < 136 && !ret; k++) {
+            double v;
+            ret = sp_csv_double(&c, cx + k, &v);
+            f->lm[k] = (float)v;
+        }
+    }
+    sp_csv_close(&c);
+    return ret == SP_EOS ? 0 : ret;
+}
+
+int evaluate_landmarks(const char *fit_csv, const char *truth_csv, landmark_score *out, char *err, size_t err_size)
+{
+    truth_frame *truth = NULL;
+    fit_frame *fit = NULL;
+    size_t nt = 0, nf = 0;
+    double *errs = NULL;
+    memset(out, 0, sizeof(*out));
+    int ret = read_truth(truth_csv, &truth, &nt, err, err_size);
+    if (!ret)
+        ret = read_fit(fit_csv, &fit, &nf, err, err_size);
+    if (!ret && !(errs = malloc(sizeof(double) * (nt ? nt : 1))))
+        ret = -ENOMEM;
+    for (size_t f = 0; !ret && f < nt; f++) {
+        const truth_frame *t = &truth[f];
+        int seen = 0;
+        for (int k = 0; k < 68; k++)
+            seen += t->visible[k];
+        if (t->n_points < 68 || seen < 17)
+            continue;
+        out->faces++;
+        if (f >= nf || !fit[f].tried)
+            continue;
+        out->tried++;
+        if (!fit[f].found)
+            continue;
+        double iod = hypot((double)t->uv[90] - (double)t->uv[72], (double)t->uv[91] - (double)t->uv[73]), e = 0.0;
+        for (int k = 0; k < 68; k++)
+            if (t->visible[k])
+                e += hypot((double)fit[f].lm[2 * k] - (double)t->uv[2 * k],
+                           (double)fit[f].lm[2 * k + 1] - (double)t->uv[2 * k + 1]);
+        errs[out->found++] = iod > 0.0 ? e / seen / iod : (double)INFINITY;
+    }
+    if (!ret && out->found) {
+        double sum = 0.0;
+        for (int i = 0; i < out->found; i++)
+            sum += errs[i];
+        qsort(errs, (size_t)out->found, sizeof(double), cmp_double);
+        out->mean = sum / out->found;
+        out->p90 = errs[(int)(0.9 * (out->found - 1))];
+        out->max = errs[out->found - 1];
+    }
+    free(truth);
+    free(fit);
+    free(errs);
+    return ret;
+}
