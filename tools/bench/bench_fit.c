@@ -329,8 +329,10 @@ static int fit_child(const char *cap, enum sp_sunstage_solver solver, const held
     res->adam_reach_sun_s = cb.reach_sun;
     res->min_sun_err = cb.min_sun;
     res->keyframes = r.n_frames;
-    res->relit = eval_kind(ss, h, "relit", N_HELDOUT);
-    res->novel = eval_kind(ss, h, "view", N_HELDOUT);
+    /* held-out frames are whole frames; a face-crop fit renders its own crop size, which this scoring does not
+       map (use `sunprobe evaluate` on a capture directory for those) */
+    res->relit = opts.crop_width ? (double)NAN : eval_kind(ss, h, "relit", N_HELDOUT);
+    res->novel = opts.crop_width ? (double)NAN : eval_kind(ss, h, "view", N_HELDOUT);
 done:
     sp_stage_close(&stage);
     return ret;
