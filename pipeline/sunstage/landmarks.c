@@ -108,16 +108,25 @@ static void learn_box(ss_lm_tracker *t, const double box[4], const double lm[136
     t->box_oy += a * (oy - t->box_oy);
 }
 
+/* A byte buffer of at least n bytes (kept between frames). */
+static int reserve_bytes(uint8_t **buf, size_t *cap, size_t n)
+{
+    if (n <= *cap)
+        return 0;
+    uint8_t *b = realloc(*buf, n);
+    if (!b)
+        return -ENOMEM;
+    *buf = b, *cap = n;
+    return 0;
+}
+
 /* Grey from RGB24 (Rec. 601 weights, as dlib's own conversion). */
 static int to_gray(ss_lm_tracker *t, const uint8_t *rgb, int w, int h)
 {
     size_t n = (size_t)w * (size_t)h;
-    if (n > t->gray_cap) {
-        uint8_t *g = realloc(t->gray, n);
-        if (!g)
-            return -ENOMEM;
-        t->gray = g, t->gray_cap = n;
-    }
+    int ret = reserve_bytes(&t->gray, &t->gray_cap, n);
+    if (ret)
+        return ret;
     for (size_t i = 0; i < n; i++) {
         const uint8_t *p = rgb + 3 * i;
         t->gray[i] = (uint8_t)((77u * p[0] + 150u * p[1] + 29u * p[2] + 128u) >> 8);
@@ -296,25 +305,27 @@ static int place_detected(ss_lm_tracker *t, int w, int h, const sp_dlib_face *fa
     return 0;
 }
 
-/* Detection in the whole frame: at a working size, then enlarged 2x for faces under the detector's window. */
+/*
+ * Detection in the whole frame: at most SEARCH_MAX_W wide first (cheap), then at full size for a larger frame,
+ * then, for a frame no wider than SEARCH_MAX_W, enlarged 2x for faces under the detector's 80 px window.
+ */
 static int search(ss_lm_tracker *t, int w, int h, ss_lm_result *out)
 {
-    double scales[2];
+    double scales[3];
     int n_scales = 0;
-    double s0 = w > SEARCH_MAX_W ? (double)SEARCH_MAX_W / w : 1.0;
-    scales[n_scales++] = s0;
-    if (s0 >= 1.0 && 2 * w <= 2 * SEARCH_MAX_W)
+    if (w > SEARCH_MAX_W) {
+        scales[n_scales++] = (double)SEARCH_MAX_W / w;
+        scales[n_scales++] = 1.0;
+    } else {
+        scales[n_scales++] = 1.0;
         scales[n_scales++] = 2.0;
+    }
     for (int si = 0; si < n_scales; si++) {
         double s = scales[si];
         int sw = (int)lround(w * s), sh = (int)lround(h * s);
-        size_t need = (size_t)sw * (size_t)sh;
-        if (need > t->search_cap) {
-            uint8_t *b = realloc(t->search, need);
-            if (!b)
-                return -ENOMEM;
-            t->search = b, t->search_cap = need;
-        }
+        int ret = reserve_bytes(&t->search, &t->search_cap, (size_t)sw * (size_t)sh);
+        if (ret)
+            return ret;
         resample(t->gray, w, h, 0.0, 0.0, s, t->search, sw, sh);
         sp_dlib_face faces[MAX_FACES];
         int n = sp_dlib_detect(t->dlib, t->search, sw, sh, 0.0, faces, MAX_FACES);
@@ -323,7 +334,7 @@ static int search(ss_lm_tracker *t, int w, int h, ss_lm_result *out)
         for (int i = 0; i < n; i++)
             for (int k = 0; k < 4; k++)
                 faces[i].box[k] = (faces[i].box[k] + 0.5) / s - 0.5;
-        int ret = place_detected(t, w, h, faces, n, NULL, SS_LM_SEARCHED, out);
+        ret = place_detected(t, w, h, faces, n, NULL, SS_LM_SEARCHED, out);
         if (ret)
             return ret < 0 ? ret : 1;
     }
