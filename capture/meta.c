@@ -86,6 +86,12 @@ static int merge_camera(sp_capture_meta *m, const sp_json *cam)
         m->height = (uint32_t)h;
         ret = copy_string(cam, "name", m->camera_name, sizeof(m->camera_name));
     }
+    if (!ret)
+        ret = copy_string(cam, "transfer", m->transfer, sizeof(m->transfer));
+    if (!ret && m->transfer[0] && strcmp(m->transfer, "srgb") && strcmp(m->transfer, "sunprobe")) {
+        sp_log(SP_LOG_ERROR, "meta", "camera.transfer '%s' is neither 'srgb' nor 'sunprobe'", m->transfer);
+        ret = SP_ECORRUPT;
+    }
     return ret ? ret : copy_string(cam, "driver", m->camera_driver, sizeof(m->camera_driver));
 }
 

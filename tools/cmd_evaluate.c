@@ -65,6 +65,7 @@ typedef struct eval_ctx {
     const char *relight_note; /* why relighting was not scored, or NULL */
     scored relight, nvs;
     sp_strbuf images; /* per-image JSON rows */
+    int srgb;                /* the face directory's capture was sRGB: renders are compared as sRGB */
     int have_landmarks;      /* the fit's landmark record was scored */
     landmark_score landmarks;
 } eval_ctx;
@@ -339,6 +340,9 @@ static int score_image(eval_ctx *c, const char *kind, const sp_json *img, const 
     }
     if (!ret)
         ret = sp_face_asset_render(&c->asset, &v, render, cover);
+    if (!ret && c->srgb) /* the fit decoded sRGB frames to linear light: compare in the capture's encoding */
+        for (size_t i = 0; i < (size_t)w * (size_t)h * 3; i++)
+            render[i] = (float)sp_sunstage_display_to_srgb((double)render[i]);
     if (!ret) {
         size_t npx = (size_t)w * h, n_true = 0, n_both = 0;
         for (size_t i = 0; i < npx; i++) {
@@ -560,6 +564,8 @@ static int run(eval_ctx *c)
         return sp_exit_for_error(ret == -ENOENT ? SP_EFORMAT : ret);
     if ((ret = register_fit(c)))
         return sp_exit_for_error(ret);
+    const char *transfer = sp_json_string(sp_json_get(c->manifest, "capture_transfer"), NULL);
+    c->srgb = transfer && !strcmp(transfer, "srgb"); /* older face directories: the renderer's own encoding */
     /* the rendered face mask: the model's skin vertices, if the asset has the model's topology */
     c->have_model = sp_face_model_load_default(&c->model) == 0;
     if (c->have_model && c->model.mesh.n_vertices == c->asset.mesh.n_vertices && c->model.face_mask)

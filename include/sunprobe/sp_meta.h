@@ -23,6 +23,8 @@ typedef struct sp_capture_meta {
     double fps;
     double fx, fy, cx, cy; /* pixels */
     double focal_length_mm, sensor_width_mm;
+    char transfer[16];     /* camera.transfer, how pixel values encode linear light: "srgb" (what cameras write;
+                              assumed when absent) or "sunprobe" (the synthesiser's gamma 2.2 of x / (1 + x)) */
     char imu_name[128];
     double imu_rate_hz;
     sp_quat imu_to_camera; /* identity when not given */

@@ -177,6 +177,12 @@ SP_API int sp_sunstage_render_view(sp_sunstage *ss, const sp_sunstage_view *v, f
 
 /* Exposure (exposure_us x gain) that the fit's intensities are relative to; 0 when frames carried none. */
 SP_API double sp_sunstage_exposure_reference(const sp_sunstage *ss);
+/*
+ * A display value of the renderer's encoding (gamma 2.2 of x / (1 + x), what the fit and
+ * sp_face_asset_render work in) as the sRGB value of the same linear light, clipped at 1: how an
+ * sRGB camera (a face directory's "capture_transfer": "srgb") would have recorded it.
+ */
+SP_API double sp_sunstage_display_to_srgb(double display);
 
 /*
  * Face directory (layout in SUNSTAGE.md). sp_face_dir_write writes every file

@@ -213,6 +213,8 @@ static int write_manifest(const sp_sunstage *ss, const char *dir)
     sp_sunstage_get_counts(ss, &c);
     sp_strbuf_printf(&b, "{\"format\":\"sunprobe-face\",\"version\":1,\n\"model\":");
     sp_strbuf_json_string(&b, ss->model->source);
+    /* the frames' pixel encoding: renders compare with the capture after sp_sunstage_display_to_srgb when "srgb" */
+    sp_strbuf_printf(&b, ",\"capture_transfer\":\"%s\"", ss->fe.srgb ? "srgb" : "sunprobe");
     sp_strbuf_printf(&b, ",\"solver\":\"%s\",\n\"mesh\":\"mesh.obj\",\"mesh_binary\":\"mesh.bin\",\"n_vertices\":%u,"
                          "\"n_triangles\":%u,\n",
                      ss->set.solver == SP_SUNSTAGE_SOLVER_ADAM ? "adam" : "fast", ss->model->mesh.n_vertices,

@@ -44,6 +44,13 @@ static int setup_geometry(sp_sunstage *ss, uint32_t w, uint32_t h)
     ss->cap_fx = f, ss->cap_fy = fy, ss->cap_cx = cx, ss->cap_cy = cy;
     ss->fe.win = (ss_window){ 0.0, 0.0, s };
     ss_window_camera(ss, &ss->fe.win, &ss->cam);
+    /* pixel encoding: sRGB unless the capture says it is the synthesiser's own (capture/FORMAT.md) */
+    ss->fe.srgb = strcmp(ss->meta.transfer, "sunprobe") != 0;
+    for (int v = 0; v < 256; v++) {
+        double g = v / 255.0;
+        ss->fe.lut[v] = (float)(g <= 0.04045 ? g / 12.92 : pow((g + 0.055) / 1.055, 2.4));
+    }
+    sp_log(SP_LOG_INFO, MOD, "pixel encoding: %s", ss->fe.srgb ? "sRGB (decoded to linear light)" : "sunprobe's own");
     ss->fe.rgb24 = malloc((size_t)w * h * 3);
     if (!ss->fe.rgb24)
         return -ENOMEM;
@@ -53,8 +60,34 @@ static int setup_geometry(sp_sunstage *ss, uint32_t w, uint32_t h)
     return ss_reservoir_alloc(ss);
 }
 
-/* Box filter from the capture-size RGB24 buffer to dst (dw x dh RGB floats). */
-static void downsample(const uint8_t *src, int sw, int sh, int dw, int dh, float *rgb)
+/*
+ * The fit works in the renderer's display encoding, gamma 2.2 of x / (1 + x) (ss_tonemap). A capture in
+ * that encoding (the synthesiser's) is averaged as it is; an sRGB one is decoded to linear light first
+ * (averaging encoded values would bias every footprint that spans an edge), then encoded for the fit. A
+ * footprint touching a clipped (255) value is marked saturated (1.0), which the face mask drops: clipped
+ * light has no known radiance.
+ */
+typedef struct pixel_sum {
+    double acc[3];
+    int clipped;
+} pixel_sum;
+
+static void pixel_add(pixel_sum *p, const float *lut, const uint8_t *px, double wt)
+{
+    for (int c = 0; c < 3; c++) {
+        p->acc[c] += wt * (lut ? (double)lut[px[c]] : (double)px[c]);
+        p->clipped |= lut && px[c] == 255 && wt > 0.0;
+    }
+}
+
+static void pixel_store(const pixel_sum *p, const float *lut, double wsum, float *out)
+{
+    for (int c = 0; c < 3; c++)
+        out[c] = lut ? (p->clipped ? 1.0f : (float)ss_tonemap(p->acc[c] / wsum)) : (float)(p->acc[c] / (255.0 * wsum));
+}
+
+/* Box filter from the capture-size RGB24 buffer to dst (dw x dh RGB floats in the fit's encoding). */
+static void downsample(const uint8_t *src, int sw, int sh, int dw, int dh, const float *lut, float *rgb)
 {
     for (int y = 0; y < dh; y++) {
         int y0 = y * sh / dh, y1 = (y + 1) * sh / dh;
@@ -64,15 +97,11 @@ static void downsample(const uint8_t *src, int sw, int sh, int dw, int dh, float
             int x0 = x * sw / dw, x1 = (x + 1) * sw / dw;
             if (x1 <= x0)
                 x1 = x0 + 1;
-            double acc[3] = { 0, 0, 0 };
+            pixel_sum p = { { 0, 0, 0 }, 0 };
             for (int yy = y0; yy < y1; yy++)
                 for (int xx = x0; xx < x1; xx++)
-                    for (int c = 0; c < 3; c++)
-                        acc[c] += src[((size_t)yy * (size_t)sw + (size_t)xx) * 3 + (size_t)c];
-            double n = (double)((y1 - y0) * (x1 - x0)) * 255.0;
-            size_t o = (size_t)y * (size_t)dw + (size_t)x;
-            for (int c = 0; c < 3; c++)
-                rgb[o * 3 + (size_t)c] = (float)(acc[c] / n);
+                    pixel_add(&p, lut, src + ((size_t)yy * (size_t)sw + (size_t)xx) * 3, 1.0);
+            pixel_store(&p, lut, (double)((y1 - y0) * (x1 - x0)), rgb + ((size_t)y * (size_t)dw + (size_t)x) * 3);
         }
     }
 }
@@ -157,20 +186,22 @@ static void tag_landmarks(const sp_sunstage *ss, const sp_frame_tags *tags, doub
  * fit pixel, at least 1). Outside the frame: white, which the face mask drops
  * as saturated.
  */
-static void resample_window(const uint8_t *src, int sw, int sh, const ss_window *w, int W, int H, float *out)
+static void resample_window(const uint8_t *src, int sw, int sh, const ss_window *w, int W, int H, const float *lut,
+                            float *out)
 {
+    static const uint8_t white[3] = { 255, 255, 255 };
     int n = (int)ceil(1.0 / w->s - 1e-9);
     n = n < 1 ? 1 : (n > 8 ? 8 : n);
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
-            double acc[3] = { 0, 0, 0 };
+            pixel_sum p = { { 0, 0, 0 }, 0 };
             for (int j = 0; j < n; j++)
                 for (int i = 0; i < n; i++) {
                     double u = w->x0 + ((double)x + ((double)i + 0.5) / n) / w->s - 0.5;
                     double v = w->y0 + ((double)y + ((double)j + 0.5) / n) / w->s - 0.5;
                     if (u < -0.5 || v < -0.5 || u > sw - 0.5 || v > sh - 0.5) {
-                        for (int c = 0; c < 3; c++)
-                            acc[c] += 255.0;
+                        pixel_add(&p, lut, white, 1.0);
+                        p.clipped = 1; /* outside the frame: nothing known */
                         continue;
                     }
                     int u0 = (int)floor(u), v0 = (int)floor(v);
@@ -180,13 +211,10 @@ static void resample_window(const uint8_t *src, int sw, int sh, const ss_window 
                         uu = uu < 0 ? 0 : (uu >= sw ? sw - 1 : uu);
                         vv = vv < 0 ? 0 : (vv >= sh ? sh - 1 : vv);
                         double wt = ((q & 1) ? fu : 1.0 - fu) * ((q >> 1) ? fv : 1.0 - fv);
-                        const uint8_t *p = src + ((size_t)vv * (size_t)sw + (size_t)uu) * 3;
-                        for (int c = 0; c < 3; c++)
-                            acc[c] += wt * p[c];
+                        pixel_add(&p, lut, src + ((size_t)vv * (size_t)sw + (size_t)uu) * 3, wt);
                     }
                 }
-            for (int c = 0; c < 3; c++)
-                out[((size_t)y * (size_t)W + (size_t)x) * 3 + (size_t)c] = (float)(acc[c] / (255.0 * n * n));
+            pixel_store(&p, lut, (double)(n * n), out + ((size_t)y * (size_t)W + (size_t)x) * 3);
         }
 }
 
@@ -244,7 +272,8 @@ static int crop_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const s
         return 0;
     }
     ss_window_around(ss, lmc, &ss->fe.win);
-    resample_window(ss->fe.rgb24, ss->fe.cap_w, ss->fe.cap_h, &ss->fe.win, ss->W, ss->H, ss->fe.work_rgb);
+    resample_window(ss->fe.rgb24, ss->fe.cap_w, ss->fe.cap_h, &ss->fe.win, ss->W, ss->H, ss->fe.srgb ? ss->fe.lut : NULL,
+                    ss->fe.work_rgb);
     double sharp;
     if (skip_by_quality(ss, ss->fe.work_rgb, &sharp))
         return 0;
@@ -268,7 +297,8 @@ int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const s
         return ret;
     if (ss->set.face_crop)
         return crop_frame(ss, frame, t, tags);
-    downsample(ss->fe.rgb24, ss->fe.cap_w, ss->fe.cap_h, ss->W, ss->H, ss->fe.work_rgb);
+    downsample(ss->fe.rgb24, ss->fe.cap_w, ss->fe.cap_h, ss->W, ss->H, ss->fe.srgb ? ss->fe.lut : NULL,
+               ss->fe.work_rgb);
     double sharp;
     if (skip_by_quality(ss, ss->fe.work_rgb, &sharp))
         return 0;

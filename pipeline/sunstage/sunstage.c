@@ -420,6 +420,16 @@ int sp_sunstage_align_world(const sp_sunstage *ss, double R[9])
     return 0;
 }
 
+double sp_sunstage_display_to_srgb(double display)
+{
+    double L = ss_tonemap_inverse(display, NULL);
+    if (!(L > 0.0)) /* NaN too: black */
+        return 0.0;
+    if (L >= 1.0) /* clipped, as the camera would (and exactly 1, which 1.055 - 0.055 is not) */
+        return 1.0;
+    return L <= 0.0031308 ? 12.92 * L : 1.055 * pow(L, 1.0 / 2.4) - 0.055;
+}
+
 double sp_sunstage_exposure_reference(const sp_sunstage *ss)
 {
     return ss ? ss->fe.expo_ref : 0.0;

@@ -60,6 +60,8 @@ typedef struct ss_frontend {
     double expo_ref;            /* exposure_us x gain of the first frame, 0 when unknown */
     ss_window win;              /* the current frame's window (whole frame, or its face crop) */
     int64_t frame_t[2], imu_t[2]; /* first and last timestamps seen: explain frames the IMU never covered */
+    int srgb;                   /* frames are sRGB-encoded: decoded to linear light through lut (frontend.c) */
+    float lut[256];
     ss_lm_entry *lm_log;        /* every frame the tracker ran on, in order (about 0.6 kB a frame) */
     size_t lm_n, lm_cap;
 } ss_frontend;

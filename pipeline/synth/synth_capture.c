@@ -54,7 +54,7 @@ static int write_meta(cap_state *c, const char *truth_rel)
     sp_strbuf_printf(&b, "{\"kind\":\"selfie\",\"source\":\"sunprobe synth selfie\",\"camera\":{\"name\":"
                          "\"synthetic phone camera\",\"driver\":\"synthetic\",\"width\":%u,\"height\":%u,\"fps\":%.17g,"
                          "\"fx\":%.17g,\"fy\":%.17g,\"cx\":%.17g,\"cy\":%.17g,\"focal_length_mm\":%.17g,"
-                         "\"sensor_width_mm\":%.17g},",
+                         "\"sensor_width_mm\":%.17g,\"transfer\":\"sunprobe\"},",
                      g->s.width, g->s.height, g->s.fps, g->fx, g->fy, g->cx, g->cy,
                      g->s.focal_ratio * SENSOR_WIDTH_MM, SENSOR_WIDTH_MM);
     sp_strbuf_printf(&b, "\"imu\":{\"name\":\"fake imu\",\"rate_hz\":%.17g,\"to_camera\":[%.17g,%.17g,%.17g,%.17g],"

@@ -16,6 +16,7 @@
 #include "pipeline/sunstage/sunstage_internal.h"
 #include "sunprobe/sp_face_model.h"
 #include "sunprobe/sp_render.h"
+#include "sunprobe/sp_meta.h"
 #include "sunprobe/sp_sunstage.h"
 
 #define W 96
@@ -66,6 +67,22 @@ static void test_tonemap_inverse(void)
     CHECK(isfinite(ss_tonemap_inverse(1.0, &s)) && isfinite(s));
     CHECK(isfinite(ss_tonemap_inverse(-3.0, &s)) && isfinite(s));
     CHECK(ss_tonemap(NAN) == 0.0 && ss_tonemap(-1.0) == 0.0);
+    /* the renderer's display value as an sRGB camera's: the sRGB curve of the same linear light, clipped at 1 */
+    double ls[] = { 0.0, 1e-5, 0.002, 0.0031308, 0.01, 0.2, 0.5, 0.999, 1.0, 4.0, 1e3 };
+    for (size_t i = 0; i < sizeof(ls) / sizeof(ls[0]); i++) {
+        double L = fmin(ls[i], 1.0), want = L <= 0.0031308 ? 12.92 * L : 1.055 * pow(L, 1.0 / 2.4) - 0.055;
+        double got = sp_sunstage_display_to_srgb(ss_tonemap(ls[i]));
+        CHECK_MSG(fabs(got - want) < 2e-6 || (ls[i] > 1.0 && got == 1.0), "linear %g: sRGB %.9f, want %.9f", ls[i],
+                  got, want);
+    }
+    CHECK(sp_sunstage_display_to_srgb(NAN) >= 0.0 && sp_sunstage_display_to_srgb(2.0) == 1.0);
+    CHECK(sp_sunstage_display_to_srgb(-1.0) == 0.0);
+    /* META camera.transfer: the two encodings, nothing else */
+    sp_capture_meta meta;
+    sp_capture_meta_init(&meta);
+    const char *ok = "{\"camera\":{\"transfer\":\"srgb\"}}", *bad = "{\"camera\":{\"transfer\":\"log-c\"}}";
+    CHECK(sp_capture_meta_merge(&meta, ok, strlen(ok)) == 0 && strcmp(meta.transfer, "srgb") == 0);
+    CHECK(sp_capture_meta_merge(&meta, bad, strlen(bad)) == SP_ECORRUPT && strcmp(meta.transfer, "srgb") == 0);
 }
 
 /* Camera turned to heading psi (level): forward (cos, sin, 0), image down = world down. */
