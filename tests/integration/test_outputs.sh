@@ -120,17 +120,23 @@ expect 1 "import onto its --meta" "$SP" import "$dir/imgs" -o "$dir/meta.json" -
 same "$img" "$dir/img0.png" "import onto its own input"
 same "$dir/meta.json" "$dir/meta0.json" "import onto its --meta"
 cmp -s "$dir/imgs/frame_000001.png" "$dir/imgs/frame_000000.png" && fail "input directory damaged"
-expect 0 "import (control)" "$SP" import "$dir/imgs" -o "$dir/ok.spcap" --fps 30 -q
+# a build without an image decoder refuses to import with exit 4 (the feature is left out): skip what needs one
+"$SP" import "$dir/imgs" -o "$dir/ok.spcap" --fps 30 -q >/dev/null 2>&1
+can_import=$?
+[ $can_import = 4 ] && echo "note: SKIP the imports that succeed: this build cannot decode PNG frames"
+[ $can_import = 4 ] || expect 0 "import (control)" "$SP" import "$dir/imgs" -o "$dir/ok.spcap" -f --fps 30 -q
 
 # ---- import --fps: 0.001..10000, else the usage code naming the option
 for fps in 1e-300 0 -1 0.0009 10001 inf nan; do
     expect 1 "import --fps $fps" "$SP" import "$dir/imgs" -o "$dir/fps.spcap" -f --fps "$fps" -q
     contains "$dir/err.txt" "bad value for --fps" "import --fps $fps message"
 done
-for fps in 0.001 10000; do
-    expect 0 "import --fps $fps" "$SP" import "$dir/imgs" -o "$dir/fps.spcap" -f --fps "$fps" -q
-done
-expect 0 "info of an import at --fps 10000" "$SP" info "$dir/fps.spcap"
+if [ $can_import != 4 ]; then
+    for fps in 0.001 10000; do
+        expect 0 "import --fps $fps" "$SP" import "$dir/imgs" -o "$dir/fps.spcap" -f --fps "$fps" -q
+    done
+    expect 0 "info of an import at --fps 10000" "$SP" info "$dir/fps.spcap"
+fi
 no_temps "import"
 
 [ "$fails" -eq 0 ] || { echo "$fails check(s) failed"; exit 1; }
