@@ -307,7 +307,8 @@ static void add_extras(const export_ctx *c, sp_strbuf *j)
         sp_strbuf_printf(j, ",\"environment_map\":{\"uri\":");
         sp_strbuf_json_string(j, c->env_name);
         sp_strbuf_printf(j, ",\"projection\":\"equirectangular\",\"width\":%d,\"height\":%d,\"row0\":\"straight "
-                            "up (+y)\",\"column0_azimuth\":\"+x, towards -z\",\"units\":\"radiance, fit units\"}",
+                            "up (+y)\",\"convention\":\"Blender and three.js: u = 0.5 + atan2(z, x) / 2pi\","
+                            "\"units\":\"radiance, fit units\"}",
                          SP_RENDER_ENV_W, SP_RENDER_ENV_H);
     }
     sp_strbuf_printf(j, "}}");
@@ -458,10 +459,18 @@ static int write_env(export_ctx *c)
     if (stem + 9 > sizeof(path))
         return -ENAMETOOLONG;
     snprintf(path, sizeof(path), "%.*s.env.hdr", (int)stem, c->out_path);
+    double R[9];
+    for (int k = 0; k < 3; k++) { /* column k: the fit world's axis k in glTF */
+        double w[3] = { k == 0, k == 1, k == 2 }, g[3];
+        sp_gltf_from_world(w, g);
+        R[k] = g[0], R[3 + k] = g[1], R[6 + k] = g[2];
+    }
+    float env[SP_RENDER_ENV_FLOATS];
+    sp_export_env_equirect(c->asset.env, R, env);
     const char *tmp;
     int ret = sp_file_set_add(&c->files, path, &tmp);
     if (!ret)
-        ret = sp_hdr_write(tmp, c->asset.env, SP_RENDER_ENV_W, SP_RENDER_ENV_H);
+        ret = sp_hdr_write(tmp, env, SP_RENDER_ENV_W, SP_RENDER_ENV_H);
     if (ret) {
         sp_log(SP_LOG_ERROR, MOD, "cannot write %s: %s", path, sp_strerror(ret));
         return ret;

@@ -49,6 +49,15 @@ double sp_export_roughness(double shininess);
 /* Cluster specular intensity -> KHR_materials_specular strength in [0, 1] (EXPORT.md). */
 double sp_export_specular(double ks);
 
+/*
+ * The fit's environment map (renderer layout, fit world) as the equirectangular
+ * map of Blender and three.js in the frame g = R w (R row-major, a rotation from
+ * the fit world): row i at polar angle (i + 0.5) pi / H from +y, column j at
+ * u = (j + 0.5) / W = 0.5 + atan2(g.z, g.x) / 2 pi. Nearest texel: exact when R
+ * turns texel centres onto texel centres (the y-up mapping, turns by whole columns).
+ * env and out: SP_RENDER_ENV_FLOATS each.
+ */
+void sp_export_env_equirect(const float *env, const double R[9], float *out);
 /* Radiance RGBE (.hdr), run-length-free scanlines, written atomically. rgb: w*h*3 linear floats, row 0 = top. */
 int sp_hdr_write(const char *path, const float *rgb, int width, int height);
 
