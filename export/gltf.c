@@ -69,6 +69,16 @@ static int bin_add(bin_buf *b, const void *p, size_t n, int target)
     return b->n_views++;
 }
 
+/*
+ * Photometric scale (EXPORT.md, "Photometry"): the fit's radiance is relative to
+ * the capture's exposure, so the export assumes a camera exposed for direct sun
+ * (EV100 15, "sunny 16"), whose saturation luminance 1.2 * 2^EV100 cd/m^2 is the
+ * fit's display value 1. Sun (lux) and sky (cd/m^2) share the factor.
+ */
+#define EV100 15.0
+#define LUX_PER_FIT_UNIT (1.2 * 32768.0)
+#define BLENDER_LM_PER_W 683.0
+
 /* The parts a face can leave out, in SP_FACE_LEFT_OUT_* bit order. */
 #define N_PARTS 5
 static const char *const part_names[N_PARTS] = { "sun", "shadows", "specular", "displacement", "environment" };
@@ -302,13 +312,18 @@ static void add_extras(const export_ctx *c, sp_strbuf *j)
     }
     sp_strbuf_printf(j, "]},\"sun_intensity_fit_units\":");
     sp_strbuf_json_number(j, c->asset.sun_intensity);
-    sp_strbuf_printf(j, ",\"lux_per_fit_unit\":1");
+    sp_strbuf_printf(j, ",\"lux_per_fit_unit\":%.9g,\"photometry\":{\"assumed_ev100\":%g,\"why\":\"the capture "
+                        "carries no absolute exposure: a camera exposed for direct sun is assumed\","
+                        "\"three_js_tone_mapping_exposure\":%.9g,\"blender_film_exposure_ev\":%.6f,"
+                        "\"blender_world_strength_for_env\":%.9g}",
+                     LUX_PER_FIT_UNIT, EV100, 1.0 / LUX_PER_FIT_UNIT, log2(BLENDER_LM_PER_W / LUX_PER_FIT_UNIT),
+                     1.0 / BLENDER_LM_PER_W);
     if (c->env_name[0]) {
         sp_strbuf_printf(j, ",\"environment_map\":{\"uri\":");
         sp_strbuf_json_string(j, c->env_name);
         sp_strbuf_printf(j, ",\"projection\":\"equirectangular\",\"width\":%d,\"height\":%d,\"row0\":\"straight "
                             "up (+y)\",\"convention\":\"Blender and three.js: u = 0.5 + atan2(z, x) / 2pi\","
-                            "\"units\":\"radiance, fit units\"}",
+                            "\"units\":\"luminance, cd/m2 (the sun's lux per sr)\"}",
                          SP_RENDER_ENV_W, SP_RENDER_ENV_H);
     }
     sp_strbuf_printf(j, "}}");
@@ -335,7 +350,7 @@ static void add_scene(const export_ctx *c, sp_strbuf *j, int draco)
                          q[0], q[1], q[2], q[3]);
         sp_strbuf_printf(j, ",\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"name\":\"sun\",\"type\":"
                             "\"directional\",\"color\":[1,1,1],\"intensity\":");
-        sp_strbuf_json_number(j, c->asset.sun_intensity);
+        sp_strbuf_json_number(j, c->asset.sun_intensity * LUX_PER_FIT_UNIT);
         sp_strbuf_printf(j, "}]}}");
     } else {
         sp_strbuf_printf(j, "]");
@@ -467,6 +482,8 @@ static int write_env(export_ctx *c)
     }
     float env[SP_RENDER_ENV_FLOATS];
     sp_export_env_equirect(c->asset.env, R, env);
+    for (int k = 0; k < SP_RENDER_ENV_FLOATS; k++)
+        env[k] = (float)((double)env[k] * LUX_PER_FIT_UNIT);
     const char *tmp;
     int ret = sp_file_set_add(&c->files, path, &tmp);
     if (!ret)

@@ -279,7 +279,7 @@ static void check_material(const glb *g, int full)
     CHECK((lights != NULL) == full);
     if (!full)
         return;
-    CHECK_NEAR(sp_json_number(sp_json_get(sp_json_at(lights, 0), "intensity"), 0), 2.5, 1e-9);
+    CHECK_NEAR(sp_json_number(sp_json_get(sp_json_at(lights, 0), "intensity"), 0), 2.5 * 1.2 * 32768.0, 1e-6);
     double q[4];
     CHECK(sp_json_numbers(sp_json_get(sp_json_at(sp_json_get(g->json, "nodes"), 1), "rotation"), q, 4) == 4);
     /* the node's +z (towards the sun) = q applied to (0,0,1): third column of the rotation matrix */

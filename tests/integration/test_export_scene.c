@@ -2,7 +2,8 @@
 /*
  * Where the exported scene puts things (export/EXPORT.md): the environment
  * map's equirectangular orientation (Blender / three.js), read back from the
- * .hdr. Uses test_export's fixture face directory.
+ * .hdr; the sun in lux and the sky on the same scale. Uses test_export's
+ * fixture face directory.
  *
  *   test_export_scene SUNPROBE TEST_EXPORT
  */
@@ -71,12 +72,15 @@ static void y_up(const double w[3], double g[3])
     g[0] = w[0], g[1] = w[2], g[2] = -w[1];
 }
 
-/* The one texel brighter than 1 in a map of RGB floats; -1 if none or several. */
+/* The one texel more than 4 times as bright as the dimmest (red channel); -1 if none or several. */
 static int bright_texel(const float *rgb)
 {
+    float lo = rgb[0];
+    for (int i = 1; i < ENV_W * ENV_H; i++)
+        lo = rgb[i * 3] < lo ? rgb[i * 3] : lo;
     int at = -1;
     for (int i = 0; i < ENV_W * ENV_H; i++)
-        if (rgb[i * 3] > 1.0f) {
+        if (rgb[i * 3] > 4.0f * lo) {
             if (at >= 0)
                 return -1;
             at = i;
@@ -105,6 +109,26 @@ static int read_hdr(const char *path, float *rgb)
     }
     free(b);
     return ret;
+}
+
+/* The JSON chunk of a .glb (caller frees), NULL if it is not one. */
+static sp_json *glb_json(const char *path)
+{
+    size_t n;
+    uint8_t *b = slurp(path, &n);
+    uint32_t h[5];
+    sp_json *j = NULL;
+    char err[128];
+    if (b && n >= 20 && (memcpy(h, b, 20), h[0] == 0x46546C67u && h[4] == 0x4E4F534Au && 20 + (size_t)h[3] <= n) &&
+        sp_json_parse((const char *)b + 20, h[3], &j, err, sizeof(err)))
+        fprintf(stderr, "%s: %s\n", path, err);
+    free(b);
+    return j;
+}
+
+static const sp_json *extras(const sp_json *root)
+{
+    return sp_json_get(sp_json_get(sp_json_get(root, "asset"), "extras"), "sunprobe");
 }
 
 /* The conversion itself: one bright texel per call lands where the convention puts its direction. */
@@ -137,6 +161,34 @@ static void check_env_function(void)
     }
 }
 
+/*
+ * The sun in lux in a physical range (EXPORT.md, "Photometry": a sunny fit's 0.25..5
+ * fit units give 1e4..2e5 lux; the fixture's 2.5 about 1e5) and the sky in the same
+ * scale: sun / sky radiance in the exported files equals the fit's, for a dim and a
+ * bright texel. bright: index of the bright texel in hdr (the export's map, read back).
+ */
+static void check_photometry(const char *face, const char *tmp, const float *hdr, int bright)
+{
+    sp_face_asset a;
+    CHECK(sp_face_dir_read(&a, face) == 0);
+    char path[4096];
+    snprintf(path, sizeof(path), "%s/env.glb", tmp);
+    sp_json *j = glb_json(path);
+    const sp_json *light = sp_json_at(sp_json_get(sp_json_get(sp_json_get(j, "extensions"), "KHR_lights_punctual"),
+                                                  "lights"), 0);
+    double lux = sp_json_number(sp_json_get(light, "intensity"), NAN);
+    CHECK_MSG(lux >= 1e4 && lux <= 2e5, "sun %.6g lux", lux);
+    CHECK_NEAR(sp_json_number(sp_json_get(extras(j), "lux_per_fit_unit"), NAN) * a.sun_intensity, lux, 1e-6 * lux);
+    /* a dim texel (every fit texel but the bright one is 0.25) and the bright one */
+    const int fit_at[2] = { 0, 5 * ENV_W + 8 }, out_at[2] = { bright == 0 ? 1 : 0, bright < 0 ? 0 : bright };
+    for (int k = 0; k < 2; k++) {
+        double fit = a.sun_intensity / (double)a.env[fit_at[k] * 3], out = lux / (double)hdr[out_at[k] * 3];
+        CHECK_MSG(fabs(out / fit - 1.0) < 0.01, "sun/sky: exported %.6g, fit %.6g", out, fit);
+    }
+    sp_json_free(j);
+    sp_face_asset_free(&a);
+}
+
 /* The written .hdr: a fit-world direction near +y (away from keyframe 0's camera) lands at column 7, row 5. */
 static void check_env_file(const char *face, const char *tmp)
 {
@@ -163,6 +215,7 @@ static void check_env_file(const char *face, const char *tmp)
     int at = bright_texel(hdr);
     CHECK_MSG(at == row * ENV_W + col, "bright texel at %d (row %d col %d), want row %d col %d", at,
               at / ENV_W, at % ENV_W, row, col);
+    check_photometry(face, tmp, hdr, at);
 }
 
 int main(int argc, char **argv)
