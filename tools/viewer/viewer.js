@@ -127,10 +127,10 @@ async function main() {
   let camera, controls = null;
   if (fixed) camera = fixed.cam;
   else {
-    // The fit world has keyframe 0's camera at the origin: look from that side, far enough back for
-    // the bounding sphere to fit the 30 degree field of view.
+    // The export puts the head at the origin facing +z, keyframe 0's camera on that side: look from
+    // there, far enough back for the bounding sphere to fit the 30 degree field of view.
     camera = new THREE.PerspectiveCamera(30, window.innerWidth / window.innerHeight, 0.01, 1000);
-    const toward = centre.length() > 1e-6 ? centre.clone().negate().normalize() : new THREE.Vector3(0, 0, 1);
+    const toward = new THREE.Vector3(0, 0, 1);
     const radius = box.isEmpty() ? 0.15 : Math.max(box.getSize(new THREE.Vector3()).length() / 2, 1e-3);
     camera.position.copy(centre).addScaledVector(toward, (1.15 * radius) / Math.sin((15 * Math.PI) / 180));
     camera.lookAt(centre);
