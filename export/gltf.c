@@ -69,6 +69,16 @@ static int bin_add(bin_buf *b, const void *p, size_t n, int target)
     return b->n_views++;
 }
 
+/*
+ * Photometric scale (EXPORT.md, "Photometry"): the fit's radiance is relative to
+ * the capture's exposure, so the export assumes a camera exposed for direct sun
+ * (EV100 15, "sunny 16"), whose saturation luminance 1.2 * 2^EV100 cd/m^2 is the
+ * fit's display value 1. Sun (lux) and sky (cd/m^2) share the factor.
+ */
+#define EV100 15.0
+#define LUX_PER_FIT_UNIT (1.2 * 32768.0)
+#define BLENDER_LM_PER_W 683.0
+
 /* The parts a face can leave out, in SP_FACE_LEFT_OUT_* bit order. */
 #define N_PARTS 5
 static const char *const part_names[N_PARTS] = { "sun", "shadows", "specular", "displacement", "environment" };
@@ -77,6 +87,7 @@ typedef struct export_ctx {
     const sp_export_settings *set;
     const char *face_dir, *out_path;
     sp_face_asset asset;
+    sp_gltf_placement place; /* fit world -> exported scene */
     sp_gltf_geom geom;
     sp_export_textures tex;
     char *reasons[N_PARTS]; /* the manifest's reason per left-out part (owned), NULL if none */
@@ -281,14 +292,14 @@ static int sun_direction(const export_ctx *c, double g[3])
         !isfinite(c->asset.sun_intensity) || !(n > 1e-12) || !isfinite(n))
         return 0;
     double w[3] = { s[0] / n, s[1] / n, s[2] / n };
-    sp_gltf_from_world(w, g);
+    sp_gltf_place(&c->place, w, g, 0);
     return 1;
 }
 
 static void add_extras(const export_ctx *c, sp_strbuf *j)
 {
     sp_strbuf_printf(j, "\"extras\":{\"sunprobe\":{\"source\":\"face directory\",\"frame\":\"fit world rotated to "
-                        "y up: (x, y, z) -> (x, z, -y), metres\",\"left_out\":[%s],\"left_out_inferred\":%s,"
+                        "y up ((x, y, z) -> (x, z, -y)), turned about +y and moved: fit_to_scene; metres\",\"left_out\":[%s],\"left_out_inferred\":%s,"
                         "\"specular_clusters\":{\"ks\":[",
                      c->left_out.data ? c->left_out.data : "", c->asset.left_out_inferred ? "true" : "false");
     for (int i = 0; i < SP_RENDER_CLUSTERS; i++) {
@@ -302,42 +313,114 @@ static void add_extras(const export_ctx *c, sp_strbuf *j)
     }
     sp_strbuf_printf(j, "]},\"sun_intensity_fit_units\":");
     sp_strbuf_json_number(j, c->asset.sun_intensity);
-    sp_strbuf_printf(j, ",\"lux_per_fit_unit\":1");
+    sp_strbuf_printf(j, ",\"lux_per_fit_unit\":%.9g,\"photometry\":{\"assumed_ev100\":%g,\"why\":\"the capture "
+                        "carries no absolute exposure: a camera exposed for direct sun is assumed\","
+                        "\"three_js_tone_mapping_exposure\":%.9g,\"blender_film_exposure_ev\":%.6f,"
+                        "\"blender_world_strength_for_env\":%.9g}",
+                     LUX_PER_FIT_UNIT, EV100, 1.0 / LUX_PER_FIT_UNIT, log2(BLENDER_LM_PER_W / LUX_PER_FIT_UNIT),
+                     1.0 / BLENDER_LM_PER_W);
+    sp_strbuf_printf(j, ",\"fit_to_scene\":{\"rotation\":[");
+    for (int k = 0; k < 9; k++)
+        sp_strbuf_printf(j, "%s%.9g", k ? "," : "", c->place.R[k]);
+    sp_strbuf_printf(j, "],\"translation\":[%.9g,%.9g,%.9g],\"note\":\"scene = rotation (row-major) x w + "
+                        "translation for fit-world points w\"}",
+                     c->place.t[0], c->place.t[1], c->place.t[2]);
     if (c->env_name[0]) {
         sp_strbuf_printf(j, ",\"environment_map\":{\"uri\":");
         sp_strbuf_json_string(j, c->env_name);
         sp_strbuf_printf(j, ",\"projection\":\"equirectangular\",\"width\":%d,\"height\":%d,\"row0\":\"straight "
-                            "up (+y)\",\"column0_azimuth\":\"+x, towards -z\",\"units\":\"radiance, fit units\"}",
+                            "up (+y)\",\"convention\":\"Blender and three.js: u = 0.5 + atan2(z, x) / 2pi\","
+                            "\"units\":\"luminance, cd/m2 (the sun's lux per sr)\"}",
                          SP_RENDER_ENV_W, SP_RENDER_ENV_H);
     }
     sp_strbuf_printf(j, "}}");
 }
 
+/* Quaternion (x, y, z, w) of a rotation matrix (row-major), from its largest diagonal term (Shepperd). */
+static void quat_from_matrix(const double m[9], double q[4])
+{
+    double tr = m[0] + m[4] + m[8];
+    double d21 = m[7] - m[5], d02 = m[2] - m[6], d10 = m[3] - m[1];
+    double s01 = m[1] + m[3], s02 = m[2] + m[6], s12 = m[5] + m[7];
+    int k = tr > m[0] && tr > m[4] && tr > m[8] ? 3 : m[0] >= m[4] && m[0] >= m[8] ? 0 : m[4] >= m[8] ? 1 : 2;
+    double r = sqrt(fmax(k == 3 ? 1.0 + tr : 1.0 + 2.0 * m[k * 4] - tr, 1e-300)), h = 0.5 * r, s = 0.5 / r;
+    double v[4][4] = { { h, s01 * s, s02 * s, d21 * s }, { s01 * s, h, s12 * s, d02 * s },
+                       { s02 * s, s12 * s, h, d10 * s }, { d21 * s, d02 * s, d10 * s, h } };
+    memcpy(q, v[k], sizeof(v[k]));
+}
+
+static int camera_usable(const export_ctx *c)
+{
+    const sp_render_camera *k = &c->asset.camera;
+    return c->asset.width > 0 && c->asset.height > 0 && k->fx > 0.0 && k->fy > 0.0 && isfinite(k->fx) &&
+           isfinite(k->fy);
+}
+
+/*
+ * Keyframe 0's camera node: glTF cameras look along their -z with +y up, OpenCV
+ * ones along +z with y down, so node rotation = place.R * R^T * diag(1, -1, -1).
+ * The principal point cannot be expressed (a centred one is assumed).
+ */
+static void add_camera_node(const export_ctx *c, sp_strbuf *j)
+{
+    const sp_render_camera *k = &c->asset.camera;
+    double N[9], q[4], eye_w[3], eye[3];
+    for (int r = 0; r < 3; r++)
+        for (int col = 0; col < 3; col++) {
+            double a = 0.0;
+            for (int i = 0; i < 3; i++)
+                a += c->place.R[r * 3 + i] * k->R[col * 3 + i];
+            N[r * 3 + col] = col ? -a : a;
+        }
+    quat_from_matrix(N, q);
+    for (int i = 0; i < 3; i++) /* camera centre -R^T t */
+        eye_w[i] = -(k->R[i] * k->t[0] + k->R[3 + i] * k->t[1] + k->R[6 + i] * k->t[2]);
+    sp_gltf_place(&c->place, eye_w, eye, 1);
+    sp_strbuf_printf(j, ",{\"name\":\"camera\",\"camera\":0,\"translation\":[%.9g,%.9g,%.9g],"
+                        "\"rotation\":[%.9g,%.9g,%.9g,%.9g]}",
+                     eye[0], eye[1], eye[2], q[0], q[1], q[2], q[3]);
+}
+
+static void add_cameras(const export_ctx *c, sp_strbuf *j)
+{
+    const sp_render_camera *k = &c->asset.camera;
+    double w = c->asset.width, h = c->asset.height;
+    /* pixel centres at integers: the image spans h pixels; aspect keeps the horizontal field for fx != fy */
+    sp_strbuf_printf(j, ",\"cameras\":[{\"name\":\"keyframe 0\",\"type\":\"perspective\",\"perspective\":"
+                        "{\"yfov\":%.9g,\"aspectRatio\":%.9g,\"znear\":0.01}}]",
+                     2.0 * atan(0.5 * h / k->fy), w * k->fy / (h * k->fx));
+}
+
 static void add_scene(const export_ctx *c, sp_strbuf *j, int draco)
 {
     double g[3];
-    int sun = sun_direction(c, g);
+    int sun = sun_direction(c, g), cam = camera_usable(c);
     sp_strbuf_printf(j, "\"asset\":{\"version\":\"2.0\",\"generator\":\"sunprobe %s\",", sp_version());
     add_extras(c, j);
     sp_strbuf_printf(j, "},\"extensionsUsed\":[\"KHR_materials_specular\"%s%s]", sun ? ",\"KHR_lights_punctual\"" : "",
                      draco ? ",\"KHR_draco_mesh_compression\"" : "");
     if (draco)
         sp_strbuf_printf(j, ",\"extensionsRequired\":[\"KHR_draco_mesh_compression\"]");
-    sp_strbuf_printf(j, ",\"scene\":0,\"scenes\":[{\"name\":\"face\",\"nodes\":[0%s]}],"
-                        "\"nodes\":[{\"name\":\"face\",\"mesh\":0}",
-                     sun ? ",1" : "");
+    sp_strbuf_printf(j, ",\"scene\":0,\"scenes\":[{\"name\":\"face\",\"nodes\":[0%s%s]}],"
+                        "\"nodes\":[{\"name\":\"head\",\"mesh\":0}",
+                     cam ? ",1" : "", sun ? (cam ? ",2" : ",1") : "");
+    if (cam)
+        add_camera_node(c, j);
     if (sun) {
         double q[4];
         rotation_to(g, q);
         sp_strbuf_printf(j, ",{\"name\":\"sun\",\"rotation\":[%.9g,%.9g,%.9g,%.9g],\"extensions\":"
-                            "{\"KHR_lights_punctual\":{\"light\":0}}}]",
+                            "{\"KHR_lights_punctual\":{\"light\":0}}}",
                          q[0], q[1], q[2], q[3]);
+    }
+    sp_strbuf_printf(j, "]");
+    if (cam)
+        add_cameras(c, j);
+    if (sun) {
         sp_strbuf_printf(j, ",\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"name\":\"sun\",\"type\":"
                             "\"directional\",\"color\":[1,1,1],\"intensity\":");
-        sp_strbuf_json_number(j, c->asset.sun_intensity);
+        sp_strbuf_json_number(j, c->asset.sun_intensity * LUX_PER_FIT_UNIT);
         sp_strbuf_printf(j, "}]}}");
-    } else {
-        sp_strbuf_printf(j, "]");
     }
 }
 
@@ -458,10 +541,14 @@ static int write_env(export_ctx *c)
     if (stem + 9 > sizeof(path))
         return -ENAMETOOLONG;
     snprintf(path, sizeof(path), "%.*s.env.hdr", (int)stem, c->out_path);
+    float env[SP_RENDER_ENV_FLOATS];
+    sp_export_env_equirect(c->asset.env, c->place.R, env);
+    for (int k = 0; k < SP_RENDER_ENV_FLOATS; k++)
+        env[k] = (float)((double)env[k] * LUX_PER_FIT_UNIT);
     const char *tmp;
     int ret = sp_file_set_add(&c->files, path, &tmp);
     if (!ret)
-        ret = sp_hdr_write(tmp, c->asset.env, SP_RENDER_ENV_W, SP_RENDER_ENV_H);
+        ret = sp_hdr_write(tmp, env, SP_RENDER_ENV_W, SP_RENDER_ENV_H);
     if (ret) {
         sp_log(SP_LOG_ERROR, MOD, "cannot write %s: %s", path, sp_strerror(ret));
         return ret;
@@ -503,7 +590,8 @@ static int prepare(export_ctx *c)
     }
     if ((ret = read_reasons(c)))
         return ret;
-    if ((ret = sp_gltf_geom_build(&c->geom, &c->asset.mesh))) {
+    sp_gltf_placement_init(&c->place, &c->asset.mesh, &c->asset.camera);
+    if ((ret = sp_gltf_geom_build(&c->geom, &c->asset.mesh, &c->place))) {
         sp_log(SP_LOG_ERROR, MOD, "%s: mesh is unusable (NaN, bad index or empty): %s", c->face_dir,
                sp_strerror(ret));
         return ret;

@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: MIT */
-/* Face mesh -> glTF vertices: one per distinct (position, UV) pair, smooth normals, y-up frame. */
+/* Face mesh -> glTF vertices: one per distinct (position, UV) pair, smooth normals, placed in the y-up scene. */
 #include "export/gltf_internal.h"
 
 #include <errno.h>
@@ -13,6 +13,54 @@ void sp_gltf_from_world(const double w[3], double g[3])
     g[0] = x;
     g[1] = z;
     g[2] = -y;
+}
+
+void sp_gltf_place(const sp_gltf_placement *p, const double w[3], double g[3], int point)
+{
+    for (int r = 0; r < 3; r++)
+        g[r] = p->R[r * 3] * w[0] + p->R[r * 3 + 1] * w[1] + p->R[r * 3 + 2] * w[2] + (point ? p->t[r] : 0.0);
+}
+
+/* Bounding-box centre of the mesh's positions under p. */
+static void box_centre(const sp_gltf_placement *p, const sp_mesh *m, double c[3])
+{
+    double lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY };
+    for (uint32_t i = 0; i < m->n_vertices; i++) {
+        double w[3] = { m->positions[i * 3], m->positions[i * 3 + 1], m->positions[i * 3 + 2] }, g[3];
+        sp_gltf_place(p, w, g, 1);
+        for (int k = 0; k < 3; k++) {
+            lo[k] = g[k] < lo[k] ? g[k] : lo[k];
+            hi[k] = g[k] > hi[k] ? g[k] : hi[k];
+        }
+    }
+    for (int k = 0; k < 3; k++)
+        c[k] = m->n_vertices && isfinite(lo[k] + hi[k]) ? 0.5 * (lo[k] + hi[k]) : 0.0;
+}
+
+void sp_gltf_placement_init(sp_gltf_placement *p, const sp_mesh *m, const sp_render_camera *key0)
+{
+    memset(p, 0, sizeof(*p));
+    for (int k = 0; k < 3; k++) { /* column k: the fit world's axis k in glTF */
+        double w[3] = { k == 0, k == 1, k == 2 }, g[3];
+        sp_gltf_from_world(w, g);
+        p->R[k] = g[0], p->R[3 + k] = g[1], p->R[6 + k] = g[2];
+    }
+    double c[3], cam[3], eye[3];
+    box_centre(p, m, c);
+    for (int k = 0; k < 3; k++) /* camera centre -R^T t */
+        cam[k] = -(key0->R[k] * key0->t[0] + key0->R[3 + k] * key0->t[1] + key0->R[6 + k] * key0->t[2]);
+    sp_gltf_place(p, cam, eye, 1);
+    double dx = eye[0] - c[0], dz = eye[2] - c[2], step = 2.0 * M_PI / SP_RENDER_ENV_W;
+    double yaw = hypot(dx, dz) > 1e-9 && isfinite(dx + dz) ? -step * round(atan2(dx, dz) / step) : 0.0;
+    double cy = cos(yaw), sy = sin(yaw), M[9];
+    memcpy(M, p->R, sizeof(M));
+    for (int k = 0; k < 3; k++) { /* R = Ry(yaw) M: the camera's azimuth (from +z towards +x) goes to 0 */
+        p->R[k] = cy * M[k] + sy * M[6 + k];
+        p->R[6 + k] = -sy * M[k] + cy * M[6 + k];
+    }
+    box_centre(p, m, c);
+    for (int k = 0; k < 3; k++)
+        p->t[k] = -c[k];
 }
 
 static int cmp_u64(const void *a, const void *b)
@@ -52,14 +100,14 @@ static double *position_normals(const sp_mesh *m)
     return n;
 }
 
-static void fill_vertex(sp_gltf_geom *g, uint32_t out, const sp_mesh *m, const double *pn, uint32_t pv,
-                        uint32_t uv)
+static void fill_vertex(sp_gltf_geom *g, uint32_t out, const sp_mesh *m, const sp_gltf_placement *p,
+                        const double *pn, uint32_t pv, uint32_t uv)
 {
     double w[3], gl[3];
     for (int d = 0; d < 3; d++)
         w[d] = (double)m->positions[(size_t)pv * 3 + d];
-    sp_gltf_from_world(w, gl);
-    sp_gltf_from_world(pn + (size_t)pv * 3, w);
+    sp_gltf_place(p, w, gl, 1);
+    sp_gltf_place(p, pn + (size_t)pv * 3, w, 0);
     for (int d = 0; d < 3; d++) {
         g->positions[(size_t)out * 3 + d] = (float)gl[d];
         g->normals[(size_t)out * 3 + d] = (float)w[d];
@@ -155,9 +203,9 @@ static uint32_t find_key(const uint64_t *keys, uint32_t n, uint64_t k)
     return lo;
 }
 
-int sp_gltf_geom_build(sp_gltf_geom *g, const sp_mesh *m)
+int sp_gltf_geom_build(sp_gltf_geom *g, const sp_mesh *m, const sp_gltf_placement *p)
 {
-    if (!g || !m)
+    if (!g || !m || !p)
         return -EINVAL;
     memset(g, 0, sizeof(*g));
     if (m->n_triangles == 0 || m->n_vertices == 0 || sp_mesh_validate(m))
@@ -178,7 +226,7 @@ int sp_gltf_geom_build(sp_gltf_geom *g, const sp_mesh *m)
     }
     if (!ret) {
         for (uint32_t i = 0; i < nu; i++)
-            fill_vertex(g, i, m, pn, (uint32_t)(keys[i] >> 32), (uint32_t)keys[i]);
+            fill_vertex(g, i, m, p, pn, (uint32_t)(keys[i] >> 32), (uint32_t)keys[i]);
         for (size_t c = 0; c < nc; c++)
             g->indices[c] = find_key(keys, nu, ((uint64_t)m->tri_vertices[c] << 32) | m->tri_uvs[c]);
         ret = build_tangents(g);

@@ -8,6 +8,7 @@
 
 #include "common/file_set.h"
 #include "sunprobe/sp_export.h"
+#include "sunprobe/sp_render.h"
 #include "sunprobe/sp_sunstage.h"
 
 /* One glTF vertex per distinct (position, UV) corner pair; glTF frame (y up), glTF UVs (v down). */
@@ -21,8 +22,22 @@ typedef struct sp_gltf_geom {
 
 /* Fit world (z up) to glTF (y up): (x, y, z) -> (x, z, -y), a proper rotation. */
 void sp_gltf_from_world(const double w[3], double g[3]);
-/* SP_ECORRUPT for a mesh with NaN/Inf or bad indices, -ENOMEM. */
-int sp_gltf_geom_build(sp_gltf_geom *g, const sp_mesh *m);
+/*
+ * Fit world -> exported scene, g = R w + t (R row-major): the y-up mapping, then
+ * a turn about +y by whole environment columns (2 pi / SP_RENDER_ENV_W, so the
+ * map is re-indexed, not resampled) that points the face (towards keyframe 0's
+ * camera) along +z within half a column; t puts the head's bounding-box centre
+ * at the origin.
+ */
+typedef struct sp_gltf_placement {
+    double R[9], t[3];
+} sp_gltf_placement;
+
+void sp_gltf_placement_init(sp_gltf_placement *p, const sp_mesh *m, const sp_render_camera *key0);
+/* g = R w (+ t when point). */
+void sp_gltf_place(const sp_gltf_placement *p, const double w[3], double g[3], int point);
+/* SP_ECORRUPT for a mesh with NaN/Inf or bad indices, -ENOMEM. Vertices placed by p. */
+int sp_gltf_geom_build(sp_gltf_geom *g, const sp_mesh *m, const sp_gltf_placement *p);
 void sp_gltf_geom_free(sp_gltf_geom *g);
 
 typedef struct sp_export_image {
@@ -49,6 +64,15 @@ double sp_export_roughness(double shininess);
 /* Cluster specular intensity -> KHR_materials_specular strength in [0, 1] (EXPORT.md). */
 double sp_export_specular(double ks);
 
+/*
+ * The fit's environment map (renderer layout, fit world) as the equirectangular
+ * map of Blender and three.js in the frame g = R w (R row-major, a rotation from
+ * the fit world): row i at polar angle (i + 0.5) pi / H from +y, column j at
+ * u = (j + 0.5) / W = 0.5 + atan2(g.z, g.x) / 2 pi. Nearest texel: exact when R
+ * turns texel centres onto texel centres (the y-up mapping, turns by whole columns).
+ * env and out: SP_RENDER_ENV_FLOATS each.
+ */
+void sp_export_env_equirect(const float *env, const double R[9], float *out);
 /* Radiance RGBE (.hdr), run-length-free scanlines, written atomically. rgb: w*h*3 linear floats, row 0 = top. */
 int sp_hdr_write(const char *path, const float *rgb, int width, int height);
 

@@ -7,7 +7,8 @@
  *     keyframe 0's camera (optionally on a W x H image with the principal point
  *     moved by DCX, DCY pixels and the camera orbited YAW_DEG about the world's
  *     up axis through the mesh centre) and writes the coverage mask (0/255 gray
- *     PNG). Prints the same camera as the viewer's URL query (glTF frame, y up).
+ *     PNG). Prints the same camera as the viewer's URL query, in the exported
+ *     scene (y up, head at the origin).
  *   render_mask iou REF.png SHOT.png MIN
  *     prints the intersection over union of the two masks (> 127 in the first
  *     channel is inside) and exits 1 when it is below MIN or a mask is empty.
@@ -22,6 +23,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "export/gltf_internal.h"
 #include "export/png.h"
 #include "export/png_read.h"
 #include "sunprobe/sp_render.h"
@@ -43,15 +45,24 @@ static void orbit_camera(sp_render_camera *cam, const double c[3], double yaw)
         cam->t[r] = -(R[r * 3] * C1[0] + R[r * 3 + 1] * C1[1] + R[r * 3 + 2] * C1[2]);
 }
 
-/* The viewer's query: R and t for glTF world coordinates g, where the fit world is (g.x, -g.z, g.y). */
-static void print_query(const sp_render_camera *c, int w, int h)
+/*
+ * The viewer's query: R and t for the exported scene's points g, where the fit
+ * world is w = P^T (g - t_P) (P, t_P: the export's placement, gltf_internal.h).
+ */
+static void print_query(const sp_face_asset *a, const sp_render_camera *c, int w, int h)
 {
+    sp_gltf_placement p;
+    sp_gltf_placement_init(&p, &a->mesh, &a->camera);
+    double R[9], t[3];
+    for (int r = 0; r < 3; r++)
+        for (int k = 0; k < 3; k++) /* R = R_c P^T */
+            R[r * 3 + k] = c->R[r * 3] * p.R[k * 3] + c->R[r * 3 + 1] * p.R[k * 3 + 1] + c->R[r * 3 + 2] * p.R[k * 3 + 2];
+    for (int r = 0; r < 3; r++)
+        t[r] = c->t[r] - (R[r * 3] * p.t[0] + R[r * 3 + 1] * p.t[1] + R[r * 3 + 2] * p.t[2]);
     printf("w=%d&h=%d&fx=%.9g&fy=%.9g&cx=%.9g&cy=%.9g&R=", w, h, c->fx, c->fy, c->cx, c->cy);
-    for (int r = 0; r < 3; r++) {
-        const double *row = c->R + r * 3;
-        printf("%s%.9g,%.9g,%.9g", r ? "," : "", row[0], row[2], -row[1]);
-    }
-    printf("&t=%.9g,%.9g,%.9g\n", c->t[0], c->t[1], c->t[2]);
+    for (int k = 0; k < 9; k++)
+        printf("%s%.9g", k ? "," : "", R[k]);
+    printf("&t=%.9g,%.9g,%.9g\n", t[0], t[1], t[2]);
 }
 
 static int render(const sp_face_asset *a, const sp_render_camera *cam, int w, int h, const char *out)
@@ -110,7 +121,7 @@ static int cmd_render(int argc, char **argv)
     if (ret)
         fprintf(stderr, "render_mask: rendering %dx%d failed (%d)\n", w, h, ret);
     else
-        print_query(&cam, w, h);
+        print_query(&a, &cam, w, h);
     sp_face_asset_free(&a);
     return ret ? 1 : 0;
 }

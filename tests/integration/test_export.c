@@ -238,9 +238,22 @@ static int has_string(const sp_json *arr, const char *s)
     return 0;
 }
 
-/* Every glTF triangle corner is the original mesh corner in the y-up frame, with flipped v. */
+static const sp_json *extras(const glb *g);
+
+/*
+ * Every glTF triangle corner is the original mesh corner placed in the scene,
+ * with flipped v: the y-up mapping (no turn: the fixture's head is in front of
+ * keyframe 0's camera along world +y, so it already looks along glTF +z) plus
+ * the translation in extras.fit_to_scene.
+ */
 static void check_plain_geometry(const glb *g, const sp_mesh *m)
 {
+    const sp_json *place = sp_json_get(extras(g), "fit_to_scene");
+    double R[9], T[3], M[9] = { 1, 0, 0, 0, 0, 1, 0, -1, 0 };
+    CHECK(sp_json_numbers(sp_json_get(place, "rotation"), R, 9) == 9);
+    CHECK(sp_json_numbers(sp_json_get(place, "translation"), T, 3) == 3);
+    for (int k = 0; k < 9; k++)
+        CHECK_NEAR(R[k], M[k], 1e-12);
     uint32_t np, nu, ni;
     const uint8_t *pos = accessor_data(g, 0, 12, &np), *uv = accessor_data(g, 2, 8, &nu);
     const uint8_t *idx = accessor_data(g, 3, 4, &ni);
@@ -259,7 +272,10 @@ static void check_plain_geometry(const glb *g, const sp_mesh *m)
         memcpy(p, pos + 12 * (size_t)i, 12);
         memcpy(t, uv + 8 * (size_t)i, 8);
         const float *w = m->positions + 3 * (size_t)m->tri_vertices[c], *u = m->uvs + 2 * (size_t)m->tri_uvs[c];
-        bad += p[0] != w[0] || p[1] != w[2] || p[2] != -w[1] || t[0] != u[0] || t[1] != 1.0f - u[1];
+        double want[3] = { (double)w[0] + T[0], (double)w[2] + T[1], -(double)w[1] + T[2] }, err = 0.0;
+        for (int k = 0; k < 3; k++)
+            err = fmax(err, fabs((double)p[k] - want[k]));
+        bad += err > 1e-6 || t[0] != u[0] || t[1] != 1.0f - u[1];
     }
     CHECK_MSG(bad == 0, "%d corners differ from the face mesh", bad);
 }
@@ -279,9 +295,11 @@ static void check_material(const glb *g, int full)
     CHECK((lights != NULL) == full);
     if (!full)
         return;
-    CHECK_NEAR(sp_json_number(sp_json_get(sp_json_at(lights, 0), "intensity"), 0), 2.5, 1e-9);
+    CHECK_NEAR(sp_json_number(sp_json_get(sp_json_at(lights, 0), "intensity"), 0), 2.5 * 1.2 * 32768.0, 1e-6);
     double q[4];
-    CHECK(sp_json_numbers(sp_json_get(sp_json_at(sp_json_get(g->json, "nodes"), 1), "rotation"), q, 4) == 4);
+    const sp_json *sun = sp_json_at(sp_json_get(g->json, "nodes"), 2);
+    CHECK(!strcmp(sp_json_string(sp_json_get(sun, "name"), ""), "sun"));
+    CHECK(sp_json_numbers(sp_json_get(sun, "rotation"), q, 4) == 4);
     /* the node's +z (towards the sun) = q applied to (0,0,1): third column of the rotation matrix */
     double x = q[0], y = q[1], z = q[2], w = q[3];
     double col[3] = { 2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y) };
@@ -385,7 +403,7 @@ static void check_left_out(const char *tmp)
         CHECK(st.has_normal_map && st.has_specular_texture && !st.has_sun); /* the manifest's intensity is 2.5 */
         CHECK(!sp_json_get(g.json, "extensions") && !has_string(sp_json_get(g.json, "extensionsUsed"),
                                                                "KHR_lights_punctual"));
-        CHECK(left_count(&g) == 2 && sp_json_get(g.json, "nodes") && sp_json_get(g.json, "nodes")->count == 1);
+        CHECK(left_count(&g) == 2 && sp_json_get(g.json, "nodes") && sp_json_get(g.json, "nodes")->count == 2);
         CHECK(reason_is(&g, "sun", "overcast: the sun") && reason_is(&g, "shadows", "no sun, so"));
         CHECK(sp_json_get(extras(&g), "environment_map") && has_env_file(tmp, "nosun"));
     }

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: MIT
 // Shows a face exported by `sunprobe export` (glTF 2.0, y up, metres) lit by its own sun: the glTF's
 // KHR_lights_punctual directional light, which a slider turns about the +y (up) axis, plus a dim
-// hemisphere ambient averaged from the environment map OUT.env.hdr when given. URL query:
+// hemisphere ambient averaged from the environment map OUT.env.hdr when given, exposed by the asset's
+// lux_per_fit_unit as the project's renderer would show it. URL query:
 //   glb=PATH            the .glb (default face.glb)
 //   env=PATH            the environment map written beside it (optional)
 //   az=DEG              initial sun azimuth offset (default 0 = as fitted)
@@ -103,6 +104,10 @@ async function main() {
   const gltf = await loader.loadAsync(q.get('glb') || 'face.glb');
   const root = gltf.scene;
   scene.add(root);
+  // The sun is in lux and the sky in cd/m^2 (export/EXPORT.md, "Photometry"); this factor brings them back
+  // to the project's display scale, where the renderer's exposure 1 applies.
+  const extras = ((gltf.parser.json.asset || {}).extras || {}).sunprobe || {};
+  const lux = extras.lux_per_fit_unit > 0 ? extras.lux_per_fit_unit : 1;
 
   let sun = null;
   root.traverse((o) => { if (o.isDirectionalLight && !sun) sun = o; });
@@ -122,10 +127,10 @@ async function main() {
   let camera, controls = null;
   if (fixed) camera = fixed.cam;
   else {
-    // The fit world has keyframe 0's camera at the origin: look from that side, far enough back for
-    // the bounding sphere to fit the 30 degree field of view.
+    // The export puts the head at the origin facing +z, keyframe 0's camera on that side: look from
+    // there, far enough back for the bounding sphere to fit the 30 degree field of view.
     camera = new THREE.PerspectiveCamera(30, window.innerWidth / window.innerHeight, 0.01, 1000);
-    const toward = centre.length() > 1e-6 ? centre.clone().negate().normalize() : new THREE.Vector3(0, 0, 1);
+    const toward = new THREE.Vector3(0, 0, 1);
     const radius = box.isEmpty() ? 0.15 : Math.max(box.getSize(new THREE.Vector3()).length() / 2, 1e-3);
     camera.position.copy(centre).addScaledVector(toward, (1.15 * radius) / Math.sin((15 * Math.PI) / 180));
     camera.lookAt(centre);
@@ -145,7 +150,7 @@ async function main() {
       sunNode.quaternion.copy(turn).multiply(sunRest);
     }
     if (hemi) hemi.intensity = Math.PI * amb;
-    renderer.toneMappingExposure = Math.pow(2, ev);
+    renderer.toneMappingExposure = Math.pow(2, ev) / lux;
     render();
   };
   for (const id of ['azimuth', 'ambient', 'exposure']) $(id).addEventListener('input', update);
@@ -165,7 +170,7 @@ async function main() {
       .sub(new THREE.Vector3().setFromMatrixPosition(sun.target.matrixWorld));
     const fitted = (Math.atan2(d.x, d.z) * 180) / Math.PI;
     $('info').textContent = `fitted sun: azimuth ${fitted.toFixed(0)}° (from +z towards +x), ` +
-      `elevation ${((Math.asin(d.y / (d.length() || 1)) * 180) / Math.PI).toFixed(0)}°, ${sun.intensity.toFixed(2)} lx`;
+      `elevation ${((Math.asin(d.y / (d.length() || 1)) * 180) / Math.PI).toFixed(0)}°, ${sun.intensity.toFixed(0)} lx`;
   } else $('info').textContent = 'this asset has no sun (see asset.extras.sunprobe.left_out)';
   update();
   draco.dispose();
