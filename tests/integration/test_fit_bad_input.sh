@@ -34,26 +34,31 @@ def png(path, rgb):  # a flat 480x360 image
                            + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
 png(f"{tmp}/black.png", (0, 0, 0))
 png(f"{tmp}/wall.png", (150, 140, 120))
-n = len(open(f"{cap}/frames.csv").read().splitlines()) - 1
+# 30 frames are enough to say "none" (and keep the whole-frame face search short under sanitizers)
+rows = open(f"{cap}/frames.csv").read().splitlines()
+n = min(30, len(rows) - 1)
+open(f"{tmp}/frames30.csv", "w").write("\n".join(rows[:n + 1]) + "\n")
 for kind in ("black", "noface", "few"):
     os.mkdir(f"{tmp}/{kind}")
     for i in range(n):
         src = f"{tmp}/black.png" if kind == "black" else f"{tmp}/wall.png"
-        if kind == "few" and i < 4:
+        if kind == "few" and 10 <= i < 14:  # after the orientation filter has settled
             src = f"{cap}/frames/{i:05d}.png"
         os.symlink(src, f"{tmp}/{kind}/{i:05d}.png")
 PY
 
 fail=0
-imp() { # NAME FRAMES_PATTERN IMU META
-    "$sp" import "$2" -o "$tmp/$1.spcap" --frame-times "$cap/frames.csv" --imu "$3" --meta "$4" >"$tmp/$1.import.log" 2>&1
+imp() { # NAME FRAMES_PATTERN IMU META [FRAME_TIMES]
+    "$sp" import "$2" -o "$tmp/$1.spcap" --frame-times "${5:-$cap/frames.csv}" --imu "$3" --meta "$4" \
+        >"$tmp/$1.import.log" 2>&1
 }
 imp late "$cap/frames/%05d.png" "$tmp/imu-late.csv" "$tmp/meta.json"
 rc=$?
 [ $rc = 4 ] && { echo "SKIP: this build cannot import PNG frames"; exit 77; }
 [ $rc = 0 ] || { cat "$tmp/late.import.log"; exit 1; }
 for kind in black noface few; do
-    imp $kind "$tmp/$kind/%05d.png" "$cap/imu.csv" "$tmp/meta.json" || { cat "$tmp/$kind.import.log"; exit 1; }
+    imp $kind "$tmp/$kind/%05d.png" "$cap/imu.csv" "$tmp/meta.json" "$tmp/frames30.csv" ||
+        { cat "$tmp/$kind.import.log"; exit 1; }
 done
 
 expect_fit() { # NAME WORDS: exit 2, the words in the message, no face directory
