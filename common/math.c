@@ -111,6 +111,20 @@ double sp_quat_angle_between(sp_quat a, sp_quat b)
     return 2.0 * atan2(s, fabs(d.w)); /* atan2 keeps precision at tiny angles, unlike acos */
 }
 
+double sp_srgb_encode(double c)
+{
+    if (!(c > 0.0))
+        return 0.0;
+    return c <= 0.0031308 ? 12.92 * c : 1.055 * pow(c, 1.0 / 2.4) - 0.055;
+}
+
+double sp_srgb_decode(double g)
+{
+    if (!(g > 0.0))
+        return 0.0;
+    return g <= 0.04045 ? g / 12.92 : pow((g + 0.055) / 1.055, 2.4);
+}
+
 void sp_quat_mean_init(sp_quat_mean *m)
 {
     *m = (sp_quat_mean){ { 0, 0, 0, 0 }, { 1, 0, 0, 0 }, 0 };

@@ -34,13 +34,6 @@ static uint8_t to_u8(double v)
     return v >= 1.0 ? 255 : (uint8_t)(v * 255.0 + 0.5);
 }
 
-static double srgb_encode(double c)
-{
-    if (!(c > 0.0))
-        return 0.0;
-    return c <= 0.0031308 ? 12.92 * c : 1.055 * pow(c, 1.0 / 2.4) - 0.055;
-}
-
 /* Bilinear sample of channel ch of a w x h x nc float map at output texel (i, j) of an ow x oh image. */
 static double sample(const float *map, int w, int h, int nc, int ch, int i, int j, int ow, int oh)
 {
@@ -70,7 +63,7 @@ static int bake_albedo(sp_export_image *im, const sp_face_asset *a, int w, int h
         for (int i = 0; i < w; i++)
             for (int c = 0; c < 3; c++)
                 im->pixels[((size_t)j * w + i) * 3 + c] =
-                    to_u8(srgb_encode(sample(a->albedo, a->tex_width, a->tex_height, 3, c, i, j, w, h)));
+                    to_u8(sp_srgb_encode(sample(a->albedo, a->tex_width, a->tex_height, 3, c, i, j, w, h)));
     return ret;
 }
 

@@ -34,6 +34,9 @@ SP_API sp_quat sp_quat_slerp(sp_quat a, sp_quat b, double t);
 SP_API double sp_quat_angle_between(sp_quat a, sp_quat b);
 /* Row-major 3x3 rotation matrix from a unit quaternion, and back. */
 SP_API void sp_quat_to_matrix(sp_quat q, double m[9]);
+/* The sRGB curve: linear light in [0, 1] to its encoded value, and back (NaN and negatives give 0). */
+SP_API double sp_srgb_encode(double linear);
+SP_API double sp_srgb_decode(double encoded);
 /* Mean rotation of a set of quaternions: each is sign-flipped to the first one's hemisphere (q and -q are one
    rotation), summed, normalised. Good for rotations within a few tens of degrees of each other. */
 typedef struct sp_quat_mean {

@@ -46,10 +46,8 @@ static int setup_geometry(sp_sunstage *ss, uint32_t w, uint32_t h)
     ss_window_camera(ss, &ss->fe.win, &ss->cam);
     /* pixel encoding: sRGB unless the capture says it is the synthesiser's own (capture/FORMAT.md) */
     ss->fe.srgb = strcmp(ss->meta.transfer, "sunprobe") != 0;
-    for (int v = 0; v < 256; v++) {
-        double g = v / 255.0;
-        ss->fe.lut[v] = (float)(g <= 0.04045 ? g / 12.92 : pow((g + 0.055) / 1.055, 2.4));
-    }
+    for (int v = 0; v < 256; v++)
+        ss->fe.lut[v] = (float)sp_srgb_decode(v / 255.0);
     sp_log(SP_LOG_INFO, MOD, "pixel encoding: %s", ss->fe.srgb ? "sRGB (decoded to linear light)" : "sunprobe's own");
     ss->fe.rgb24 = malloc((size_t)w * h * 3);
     if (!ss->fe.rgb24)

@@ -427,7 +427,7 @@ double sp_sunstage_display_to_srgb(double display)
         return 0.0;
     if (L >= 1.0) /* clipped, as the camera would (and exactly 1, which 1.055 - 0.055 is not) */
         return 1.0;
-    return L <= 0.0031308 ? 12.92 * L : 1.055 * pow(L, 1.0 / 2.4) - 0.055;
+    return sp_srgb_encode(L);
 }
 
 double sp_sunstage_exposure_reference(const sp_sunstage *ss)
