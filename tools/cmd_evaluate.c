@@ -58,6 +58,7 @@ typedef struct eval_ctx {
     sp_json *meta, *cams, *manifest;
     double align[9]; /* fit world -> true world */
     rigid asset_to_head;
+    double asset_scale; /* the asset is drawn k times its size: the monocular fit's depth-scale gauge, registered */
     int n_keyframes;
     double camera_err_mean, camera_err_max;
     double sun_err;  /* NaN: not scored */
@@ -189,9 +190,8 @@ static int register_fit(eval_ctx *c)
     sp_quat_mean world, head;
     sp_quat_mean_init(&world);
     sp_quat_mean_init(&head);
-    double t_sum[3] = { 0, 0, 0 };
-    rigid G[MAX_KEYFRAMES];
-    double E[MAX_KEYFRAMES][9], T[MAX_KEYFRAMES][9];
+    rigid G[MAX_KEYFRAMES], F[MAX_KEYFRAMES], HC[MAX_KEYFRAMES];
+    double E[MAX_KEYFRAMES][9], T[MAX_KEYFRAMES][9], ratio[MAX_KEYFRAMES];
     int n = 0;
     for (size_t i = 0; n < MAX_KEYFRAMES; i++) {
         const sp_json *k = sp_json_at(frames, i);
@@ -218,8 +218,13 @@ static int register_fit(eval_ctx *c)
             for (int q = 0; q < 3; q++)
                 a[r * 3 + q] = cam.R[r * 3] * e[q * 3] + cam.R[r * 3 + 1] * e[q * 3 + 1] + cam.R[r * 3 + 2] * e[q * 3 + 2];
         sp_quat_mean_add(&world, sp_quat_from_matrix(a));
-        rigid hinv = rigid_inv(&hd), hc = rigid_mul(&hinv, &cam);
-        G[n] = rigid_mul(&hc, &face); /* scaled model -> head, composed with place0 below */
+        rigid hinv = rigid_inv(&hd);
+        HC[n] = rigid_mul(&hinv, &cam); /* camera -> true head */
+        F[n] = face;                    /* scaled model -> camera, composed with place0 below */
+        rigid ch = rigid_inv(&HC[n]);   /* the true head's origin in this camera, against the fitted one */
+        double dt = sqrt(ch.t[0] * ch.t[0] + ch.t[1] * ch.t[1] + ch.t[2] * ch.t[2]);
+        double df = sqrt(face.t[0] * face.t[0] + face.t[1] * face.t[1] + face.t[2] * face.t[2]);
+        ratio[n] = df > 0.0 ? dt / df : 1.0;
         n++;
     }
     if (n < 1 || !have0) {
@@ -237,13 +242,50 @@ static int register_fit(eval_ctx *c)
         double err = sp_quat_angle_between(sp_quat_from_matrix(ae), sp_quat_from_matrix(T[i])) * 180.0 / M_PI;
         c->camera_err_mean += err / n;
         c->camera_err_max = fmax(c->camera_err_max, err);
-        G[i] = rigid_mul(&G[i], &place0);
+    }
+    /*
+     * One camera sees the same image of a head k times as large k times as far: the fit's size is
+     * a prior's, not a measurement. The held-out views are drawn with the fitted head scaled about
+     * each keyframe's camera by the median k, as a similarity, and k is reported.
+     */
+    double sorted[MAX_KEYFRAMES];
+    memcpy(sorted, ratio, sizeof(double) * (size_t)n);
+    for (int i = 1; i < n; i++)
+        for (int j = i; j > 0 && sorted[j - 1] > sorted[j]; j--) {
+            double t = sorted[j];
+            sorted[j] = sorted[j - 1];
+            sorted[j - 1] = t;
+        }
+    double med = n % 2 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
+    c->asset_scale = med > 0.5 && med < 2.0 ? med : 1.0;
+    for (int i = 0; i < n; i++) {
+        rigid fp = rigid_mul(&F[i], &place0);
+        for (int q = 0; q < 3; q++)
+            fp.t[q] *= c->asset_scale;
+        G[i] = rigid_mul(&HC[i], &fp); /* x -> k G.R x + G.t */
         sp_quat_mean_add(&head, sp_quat_from_matrix(G[i].R));
-        for (int k = 0; k < 3; k++)
-            t_sum[k] += G[i].t[k] / n;
     }
     sp_quat_to_matrix(sp_quat_mean_get(&head), c->asset_to_head.R);
-    memcpy(c->asset_to_head.t, t_sum, sizeof(t_sum));
+    /*
+     * The translation: where the keyframes put the face's centre in the head frame, on average. The
+     * asset's origin is the fit's world origin, about an arm's length from the face, where a
+     * degree of disagreement between keyframes' rotations moves it by centimetres.
+     */
+    double centre[3] = { 0, 0, 0 }, at[3] = { 0, 0, 0 };
+    const sp_mesh *mesh = &c->asset.mesh;
+    for (uint32_t v = 0; v < mesh->n_vertices; v++)
+        for (int q = 0; q < 3; q++)
+            centre[q] += (double)mesh->positions[(size_t)v * 3 + (size_t)q] / (double)mesh->n_vertices;
+    for (int i = 0; i < n; i++) {
+        double g[3];
+        rotate(G[i].R, centre, g);
+        for (int q = 0; q < 3; q++)
+            at[q] += (c->asset_scale * g[q] + G[i].t[q]) / n;
+    }
+    double rc[3];
+    rotate(c->asset_to_head.R, centre, rc);
+    for (int q = 0; q < 3; q++)
+        c->asset_to_head.t[q] = at[q] - c->asset_scale * rc[q];
     return 0;
 }
 
@@ -331,7 +373,7 @@ static int score_image(eval_ctx *c, const char *kind, const sp_json *img, const 
         memcpy(v.camera.t, w2c.t, sizeof(w2c.t));
         for (int i = 0; i < 3; i++) {
             for (int j = 0; j < 3; j++)
-                v.asset_to_world[i * 4 + j] = a2w.R[i * 3 + j];
+                v.asset_to_world[i * 4 + j] = c->asset_scale * a2w.R[i * 3 + j];
             v.asset_to_world[i * 4 + 3] = a2w.t[i];
         }
         memcpy(v.env_to_world, c->align, sizeof(c->align));
@@ -457,6 +499,8 @@ static void print_table(const eval_ctx *c, const sp_json *fit)
     printf("evaluate: %s against %s\n", c->a->face, c->a->capture);
     printf("  %-28s %d keyframes, error mean %.2f deg, max %.2f deg\n", "cameras (heading aligned)", c->n_keyframes,
            c->camera_err_mean, c->camera_err_max);
+    printf("  %-28s the true head is %.3f times the fitted one (views are drawn at that scale)\n",
+           "depth-scale gauge", c->asset_scale);
     if (isfinite(c->sun_err))
         printf("  %-28s %.2f deg\n", "sun direction error", c->sun_err);
     else
@@ -490,7 +534,9 @@ static int write_json(const eval_ctx *c, const sp_json *fit)
     sp_strbuf_json_number(&b, c->camera_err_mean);
     sp_strbuf_printf(&b, ",\"max\":");
     sp_strbuf_json_number(&b, c->camera_err_max);
-    sp_strbuf_printf(&b, "},\"sun_error_deg\":");
+    sp_strbuf_printf(&b, "},\"head_scale_true_over_fit\":");
+    sp_strbuf_json_number(&b, c->asset_scale);
+    sp_strbuf_printf(&b, ",\"sun_error_deg\":");
     sp_strbuf_json_number(&b, c->sun_err);
     sp_strbuf_printf(&b, ",\"sun_note\":");
     sp_strbuf_json_string(&b, c->sun_note ? c->sun_note : "");

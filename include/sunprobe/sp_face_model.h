@@ -185,6 +185,13 @@ typedef struct sp_face_camera {
 /* Sets the intrinsics and an identity pose (world = camera frame). */
 SP_API void sp_face_camera_init(sp_face_camera *camera, double fx, double fy, double cx, double cy);
 
+/*
+ * Marks the vertices of the cranium (above the brows, outside face_mask) in scalp
+ * (n_vertices bytes, caller-owned): where a bald head's outline is, or hair covers it.
+ * Returns 0 or a negative error.
+ */
+SP_API int sp_face_model_scalp(const sp_face_model *model, uint8_t *scalp);
+
 /* Columns of the landmark Jacobian: id (n_id), exp (n_exp), rotvec (3), t (3), s (1). */
 SP_API uint32_t sp_face_model_n_params(const sp_face_model *model);
 

@@ -14,6 +14,8 @@
 #include "face_internal.h"
 #include "sunprobe/sp_math.h"
 
+#define SCALP_ABOVE_BROWS 0.25 /* outer eye-corner distances */
+
 typedef struct face_frame {
     sp_vec3 origin, ex, ey, ez;
     double unit;
@@ -299,4 +301,22 @@ int face_regions_compute(sp_face_model *model)
     rasterise(model, labels);
     free(labels);
     return dilate(model, 2);
+}
+
+int sp_face_model_scalp(const sp_face_model *model, uint8_t *scalp)
+{
+    if (!model || !scalp || !model->face_mask)
+        return -EINVAL;
+    face_frame f;
+    int err = build_frame(model, &f);
+    if (err)
+        return err;
+    /* a little above the brows, so the ears (whose tops reach brow height) stay out */
+    double above = mean_y(&f, 17, 26) + SCALP_ABOVE_BROWS;
+    for (uint32_t i = 0; i < model->mesh.n_vertices; i++) {
+        double x, y, z;
+        to_frame(&f, vertex_at(&model->mesh, i), &x, &y, &z);
+        scalp[i] = !model->face_mask[i] && y > above;
+    }
+    return 0;
 }

@@ -146,11 +146,11 @@ static double silhouette_loss(adam_ctx *a, ss_frame *f, const sp_face_params *p,
     if (!f->sil_ok || !f->sil || !(W_SIL > 0.0))
         return 0.0;
     uint32_t nc = sp_face_model_n_params(m);
-    int cap = 2 * ss->H;
+    int cap = SS_SIL_CAP(ss->W, ss->H);
     uint32_t *idx = malloc(sizeof(uint32_t) * (size_t)cap);
     double *r = malloc(sizeof(double) * (size_t)cap), *jac = malloc(sizeof(double) * (size_t)cap * nc);
     double L = 0.0;
-    int n = idx && r && jac ? ss_silhouette_vertices(m, p, &f->cam, ss->H, idx, cap, a->gcam) : 0;
+    int n = idx && r && jac ? ss_silhouette_vertices(m, ss->scalp, p, &f->cam, ss->W, ss->H, idx, cap, a->gcam) : 0;
     if (n > 0 && ss_silhouette_residuals(m, p, &f->cam, idx, n, f->sil, ss->W, ss->H, r, jac) == 0)
         for (int j = 0; j < n; j++) {
             if (r[j] >= SS_SIL_MAX) { /* truncated: constant cost, no pull */

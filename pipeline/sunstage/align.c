@@ -59,7 +59,8 @@ static double silhouette_term(align_ctx *a, int fi, ss_frame *f, const sp_face_p
         return 0.0;
     uint32_t *idx = a->sil_idx + (size_t)fi * (size_t)a->sil_cap;
     if (with_jac)
-        a->sil_n[fi] = ss_silhouette_vertices(m, p, &f->cam, a->ss->H, idx, a->sil_cap, a->sil_work);
+        a->sil_n[fi] = ss_silhouette_vertices(m, a->ss->scalp, p, &f->cam, a->ss->W, a->ss->H, idx, a->sil_cap,
+                                              a->sil_work);
     int n = a->sil_n[fi];
     if (n <= 0 || ss_silhouette_residuals(m, p, &f->cam, idx, n, f->sil, a->ss->W, a->ss->H, a->sil_r,
                                           with_jac ? a->sil_jac : NULL))
@@ -284,7 +285,7 @@ static int sil_alloc(align_ctx *a)
         any |= frame_at(a, fi)->sil_ok;
     if (!any)
         return 0;
-    a->sil_cap = 2 * a->ss->H;
+    a->sil_cap = SS_SIL_CAP(a->ss->W, a->ss->H);
     a->sil_idx = malloc(sizeof(uint32_t) * (size_t)a->sil_cap * (size_t)a->n);
     a->sil_n = calloc((size_t)a->n, sizeof(int));
     a->sil_r = malloc(sizeof(double) * (size_t)a->sil_cap);

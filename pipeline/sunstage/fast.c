@@ -364,7 +364,10 @@ static void texel_update_task(void *ctx, int k)
         for (int ch = 0; ch < 3; ch++) {
             size_t q = t + (size_t)ch;
             double a = (double)c->prev[q];
-            a += (c->num[q] + pri[3] * (pri[ch] - a) + pri[4] * (nb[ch] - a)) / (c->den[q] + pri[3] + pri[4]);
+            /* the neighbour pull goes half way: a texel the data do not reach would otherwise take its
+               neighbours' mean each step, and the alternating (checkerboard) mode never decays (the dot grid) */
+            double toward = 0.5 * (nb[ch] - a);
+            a += (c->num[q] + pri[3] * (pri[ch] - a) + pri[4] * toward) / (c->den[q] + pri[3] + pri[4]);
             ss->fit.albedo[q] = (float)(a < 0.0 ? 0.0 : (a > 4.0 ? 4.0 : a));
         }
     }

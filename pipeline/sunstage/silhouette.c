@@ -1,13 +1,14 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Silhouette loss. Target: the boundary of a per-frame skin mask (pixels whose
- * chroma matches the skin inside the landmark outline, the connected part
- * around the nose), as a Euclidean distance transform. Model: the projected
- * outline of the face-skin vertices (per image row, the leftmost and rightmost
- * vertex, kept when it is seen at a grazing angle, i.e. on the occluding
- * contour). Residual per outline vertex: the distance map at its projection
- * (bilinear, so the gradient is analytic), with the projection's Jacobian with
- * respect to the face parameters.
+ * Silhouette loss. Target: the edge of a per-frame skin mask (pixels whose
+ * chroma is more typical of the skin inside the landmark outline than of the
+ * background far from it), as a signed Euclidean distance (negative inside).
+ * Model: the projected outline of the face-skin and scalp vertices (per image
+ * row the leftmost and rightmost, per column the topmost, kept when seen at a
+ * grazing angle, i.e. on the occluding contour). Residual per outline vertex,
+ * one-sided: a face vertex outside the skin, a scalp vertex inside it (the
+ * distance map is bilinear, so the gradient is analytic), with the
+ * projection's Jacobian with respect to the face parameters.
  */
 #include "pipeline/sunstage/sunstage_internal.h"
 
@@ -17,7 +18,7 @@
 #include <string.h>
 
 #define SIL_FAR 1e10f
-#define SIL_REACH 1.6  /* the skin mask may reach this far beyond the landmark outline (neck, ears)... */
+#define SIL_REACH 2.2  /* the skin mask may reach this far beyond the landmark outline (neck, ears, a bald crown)... */
 #define SIL_LEAK 0.15  /* ...with at most this fraction of its pixels, else it leaked into the background */
 #define SIL_GRAZING 0.35 /* |cos| between vertex normal and view ray below this: on the contour */
 
@@ -112,11 +113,13 @@ static int inside_outline(const double lm[136], double x, double y)
     return in;
 }
 
+/* Chroma of the undone display gamma (the power only: ratios of light are what separate skin from grey). */
 static void chroma(const float *p, double c[2])
 {
-    double s = (double)p[0] + (double)p[1] + (double)p[2] + 1e-6;
-    c[0] = (double)p[0] / s;
-    c[1] = (double)p[1] / s;
+    double r = pow(fmax((double)p[0], 0.0), 2.2), g = pow(fmax((double)p[1], 0.0), 2.2),
+           b = pow(fmax((double)p[2], 0.0), 2.2), s = r + g + b + 1e-6;
+    c[0] = r / s;
+    c[1] = g / s;
 }
 
 /* Mean (pass 0) or covariance (pass 1, given the mean) of the chroma inside the landmark outline; pixel count. */
@@ -144,7 +147,43 @@ static int outline_stats(const float *rgb, int w, int h, const double lm[136], i
     return n;
 }
 
-/* Skin mask: chroma within 3 sigma of the skin inside the landmark outline. Returns 0 or SP_ENODATA. */
+#define SKIN_BINS 64
+#define SKIN_LO 0.1 /* chroma range the histograms resolve (r and g of r + g + b) */
+#define SKIN_HI 0.6
+#define SKIN_FAR 2.5 /* background colours are learned outside the landmark outline scaled by this */
+
+static int chroma_bin(const float *p)
+{
+    double c[2];
+    chroma(p, c);
+    int a = (int)((c[0] - SKIN_LO) / (SKIN_HI - SKIN_LO) * SKIN_BINS);
+    int b = (int)((c[1] - SKIN_LO) / (SKIN_HI - SKIN_LO) * SKIN_BINS);
+    a = a < 0 ? 0 : a >= SKIN_BINS ? SKIN_BINS - 1 : a;
+    b = b < 0 ? 0 : b >= SKIN_BINS ? SKIN_BINS - 1 : b;
+    return a * SKIN_BINS + b;
+}
+
+/* 3x3 box smoothing of a chroma histogram, so sparse bins generalise to their neighbours. */
+static void smooth_hist(const double *in, double *out)
+{
+    for (int a = 0; a < SKIN_BINS; a++)
+        for (int b = 0; b < SKIN_BINS; b++) {
+            double s = 0.0;
+            for (int da = -1; da <= 1; da++)
+                for (int db = -1; db <= 1; db++) {
+                    int x = a + da, y = b + db;
+                    if (x >= 0 && y >= 0 && x < SKIN_BINS && y < SKIN_BINS)
+                        s += in[x * SKIN_BINS + y];
+                }
+            out[a * SKIN_BINS + b] = s / 9.0;
+        }
+}
+
+/*
+ * Skin mask: a pixel is skin when its chroma is more typical of the skin inside the landmark
+ * outline than of the background far from it (two per-frame chroma histograms, a likelihood
+ * ratio), and within 4 sigma of the skin's chroma. Returns 0 or SP_ENODATA.
+ */
 static int skin_mask(const float *rgb, int w, int h, const double lm[136], uint8_t *mask)
 {
     double m[2] = { 0, 0 }, S[3] = { 0, 0, 0 };
@@ -162,27 +201,53 @@ static int skin_mask(const float *rgb, int w, int h, const double lm[136], uint8
     double det = S[0] * S[2] - S[1] * S[1];
     if (!(det > 0.0))
         return SP_ENODATA;
+    double *hist = calloc(4 * SKIN_BINS * SKIN_BINS, sizeof(double));
+    if (!hist)
+        return -ENOMEM;
+    double *hs = hist, *hb = hist + SKIN_BINS * SKIN_BINS, *ss = hb + SKIN_BINS * SKIN_BINS,
+           *sb = ss + SKIN_BINS * SKIN_BINS, ns = 0.0, nb = 0.0;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            const float *p = rgb + ((size_t)y * (size_t)w + (size_t)x) * 3;
+            if ((double)(p[0] + p[1] + p[2]) < 0.15)
+                continue;
+            if (inside_outline(lm, x, y)) {
+                hs[chroma_bin(p)] += 1.0;
+                ns += 1.0;
+            } else if (!inside_scaled(lm, SKIN_FAR, x, y)) {
+                hb[chroma_bin(p)] += 1.0;
+                nb += 1.0;
+            }
+        }
+    smooth_hist(hs, ss);
+    smooth_hist(hb, sb);
     for (int i = 0; i < w * h; i++) {
         const float *p = rgb + (size_t)i * 3;
         double c[2];
         chroma(p, c);
         double a = c[0] - m[0], b = c[1] - m[1];
         double d2 = (S[2] * a * a - 2.0 * S[1] * a * b + S[0] * b * b) / det;
-        mask[i] = d2 < 9.0 && (double)(p[0] + p[1] + p[2]) >= 0.15;
+        int k = chroma_bin(p);
+        int skinlike = nb < 1.0 || ss[k] / ns > 0.5 * sb[k] / nb;
+        mask[i] = d2 < 36.0 && skinlike && (double)(p[0] + p[1] + p[2]) >= 0.15;
     }
+    free(hist);
     return 0;
 }
 
-/* Keeps the 4-connected part of mask that contains (sx, sy); stack holds w * h ints. */
-static void keep_component(uint8_t *mask, int w, int h, int sx, int sy, int *stack)
+/*
+ * Keeps the 4-connected parts of mask that reach into the landmark outline (a highlight or a
+ * shadow on the nose tip must not lose the face); stack holds w * h ints.
+ */
+static void keep_face_components(uint8_t *mask, int w, int h, const double lm[136], int *stack)
 {
-    if (sx < 0 || sy < 0 || sx >= w || sy >= h || !mask[sy * w + sx]) {
-        memset(mask, 0, (size_t)w * (size_t)h);
-        return;
-    }
     int top = 0;
-    stack[top++] = sy * w + sx;
-    mask[sy * w + sx] = 2;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++)
+            if (mask[y * w + x] == 1 && inside_outline(lm, x, y)) {
+                mask[y * w + x] = 2;
+                stack[top++] = y * w + x;
+            }
     while (top > 0) {
         int i = stack[--top], x = i % w, y = i / w;
         int nb[4] = { x > 0 ? i - 1 : -1, x < w - 1 ? i + 1 : -1, y > 0 ? i - w : -1, y < h - 1 ? i + w : -1 };
@@ -196,6 +261,29 @@ static void keep_component(uint8_t *mask, int w, int h, int sx, int sy, int *sta
         mask[i] = mask[i] == 2;
 }
 
+/* Fills the holes of mask (background not 4-connected to the image border: highlights, eyes, mouth). */
+static void fill_holes(uint8_t *mask, int w, int h, int *stack)
+{
+    int top = 0;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++)
+            if ((x == 0 || y == 0 || x == w - 1 || y == h - 1) && !mask[y * w + x]) {
+                mask[y * w + x] = 3;
+                stack[top++] = y * w + x;
+            }
+    while (top > 0) {
+        int i = stack[--top], x = i % w, y = i / w;
+        int nb[4] = { x > 0 ? i - 1 : -1, x < w - 1 ? i + 1 : -1, y > 0 ? i - w : -1, y < h - 1 ? i + w : -1 };
+        for (int k = 0; k < 4; k++)
+            if (nb[k] >= 0 && !mask[nb[k]]) {
+                mask[nb[k]] = 3;
+                stack[top++] = nb[k];
+            }
+    }
+    for (int i = 0; i < w * h; i++)
+        mask[i] = mask[i] != 3;
+}
+
 int ss_silhouette_target(const float *rgb, int w, int h, const double lm[136], float *dist)
 {
     if (!rgb || !lm || !dist || w < 4 || h < 4)
@@ -204,7 +292,8 @@ int ss_silhouette_target(const float *rgb, int w, int h, const double lm[136], f
     int *stack = malloc(sizeof(int) * (size_t)w * (size_t)h);
     int ret = mask && stack ? skin_mask(rgb, w, h, lm, mask) : -ENOMEM;
     if (!ret) {
-        keep_component(mask, w, h, (int)lround(lm[60]), (int)lround(lm[61]), stack); /* nose tip */
+        keep_face_components(mask, w, h, lm, stack);
+        fill_holes(mask, w, h, stack);
         /* a mask that leaks far beyond the face (skin-coloured background) has no usable outline */
         int in = 0, out = 0;
         for (int y = 0; y < h; y++)
@@ -220,18 +309,28 @@ int ss_silhouette_target(const float *rgb, int w, int h, const double lm[136], f
     }
     if (!ret) {
         int nb = 0;
-        for (int y = 0; y < h; y++)
-            for (int x = 0; x < w; x++) {
-                int i = y * w + x;
-                /* boundary: a mask pixel next to a non-mask pixel; the image border is not a silhouette */
-                int b = mask[i] && x > 0 && y > 0 && x < w - 1 && y < h - 1 &&
-                        (!mask[i - 1] || !mask[i + 1] || !mask[i - w] || !mask[i + w]);
-                dist[i] = b ? 0.0f : SIL_FAR;
-                nb += b;
+        for (int y = 1; y < h - 1; y++)
+            for (int x = 1; x < w - 1; x++) {
+                int i = y * w + x; /* boundary: a mask pixel next to a non-mask one, the image border aside */
+                nb += mask[i] && (!mask[i - 1] || !mask[i + 1] || !mask[i - w] || !mask[i + w]);
             }
-        ret = nb >= 8 ? edt(dist, w, h) : SP_ENODATA;
-        if (!ret)
+        /*
+         * Signed distance to the edge between skin and non-skin pixels (half a pixel beyond a pixel
+         * centre): positive outside, negative inside. Only real non-skin pixels seed the inside
+         * distance, so the image border is no silhouette.
+         */
+        float *in_d = nb >= 8 ? malloc(sizeof(float) * (size_t)w * (size_t)h) : NULL;
+        ret = nb < 8 ? SP_ENODATA : in_d ? 0 : -ENOMEM;
+        for (int i = 0; !ret && i < w * h; i++) {
+            dist[i] = mask[i] ? 0.0f : SIL_FAR;
+            in_d[i] = mask[i] ? SIL_FAR : 0.0f;
+        }
+        if (!ret && !(ret = edt(dist, w, h)) && !(ret = edt(in_d, w, h))) {
+            for (int i = 0; i < w * h; i++)
+                dist[i] = mask[i] ? 0.5f - in_d[i] : dist[i] - 0.5f;
             ret = nb;
+        }
+        free(in_d);
     }
     free(mask);
     free(stack);
@@ -253,10 +352,19 @@ static void vertex_normals(const sp_mesh *mesh, const double *v, double *nrm)
     }
 }
 
-int ss_silhouette_vertices(const sp_face_model *m, const sp_face_params *p, const sp_face_camera *cam, int h,
-                           uint32_t *idx, int cap, double *work)
+/* Keeps vertex i in slot k of the extremes table when u beats the slot's value in direction sgn. */
+static void extreme(uint32_t *idx, double *ext, int k, uint32_t i, double u, double sgn)
 {
-    if (!m || !p || !cam || !idx || !work || h < 1 || cap < 1)
+    if (sgn * u > sgn * ext[k] || idx[k] == UINT32_MAX) {
+        ext[k] = u;
+        idx[k] = i;
+    }
+}
+
+int ss_silhouette_vertices(const sp_face_model *m, const uint8_t *scalp, const sp_face_params *p,
+                           const sp_face_camera *cam, int w, int h, uint32_t *idx, int cap, double *work)
+{
+    if (!m || !p || !cam || !idx || !work || w < 1 || h < 1 || cap < 1)
         return -EINVAL;
     uint32_t nv = m->mesh.n_vertices;
     double *v = work, *nrm = work + (size_t)nv * 3;
@@ -264,36 +372,37 @@ int ss_silhouette_vertices(const sp_face_model *m, const sp_face_params *p, cons
     if (ret)
         return ret;
     vertex_normals(&m->mesh, v, nrm);
-    /* per row: leftmost (slot 2y) and rightmost (2y + 1) face-skin vertex; idx doubles as the table */
-    int rows = cap / 2 < h ? cap / 2 : h;
-    double *ext = malloc(sizeof(double) * 2 * (size_t)rows);
+    /*
+     * The table: per row the leftmost (slot 2y) and rightmost (2y + 1) outline vertex, then with a
+     * scalp per column the topmost (slot 2 h + x), so the crown's outline is found too; idx doubles as it.
+     */
+    int rows = h, cols = scalp ? w : 0;
+    if (2 * rows + cols > cap) {
+        rows = cap / 2 < h ? cap / 2 : h;
+        cols = scalp && cap - 2 * rows > 0 ? (cap - 2 * rows < w ? cap - 2 * rows : w) : 0;
+    }
+    int slots = 2 * rows + cols;
+    double *ext = malloc(sizeof(double) * (size_t)slots);
     if (!ext)
         return -ENOMEM;
-    for (int r = 0; r < rows; r++) {
-        idx[2 * r] = idx[2 * r + 1] = UINT32_MAX;
-        ext[2 * r] = INFINITY;
-        ext[2 * r + 1] = -INFINITY;
-    }
+    for (int k = 0; k < slots; k++)
+        idx[k] = UINT32_MAX;
     for (uint32_t i = 0; i < nv; i++) {
         const double *x = v + (size_t)i * 3;
-        if (!m->face_mask[i] || !(x[2] > 1e-6))
+        if (!(m->face_mask[i] || (scalp && scalp[i])) || !(x[2] > 1e-6))
             continue;
         double u = cam->fx * x[0] / x[2] + cam->cx, y = cam->fy * x[1] / x[2] + cam->cy;
-        int r = (int)floor(y);
-        if (r < 0 || r >= rows)
-            continue;
-        if (u < ext[2 * r]) {
-            ext[2 * r] = u;
-            idx[2 * r] = i;
+        int r = (int)floor(y), c = (int)floor(u);
+        if (r >= 0 && r < rows) {
+            extreme(idx, ext, 2 * r, i, u, -1.0);
+            extreme(idx, ext, 2 * r + 1, i, u, 1.0);
         }
-        if (u > ext[2 * r + 1]) {
-            ext[2 * r + 1] = u;
-            idx[2 * r + 1] = i;
-        }
+        if (c >= 0 && c < cols)
+            extreme(idx, ext, 2 * rows + c, i, y, -1.0);
     }
     free(ext);
     int n = 0;
-    for (int k = 0; k < 2 * rows; k++) {
+    for (int k = 0; k < slots; k++) {
         uint32_t i = idx[k];
         if (i == UINT32_MAX)
             continue;
@@ -303,8 +412,12 @@ int ss_silhouette_vertices(const sp_face_model *m, const sp_face_params *p, cons
         if (!(ln > 0.0) || !(lx > 0.0))
             continue;
         double c = (nn[0] * x[0] + nn[1] * x[1] + nn[2] * x[2]) / (ln * lx);
-        if (fabs(c) < SIL_GRAZING && (n == 0 || idx[n - 1] != i))
-            idx[n++] = i;
+        uint32_t tagged = i | (scalp && scalp[i] ? SS_SIL_SCALP : 0u);
+        int seen = 0; /* a vertex extreme in its row and its column is one residual */
+        for (int j = n - 1; j >= 0 && j >= n - 4; j--)
+            seen |= idx[j] == tagged;
+        if (fabs(c) < SIL_GRAZING && !seen)
+            idx[n++] = tagged;
     }
     return n;
 }
@@ -414,7 +527,7 @@ int ss_silhouette_residuals(const sp_face_model *m, const sp_face_params *p, con
     uint32_t nc = sp_face_model_n_params(m);
     for (int j = 0; j < n; j++) {
         double x[3], X[3];
-        model_point(m, p, idx[j], x);
+        model_point(m, p, idx[j] & ~SS_SIL_SCALP, x);
         mat_vec(R, x, X);
         for (int d = 0; d < 3; d++)
             X[d] = p->s * X[d] + p->t[d];
@@ -426,13 +539,18 @@ int ss_silhouette_residuals(const sp_face_model *m, const sp_face_params *p, con
             continue;
         }
         double u = cam->fx * X[0] / X[2] + cam->cx, v = cam->fy * X[1] / X[2] + cam->cy, gu, gv;
-        r[j] = sample(dist, w, h, u, v, &gu, &gv);
+        double d = sample(dist, w, h, u, v, &gu, &gv);
         if (u <= 0.0 || u >= w - 1.001)
             gu = 0.0; /* clamped: flat outside */
         if (v <= 0.0 || v >= h - 1.001)
             gv = 0.0;
+        /* a face vertex pulls in only from outside the skin, a scalp vertex out only from inside it */
+        double sgn = (idx[j] & SS_SIL_SCALP) ? (d < 0.0 ? -1.0 : 0.0) : (d > 0.0 ? 1.0 : 0.0);
+        r[j] = sgn * d;
+        gu *= sgn;
+        gv *= sgn;
         if (row)
-            jacobian_row(m, p, cam, idx[j], R, dR, X, gu, gv, row);
+            jacobian_row(m, p, cam, idx[j] & ~SS_SIL_SCALP, R, dR, X, gu, gv, row);
     }
     return 0;
 }

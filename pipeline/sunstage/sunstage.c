@@ -89,6 +89,11 @@ int sp_sunstage_open(sp_sunstage **out, const sp_sunstage_settings *s, const sp_
     ss->fit.albedo = malloc(texels * 3 * sizeof(float));
     ss->fit.disp = calloc(texels, sizeof(float));
     ss->fit.observed = calloc(texels, 1);
+    ss->scalp = malloc(model->mesh.n_vertices);
+    if (ss->scalp && sp_face_model_scalp(model, ss->scalp)) { /* a model without a face frame: face outline only */
+        free(ss->scalp);
+        ss->scalp = NULL;
+    }
     if (!ss->fit.id || !ss->fit.albedo || !ss->fit.disp || !ss->fit.observed) {
         sp_sunstage_close(&ss);
         return -ENOMEM;
@@ -116,6 +121,7 @@ void sp_sunstage_close(sp_sunstage **pss)
     free(ss->fit.albedo);
     free(ss->fit.disp);
     free(ss->fit.observed);
+    free(ss->scalp);
     free(ss);
     *pss = NULL;
 }

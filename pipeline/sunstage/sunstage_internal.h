@@ -94,6 +94,7 @@ typedef struct ss_fit_state {
 struct sp_sunstage {
     sp_sunstage_settings set;
     const sp_face_model *model;
+    uint8_t *scalp;             /* per model vertex: the cranium, whose outline only pulls outward */
     sp_capture_meta meta;       /* as the last META event left it (the source merges) */
     int W, H;                   /* fit resolution */
     sp_face_camera cam;         /* the capture's intrinsics at fit resolution (whole-frame mode); every keyframe gets
@@ -147,16 +148,27 @@ double ss_align_one(sp_sunstage *ss, ss_frame *f, int iterations);
 /* ---- silhouette.c: silhouette loss (stage 1 and the Adam solver) ---- */
 #define SS_SIL_HUBER 1.0 /* px: quadratic below, linear above */
 #define SS_SIL_MAX 6.0   /* px: outline vertices farther than this from the mask boundary are ignored (outliers) */
-/* Distance (px) to the boundary of the frame's skin mask into dist (w * h); boundary pixel count or negative. */
+#define SS_SIL_SCALP 0x80000000u /* flag on an outline index: a cranium vertex */
+#define SS_SIL_CAP(w, h) (2 * (h) + (w)) /* outline indices per frame at most */
+/*
+ * Signed distance (px) to the boundary of the frame's skin mask into dist (w * h), negative
+ * inside the skin; boundary pixel count or negative.
+ */
 int ss_silhouette_target(const float *rgb, int w, int h, const double lm[136], float *dist);
 /*
- * Outline vertices of the face skin at params (camera frame, cam at identity):
- * per image row the leftmost and rightmost face-mask vertex, kept when seen at a
- * grazing angle. idx (cap >= 2) gets up to cap indices; work: 6 * n_vertices doubles.
+ * Outline vertices at params (camera frame, cam at identity): per image row the leftmost and
+ * rightmost vertex of the face mask and of scalp (may be NULL: the face only), per column the
+ * topmost, kept when seen at a grazing angle; scalp vertices are tagged SS_SIL_SCALP. idx
+ * (cap >= 2, SS_SIL_CAP for all) gets up to cap indices; work: 6 * n_vertices doubles.
  */
-int ss_silhouette_vertices(const sp_face_model *m, const sp_face_params *p, const sp_face_camera *cam, int h,
-                           uint32_t *idx, int cap, double *work);
-/* r[j] = dist at the projection of vertex idx[j]; jac (n x n_params, may be NULL) its derivatives. */
+int ss_silhouette_vertices(const sp_face_model *m, const uint8_t *scalp, const sp_face_params *p,
+                           const sp_face_camera *cam, int w, int h, uint32_t *idx, int cap, double *work);
+/*
+ * r[j] >= 0 for outline index idx[j], one-sided since neither side of the skin's edge can be
+ * trusted everywhere: a face vertex, how far outside the skin it projects (inside, the neck or an
+ * ear may continue the skin); a scalp vertex, how far inside (outside, hair may hide the cranium;
+ * skin beyond it is a bald head's). jac (n x n_params, may be NULL) its derivatives.
+ */
 int ss_silhouette_residuals(const sp_face_model *m, const sp_face_params *p, const sp_face_camera *cam,
                             const uint32_t *idx, int n, const float *dist, int w, int h, double *r, double *jac);
 /* Fills every used slot's distance map (allocated once per slot). */

@@ -1,10 +1,12 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * SunStage silhouette loss: the distance transform of a skin-mask boundary
- * (a skin-coloured disk on a sky-blue background), the choice of outline
- * vertices on the generic head, residuals against the face model's own
- * evaluation, and the analytic Jacobian against central finite differences
- * for every face parameter (identity, expression, rotation, translation, scale).
+ * SunStage silhouette loss: the signed distance to a skin-mask boundary (a
+ * skin-coloured disk on a sky-blue background, and on a grey ground as a
+ * path-traced capture's horizon has it), the choice of outline vertices on the
+ * generic head (face, and face with the scalp), the one-sided residuals,
+ * residuals against the face model's own evaluation, and the analytic Jacobian
+ * against central finite differences for every face parameter (identity,
+ * expression, rotation, translation, scale), on both sides of the edge.
  */
 #include <math.h>
 #include <stdint.h>
@@ -49,11 +51,27 @@ static void test_distance_map(void)
     CHECK_MSG(nb > 100, "boundary pixels %d", nb);
     int finite = 1;
     for (int i = 0; i < W * H; i++)
-        finite &= isfinite(dist[i]) && dist[i] >= 0.0f;
+        finite &= isfinite(dist[i]);
     CHECK(finite);
-    CHECK_NEAR(dist[40 * W + 48], rad, 1.5);   /* centre: the radius */
-    CHECK_NEAR(dist[40 * W + 23], 0.0, 1.01);  /* on the rim */
-    CHECK_NEAR(dist[40 * W + 5], 18.0, 1.5);   /* outside, left */
+    /* signed, zero half a pixel beyond the outermost skin pixel: negative inside, positive outside */
+    CHECK_NEAR(dist[40 * W + 48], -(rad - 0.5), 1.5); /* centre */
+    CHECK_NEAR(dist[40 * W + 23], 0.0, 1.01);         /* on the rim */
+    CHECK_NEAR(dist[40 * W + 5], 17.5, 1.5);          /* outside, left */
+    /* the lower half of the background a grey ground (neutral chroma, as bright as the skin): the
+       disk's rim there is still the outline, the ground is not skin */
+    for (int y = (int)cy; y < H; y++)
+        for (int x = 0; x < W; x++)
+            if (hypot(x - cx, y - cy) > rad) {
+                float *p = rgb + ((size_t)y * W + (size_t)x) * 3;
+                p[0] = p[1] = p[2] = 0.6f;
+            }
+    nb = ss_silhouette_target(rgb, W, H, lm, dist);
+    CHECK_MSG(nb > 100, "boundary pixels on grey ground %d", nb);
+    if (nb > 0) {
+        CHECK_NEAR(dist[70 * W + 48], 4.5, 1.5);  /* below the disk, on the ground */
+        CHECK_NEAR(dist[60 * W + 10], hypot(38.0, 20.0) - rad - 0.5, 1.5);
+        CHECK(dist[50 * W + 48] < 0.0f);          /* inside, lower half */
+    }
     /* a skin-coloured background: the mask leaks far beyond the face, so no outline is trusted */
     for (int i = 0; i < W * H; i++) {
         rgb[i * 3] = 0.6f;
@@ -155,10 +173,35 @@ static void test_outline_and_gradient(void)
     frontal_params(&p, id, exp);
     sp_face_camera cam;
     sp_face_camera_init(&cam, FX, FX, 0.5 * (W - 1), 0.5 * (H - 1));
-    int n = ss_silhouette_vertices(&m, &p, &cam, H, idx, 2 * H, work);
+    int n = ss_silhouette_vertices(&m, NULL, &p, &cam, W, H, idx, 2 * H, work);
     CHECK_MSG(n >= 10, "outline vertices %d", n);
     for (int j = 0; j < n; j++)
         CHECK(idx[j] < nv && m.face_mask[idx[j]]);
+    /* with the scalp: the crown's outline joins (tagged), and only scalp vertices are tagged */
+    {
+        uint8_t *scalp = malloc(nv);
+        uint32_t *all = malloc(sizeof(uint32_t) * SS_SIL_CAP(W, H));
+        CHECK(scalp && all && sp_face_model_scalp(&m, scalp) == 0);
+        if (scalp && all) {
+            int n_scalp = 0, n_overlap = 0;
+            for (uint32_t i = 0; i < nv; i++) {
+                n_scalp += scalp[i];
+                n_overlap += scalp[i] && m.face_mask[i];
+            }
+            CHECK_MSG(n_scalp > 20 && n_overlap == 0, "scalp vertices %d, %d of them in the face mask", n_scalp,
+                      n_overlap);
+            int na = ss_silhouette_vertices(&m, scalp, &p, &cam, W, H, all, SS_SIL_CAP(W, H), work), tagged = 0;
+            for (int j = 0; j < na; j++) {
+                uint32_t v = all[j] & ~SS_SIL_SCALP;
+                int is_scalp = (all[j] & SS_SIL_SCALP) != 0;
+                tagged += is_scalp;
+                CHECK(v < nv && (is_scalp ? scalp[v] : m.face_mask[v]));
+            }
+            CHECK_MSG(tagged >= 5 && na > n, "outline with the scalp: %d vertices, %d of them scalp", na, tagged);
+        }
+        free(scalp);
+        free(all);
+    }
     /* residual against the model's own evaluation: with dist = u, r is the projected u */
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++)
@@ -175,6 +218,34 @@ static void test_outline_and_gradient(void)
             dist[y * W + x] = (float)(fabs(hypot(x - 40.0, y - 45.0) - 22.0) + 0.02 * x * (double)y / W);
     double worst = grad_check(&m, &p, id, exp, &cam, idx, n, dist, jac);
     printf("silhouette: %d outline vertices, worst gradient mismatch %.2g (relative)\n", n, worst);
+    /* one-sided: a face vertex pulls only from outside the skin, a scalp vertex only from inside */
+    {
+        uint32_t two[2] = { idx[0], idx[0] | SS_SIL_SCALP };
+        double rr[2];
+        for (int i = 0; i < W * H; i++)
+            dist[i] = -3.0f;
+        CHECK(ss_silhouette_residuals(&m, &p, &cam, two, 2, dist, W, H, rr, NULL) == 0);
+        CHECK_NEAR(rr[0], 0.0, 1e-12);
+        CHECK_NEAR(rr[1], 3.0, 1e-6);
+        for (int i = 0; i < W * H; i++)
+            dist[i] = 3.0f;
+        CHECK(ss_silhouette_residuals(&m, &p, &cam, two, 2, dist, W, H, rr, NULL) == 0);
+        CHECK_NEAR(rr[0], 3.0, 1e-6);
+        CHECK_NEAR(rr[1], 0.0, 1e-12);
+    }
+    /* the scalp's side: every vertex tagged, the field negated (inside the skin), the same gradient */
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            dist[y * W + x] = -(float)(fabs(hypot(x - 40.0, y - 45.0) - 22.0) + 0.02 * x * (double)y / W + 0.1);
+    for (int j = 0; j < n; j++)
+        idx[j] |= SS_SIL_SCALP;
+    worst = grad_check(&m, &p, id, exp, &cam, idx, n, dist, jac);
+    printf("silhouette, scalp side: worst gradient mismatch %.2g\n", worst);
+    for (int j = 0; j < n; j++)
+        idx[j] &= ~SS_SIL_SCALP;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            dist[y * W + x] = (float)(fabs(hypot(x - 40.0, y - 45.0) - 22.0) + 0.02 * x * (double)y / W);
     /* at the identity rotation (the closed form's special case) the gradient still matches */
     p.rotvec[0] = p.rotvec[1] = p.rotvec[2] = 0.0;
     worst = grad_check(&m, &p, id, exp, &cam, idx, n, dist, jac);
