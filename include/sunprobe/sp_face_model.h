@@ -28,6 +28,13 @@ extern "C" {
 #define SP_FACE_N_LANDMARKS 68
 #define SP_FACE_N_CLUSTERS 10
 #define SP_FACE_CLUSTER_NONE 255 /* cluster-map texel covered by no triangle */
+
+/* Parts of the head mesh, per vertex (sp_face_model.part). */
+enum {
+    SP_FACE_PART_SKIN = 0, /* face, head and neck */
+    SP_FACE_PART_EYE = 1,  /* an eyeball: its own albedo texels (a corner of the atlas) and the eye clusters */
+    SP_FACE_N_PARTS
+};
 #define SP_FACE_NAME_LEN 32      /* bytes per expression name, NUL included */
 #define SP_FACE_PARAM_LIMIT 1e6  /* |coefficient|, |s|, |t|, |r| above this are rejected */
 
@@ -55,6 +62,7 @@ typedef struct sp_face_model {
     char *exp_names;     /* n_exp * SP_FACE_NAME_LEN, each NUL-terminated (e.g. "jawOpen") */
     uint32_t landmarks[SP_FACE_N_LANDMARKS]; /* vertex indices, Multi-PIE 68-point order */
     uint8_t *face_mask;  /* n_vertices, 1 = skin fitted by SunStage, 0 = elsewhere */
+    uint8_t *part;       /* n_vertices, SP_FACE_PART_*: what a vertex belongs to (all skin for older files) */
     uint32_t cluster_width, cluster_height;
     uint8_t *cluster_map; /* width * height cluster ids, row 0 is the top (v = 1) */
     char source[128];    /* NUL-terminated provenance, e.g. "generic-head v1" */
@@ -98,7 +106,7 @@ typedef struct sp_face_ict_settings {
     const char *dir;           /* ICT FaceXModel folder; NULL: sp_face_ict_dir(). Borrowed. */
     uint32_t max_identity;     /* read identity000.. up to this many (default 30; 0 = none) */
     uint32_t target_triangles; /* decimate to about this many; 0 = keep all (default 10000) */
-    int keep_eyeballs;         /* keep the eyeball meshes (default 0: eye openings are holes) */
+    int keep_eyeballs;         /* keep the eyeball meshes (default 1; 0: the eye openings are holes) */
     uint32_t cluster_width;    /* cluster map size (default 512 x 256: ICT's UVs span two tiles) */
     uint32_t cluster_height;
 } sp_face_ict_settings;

@@ -2,10 +2,11 @@
 /*
  * ICT Face Model Light importer. The data (MIT-licensed, ICT-FaceKit's
  * FaceXModel folder) is read at run time and never shipped. Steps: parse the
- * neutral OBJ, keep the face + head-and-neck vertex ranges (optionally the
- * eyeballs), split quads along their shorter diagonal, centimetres to metres,
- * decimate keeping the landmark vertices, then read each identity and
- * expression mesh as a difference from the neutral one, with a scale check.
+ * neutral OBJ, keep the face + head-and-neck vertex ranges and the eyeballs
+ * (each eye's own UV tile packed into a free corner of the head's atlas),
+ * split quads along their shorter diagonal, centimetres to metres, decimate
+ * keeping the landmark vertices, then read each identity and expression mesh
+ * as a difference from the neutral one, with a scale check.
  */
 #include "sunprobe/sp_face_model.h"
 
@@ -27,7 +28,14 @@
 
 /* Inclusive vertex ranges from the ICT-FaceKit documentation. */
 static const uint32_t keep_head[2] = { 0, 11247 };   /* face [0, 9408] + head and neck [9409, 11247] */
-static const uint32_t keep_eyes[2] = { 21451, 24590 }; /* eyeballs */
+static const uint32_t keep_eyes[2] = { 21451, 24590 }; /* eyeballs: the right one, then the left, 1570 each */
+#define ICT_LEFT_EYE_FIRST 23021u
+/*
+ * Where each eyeball's UV tile goes in the packed atlas (u over both tiles, v): the head tile's
+ * top-right corner, which only the eye sockets (not kept) use: right eye, then left, side by side.
+ */
+static const float eye_atlas_u[2] = { 0.901f, 0.951f }, eye_atlas_w = 0.048f;
+static const float eye_atlas_v = 0.76f, eye_atlas_h = 0.23f;
 static const uint32_t narrow_face_end = 6705, face_end = 9408;
 
 static const uint32_t ict_landmarks[SP_FACE_N_LANDMARKS] = {
@@ -51,6 +59,7 @@ void sp_face_ict_default_settings(sp_face_ict_settings *settings)
         return;
     memset(settings, 0, sizeof(*settings));
     settings->max_identity = 30;
+    settings->keep_eyeballs = 1;
     settings->target_triangles = 10000;
     settings->cluster_width = 512;
     settings->cluster_height = 256;
@@ -207,7 +216,43 @@ static int remap_landmarks(const cropped *c, uint32_t lm[SP_FACE_N_LANDMARKS])
 /* The narrow face keeps most detail, the rest of the face some, the head and neck least. */
 static float importance_of(uint32_t ict_vertex)
 {
+    /* eyeballs: as the head and neck; their UV seams stop the collapses at about 500 triangles each */
     return ict_vertex <= narrow_face_end ? 8.0f : ict_vertex <= face_end ? 3.0f : 1.0f;
+}
+
+static int is_eyeball(uint32_t ict_vertex)
+{
+    return ict_vertex >= keep_eyes[0] && ict_vertex <= keep_eyes[1];
+}
+
+/*
+ * Moves the eyeballs' texture coordinates (each eye a whole [0, 1]^2 tile of its own, which would
+ * overlap the face) into their corner of the atlas; a UV shared with skin is not expected in ICT.
+ */
+static int pack_eye_uvs(cropped *c)
+{
+    uint8_t *done = calloc((size_t)c->mesh.n_uvs + 1, 1);
+    if (!done)
+        return -ENOMEM;
+    for (uint32_t t = 0; t < c->mesh.n_triangles; t++) {
+        uint32_t v0 = c->to_old[c->mesh.tri_vertices[t * 3]];
+        if (!is_eyeball(v0))
+            continue;
+        int left = v0 >= ICT_LEFT_EYE_FIRST;
+        for (int k = 0; k < 3; k++) {
+            uint32_t uv = c->mesh.tri_uvs[t * 3 + (uint32_t)k];
+            if (done[uv])
+                continue;
+            done[uv] = 1;
+            float *p = c->mesh.uvs + (size_t)uv * 2;
+            /* compact() divided u by the tile count (2); the eye's tile was [0, 1] */
+            float u = fminf(fmaxf(p[0] * 2.0f, 0.0f), 1.0f), v = fminf(fmaxf(p[1], 0.0f), 1.0f);
+            p[0] = eye_atlas_u[left] + eye_atlas_w * u;
+            p[1] = eye_atlas_v + eye_atlas_h * v;
+        }
+    }
+    free(done);
+    return 0;
 }
 
 static int decimate(cropped *c, uint32_t lm[SP_FACE_N_LANDMARKS], uint32_t target)
@@ -389,6 +434,8 @@ static int build_model(sp_face_model *m, const sp_face_ict_settings *s, const ch
     memcpy(m->mesh.tri_vertices, c->mesh.tri_vertices, sizeof(uint32_t) * 3 * c->mesh.n_triangles);
     memcpy(m->mesh.tri_uvs, c->mesh.tri_uvs, sizeof(uint32_t) * 3 * c->mesh.n_triangles);
     memcpy(m->landmarks, lm, sizeof(m->landmarks));
+    for (uint32_t v = 0; v < c->mesh.n_vertices; v++)
+        m->part[v] = is_eyeball(c->to_old[v]) ? SP_FACE_PART_EYE : SP_FACE_PART_SKIN;
     snprintf(m->source, sizeof(m->source), "ict-facekit v1 tri=%u id=%u exp=%u eyes=%d", c->mesh.n_triangles,
              n_id, n_exp, s->keep_eyeballs ? 1 : 0);
     err = read_modes(m, dir, neutral, c, exp_files);
@@ -419,6 +466,8 @@ int sp_face_model_import_ict(sp_face_model *model, const sp_face_ict_settings *s
     cropped c;
     uint32_t lm[SP_FACE_N_LANDMARKS];
     err = crop_neutral(&neutral, s.keep_eyeballs, &c);
+    if (!err && s.keep_eyeballs)
+        err = pack_eye_uvs(&c);
     if (!err)
         err = remap_landmarks(&c, lm);
     if (!err && s.target_triangles && s.target_triangles < c.mesh.n_triangles)
@@ -427,9 +476,14 @@ int sp_face_model_import_ict(sp_face_model *model, const sp_face_ict_settings *s
         err = build_model(model, &s, dir, &neutral, &c, lm);
     if (err)
         sp_face_model_free(model);
-    else
-        sp_log(SP_LOG_INFO, FACE_LOG, "imported ICT face model from %s: %u vertices, %u triangles, %u+%u modes",
-               dir, model->mesh.n_vertices, model->mesh.n_triangles, model->n_id, model->n_exp);
+    else {
+        uint32_t eye_tris = 0;
+        for (uint32_t t = 0; t < model->mesh.n_triangles; t++)
+            eye_tris += model->part[model->mesh.tri_vertices[t * 3]] == SP_FACE_PART_EYE;
+        sp_log(SP_LOG_INFO, FACE_LOG,
+               "imported ICT face model from %s: %u vertices, %u triangles (%u of them eyeballs), %u+%u modes", dir,
+               model->mesh.n_vertices, model->mesh.n_triangles, eye_tris, model->n_id, model->n_exp);
+    }
     cropped_free(&c);
     obj_free(&neutral);
     return err;

@@ -21,9 +21,10 @@
 #define SECTION_HEAD 16u
 #define MAX_FILE ((size_t)1 << 31)
 
-enum { SEC_POS, SEC_UV, SEC_TRIV, SEC_TRIU, SEC_IDB, SEC_EXB, SEC_EXN, SEC_LMK, SEC_MASK, SEC_CLUS, N_SEC };
-static const char section_tags[N_SEC][5] = { "POSI", "UVCO", "TRIV", "TRIU", "IDBS",
-                                             "EXBS", "EXNM", "LMRK", "MASK", "CLUS" };
+enum { SEC_POS, SEC_UV, SEC_TRIV, SEC_TRIU, SEC_IDB, SEC_EXB, SEC_EXN, SEC_LMK, SEC_MASK, SEC_CLUS, SEC_PART, N_SEC };
+static const char section_tags[N_SEC][5] = { "POSI", "UVCO", "TRIV", "TRIU", "IDBS", "EXBS",
+                                             "EXNM", "LMRK", "MASK", "CLUS", "PART" };
+#define SEC_OPTIONAL SEC_PART /* sections from here on were added within version 1: absent means the default */
 
 /* ---- little-endian helpers ---- */
 
@@ -71,6 +72,7 @@ static void describe(const sp_face_model *m, section s[N_SEC])
     s[SEC_LMK] = (section){ (void *)m->landmarks, SP_FACE_N_LANDMARKS, 4 };
     s[SEC_MASK] = (section){ m->face_mask, nv, 1 };
     s[SEC_CLUS] = (section){ m->cluster_map, (size_t)m->cluster_width * m->cluster_height, 1 };
+    s[SEC_PART] = (section){ m->part, nv, 1 };
 }
 
 static void encode(uint8_t *dst, const section *s)
@@ -208,10 +210,10 @@ static int read_sections(sp_face_model *m, const uint8_t *d, size_t size)
         }
         off += SECTION_HEAD + (size_t)bytes; /* unknown tags: skipped, for additions within version 1 */
     }
-    for (int i = 0; i < N_SEC; i++)
+    for (int i = 0; i < SEC_OPTIONAL; i++)
         if (!seen[i])
             return SP_ECORRUPT;
-    return 0;
+    return 0; /* a file without PART: every vertex is skin (the allocation's zeros) */
 }
 
 int sp_face_model_read_memory(sp_face_model *model, const void *data, size_t size)

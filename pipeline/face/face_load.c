@@ -52,7 +52,7 @@ static int default_cache_path(char *buf, size_t n, uint32_t target)
 static int load_ict(sp_face_model *model, const sp_face_load_settings *s, const char *dir, const struct stat *st)
 {
     char key[sizeof(model->source)], cache[4096];
-    snprintf(key, sizeof(key), "ict-facekit v1 target=%u neutral=%lld-%lld", s->target_triangles,
+    snprintf(key, sizeof(key), "ict-facekit v2 eyes target=%u neutral=%lld-%lld", s->target_triangles,
              (long long)st->st_size, (long long)st->st_mtime);
     int have_cache = 0;
     if (s->use_cache) {

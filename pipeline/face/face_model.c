@@ -38,8 +38,10 @@ int sp_face_model_alloc(sp_face_model *model, uint32_t n_vertices, uint32_t n_uv
     model->exp_basis = calloc(n3 * n_exp + 1, sizeof(float));
     model->exp_names = calloc((size_t)n_exp * SP_FACE_NAME_LEN + 1, 1);
     model->face_mask = calloc((size_t)n_vertices + 1, 1);
+    model->part = calloc((size_t)n_vertices + 1, 1);
     model->cluster_map = calloc((size_t)cluster_width * cluster_height + 1, 1);
-    if (!model->id_basis || !model->exp_basis || !model->exp_names || !model->face_mask || !model->cluster_map) {
+    if (!model->id_basis || !model->exp_basis || !model->exp_names || !model->face_mask || !model->part ||
+        !model->cluster_map) {
         sp_face_model_free(model);
         return -ENOMEM;
     }
@@ -59,6 +61,7 @@ void sp_face_model_free(sp_face_model *model)
     free(model->exp_basis);
     free(model->exp_names);
     free(model->face_mask);
+    free(model->part);
     free(model->cluster_map);
     memset(model, 0, sizeof(*model));
 }
@@ -84,7 +87,7 @@ static int names_ok(const sp_face_model *m)
 static int regions_ok(const sp_face_model *m)
 {
     for (uint32_t i = 0; i < m->mesh.n_vertices; i++)
-        if (m->face_mask[i] > 1)
+        if (m->face_mask[i] > 1 || m->part[i] >= SP_FACE_N_PARTS || (m->face_mask[i] && m->part[i]))
             return 0;
     size_t n = (size_t)m->cluster_width * m->cluster_height;
     for (size_t i = 0; i < n; i++)
@@ -99,7 +102,7 @@ static int regions_ok(const sp_face_model *m)
 int sp_face_model_validate(const sp_face_model *model)
 {
     if (!model || !model->mesh.positions || !model->id_basis || !model->exp_basis || !model->exp_names ||
-        !model->face_mask || !model->cluster_map)
+        !model->face_mask || !model->part || !model->cluster_map)
         return -EINVAL;
     const sp_mesh *mesh = &model->mesh;
     if (!sizes_ok(mesh->n_vertices, mesh->n_uvs, mesh->n_triangles, model->n_id, model->n_exp,

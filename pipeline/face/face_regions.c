@@ -192,10 +192,15 @@ static uint8_t face_cluster(const face_frame *f, double x, double y)
     return x > 0 ? SP_FACE_CLUSTER_LEFT_CHEEK : SP_FACE_CLUSTER_RIGHT_CHEEK;
 }
 
-static void label_vertex(const face_frame *f, sp_vec3 p, uint8_t *mask, uint8_t *cluster)
+static void label_vertex(const face_frame *f, sp_vec3 p, uint8_t part, uint8_t *mask, uint8_t *cluster)
 {
     double x, y, z;
     to_frame(f, p, &x, &y, &z);
+    if (part == SP_FACE_PART_EYE) { /* not skin; its specular is the eye region's */
+        *mask = 0;
+        *cluster = x > 0 ? SP_FACE_CLUSTER_LEFT_EYE : SP_FACE_CLUSTER_RIGHT_EYE;
+        return;
+    }
     if (!in_front(f, z) || !inside_face_outline(f, x, y)) {
         *mask = 0;
         *cluster = y < mean_y(f, 48, 59) ? SP_FACE_CLUSTER_JAW_NECK : SP_FACE_CLUSTER_OTHER;
@@ -297,7 +302,7 @@ int face_regions_compute(sp_face_model *model)
     if (!labels)
         return -ENOMEM;
     for (uint32_t i = 0; i < model->mesh.n_vertices; i++)
-        label_vertex(&f, vertex_at(&model->mesh, i), &model->face_mask[i], &labels[i]);
+        label_vertex(&f, vertex_at(&model->mesh, i), model->part[i], &model->face_mask[i], &labels[i]);
     rasterise(model, labels);
     free(labels);
     return dilate(model, 2);
@@ -316,7 +321,7 @@ int sp_face_model_scalp(const sp_face_model *model, uint8_t *scalp)
     for (uint32_t i = 0; i < model->mesh.n_vertices; i++) {
         double x, y, z;
         to_frame(&f, vertex_at(&model->mesh, i), &x, &y, &z);
-        scalp[i] = !model->face_mask[i] && y > above;
+        scalp[i] = !model->face_mask[i] && model->part[i] == SP_FACE_PART_SKIN && y > above;
     }
     return 0;
 }

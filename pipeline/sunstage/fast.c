@@ -38,6 +38,7 @@ typedef struct obs {
     int32_t tex[4];
     double tw[4];
     int8_t cluster;
+    uint8_t eye;       /* on an eyeball: its albedo is fitted, but it says nothing about the light (a wet cornea) */
 } obs;
 
 typedef struct fast_ctx {
@@ -220,6 +221,7 @@ static int gather(fast_ctx *c)
             cy = cy < 0 ? 0 : (cy >= (int)m->cluster_height ? (int)m->cluster_height - 1 : cy);
             uint8_t cl = m->cluster_map[(size_t)cy * m->cluster_width + (size_t)cx];
             ob->cluster = (int8_t)(cl < SP_RENDER_CLUSTERS ? cl : -1);
+            ob->eye = m->part[m->mesh.tri_vertices[(size_t)o.tri_id[p] * 3]] == SP_FACE_PART_EYE;
         }
         for (int k = 0; k < NK && !ret; k++) {
             const float *env = c->envb + (size_t)k * SP_RENDER_ENV_FLOATS;
@@ -284,6 +286,8 @@ static void cost_task(void *ctx, int k)
     double e = 0.0;
     for (size_t i = lo; i < hi; i += c->stride) {
         const obs *o = &c->o[i];
+        if (o->eye)
+            continue;
         double sp = spec_of(c, o);
         for (int ch = 0; ch < 3; ch++) {
             double r = albedo_at(c->ss, o, ch) * shading(c, o, ch) + sp - o->L[ch];
@@ -441,6 +445,8 @@ static void lighting_task(void *ctx, int k)
     chunk_range(c, k, &lo, &hi);
     for (size_t i = lo; i < hi; i += c->stride) {
         const obs *o = &c->o[i];
+        if (o->eye)
+            continue;
         double h[NH];
         h[0] = c->use_sun ? o->D : 0.0;
         for (int j = 0; j < NK; j++)
@@ -649,7 +655,7 @@ static void cluster_costs(const fast_ctx *c, double *e)
         e[k] = 0.0;
     for (size_t i = 0; i < c->n; i++) {
         const obs *o = &c->o[i];
-        if (o->cluster < 0)
+        if (o->cluster < 0 || o->eye)
             continue;
         double sp = spec_of(c, o);
         for (int ch = 0; ch < 3; ch++) {

@@ -36,7 +36,11 @@ int ss_scene_open(ss_scene *sc, const sp_sunstage *ss)
     }
     for (uint32_t t = 0; t < m->mesh.n_triangles; t++) {
         const uint32_t *v = m->mesh.tri_vertices + (size_t)t * 3;
-        sc->skin_tri[t] = m->face_mask[v[0]] && m->face_mask[v[1]] && m->face_mask[v[2]];
+        /* the face's skin and the eyeballs are what the fit sees (the eyes' own albedo texels) */
+        int skin = m->face_mask[v[0]] && m->face_mask[v[1]] && m->face_mask[v[2]];
+        int eye = m->part[v[0]] == SP_FACE_PART_EYE && m->part[v[1]] == SP_FACE_PART_EYE &&
+                  m->part[v[2]] == SP_FACE_PART_EYE;
+        sc->skin_tri[t] = skin || eye;
     }
     sc->mesh = m->mesh;
     sc->mesh.positions = sc->pos;

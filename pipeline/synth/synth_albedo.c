@@ -105,6 +105,8 @@ static void dilate(uv_raster *r, int passes)
     free(prev);
 }
 
+static void to_face(const synth_face_frame *ff, const double p[3], double out[3]);
+
 static int raster_mesh(const sp_synth_selfie *g, uv_raster *r)
 {
     size_t n = (size_t)r->w * (size_t)r->h;
@@ -118,8 +120,18 @@ static int raster_mesh(const sp_synth_selfie *g, uv_raster *r)
     for (int c = 0; c < g->n_caps; c++)
         for (uint32_t j = 0; j < g->caps[c].n; j++)
             raster_triangle(r, m, t++, (uint8_t)(TEX_CAP + g->caps[c].kind));
-    for (size_t k = 0; k < g->model->mesh.n_triangles; k++)
-        raster_triangle(r, m, k, TEX_SKIN);
+    const sp_face_model *fm = g->model;
+    for (size_t k = 0; k < fm->mesh.n_triangles; k++) {
+        uint32_t v0 = fm->mesh.tri_vertices[k * 3];
+        uint8_t kind = TEX_SKIN;
+        if (fm->part[v0] == SP_FACE_PART_EYE) { /* the model's own eyeballs: painted as eyes, by side */
+            double f[3], pm[3] = { fm->mesh.positions[v0 * 3], fm->mesh.positions[v0 * 3 + 1],
+                                   fm->mesh.positions[v0 * 3 + 2] };
+            to_face(&g->ff, pm, f);
+            kind = (uint8_t)(TEX_CAP + (f[0] > 0 ? SYNTH_CAP_LEFT_EYE : SYNTH_CAP_RIGHT_EYE));
+        }
+        raster_triangle(r, m, k, kind);
+    }
     dilate(r, 4);
     return 0;
 }

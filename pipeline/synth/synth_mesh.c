@@ -159,7 +159,10 @@ static int choose_caps(sp_synth_selfie *g, const bedge *le, loop_info *loops, in
 {
     static const int range[3][2] = { { 36, 41 }, { 42, 47 }, { 60, 67 } };
     static const double offset[3] = { -0.002, -0.002, -0.008 };
-    for (int kind = 0; kind < 3; kind++) {
+    int has_eyes = 0; /* a model with eyeballs shows them through the openings: only the mouth is closed */
+    for (uint32_t v = 0; v < g->model->mesh.n_vertices && !has_eyes; v++)
+        has_eyes = g->model->part[v] == SP_FACE_PART_EYE;
+    for (int kind = has_eyes ? SYNTH_CAP_MOUTH : 0; kind < 3; kind++) {
         double c[3], best = 0.35;
         int pick = -1;
         lm_center(g, range[kind][0], range[kind][1], c);

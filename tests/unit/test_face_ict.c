@@ -156,6 +156,51 @@ static double seconds_since(const struct timespec *t0)
     return (double)(t1.tv_sec - t0->tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0->tv_nsec);
 }
 
+/*
+ * The eyeballs: two of them, behind the eye landmarks, never skin, with their texture coordinates
+ * in the atlas corner no skin triangle uses (so the fit's albedo of an eye is its own).
+ */
+static void check_eyes(const sp_face_model *m)
+{
+    uint32_t n_eye = 0, left = 0;
+    double c[2][3] = { { 0, 0, 0 }, { 0, 0, 0 } };
+    for (uint32_t i = 0; i < m->mesh.n_vertices; i++) {
+        if (m->part[i] != SP_FACE_PART_EYE)
+            continue;
+        CHECK(m->face_mask[i] == 0);
+        const float *p = m->mesh.positions + (size_t)i * 3;
+        int side = p[0] > 0;
+        n_eye++;
+        left += (uint32_t)side;
+        for (int k = 0; k < 3; k++)
+            c[side][k] += (double)p[k];
+    }
+    CHECK_MSG(n_eye > 100 && left > n_eye / 4 && left < 3 * n_eye / 4, "%u eyeball vertices, %u left", n_eye, left);
+    for (int side = 0; side < 2 && n_eye; side++) {
+        uint32_t n = side ? left : n_eye - left;
+        double lm[3] = { 0, 0, 0 }; /* the mean of that eye's six landmarks */
+        for (int j = 0; j < 6; j++)
+            for (int k = 0; k < 3; k++)
+                lm[k] += (double)m->mesh.positions[m->landmarks[(side ? 42 : 36) + j] * 3 + (uint32_t)k] / 6.0;
+        double d = 0;
+        for (int k = 0; k < 3; k++)
+            d += (c[side][k] / n - lm[k]) * (c[side][k] / n - lm[k]);
+        CHECK_MSG(sqrt(d) < 0.02, "eyeball %d centre %.1f mm from its landmarks", side, 1000 * sqrt(d));
+    }
+    int eye_uv_ok = 1, skin_in_corner = 0;
+    for (uint32_t t = 0; t < m->mesh.n_triangles; t++) {
+        int eye = m->part[m->mesh.tri_vertices[t * 3]] == SP_FACE_PART_EYE;
+        for (int k = 0; k < 3; k++) {
+            const float *uv = m->mesh.uvs + (size_t)m->mesh.tri_uvs[t * 3 + (uint32_t)k] * 2;
+            int corner = uv[0] > 0.9f && uv[1] > 0.75f;
+            eye_uv_ok &= !eye || corner;
+            skin_in_corner += !eye && corner;
+        }
+    }
+    CHECK(eye_uv_ok);
+    CHECK_MSG(skin_in_corner == 0, "%d skin UVs in the eyes' atlas corner", skin_in_corner);
+}
+
 static void check_ict_model(const sp_face_model *m)
 {
     CHECK_EQ_INT(sp_face_model_validate(m), 0);
@@ -181,6 +226,7 @@ static void check_ict_model(const sp_face_model *m)
         ss += (double)m->id_basis[i] * (double)m->id_basis[i];
     double rms = sqrt(ss / m->mesh.n_vertices);
     CHECK_MSG(rms > 5e-4 && rms < 0.02, "identity mode 0 RMS %g m", rms);
+    check_eyes(m);
 }
 
 static void test_import_full(const char *dir)
@@ -198,8 +244,8 @@ static void test_import_full(const char *dir)
         return;
     printf("ICT import without decimation: %.2f s, %u vertices, %u UVs, %u triangles, %u + %u modes\n",
            seconds_since(&t0), full.mesh.n_vertices, full.mesh.n_uvs, full.mesh.n_triangles, full.n_id, full.n_exp);
-    CHECK_EQ_INT(full.mesh.n_vertices, 11248); /* every face and head-and-neck vertex, nothing else */
-    CHECK(full.mesh.n_triangles > 20000 && full.mesh.n_triangles < 23000);
+    CHECK_EQ_INT(full.mesh.n_vertices, 11248 + 3140); /* every face, head-and-neck and eyeball vertex */
+    CHECK(full.mesh.n_triangles > 26000 && full.mesh.n_triangles < 29000);
     check_ict_model(&full);
 
     sp_face_model dec;

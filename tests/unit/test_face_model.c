@@ -191,6 +191,7 @@ static int models_equal(const sp_face_model *a, const sp_face_model *b)
            !memcmp(a->exp_names, b->exp_names, (size_t)a->n_exp * SP_FACE_NAME_LEN) &&
            !memcmp(a->landmarks, b->landmarks, sizeof(a->landmarks)) &&
            !memcmp(a->face_mask, b->face_mask, a->mesh.n_vertices) &&
+           !memcmp(a->part, b->part, a->mesh.n_vertices) &&
            !memcmp(a->cluster_map, b->cluster_map, (size_t)a->cluster_width * a->cluster_height) &&
            !strcmp(a->source, b->source);
 }
@@ -298,6 +299,52 @@ static void test_corrupt(const uint8_t *good, size_t size)
     free(d);
 }
 
+/*
+ * Mesh parts: an eyeball vertex survives the round trip; a file from before the PART section
+ * (the section cut out) reads as all skin; a part out of range, or an eye in the face mask, is corrupt.
+ */
+static void test_parts(const char *path)
+{
+    sp_face_model m;
+    CHECK_EQ_INT(sp_face_model_read(&m, path), 0);
+    uint32_t eye = UINT32_MAX;
+    for (uint32_t i = 0; i < m.mesh.n_vertices && eye == UINT32_MAX; i++)
+        if (!m.face_mask[i])
+            eye = i;
+    CHECK(eye != UINT32_MAX);
+    if (eye == UINT32_MAX) {
+        sp_face_model_free(&m);
+        return;
+    }
+    m.part[eye] = SP_FACE_PART_EYE;
+    CHECK_EQ_INT(sp_face_model_write(&m, path), 0);
+    sp_face_model back;
+    CHECK_EQ_INT(sp_face_model_read(&back, path), 0);
+    CHECK(models_equal(&m, &back));
+    sp_face_model_free(&back);
+    size_t size = 0;
+    uint8_t *d = read_all(path, &size);
+    size_t off = d ? find_section(d, size, "PART") : 0;
+    CHECK(off > 0);
+    if (off > 0) {
+        size_t len = 16 + (size_t)rd32(d + off + 8);
+        memmove(d + off, d + off + len, size - off - len);
+        CHECK_EQ_INT(sp_face_model_read_memory(&back, d, size - len), 0);
+        int all_skin = 1;
+        for (uint32_t i = 0; i < back.mesh.n_vertices; i++)
+            all_skin &= back.part[i] == SP_FACE_PART_SKIN;
+        CHECK(all_skin);
+        sp_face_model_free(&back);
+    }
+    free(d);
+    m.part[eye] = 7;
+    CHECK_EQ_INT(sp_face_model_validate(&m), SP_ECORRUPT);
+    m.part[eye] = SP_FACE_PART_EYE;
+    m.face_mask[eye] = 1;
+    CHECK_EQ_INT(sp_face_model_validate(&m), SP_ECORRUPT);
+    sp_face_model_free(&m);
+}
+
 static void test_files(const sp_face_model *m)
 {
     char path[] = "/tmp/sp_face_test_XXXXXX";
@@ -323,6 +370,7 @@ static void test_files(const sp_face_model *m)
     if (bytes)
         test_corrupt(bytes, size);
     free(bytes);
+    test_parts(path);
     unlink(path);
     sp_face_model none;
     CHECK_EQ_INT(sp_face_model_read(&none, "/nonexistent/face.spface"), -ENOENT);
