@@ -759,26 +759,81 @@ static void checkpoint(fast_ctx *c, sp_sunstage_callback cb, void *user, int pha
     cb(user, &p);
 }
 
+#define SUN_STARTS 4        /* local minima of the coarse scan refined with shadows, the best one kept */
+#define SUN_START_SEP 0.9063 /* cos 25 deg: starts closer than this to a better one are the same minimum */
+
+/* Resets every observation's sun visibility to 1 (the coarse scan's unshadowed shading). */
+static void clear_visibility(fast_ctx *c)
+{
+    for (size_t i = 0; i < c->n; i++)
+        c->o[i].V = 1.0;
+}
+
+/*
+ * The sun: a scan of the upper hemisphere on unshadowed shading (a third of the pixels), then the
+ * SUN_STARTS best mutually distinct directions each refined by pattern search with the renderer's
+ * shadows; the lowest shadowed cost wins and is refined further. One start alone settled in a wrong
+ * minimum (25-60 deg off) on frame-subsampled variants of the path-traced sunny selfie: without
+ * shadows the cost cannot tell a sun from its mirror across the face.
+ */
 static int fit_sun(fast_ctx *c, sp_sunstage_callback cb, void *user)
 {
     sp_sunstage *ss = c->ss;
     double e_nosun, best = INFINITY;
     c->use_sun = 1;
     c->stride = 3;
-    for (int i = 0; i < 160; i++) { /* upper-hemisphere search on unshadowed shading, a third of the pixels */
+    double start[SUN_STARTS][3], start_e[SUN_STARTS];
+    int n_start = 0;
+    for (int i = 0; i < 160; i++) { /* the scan keeps the best few directions at least 25 deg apart */
         double d[3];
         fib_dir(i, 320, d);
         double e = try_sun(c, d, 2);
-        if (e < best) {
-            best = e;
-            memcpy(c->sun, d, sizeof(d));
-        }
+        int at = n_start; /* insertion point by cost */
+        while (at > 0 && e < start_e[at - 1])
+            at--;
+        int dup = 0;
+        for (int k = 0; k < at && !dup; k++)
+            dup = d[0] * start[k][0] + d[1] * start[k][1] + d[2] * start[k][2] > SUN_START_SEP;
+        if (dup || at >= SUN_STARTS)
+            continue;
+        for (int k = at; k < n_start; k++) /* starts near the new one and worse than it are its minimum */
+            if (d[0] * start[k][0] + d[1] * start[k][1] + d[2] * start[k][2] > SUN_START_SEP) {
+                memmove(start[k], start[k + 1], sizeof(start[0]) * (size_t)(n_start - k - 1));
+                memmove(start_e + k, start_e + k + 1, sizeof(double) * (size_t)(n_start - k - 1));
+                n_start--;
+                k--;
+            }
+        if (n_start == SUN_STARTS)
+            n_start--;
+        memmove(start[at + 1], start[at], sizeof(start[0]) * (size_t)(n_start - at));
+        memmove(start_e + at + 1, start_e + at, sizeof(double) * (size_t)(n_start - at));
+        memcpy(start[at], d, sizeof(d));
+        start_e[at] = e;
+        n_start++;
     }
     checkpoint(c, cb, user, 1);
-    best = pattern_search(c, 0.12, 0.02, 2);
+    double best_sun[3] = { 0, 0, 1 };
+    for (int k = 0; k < n_start; k++) {
+        memcpy(c->sun, start[k], sizeof(c->sun));
+        clear_visibility(c);
+        c->stride = 3;
+        pattern_search(c, 0.12, 0.02, 2);
+        c->stride = 2;
+        pattern_search(c, 0.02, 0.004, 2);
+        int ret = update_visibility(c);
+        if (ret)
+            return ret;
+        double e = pattern_search(c, 0.02, 0.004, 2);
+        sp_log(SP_LOG_DEBUG, MOD, "sun start %d (%.3f %.3f %.3f): refined to (%.3f %.3f %.3f), shadowed cost %.6g", k,
+               start[k][0], start[k][1], start[k][2], c->sun[0], c->sun[1], c->sun[2], e);
+        if (e < best) {
+            best = e;
+            memcpy(best_sun, c->sun, sizeof(best_sun));
+        }
+    }
+    memcpy(c->sun, best_sun, sizeof(c->sun));
     checkpoint(c, cb, user, 2);
     c->stride = 2;
-    best = pattern_search(c, 0.02, 0.004, 2);
     checkpoint(c, cb, user, 3);
     for (int round = 0; round < 2; round++) { /* shadows from the renderer, then search again */
         int ret = update_visibility(c);
