@@ -1,5 +1,10 @@
 /* SPDX-License-Identifier: MIT */
-/* `sunprobe relight FACE_DIR --sun AZ,EL [--env FILE] -o out.png`: renders a fitted face under new light. */
+/*
+ * `sunprobe relight FACE_DIR -o OUT.png [light] [camera] [material]`: renders a fitted face
+ * through sp_face_asset_render (the path `sunprobe evaluate` scores), from any fitted keyframe's
+ * view, orbited about the head and dolly-zoomed, under the fitted or a new sun, with the
+ * specular scaled; an RGBA PNG in the capture's encoding, transparent off the head.
+ */
 #include <errno.h>
 #include <getopt.h>
 #include <math.h>
@@ -8,55 +13,175 @@
 #include <string.h>
 
 #include "cmd.h"
+#include "common/file_util.h"
+#include "common/json.h"
 #include "export/png.h"
+#include "sunprobe/sp_math.h"
 #include "sunprobe/sp_render.h"
 #include "sunprobe/sp_sunstage.h"
+
+#define MAX_SIZE 8192
+#define FILM_HALF_WIDTH_MM 18.0 /* --focal is the 35 mm equivalent: a 36 mm wide frame */
+
+/* Names for --specular-scale NAME=S, in cluster order (FACE_MODEL.md). */
+static const char *const cluster_names[SP_RENDER_CLUSTERS] = { "forehead",  "nose",      "left-cheek", "right-cheek",
+                                                               "chin",      "lips",      "left-eye",   "right-eye",
+                                                               "jaw-neck",  "other" };
 
 typedef struct relight_args {
     const char *dir, *out, *env;
     double az, el, intensity, exposure;
-    int have_sun, scale;
+    int have_sun, scale, keyframe, width, height, have_orbit;
+    double orbit_az, orbit_el, fov_deg, focal_mm;
+    double spec_scale[SP_RENDER_CLUSTERS];
 } relight_args;
 
 static void relight_usage(FILE *out)
 {
-    fprintf(out, "usage: sunprobe relight FACE_DIR --sun AZ,EL [--env FILE] -o OUT.png\n\n"
-                 "Renders the fitted face (keyframe 0's view) under a new sun and sky.\n"
-                 "  --sun AZ,EL        sun azimuth (from world +x towards +y) and elevation, degrees\n"
-                 "  --intensity I      sun irradiance (default: the fitted one, 3 if the fit had no sun)\n"
-                 "  --env FILE         16x32 RGB float32 environment map (raw, as env.f32); default: fitted\n"
-                 "  --exposure E       exposure (default 1)\n"
-                 "  --scale N          output size as a multiple of the fit resolution (default 2)\n");
+    fprintf(out,
+            "usage: sunprobe relight FACE_DIR -o OUT.png [options]\n\n"
+            "Renders the fitted face from a fitted keyframe's view (or around it) under the fitted or a new\n"
+            "light, into an RGBA PNG in the capture's encoding, transparent where the head is not.\n"
+            "light:\n"
+            "  --sun AZ,EL        sun azimuth (from world +x towards +y) and elevation, degrees\n"
+            "                     (default: the fitted sun; none if the fit left it out)\n"
+            "  --intensity I      sun irradiance (default: the fitted one, 3 if the fit had no sun)\n"
+            "  --env FILE         16x32 RGB float32 environment map (raw, as env.f32); default: fitted\n"
+            "  --exposure E       exposure (default 1)\n"
+            "camera:\n"
+            "  --view keyframe:N  the view, the face's pose and its light of keyframe N (cameras.json\n"
+            "                     \"frames\", 0-based, held-out ones included; default 0)\n"
+            "  --orbit AZ,EL      move the camera about the head: AZ degrees about the vertical, EL up\n"
+            "  --fov DEG          horizontal field of view; the camera moves so the head keeps its size\n"
+            "  --focal MM         the same as a 35 mm-equivalent focal length\n"
+            "  --size WxH         output size (default: the capture's frame size)\n"
+            "  --scale N          output size as a multiple of the fit resolution instead\n"
+            "material:\n"
+            "  --specular-scale S         every cluster's specular times S\n"
+            "  --specular-scale NAME=S    one cluster: forehead, nose, left-cheek, right-cheek, chin,\n"
+            "                             lips, left-eye, right-eye, jaw-neck, other (repeatable)\n");
+}
+
+static int parse_size(const char *s, int *w, int *h)
+{
+    char *end;
+    long a = strtol(s, &end, 10);
+    if (end == s || (*end != 'x' && *end != 'X'))
+        return -1;
+    const char *p = end + 1;
+    long b = strtol(p, &end, 10);
+    if (end == p || *end || a < 1 || b < 1 || a > MAX_SIZE || b > MAX_SIZE)
+        return -1;
+    *w = (int)a;
+    *h = (int)b;
+    return 0;
+}
+
+/* S or NAME=S into a->spec_scale; -1 with a message naming the option when bad. */
+static int parse_specular(const char *s, relight_args *a)
+{
+    const char *eq = strchr(s, '=');
+    char *end;
+    double v = strtod(eq ? eq + 1 : s, &end);
+    if (end == (eq ? eq + 1 : s) || *end || !(v >= 0.0 && v <= 1000.0)) {
+        fprintf(stderr, "sunprobe relight: --specular-scale %s: expected S or NAME=S with S in [0, 1000]\n", s);
+        return -1;
+    }
+    if (!eq) {
+        for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
+            a->spec_scale[k] *= v;
+        return 0;
+    }
+    for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
+        if (strlen(cluster_names[k]) == (size_t)(eq - s) && !strncmp(s, cluster_names[k], (size_t)(eq - s))) {
+            a->spec_scale[k] *= v;
+            return 0;
+        }
+    fprintf(stderr, "sunprobe relight: --specular-scale %s: no cluster '%.*s' (forehead, nose, left-cheek, "
+                    "right-cheek, chin, lips, left-eye, right-eye, jaw-neck, other)\n", s, (int)(eq - s), s);
+    return -1;
+}
+
+static int bad_option(const char *opt, const char *val, const char *want)
+{
+    fprintf(stderr, "sunprobe relight: %s %s: expected %s\n", opt, val, want);
+    return -1;
 }
 
 static int parse_relight(int argc, char **argv, relight_args *a)
 {
     static const struct option opts[] = {
-        { "help", no_argument, NULL, 'h' }, { "output", required_argument, NULL, 'o' },
-        { "sun", required_argument, NULL, 's' }, { "env", required_argument, NULL, 'e' },
+        { "help", no_argument, NULL, 'h' },          { "output", required_argument, NULL, 'o' },
+        { "sun", required_argument, NULL, 's' },     { "env", required_argument, NULL, 'e' },
         { "intensity", required_argument, NULL, 'i' }, { "exposure", required_argument, NULL, 'x' },
-        { "scale", required_argument, NULL, 'S' }, { 0 },
+        { "scale", required_argument, NULL, 'S' },   { "view", required_argument, NULL, 'v' },
+        { "orbit", required_argument, NULL, 'b' },   { "fov", required_argument, NULL, 'f' },
+        { "focal", required_argument, NULL, 'F' },   { "size", required_argument, NULL, 'z' },
+        { "specular-scale", required_argument, NULL, 'k' }, { 0 },
     };
-    int c, bad = 0;
+    int c;
     char *end;
-    while (!bad && (c = getopt_long(argc, argv, "ho:", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, "ho:", opts, NULL)) != -1) {
         switch (c) {
         case 'h': relight_usage(stdout); return 1;
         case 'o': a->out = optarg; break;
         case 's':
-            bad = sscanf(optarg, "%lf,%lf", &a->az, &a->el) != 2 || !(fabs(a->az) <= 720.0) ||
-                  !(a->el >= -90.0 && a->el <= 90.0);
+            if (sscanf(optarg, "%lf,%lf", &a->az, &a->el) != 2 || !(fabs(a->az) <= 720.0) ||
+                !(a->el >= -90.0 && a->el <= 90.0))
+                return bad_option("--sun", optarg, "AZ,EL in degrees, |AZ| <= 720, EL in [-90, 90]");
             a->have_sun = 1;
             break;
         case 'e': a->env = optarg; break;
-        case 'i': a->intensity = strtod(optarg, &end); bad = *end || !(a->intensity >= 0.0 && a->intensity < 1e6); break;
-        case 'x': a->exposure = strtod(optarg, &end); bad = *end || !(a->exposure >= 0.0 && a->exposure < 1e6); break;
-        case 'S': a->scale = (int)strtol(optarg, &end, 10); bad = *end || a->scale < 1 || a->scale > 8; break;
-        default: bad = 1;
+        case 'i':
+            a->intensity = strtod(optarg, &end);
+            if (end == optarg || *end || !(a->intensity >= 0.0 && a->intensity <= 1e6))
+                return bad_option("--intensity", optarg, "a number in [0, 1e6]");
+            break;
+        case 'x':
+            a->exposure = strtod(optarg, &end);
+            if (end == optarg || *end || !(a->exposure >= 0.0 && a->exposure <= 1e6))
+                return bad_option("--exposure", optarg, "a number in [0, 1e6]");
+            break;
+        case 'S':
+            a->scale = (int)strtol(optarg, &end, 10);
+            if (end == optarg || *end || a->scale < 1 || a->scale > 8)
+                return bad_option("--scale", optarg, "an integer 1..8");
+            break;
+        case 'v':
+            if (strncmp(optarg, "keyframe:", 9) || !optarg[9] || (a->keyframe = (int)strtol(optarg + 9, &end, 10)) < 0 ||
+                *end)
+                return bad_option("--view", optarg, "keyframe:N with N >= 0");
+            break;
+        case 'b':
+            if (sscanf(optarg, "%lf,%lf", &a->orbit_az, &a->orbit_el) != 2 || !(fabs(a->orbit_az) <= 360.0) ||
+                !(fabs(a->orbit_el) < 90.0))
+                return bad_option("--orbit", optarg, "AZ,EL in degrees, |AZ| <= 360, |EL| < 90");
+            a->have_orbit = 1;
+            break;
+        case 'f':
+            a->fov_deg = strtod(optarg, &end);
+            if (end == optarg || *end || !(a->fov_deg > 0.0 && a->fov_deg < 179.0))
+                return bad_option("--fov", optarg, "degrees in (0, 179)");
+            break;
+        case 'F':
+            a->focal_mm = strtod(optarg, &end);
+            if (end == optarg || *end || !(a->focal_mm >= 0.1 && a->focal_mm <= 1e5))
+                return bad_option("--focal", optarg, "millimetres in [0.1, 100000]");
+            a->fov_deg = 2.0 * atan(FILM_HALF_WIDTH_MM / a->focal_mm) * 180.0 / M_PI;
+            break;
+        case 'z':
+            if (parse_size(optarg, &a->width, &a->height))
+                return bad_option("--size", optarg, "WxH, each 1.." "8192");
+            break;
+        case 'k':
+            if (parse_specular(optarg, a))
+                return -1;
+            break;
+        default: return -1;
         }
     }
-    if (bad || optind != argc - 1 || !a->out || !a->have_sun) {
-        fprintf(stderr, "sunprobe relight: expected FACE_DIR, --sun AZ,EL and -o OUT.png (see --help)\n");
+    if (optind != argc - 1 || !a->out) {
+        fprintf(stderr, "sunprobe relight: expected FACE_DIR and -o OUT.png (see --help)\n");
         return -1;
     }
     a->dir = argv[optind];
@@ -79,73 +204,320 @@ static int read_env(const char *path, float *env)
     return 0;
 }
 
-static int render_to_png(const relight_args *a, const sp_face_asset *fa)
+static int load_json(const char *dir, const char *name, sp_json **out)
 {
-    sp_renderer_settings rs;
-    sp_renderer_default_settings(&rs);
-    rs.width = fa->width * a->scale;
-    rs.height = fa->height * a->scale;
-    rs.supersample = 2;
-    sp_renderer *r = NULL;
-    int ret = sp_renderer_open(&r, &rs);
-    if (ret)
-        return ret;
-    sp_render_scene sc;
-    sp_render_scene_defaults(&sc);
-    sc.camera = fa->camera;
-    sc.camera.fx *= a->scale;
-    sc.camera.fy *= a->scale;
-    sc.camera.cx = (fa->camera.cx + 0.5) * a->scale - 0.5;
-    sc.camera.cy = (fa->camera.cy + 0.5) * a->scale - 0.5;
-    sc.mesh = &fa->mesh;
-    sc.albedo = (sp_render_texture){ fa->tex_width, fa->tex_height, fa->albedo };
-    sc.displacement = (sp_render_texture){ fa->tex_width, fa->tex_height, fa->displacement };
-    sc.clusters = (sp_render_cluster_map){ fa->cluster_width, fa->cluster_height, fa->clusters };
-    memcpy(sc.ks, fa->ks, sizeof(sc.ks));
-    memcpy(sc.shininess, fa->shininess, sizeof(sc.shininess));
-    sc.env = fa->env;
-    double az = a->az * M_PI / 180.0, el = a->el * M_PI / 180.0;
-    sc.sun_dir[0] = cos(el) * cos(az);
-    sc.sun_dir[1] = cos(el) * sin(az);
-    sc.sun_dir[2] = sin(el);
-    sc.sun_intensity = a->intensity > 0.0 ? a->intensity : (fa->sun_intensity > 0.0 ? fa->sun_intensity : 3.0);
-    sc.exposure = a->exposure > 0.0 ? a->exposure : 1.0;
-    sp_render_outputs o;
-    if (!(ret = sp_render(r, &sc, &o))) {
-        size_t n = (size_t)o.width * (size_t)o.height * 3;
-        uint8_t *px = malloc(n);
-        if (!px)
-            ret = -ENOMEM;
-        for (size_t i = 0; px && i < n; i++)
-            px[i] = (uint8_t)lround(255.0 * fmin(1.0, fmax(0.0, (double)o.image[i])));
-        if (px)
-            ret = sp_png_write(a->out, px, (uint32_t)o.width, (uint32_t)o.height, (uint32_t)o.width * 3, 3);
-        free(px);
-    }
-    sp_renderer_close(&r);
+    char *path = sp_path_join_alloc(dir, name);
+    void *buf = NULL;
+    size_t n = 0;
+    char err[160] = "";
+    int ret = path ? sp_read_whole_file(path, 64u << 20, &buf, &n) : -ENOMEM;
+    if (!ret && (ret = sp_json_parse(buf, n, out, err, sizeof(err))))
+        fprintf(stderr, "sunprobe relight: %s: %s\n", path, err);
+    free(buf);
+    free(path);
     return ret;
+}
+
+/* ---- poses: x' = R x + t ---- */
+
+typedef struct pose {
+    double R[9], t[3];
+} pose;
+
+static pose pose_mul(const pose *a, const pose *b)
+{
+    pose r;
+    for (int i = 0; i < 3; i++) {
+        for (int j = 0; j < 3; j++)
+            r.R[i * 3 + j] = a->R[i * 3] * b->R[j] + a->R[i * 3 + 1] * b->R[3 + j] + a->R[i * 3 + 2] * b->R[6 + j];
+        r.t[i] = a->R[i * 3] * b->t[0] + a->R[i * 3 + 1] * b->t[1] + a->R[i * 3 + 2] * b->t[2] + a->t[i];
+    }
+    return r;
+}
+
+static pose pose_inv(const pose *a)
+{
+    pose r;
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            r.R[i * 3 + j] = a->R[j * 3 + i];
+    for (int i = 0; i < 3; i++)
+        r.t[i] = -(r.R[i * 3] * a->t[0] + r.R[i * 3 + 1] * a->t[1] + r.R[i * 3 + 2] * a->t[2]);
+    return r;
+}
+
+/* Keyframe k's placement of the face model in the fit's world: camera-to-world rotation after the face pose. */
+static int keyframe_place(const sp_json *k, pose *place)
+{
+    double q[4], rv[3];
+    pose face = { { 0 }, { 0 } }, c2w = { { 0 }, { 0, 0, 0 } };
+    if (sp_json_numbers(sp_json_get(k, "camera_to_world_wxyz"), q, 4) != 4 ||
+        sp_json_numbers(sp_json_get(k, "face_rotvec"), rv, 3) != 3 ||
+        sp_json_numbers(sp_json_get(k, "face_t"), face.t, 3) != 3)
+        return SP_ECORRUPT;
+    double qn = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    if (!(qn > 0.5 && qn < 2.0) || !isfinite(rv[0] + rv[1] + rv[2] + face.t[0] + face.t[1] + face.t[2]))
+        return SP_ECORRUPT;
+    sp_quat_to_matrix(sp_quat_normalize((sp_quat){ q[0], q[1], q[2], q[3] }), c2w.R);
+    sp_quat_to_matrix(sp_quat_from_rotvec((sp_vec3){ rv[0], rv[1], rv[2] }), face.R);
+    *place = pose_mul(&c2w, &face);
+    return 0;
+}
+
+/* Rotation by angle a (radians) about the unit axis u, row-major. */
+static void axis_rotation(const double u[3], double a, double R[9])
+{
+    double c = cos(a), s = sin(a), C = 1.0 - c;
+    double m[9] = { c + u[0] * u[0] * C,        u[0] * u[1] * C - u[2] * s, u[0] * u[2] * C + u[1] * s,
+                    u[1] * u[0] * C + u[2] * s, c + u[1] * u[1] * C,        u[1] * u[2] * C - u[0] * s,
+                    u[2] * u[0] * C - u[1] * s, u[2] * u[1] * C + u[0] * s, c + u[2] * u[2] * C };
+    memcpy(R, m, sizeof(m));
+}
+
+static void mat_vec(const double R[9], const double x[3], double y[3])
+{
+    for (int i = 0; i < 3; i++)
+        y[i] = R[i * 3] * x[0] + R[i * 3 + 1] * x[1] + R[i * 3 + 2] * x[2];
+}
+
+/* Vertex i of the asset where view v puts it in the world. */
+static void world_point(const sp_face_asset *fa, const sp_face_view *v, uint32_t i, double w[3])
+{
+    const float *pf = fa->mesh.positions + (size_t)i * 3;
+    double p[3] = { pf[0], pf[1], pf[2] };
+    for (int k = 0; k < 3; k++)
+        w[k] = v->asset_to_world[k * 4] * p[0] + v->asset_to_world[k * 4 + 1] * p[1] +
+               v->asset_to_world[k * 4 + 2] * p[2] + v->asset_to_world[k * 4 + 3];
+}
+
+typedef struct relight_ctx {
+    const relight_args *a;
+    sp_face_asset fa;
+    sp_json *cams, *manifest;
+    int srgb;
+} relight_ctx;
+
+/*
+ * The view: keyframe N (the face placed in the world as it was then, that camera), then the orbit
+ * about the head's centre and the dolly zoom, then the output size. Returns 0 or a message'd error.
+ */
+static int set_view(relight_ctx *c, sp_face_view *v)
+{
+    const relight_args *a = c->a;
+    sp_face_view_init(v, &c->fa);
+    const sp_json *frames = sp_json_get(c->cams, "frames");
+    size_t n_frames = 0;
+    while (sp_json_at(frames, n_frames))
+        n_frames++;
+    if (a->keyframe > 0 && (size_t)a->keyframe >= n_frames) {
+        fprintf(stderr, "sunprobe relight: --view keyframe:%d: %s/cameras.json has %zu keyframes (0..%zu)\n",
+                a->keyframe, a->dir, n_frames, n_frames ? n_frames - 1 : 0);
+        return SP_EXIT_USAGE;
+    }
+    const sp_json *kf = sp_json_at(frames, (size_t)a->keyframe);
+    double ppp = sp_json_number(sp_json_get(kf, "capture_pixels_per_pixel"), 1.0);
+    ppp = ppp >= 1.0 && ppp <= 64.0 ? ppp : 1.0;
+    int fit_w = c->fa.width, fit_h = c->fa.height;
+    if (a->keyframe > 0) { /* the asset is placed as the first training keyframe: move it as keyframe N had it */
+        const sp_json *ref = NULL;
+        for (size_t i = 0; i < n_frames && !ref; i++) {
+            const sp_json *held = sp_json_get(sp_json_at(frames, i), "heldout");
+            if (!(held && held->type == SP_JSON_BOOL && held->number != 0.0))
+                ref = sp_json_at(frames, i);
+        }
+        pose p0, pn;
+        double K[4];
+        if (!ref || keyframe_place(ref, &p0) || keyframe_place(kf, &pn) ||
+            sp_json_numbers(sp_json_get(kf, "intrinsics"), K, 4) != 4 || !(K[0] > 0.0 && K[1] > 0.0)) {
+            fprintf(stderr, "sunprobe relight: %s/cameras.json: frames[%d] has no usable camera_to_world_wxyz, "
+                            "face_rotvec, face_t and intrinsics\n", a->dir, a->keyframe);
+            return SP_EXIT_BAD_INPUT;
+        }
+        pose inv0 = pose_inv(&p0), a2w = pose_mul(&pn, &inv0);
+        for (int i = 0; i < 3; i++) {
+            for (int j = 0; j < 3; j++)
+                v->asset_to_world[i * 4 + j] = a2w.R[i * 3 + j];
+            v->asset_to_world[i * 4 + 3] = a2w.t[i];
+        }
+        double q[4];
+        sp_json_numbers(sp_json_get(kf, "camera_to_world_wxyz"), q, 4);
+        double c2w[9];
+        sp_quat_to_matrix(sp_quat_normalize((sp_quat){ q[0], q[1], q[2], q[3] }), c2w);
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                v->camera.R[i * 3 + j] = c2w[j * 3 + i];
+        memset(v->camera.t, 0, sizeof(v->camera.t));
+        v->camera.fx = K[0], v->camera.fy = K[1], v->camera.cx = K[2], v->camera.cy = K[3];
+        fit_w = (int)sp_json_number(sp_json_get(kf, "width"), fit_w);
+        fit_h = (int)sp_json_number(sp_json_get(kf, "height"), fit_h);
+    }
+    /* the head's centre in the world: the mesh's centroid where this view puts it */
+    double centre[3] = { 0, 0, 0 };
+    for (uint32_t i = 0; i < c->fa.mesh.n_vertices; i++) {
+        double w[3];
+        world_point(&c->fa, v, i, w);
+        for (int k = 0; k < 3; k++)
+            centre[k] += w[k] / (double)c->fa.mesh.n_vertices;
+    }
+    /* camera centre C = -R^T t and camera-to-world rotation R^T */
+    double Rt[9], C[3];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            Rt[i * 3 + j] = v->camera.R[j * 3 + i];
+    mat_vec(Rt, v->camera.t, C);
+    for (int k = 0; k < 3; k++)
+        C[k] = -C[k];
+    if (a->have_orbit) {
+        static const double up[3] = { 0, 0, 1 }; /* the fit's world is z up */
+        double off[3] = { C[0] - centre[0], C[1] - centre[1], C[2] - centre[2] }, h[3], Raz[9], Rel[9], M[9];
+        h[0] = off[1] * up[2] - off[2] * up[1], h[1] = off[2] * up[0] - off[0] * up[2], h[2] = off[0] * up[1] - off[1] * up[0];
+        double hn = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+        if (hn > 1e-9) {
+            for (int k = 0; k < 3; k++)
+                h[k] /= hn;
+            axis_rotation(h, a->orbit_el * M_PI / 180.0, Rel);
+        } else { /* looking straight down or up: no horizontal axis to raise the camera about */
+            memcpy(Rel, (double[9]){ 1, 0, 0, 0, 1, 0, 0, 0, 1 }, sizeof(Rel));
+        }
+        axis_rotation(up, a->orbit_az * M_PI / 180.0, Raz);
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                M[i * 3 + j] = Raz[i * 3] * Rel[j] + Raz[i * 3 + 1] * Rel[3 + j] + Raz[i * 3 + 2] * Rel[6 + j];
+        double moved[3], Rn[9];
+        mat_vec(M, off, moved);
+        for (int k = 0; k < 3; k++)
+            C[k] = centre[k] + moved[k];
+        for (int i = 0; i < 3; i++) /* new camera-to-world M Rt, stored transposed */
+            for (int j = 0; j < 3; j++)
+                Rn[i * 3 + j] = M[i * 3] * Rt[j] + M[i * 3 + 1] * Rt[3 + j] + M[i * 3 + 2] * Rt[6 + j];
+        memcpy(Rt, Rn, sizeof(Rt));
+    }
+    /* output size and intrinsics: the keyframe's fit-resolution camera scaled up, square pixels kept */
+    int W = a->width ? a->width : (a->scale ? fit_w * a->scale : (int)lround(fit_w * ppp));
+    int H = a->width ? a->height : (a->scale ? fit_h * a->scale : (int)lround(fit_h * ppp));
+    W = W < 1 ? 1 : (W > MAX_SIZE ? MAX_SIZE : W);
+    H = H < 1 ? 1 : (H > MAX_SIZE ? MAX_SIZE : H);
+    double sx = (double)W / fit_w, sy = (double)H / fit_h;
+    double fx = v->camera.fx * sx, fy = v->camera.fy * sx;
+    v->camera.cx = (v->camera.cx + 0.5) * sx - 0.5;
+    v->camera.cy = (v->camera.cy + 0.5) * sy - 0.5;
+    if (a->fov_deg > 0.0) {
+        /* dolly zoom: the camera backs away along its axis until the head's depth has grown with the focal
+           length, so the head keeps its size and its place in the picture */
+        double fx_new = 0.5 * W / tan(0.5 * a->fov_deg * M_PI / 180.0), k = fx_new / fx;
+        double fwd[3] = { Rt[2], Rt[5], Rt[8] }, depth = 0.0, radius = 0.0;
+        for (int i = 0; i < 3; i++)
+            depth += fwd[i] * (centre[i] - C[i]);
+        for (int i = 0; i < 3; i++)
+            C[i] -= (k - 1.0) * depth * fwd[i];
+        for (uint32_t i = 0; i < c->fa.mesh.n_vertices; i++) {
+            double w[3];
+            world_point(&c->fa, v, i, w);
+            radius = fmax(radius, sqrt((w[0] - centre[0]) * (w[0] - centre[0]) + (w[1] - centre[1]) * (w[1] - centre[1]) +
+                                       (w[2] - centre[2]) * (w[2] - centre[2])));
+        }
+        if (k * depth < radius)
+            fprintf(stderr, "sunprobe relight: warning: at this focal length the camera is %.2f m from the head's "
+                            "centre, inside its %.2f m radius\n", k * depth, radius);
+        fy *= k;
+        fx = fx_new;
+    }
+    v->camera.fx = fx;
+    v->camera.fy = fy;
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            v->camera.R[i * 3 + j] = Rt[j * 3 + i];
+    double RC[3];
+    mat_vec(v->camera.R, C, RC);
+    for (int k = 0; k < 3; k++)
+        v->camera.t[k] = -RC[k];
+    v->width = W;
+    v->height = H;
+    return 0;
+}
+
+static void set_light(relight_ctx *c, sp_face_view *v)
+{
+    const relight_args *a = c->a;
+    int fitted_sun = !(c->fa.left_out & SP_FACE_LEFT_OUT_SUN) && c->fa.sun_intensity > 0.0;
+    if (a->have_sun) {
+        double az = a->az * M_PI / 180.0, el = a->el * M_PI / 180.0;
+        v->sun_dir[0] = cos(el) * cos(az);
+        v->sun_dir[1] = cos(el) * sin(az);
+        v->sun_dir[2] = sin(el);
+        v->sun_intensity = a->intensity > 0.0 ? a->intensity : (fitted_sun ? c->fa.sun_intensity : 3.0);
+    } else {
+        v->sun_intensity = fitted_sun ? (a->intensity > 0.0 ? a->intensity : c->fa.sun_intensity) : 0.0;
+    }
+    v->exposure = a->exposure > 0.0 ? a->exposure : 1.0;
+    for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
+        c->fa.ks[k] *= a->spec_scale[k];
+}
+
+/* RGBA in the capture's encoding: sRGB for an sRGB capture, else the fit's own display values. */
+static int write_rgba(const relight_ctx *c, const float *rgb, const float *cover, int W, int H)
+{
+    size_t n = (size_t)W * (size_t)H;
+    uint8_t *px = malloc(n * 4);
+    if (!px)
+        return -ENOMEM;
+    for (size_t i = 0; i < n; i++) {
+        for (int k = 0; k < 3; k++) {
+            double d = (double)rgb[i * 3 + (size_t)k];
+            if (c->srgb)
+                d = sp_sunstage_display_to_srgb(d);
+            px[i * 4 + (size_t)k] = (uint8_t)lround(255.0 * fmin(1.0, fmax(0.0, d)));
+        }
+        px[i * 4 + 3] = (uint8_t)lround(255.0 * fmin(1.0, fmax(0.0, (double)cover[i])));
+    }
+    int ret = sp_png_write(c->a->out, px, (uint32_t)W, (uint32_t)H, (uint32_t)W * 4, 4);
+    free(px);
+    return ret;
+}
+
+static int run_relight(relight_ctx *c)
+{
+    const relight_args *a = c->a;
+    int ret = sp_face_dir_read(&c->fa, a->dir);
+    if (ret) {
+        fprintf(stderr, "sunprobe relight: %s is not a readable face directory: %s\n", a->dir, sp_strerror(ret));
+        return sp_exit_for_error(ret == -ENOENT ? SP_EFORMAT : ret);
+    }
+    if (a->env && (ret = read_env(a->env, c->fa.env)))
+        return sp_cmd_fail("relight", ret, "reading --env (16x32x3 float32, non-negative)");
+    if ((ret = load_json(a->dir, "cameras.json", &c->cams)) || (ret = load_json(a->dir, "manifest.json", &c->manifest)))
+        return sp_cmd_fail("relight", ret, a->dir);
+    const char *transfer = sp_json_string(sp_json_get(c->manifest, "capture_transfer"), NULL);
+    c->srgb = transfer && !strcmp(transfer, "srgb");
+    sp_face_view v;
+    if ((ret = set_view(c, &v)))
+        return ret;
+    set_light(c, &v);
+    size_t n = (size_t)v.width * (size_t)v.height;
+    float *rgb = malloc(sizeof(float) * 3 * n), *cover = malloc(sizeof(float) * n);
+    ret = rgb && cover ? sp_face_asset_render(&c->fa, &v, rgb, cover) : -ENOMEM;
+    if (!ret)
+        ret = write_rgba(c, rgb, cover, v.width, v.height);
+    free(rgb);
+    free(cover);
+    if (ret)
+        return sp_cmd_fail("relight", ret, a->out);
+    printf("relight: wrote %s (%dx%d)\n", a->out, v.width, v.height);
+    return SP_EXIT_OK;
 }
 
 int sp_cmd_relight(int argc, char **argv)
 {
-    relight_args a = { .scale = 2 };
+    relight_args a = { 0 };
+    for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
+        a.spec_scale[k] = 1.0;
     int p = parse_relight(argc, argv, &a);
     if (p)
         return p > 0 ? SP_EXIT_OK : SP_EXIT_USAGE;
-    sp_face_asset fa;
-    int ret = sp_face_dir_read(&fa, a.dir);
-    if (ret) {
-        fprintf(stderr, "sunprobe relight: %s is not a readable face directory: %s\n", a.dir, sp_strerror(ret));
-        return sp_exit_for_error(ret == -ENOENT ? SP_EFORMAT : ret);
-    }
-    if (a.env && (ret = read_env(a.env, fa.env))) {
-        sp_face_asset_free(&fa);
-        return sp_cmd_fail("relight", ret, "reading --env (16x32x3 float32, non-negative)");
-    }
-    ret = render_to_png(&a, &fa);
-    sp_face_asset_free(&fa);
-    if (ret)
-        return sp_cmd_fail("relight", ret, "rendering");
-    printf("relight: wrote %s\n", a.out);
-    return SP_EXIT_OK;
+    relight_ctx c = { .a = &a };
+    int ret = run_relight(&c);
+    sp_face_asset_free(&c.fa);
+    sp_json_free(c.cams);
+    sp_json_free(c.manifest);
+    return ret;
 }

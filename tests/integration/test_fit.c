@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "export/png_read.h"
 #include "sunprobe/sp_capture.h"
 #include "sunprobe/sp_frame.h"
 #include "sunprobe/sp_sunstage.h"
@@ -91,7 +92,7 @@ static int exists(const char *path)
 /* Runs a command line; returns its exit code, output in dir/out.txt. */
 static int run(const char *args)
 {
-    char cmd[2048];
+    char cmd[4096];
     snprintf(cmd, sizeof(cmd), "%s %s > %s/out.txt 2>&1", sunprobe, args, dir);
     int st = system(cmd);
     return st == -1 ? -1 : WEXITSTATUS(st);
@@ -227,6 +228,82 @@ static int same_bytes(const char *a, const char *b)
     return same;
 }
 
+/* One relight into dir/NAME.png; its RGBA (caller frees) or NULL when it failed. */
+static uint8_t *relight_rgba(const char *face, const char *name, const char *opts, uint32_t *w, uint32_t *h)
+{
+    char args[2048], path[1024];
+    snprintf(path, sizeof(path), "%s/%s.png", dir, name);
+    snprintf(args, sizeof(args), "relight %s -o %s %s", face, path, opts);
+    uint8_t *px = NULL;
+    *w = *h = 0;
+    if (run(args) != 0 || sp_png_read_rgba(path, &px, w, h) != 0)
+        return NULL;
+    return px;
+}
+
+static double coverage(const uint8_t *px, uint32_t w, uint32_t h)
+{
+    double s = 0;
+    for (size_t i = 0; i < (size_t)w * h; i++)
+        s += px[i * 4 + 3] / 255.0;
+    return s;
+}
+
+/*
+ * `relight` views and materials: keyframe 0 and a zero orbit are the default view exactly; the size
+ * option is honoured; specular only adds light (scale 0 never brighter than 1); a dolly zoom keeps
+ * the head's size; extreme focal lengths still render; a keyframe out of range is refused, no file.
+ */
+static void check_relight_views(const char *face)
+{
+    uint32_t w0, h0, w, h;
+    uint8_t *def = relight_rgba(face, "rl-default", "", &w0, &h0);
+    CHECK_MSG(def != NULL, "relight with defaults");
+    if (!def)
+        return;
+    CHECK(w0 > 0 && h0 > 0 && coverage(def, w0, h0) > 100.0);
+    const char *same[] = { "--view keyframe:0", "--orbit 0,0" };
+    for (int i = 0; i < 2; i++) {
+        uint8_t *px = relight_rgba(face, "rl-same", same[i], &w, &h);
+        CHECK_MSG(px && w == w0 && h == h0 && !memcmp(px, def, (size_t)w * h * 4), "relight %s differs", same[i]);
+        free(px);
+    }
+    uint8_t *px = relight_rgba(face, "rl-size", "--size 64x48", &w, &h);
+    CHECK_MSG(px && w == 64 && h == 48, "--size 64x48 gave %ux%u", w, h);
+    free(px);
+    uint8_t *s0 = relight_rgba(face, "rl-spec0", "--specular-scale 0", &w, &h), *s2 = NULL;
+    if (s0 && w == w0 && h == h0) {
+        int brighter = 0;
+        for (size_t i = 0; i < (size_t)w * h * 4; i++)
+            brighter += i % 4 != 3 && s0[i] > def[i];
+        CHECK_MSG(brighter == 0, "%d channels brighter without specular", brighter);
+    } else {
+        CHECK_MSG(0, "--specular-scale 0");
+    }
+    s2 = relight_rgba(face, "rl-spec-nose", "--specular-scale nose=2 --specular-scale 0.5", &w, &h);
+    CHECK(s2 != NULL);
+    free(s0);
+    free(s2);
+    double c0 = coverage(def, w0, h0);
+    uint8_t *tele = relight_rgba(face, "rl-tele", "--focal 10000", &w, &h);
+    CHECK_MSG(tele && coverage(tele, w, h) > 0.6 * c0 && coverage(tele, w, h) < 1.6 * c0,
+              "dolly zoom to 10000 mm: coverage %g against %g", tele ? coverage(tele, w, h) : -1.0, c0);
+    free(tele);
+    uint8_t *wide = relight_rgba(face, "rl-wide", "--focal 1", &w, &h);
+    CHECK_MSG(wide != NULL, "--focal 1 renders");
+    free(wide);
+    uint8_t *orbit = relight_rgba(face, "rl-orbit", "--orbit 180,30 --sun 0,90", &w, &h);
+    CHECK_MSG(orbit && coverage(orbit, w, h) > 0.3 * c0, "the back of the head from above");
+    free(orbit);
+    char args[2048], path[1024];
+    snprintf(path, sizeof(path), "%s/rl-bad.png", dir);
+    snprintf(args, sizeof(args), "relight %s -o %s --view keyframe:999", face, path);
+    CHECK(run(args) == 1 && !exists(path) && output_contains("keyframe:999"));
+    snprintf(args, sizeof(args), "relight %s -o %s --specular-scale teeth=2", face, path);
+    CHECK(run(args) == 1 && !exists(path) && output_contains("teeth"));
+    free(def);
+}
+
 /* The same fit on one solver thread: bit-identical maps and lighting (the solvers' sums are cut by the data). */
 static void check_thread_independence(const char *face)
 {
@@ -307,6 +384,7 @@ static void synth_fit(void)
     CHECK(exists(path));
     snprintf(args, sizeof(args), "relight %s/nothing --sun 30,40 -o %s/x.png", dir, dir);
     CHECK(run(args) == 2);
+    check_relight_views(face);
     snprintf(args, sizeof(args), "fit %s/s.spcap -o %s --face generic", dir, face); /* exists: refuse */
     CHECK(run(args) == 1);
 }
