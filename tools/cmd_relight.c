@@ -21,6 +21,8 @@
 #include "sunprobe/sp_sunstage.h"
 
 #define MAX_SIZE 8192
+#define MAX_FILLS 8
+#define AREA_SUN_SAMPLES 24 /* directions over an area sun's disk */
 #define FILM_HALF_WIDTH_MM 18.0 /* --focal is the 35 mm equivalent: a 36 mm wide frame */
 
 /* Names for --specular-scale NAME=S, in cluster order (FACE_MODEL.md). */
@@ -28,9 +30,15 @@ static const char *const cluster_names[SP_RENDER_CLUSTERS] = { "forehead",  "nos
                                                                "chin",      "lips",      "left-eye",   "right-eye",
                                                                "jaw-neck",  "other" };
 
+typedef struct fill_light {
+    double az, el, intensity, rgb[3];
+} fill_light;
+
 typedef struct relight_args {
     const char *dir, *out, *env;
-    double az, el, intensity, exposure;
+    double az, el, intensity, exposure, sun_size;
+    fill_light fill[MAX_FILLS];
+    int n_fill;
     int have_sun, scale, keyframe, width, height, have_orbit;
     double orbit_az, orbit_el, fov_deg, focal_mm;
     double spec_scale[SP_RENDER_CLUSTERS];
@@ -46,6 +54,8 @@ static void relight_usage(FILE *out)
             "  --sun AZ,EL        sun azimuth (from world +x towards +y) and elevation, degrees\n"
             "                     (default: the fitted sun; none if the fit left it out)\n"
             "  --intensity I      sun irradiance (default: the fitted one, 3 if the fit had no sun)\n"
+            "  --sun-size DEG     the sun's angular diameter: soft shadows and highlights (default 0: a point)\n"
+            "  --fill dir,AZ,EL,I[,R,G,B]  a directional fill light with its own shadow (repeatable, 8)\n"
             "  --env FILE         16x32 RGB float32 environment map (raw, as env.f32); default: fitted\n"
             "  --exposure E       exposure (default 1)\n"
             "camera:\n"
@@ -117,7 +127,8 @@ static int parse_relight(int argc, char **argv, relight_args *a)
         { "scale", required_argument, NULL, 'S' },   { "view", required_argument, NULL, 'v' },
         { "orbit", required_argument, NULL, 'b' },   { "fov", required_argument, NULL, 'f' },
         { "focal", required_argument, NULL, 'F' },   { "size", required_argument, NULL, 'z' },
-        { "specular-scale", required_argument, NULL, 'k' }, { 0 },
+        { "specular-scale", required_argument, NULL, 'k' }, { "sun-size", required_argument, NULL, 'a' },
+        { "fill", required_argument, NULL, 'l' }, { 0 },
     };
     int c;
     char *end;
@@ -177,6 +188,28 @@ static int parse_relight(int argc, char **argv, relight_args *a)
             if (parse_specular(optarg, a))
                 return -1;
             break;
+        case 'a':
+            a->sun_size = strtod(optarg, &end);
+            if (end == optarg || *end || !(a->sun_size >= 0.0 && a->sun_size <= 180.0))
+                return bad_option("--sun-size", optarg, "degrees in [0, 180]");
+            break;
+        case 'l': {
+            fill_light *f = &a->fill[a->n_fill];
+            f->rgb[0] = f->rgb[1] = f->rgb[2] = 1.0;
+            int got = a->n_fill < MAX_FILLS ? sscanf(optarg, "dir,%lf,%lf,%lf,%lf,%lf,%lf", &f->az, &f->el,
+                                                     &f->intensity, &f->rgb[0], &f->rgb[1], &f->rgb[2])
+                                            : 0;
+            int ok = (got == 3 || got == 6) && fabs(f->az) <= 720.0 && f->el >= -90.0 && f->el <= 90.0 &&
+                     f->intensity >= 0.0 && f->intensity <= 1e6;
+            for (int k = 0; ok && k < 3; k++)
+                ok = f->rgb[k] >= 0.0 && f->rgb[k] <= 1e3;
+            if (!ok)
+                return bad_option("--fill", optarg,
+                                  "dir,AZ,EL,INTENSITY[,R,G,B] (degrees, intensity in [0, 1e6], at most 8 fills; "
+                                  "point lights are not built yet)");
+            a->n_fill++;
+            break;
+        }
         default: return -1;
         }
     }
@@ -278,6 +311,15 @@ static void mat_vec(const double R[9], const double x[3], double y[3])
 {
     for (int i = 0; i < 3; i++)
         y[i] = R[i * 3] * x[0] + R[i * 3 + 1] * x[1] + R[i * 3 + 2] * x[2];
+}
+
+/* Direction towards a light at azimuth (from world +x towards +y) and elevation, degrees. */
+static void sun_vector(double az_deg, double el_deg, double d[3])
+{
+    double az = az_deg * M_PI / 180.0, el = el_deg * M_PI / 180.0;
+    d[0] = cos(el) * cos(az);
+    d[1] = cos(el) * sin(az);
+    d[2] = sin(el);
 }
 
 /* Vertex i of the asset where view v puts it in the world. */
@@ -441,10 +483,7 @@ static void set_light(relight_ctx *c, sp_face_view *v)
     const relight_args *a = c->a;
     int fitted_sun = !(c->fa.left_out & SP_FACE_LEFT_OUT_SUN) && c->fa.sun_intensity > 0.0;
     if (a->have_sun) {
-        double az = a->az * M_PI / 180.0, el = a->el * M_PI / 180.0;
-        v->sun_dir[0] = cos(el) * cos(az);
-        v->sun_dir[1] = cos(el) * sin(az);
-        v->sun_dir[2] = sin(el);
+        sun_vector(a->az, a->el, v->sun_dir);
         v->sun_intensity = a->intensity > 0.0 ? a->intensity : (fitted_sun ? c->fa.sun_intensity : 3.0);
     } else {
         v->sun_intensity = fitted_sun ? (a->intensity > 0.0 ? a->intensity : c->fa.sun_intensity) : 0.0;
@@ -454,8 +493,8 @@ static void set_light(relight_ctx *c, sp_face_view *v)
         c->fa.ks[k] *= a->spec_scale[k];
 }
 
-/* RGBA in the capture's encoding: sRGB for an sRGB capture, else the fit's own display values. */
-static int write_rgba(const relight_ctx *c, const float *rgb, const float *cover, int W, int H)
+/* RGBA of linear light in the capture's encoding: sRGB (clipped) for an sRGB capture, else the fit's tone map. */
+static int write_rgba(const relight_ctx *c, const float *radiance, const float *cover, int W, int H, double exposure)
 {
     size_t n = (size_t)W * (size_t)H;
     uint8_t *px = malloc(n * 4);
@@ -463,15 +502,77 @@ static int write_rgba(const relight_ctx *c, const float *rgb, const float *cover
         return -ENOMEM;
     for (size_t i = 0; i < n; i++) {
         for (int k = 0; k < 3; k++) {
-            double d = (double)rgb[i * 3 + (size_t)k];
-            if (c->srgb)
-                d = sp_sunstage_display_to_srgb(d);
+            double x = exposure * (double)radiance[i * 3 + (size_t)k];
+            double d = c->srgb ? (x >= 1.0 ? 1.0 : (x > 0.0 ? sp_srgb_encode(x) : 0.0))
+                               : sp_sunstage_linear_to_display(x);
             px[i * 4 + (size_t)k] = (uint8_t)lround(255.0 * fmin(1.0, fmax(0.0, d)));
         }
         px[i * 4 + 3] = (uint8_t)lround(255.0 * fmin(1.0, fmax(0.0, (double)cover[i])));
     }
     int ret = sp_png_write(c->a->out, px, (uint32_t)W, (uint32_t)H, (uint32_t)W * 4, 4);
     free(px);
+    return ret;
+}
+
+/* out += the view's radiance under v's light (scaled per channel by rgb, NULL = white); cover set if not NULL. */
+static int add_render(relight_ctx *c, const sp_face_view *v, const double *rgb, float *out, float *cover, float *tmp)
+{
+    size_t n = (size_t)v->width * (size_t)v->height;
+    int ret = sp_face_asset_render_radiance(&c->fa, v, tmp, cover);
+    for (size_t i = 0; !ret && i < n * 3; i++)
+        out[i] += (float)((double)tmp[i] * (rgb ? rgb[i % 3] : 1.0));
+    return ret;
+}
+
+/*
+ * Light is additive: the sky with the sun (one render when the sun is a point), then an area sun as
+ * AREA_SUN_SAMPLES point suns spread evenly (Fibonacci spiral) over its disk, each a share of its
+ * irradiance and its own shadow, then every fill with its own shadow and colour; in linear light.
+ */
+static int render_lights(relight_ctx *c, const sp_face_view *v0, float *sum, float *cover)
+{
+    const relight_args *a = c->a;
+    size_t n = (size_t)v0->width * (size_t)v0->height;
+    float *tmp = malloc(sizeof(float) * 3 * n), *dark = calloc(SP_RENDER_ENV_FLOATS, sizeof(float));
+    int ret = tmp && dark ? 0 : -ENOMEM;
+    memset(sum, 0, sizeof(float) * 3 * n);
+    sp_face_view v = *v0;
+    int area = a->sun_size > 0.0 && v0->sun_intensity > 0.0;
+    if (area)
+        v.sun_intensity = 0.0;
+    if (!ret)
+        ret = add_render(c, &v, NULL, sum, cover, tmp);
+    v.env = dark;
+    memcpy(v.env_to_world, (double[9]){ 1, 0, 0, 0, 1, 0, 0, 0, 1 }, sizeof(v.env_to_world));
+    if (area) {
+        const double *s = v0->sun_dir, r = 0.5 * a->sun_size * M_PI / 180.0;
+        double u[3] = { fabs(s[0]) < 0.9 ? 1.0 : 0.0, fabs(s[0]) < 0.9 ? 0.0 : 1.0, 0.0 }, w[3];
+        double t = u[0] * s[0] + u[1] * s[1] + u[2] * s[2];
+        for (int k = 0; k < 3; k++)
+            u[k] -= t * s[k];
+        double un = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+        for (int k = 0; k < 3; k++)
+            u[k] /= un;
+        w[0] = s[1] * u[2] - s[2] * u[1], w[1] = s[2] * u[0] - s[0] * u[2], w[2] = s[0] * u[1] - s[1] * u[0];
+        v.sun_intensity = v0->sun_intensity / AREA_SUN_SAMPLES;
+        for (int i = 0; !ret && i < AREA_SUN_SAMPLES; i++) {
+            /* equal-area rings of the spherical cap: cos of the angle uniform in [cos r, 1] */
+            double ct = 1.0 - (1.0 - cos(r)) * ((double)i + 0.5) / AREA_SUN_SAMPLES, st = sqrt(fmax(0.0, 1.0 - ct * ct));
+            double ph = (double)i * M_PI * (3.0 - sqrt(5.0));
+            for (int k = 0; k < 3; k++)
+                v.sun_dir[k] = ct * s[k] + st * (cos(ph) * u[k] + sin(ph) * w[k]);
+            ret = add_render(c, &v, NULL, sum, NULL, tmp);
+        }
+    }
+    for (int f = 0; !ret && f < a->n_fill; f++) {
+        if (!(a->fill[f].intensity > 0.0))
+            continue; /* no light, nothing to add */
+        sun_vector(a->fill[f].az, a->fill[f].el, v.sun_dir);
+        v.sun_intensity = a->fill[f].intensity;
+        ret = add_render(c, &v, a->fill[f].rgb, sum, NULL, tmp);
+    }
+    free(tmp);
+    free(dark);
     return ret;
 }
 
@@ -494,11 +595,11 @@ static int run_relight(relight_ctx *c)
         return ret;
     set_light(c, &v);
     size_t n = (size_t)v.width * (size_t)v.height;
-    float *rgb = malloc(sizeof(float) * 3 * n), *cover = malloc(sizeof(float) * n);
-    ret = rgb && cover ? sp_face_asset_render(&c->fa, &v, rgb, cover) : -ENOMEM;
+    float *sum = malloc(sizeof(float) * 3 * n), *cover = malloc(sizeof(float) * n);
+    ret = sum && cover ? render_lights(c, &v, sum, cover) : -ENOMEM;
     if (!ret)
-        ret = write_rgba(c, rgb, cover, v.width, v.height);
-    free(rgb);
+        ret = write_rgba(c, sum, cover, v.width, v.height, v.exposure);
+    free(sum);
     free(cover);
     if (ret)
         return sp_cmd_fail("relight", ret, a->out);

@@ -250,6 +250,14 @@ SP_API void sp_face_view_init(sp_face_view *v, const sp_face_asset *asset);
  * view (size, intrinsics, non-finite pose), -ENOMEM.
  */
 SP_API int sp_face_asset_render(const sp_face_asset *asset, const sp_face_view *v, float *rgb, float *mask);
+/*
+ * The same view as linear radiance (width * height * 3, before exposure and the tone map): what
+ * several renders of one view under different lights are summed in (light is additive).
+ */
+SP_API int sp_face_asset_render_radiance(const sp_face_asset *asset, const sp_face_view *v, float *radiance,
+                                         float *mask);
+/* The fit's tone map (the display encoding sp_face_asset_render returns) of linear light x >= 0. */
+SP_API double sp_sunstage_linear_to_display(double x);
 
 #ifdef __cplusplus
 }

@@ -95,9 +95,9 @@ static void face_coverage(const sp_render_outputs *o, const sp_mesh *m, const ui
         }
 }
 
-int sp_face_asset_render(const sp_face_asset *a, const sp_face_view *v, float *rgb, float *mask)
+static int render_view(const sp_face_asset *a, const sp_face_view *v, float *rgb, float *radiance, float *mask)
 {
-    if (!a || !v || !rgb || !a->mesh.n_vertices || v->width < 1 || v->height < 1 || v->width > 8192 ||
+    if (!a || !v || !(rgb || radiance) || !a->mesh.n_vertices || v->width < 1 || v->height < 1 || v->width > 8192 ||
         v->height > 8192 || v->supersample < 1 || v->supersample > 4 || !(v->camera.fx > 0.0) ||
         !(v->camera.fy > 0.0) || !finite_n(v->asset_to_world, 12) || !finite_n(v->env_to_world, 9) ||
         !finite_n(v->camera.R, 9) || !finite_n(v->camera.t, 3) || !(v->sun_intensity >= 0.0))
@@ -147,7 +147,10 @@ int sp_face_asset_render(const sp_face_asset *a, const sp_face_view *v, float *r
     if ((ret = sp_render(r, &sc, &o)))
         goto done;
     size_t npx = (size_t)v->width * (size_t)v->height;
-    memcpy(rgb, o.image, sizeof(float) * 3 * npx);
+    if (rgb)
+        memcpy(rgb, o.image, sizeof(float) * 3 * npx);
+    if (radiance)
+        memcpy(radiance, o.radiance, sizeof(float) * 3 * npx);
     if (mask)
         face_coverage(&o, &a->mesh, v->vertex_mask, mask);
 done:
@@ -155,4 +158,14 @@ done:
     free(pos);
     free(env);
     return ret;
+}
+
+int sp_face_asset_render(const sp_face_asset *a, const sp_face_view *v, float *rgb, float *mask)
+{
+    return rgb ? render_view(a, v, rgb, NULL, mask) : -EINVAL;
+}
+
+int sp_face_asset_render_radiance(const sp_face_asset *a, const sp_face_view *v, float *radiance, float *mask)
+{
+    return radiance ? render_view(a, v, NULL, radiance, mask) : -EINVAL;
 }

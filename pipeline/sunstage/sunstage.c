@@ -426,6 +426,11 @@ int sp_sunstage_align_world(const sp_sunstage *ss, double R[9])
     return 0;
 }
 
+double sp_sunstage_linear_to_display(double x)
+{
+    return ss_tonemap(x);
+}
+
 double sp_sunstage_display_to_srgb(double display)
 {
     double L = ss_tonemap_inverse(display, NULL);

@@ -249,6 +249,54 @@ static double coverage(const uint8_t *px, uint32_t w, uint32_t h)
     return s;
 }
 
+/* Sum of absolute differences between horizontal neighbours on the head (alpha 255): edges, shadows' too. */
+static double edge_energy(const uint8_t *px, uint32_t w, uint32_t h)
+{
+    double e = 0;
+    for (size_t y = 0; y < h; y++)
+        for (size_t x = 0; x + 1 < w; x++) {
+            const uint8_t *a = px + (y * w + x) * 4, *b = a + 4;
+            if (a[3] == 255 && b[3] == 255)
+                for (int k = 0; k < 3; k++)
+                    e += abs((int)a[k] - (int)b[k]);
+        }
+    return e;
+}
+
+/*
+ * Lights add: a fill of intensity 0 changes nothing; an area sun of 0.001 deg is the point sun (to a
+ * level); a 90 deg sun has softer shadows (less edge energy) than the point sun; a coloured fill adds.
+ */
+static void check_relight_lights(const char *face, uint32_t w0, uint32_t h0)
+{
+    uint32_t w, h;
+    uint8_t *pt = relight_rgba(face, "rl-point", "--sun 60,20", &w, &h);
+    uint8_t *f0 = relight_rgba(face, "rl-fill0", "--sun 60,20 --fill dir,240,10,0", &w, &h);
+    uint8_t *tiny = relight_rgba(face, "rl-tiny", "--sun 60,20 --sun-size 0.001", &w, &h);
+    uint8_t *wide = relight_rgba(face, "rl-area90", "--sun 60,20 --sun-size 90", &w, &h);
+    uint8_t *fill = relight_rgba(face, "rl-fill", "--sun 60,20 --fill dir,240,10,2,0.2,0.4,1", &w, &h);
+    CHECK(pt && f0 && tiny && wide && fill && w == w0 && h == h0);
+    if (pt && f0 && tiny && wide && fill && w == w0 && h == h0) {
+        size_t n = (size_t)w * h * 4;
+        CHECK_MSG(!memcmp(pt, f0, n), "a fill of intensity 0 changed the image");
+        int worst = 0, darker = 0, bluer = 0;
+        for (size_t i = 0; i < n; i++) {
+            worst = abs((int)pt[i] - (int)tiny[i]) > worst ? abs((int)pt[i] - (int)tiny[i]) : worst;
+            darker += i % 4 != 3 && fill[i] < pt[i];
+            bluer += i % 4 == 2 && fill[i] > pt[i];
+        }
+        CHECK_MSG(worst <= 2, "a 0.001 deg sun differs from the point sun by %d levels", worst);
+        CHECK_MSG(darker == 0 && bluer > 100, "a fill darkened %d channels, brightened %d blue ones", darker, bluer);
+        double ep = edge_energy(pt, w, h), ea = edge_energy(wide, w, h);
+        CHECK_MSG(ea < ep, "a 90 deg sun: edge energy %g, the point sun's %g", ea, ep);
+    }
+    free(pt);
+    free(f0);
+    free(tiny);
+    free(wide);
+    free(fill);
+}
+
 /*
  * `relight` views and materials: keyframe 0 and a zero orbit are the default view exactly; the size
  * option is honoured; specular only adds light (scale 0 never brighter than 1); a dolly zoom keeps
@@ -295,6 +343,7 @@ static void check_relight_views(const char *face)
     uint8_t *orbit = relight_rgba(face, "rl-orbit", "--orbit 180,30 --sun 0,90", &w, &h);
     CHECK_MSG(orbit && coverage(orbit, w, h) > 0.3 * c0, "the back of the head from above");
     free(orbit);
+    check_relight_lights(face, w0, h0);
     char args[2048], path[1024];
     snprintf(path, sizeof(path), "%s/rl-bad.png", dir);
     snprintf(args, sizeof(args), "relight %s -o %s --view keyframe:999", face, path);
