@@ -4,6 +4,7 @@
 
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <string>
 
@@ -31,7 +32,58 @@ int write_exr(const std::string &path, const float *pixels, uint32_t width, uint
     return ok ? 0 : -EIO;
 }
 
+int read_rgb(const char *path, float **rgb, uint32_t *width, uint32_t *height)
+{
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) {
+        std::string e = OIIO::geterror();
+        sp_log(SP_LOG_ERROR, "oiio", "%s: %s", path, e.c_str());
+        return e.find("No such file") != std::string::npos || e.find("not exist") != std::string::npos ? -ENOENT
+                                                                                                         : SP_EFORMAT;
+    }
+    const OIIO::ImageSpec &spec = in->spec();
+    int nc = spec.nchannels;
+    if (spec.width < 1 || spec.height < 1 || nc < 1 || (long long)spec.width * spec.height > (1LL << 28)) {
+        sp_log(SP_LOG_ERROR, "oiio", "%s: %dx%d with %d channels: not a usable image", path, spec.width, spec.height, nc);
+        return SP_EFORMAT;
+    }
+    size_t n = (size_t)spec.width * (size_t)spec.height;
+    std::unique_ptr<float[]> all(new float[n * (size_t)nc]);
+    if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, all.get())) {
+        sp_log(SP_LOG_ERROR, "oiio", "%s: %s", path, in->geterror().c_str());
+        return -EIO;
+    }
+    float *out = static_cast<float *>(std::malloc(sizeof(float) * n * 3));
+    if (!out)
+        return -ENOMEM;
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++)
+            out[i * 3 + (size_t)k] = all[i * (size_t)nc + (size_t)(nc >= 3 ? k : 0)];
+    *rgb = out;
+    *width = (uint32_t)spec.width;
+    *height = (uint32_t)spec.height;
+    return 0;
+}
+
 } // namespace
+
+extern "C" int sp_image_read_rgb(const char *path, float **rgb, uint32_t *width, uint32_t *height)
+{
+    if (!path || !rgb || !width || !height)
+        return -EINVAL;
+    *rgb = nullptr;
+    try {
+        return read_rgb(path, rgb, width, height);
+    } catch (const std::bad_alloc &) {
+        return -ENOMEM;
+    } catch (const std::exception &e) {
+        sp_log(SP_LOG_ERROR, "oiio", "%s: %s", path, e.what());
+        return -EIO;
+    } catch (...) {
+        sp_log(SP_LOG_ERROR, "oiio", "%s: unknown exception", path);
+        return -EIO;
+    }
+}
 
 extern "C" int sp_exr_write(const char *path, const float *pixels, uint32_t width, uint32_t height, int channels)
 {

@@ -11,11 +11,14 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "cmd.h"
 #include "common/file_util.h"
 #include "common/json.h"
+#include "export/oiio_shim.h"
 #include "export/png.h"
+#include "sp_config.h"
 #include "sunprobe/sp_math.h"
 #include "sunprobe/sp_render.h"
 #include "sunprobe/sp_sunstage.h"
@@ -36,7 +39,7 @@ typedef struct fill_light {
 
 typedef struct relight_args {
     const char *dir, *out, *env;
-    double az, el, intensity, exposure, sun_size;
+    double az, el, intensity, exposure, sun_size, env_rotate;
     fill_light fill[MAX_FILLS];
     int n_fill;
     int have_sun, scale, keyframe, width, height, have_orbit;
@@ -56,7 +59,10 @@ static void relight_usage(FILE *out)
             "  --intensity I      sun irradiance (default: the fitted one, 3 if the fit had no sun)\n"
             "  --sun-size DEG     the sun's angular diameter: soft shadows and highlights (default 0: a point)\n"
             "  --fill dir,AZ,EL,I[,R,G,B]  a directional fill light with its own shadow (repeatable, 8)\n"
-            "  --env FILE         16x32 RGB float32 environment map (raw, as env.f32); default: fitted\n"
+            "  --env FILE         the sky: an equirectangular image (OpenEXR, Radiance .hdr, PFM, ... through\n"
+            "                     OpenImageIO; z up, row 0 straight up, u = azimuth / 360 from world +x\n"
+            "                     towards +y, linear), or a raw 16x32x3 float32 .f32 as env.f32; default: fitted\n"
+            "  --env-rotate DEG   turn --env about the vertical by DEG (azimuth)\n"
             "  --exposure E       exposure (default 1)\n"
             "camera:\n"
             "  --view keyframe:N  the view, the face's pose and its light of keyframe N (cameras.json\n"
@@ -128,7 +134,7 @@ static int parse_relight(int argc, char **argv, relight_args *a)
         { "orbit", required_argument, NULL, 'b' },   { "fov", required_argument, NULL, 'f' },
         { "focal", required_argument, NULL, 'F' },   { "size", required_argument, NULL, 'z' },
         { "specular-scale", required_argument, NULL, 'k' }, { "sun-size", required_argument, NULL, 'a' },
-        { "fill", required_argument, NULL, 'l' }, { 0 },
+        { "fill", required_argument, NULL, 'l' }, { "env-rotate", required_argument, NULL, 'r' }, { 0 },
     };
     int c;
     char *end;
@@ -188,6 +194,11 @@ static int parse_relight(int argc, char **argv, relight_args *a)
             if (parse_specular(optarg, a))
                 return -1;
             break;
+        case 'r':
+            a->env_rotate = strtod(optarg, &end);
+            if (end == optarg || *end || !(fabs(a->env_rotate) <= 720.0))
+                return bad_option("--env-rotate", optarg, "degrees, |DEG| <= 720");
+            break;
         case 'a':
             a->sun_size = strtod(optarg, &end);
             if (end == optarg || *end || !(a->sun_size >= 0.0 && a->sun_size <= 180.0))
@@ -221,19 +232,113 @@ static int parse_relight(int argc, char **argv, relight_args *a)
     return 0;
 }
 
-static int read_env(const char *path, float *env)
+static int ends_with(const char *s, const char *tail)
+{
+    size_t n = strlen(s), m = strlen(tail);
+    return n >= m && !strcmp(s + n - m, tail);
+}
+
+static int read_raw_env(const char *path, float *env)
 {
     FILE *f = fopen(path, "rb");
-    if (!f)
-        return -errno;
+    if (!f) {
+        int e = errno;
+        fprintf(stderr, "sunprobe relight: --env %s: %s\n", path, strerror(e));
+        return -e;
+    }
     size_t n = fread(env, sizeof(float), SP_RENDER_ENV_FLOATS, f);
     int extra = fgetc(f) != EOF;
     fclose(f);
-    if (n != SP_RENDER_ENV_FLOATS || extra)
+    if (n != SP_RENDER_ENV_FLOATS || extra) {
+        fprintf(stderr, "sunprobe relight: --env %s: a raw map is 16x32x3 float32 (6144 bytes)\n", path);
         return SP_EFORMAT;
+    }
+    return 0;
+}
+
+/*
+ * An equirectangular image (w x h, z up, row 0 straight up, u = azimuth / 2 pi from +x towards +y)
+ * into the renderer's 16 x 32 map, turned by rot radians of azimuth: each texel the solid-angle
+ * weighted mean of the pixels whose centres fall in it, or for a map coarser than that the pixel at
+ * the texel's centre.
+ */
+static void resample_env(const float *px, uint32_t w, uint32_t h, double rot, float *env)
+{
+    double acc[SP_RENDER_ENV_FLOATS] = { 0 }, wsum[SP_RENDER_ENV_H * SP_RENDER_ENV_W] = { 0 };
+    for (uint32_t y = 0; y < h; y++) {
+        double theta = ((double)y + 0.5) / h * M_PI, sw = sin(theta);
+        int row = (int)(theta / M_PI * SP_RENDER_ENV_H);
+        row = row >= SP_RENDER_ENV_H ? SP_RENDER_ENV_H - 1 : row;
+        for (uint32_t x = 0; x < w; x++) {
+            double phi = fmod(((double)x + 0.5) / w * 2.0 * M_PI + rot, 2.0 * M_PI);
+            phi = phi < 0.0 ? phi + 2.0 * M_PI : phi;
+            int col = (int)(phi / (2.0 * M_PI) * SP_RENDER_ENV_W) % SP_RENDER_ENV_W;
+            size_t t = (size_t)row * SP_RENDER_ENV_W + (size_t)col;
+            for (int k = 0; k < 3; k++)
+                acc[t * 3 + (size_t)k] += sw * (double)px[((size_t)y * w + x) * 3 + (size_t)k];
+            wsum[t] += sw;
+        }
+    }
+    for (int row = 0; row < SP_RENDER_ENV_H; row++)
+        for (int col = 0; col < SP_RENDER_ENV_W; col++) {
+            size_t t = (size_t)row * SP_RENDER_ENV_W + (size_t)col;
+            if (wsum[t] > 0.0) {
+                for (int k = 0; k < 3; k++)
+                    env[t * 3 + (size_t)k] = (float)(acc[t * 3 + (size_t)k] / wsum[t]);
+                continue;
+            }
+            double phi = fmod(((double)col + 0.5) / SP_RENDER_ENV_W * 2.0 * M_PI - rot + 4.0 * M_PI, 2.0 * M_PI);
+            uint32_t x = (uint32_t)(phi / (2.0 * M_PI) * w) % w;
+            uint32_t y = (uint32_t)(((double)row + 0.5) / SP_RENDER_ENV_H * h);
+            y = y >= h ? h - 1 : y;
+            for (int k = 0; k < 3; k++)
+                env[t * 3 + (size_t)k] = px[((size_t)y * w + x) * 3 + (size_t)k];
+        }
+}
+
+/* --env: raw .f32 or an equirectangular image; refuses other aspects, negative and non-finite light. */
+static int read_env(const relight_args *a, float *env)
+{
+    int ret;
+    if (ends_with(a->env, ".f32")) {
+        if ((ret = read_raw_env(a->env, env)))
+            return ret;
+        if (a->env_rotate != 0.0) { /* a raw map is an equirectangular image too */
+            float raw[SP_RENDER_ENV_FLOATS];
+            memcpy(raw, env, sizeof(raw));
+            resample_env(raw, SP_RENDER_ENV_W, SP_RENDER_ENV_H, a->env_rotate * M_PI / 180.0, env);
+        }
+    } else {
+        if (access(a->env, R_OK) != 0) {
+            int e = errno;
+            fprintf(stderr, "sunprobe relight: --env %s: %s\n", a->env, strerror(e));
+            return -e;
+        }
+#if HAVE_OPENIMAGEIO
+        float *px = NULL;
+        uint32_t w = 0, h = 0;
+        if ((ret = sp_image_read_rgb(a->env, &px, &w, &h))) {
+            fprintf(stderr, "sunprobe relight: --env %s: not readable as an image: %s\n", a->env, sp_strerror(ret));
+            return ret;
+        }
+        if (w != 2 * h) {
+            fprintf(stderr, "sunprobe relight: --env %s is %ux%u: an equirectangular map is twice as wide as tall\n",
+                    a->env, w, h);
+            free(px);
+            return SP_EFORMAT;
+        }
+        resample_env(px, w, h, a->env_rotate * M_PI / 180.0, env);
+        free(px);
+#else
+        fprintf(stderr, "sunprobe relight: --env %s: this build reads only raw .f32 maps (no OpenImageIO)\n", a->env);
+        return SP_EUNSUPPORTED;
+#endif
+    }
     for (int i = 0; i < SP_RENDER_ENV_FLOATS; i++)
-        if (!isfinite(env[i]) || env[i] < 0.0f)
+        if (!isfinite(env[i]) || env[i] < 0.0f) {
+            fprintf(stderr, "sunprobe relight: --env %s: a negative or non-finite radiance\n", a->env);
             return SP_ECORRUPT;
+        }
     return 0;
 }
 
@@ -584,8 +689,8 @@ static int run_relight(relight_ctx *c)
         fprintf(stderr, "sunprobe relight: %s is not a readable face directory: %s\n", a->dir, sp_strerror(ret));
         return sp_exit_for_error(ret == -ENOENT ? SP_EFORMAT : ret);
     }
-    if (a->env && (ret = read_env(a->env, c->fa.env)))
-        return sp_cmd_fail("relight", ret, "reading --env (16x32x3 float32, non-negative)");
+    if (a->env && (ret = read_env(a, c->fa.env)))
+        return sp_exit_for_error(ret);
     if ((ret = load_json(a->dir, "cameras.json", &c->cams)) || (ret = load_json(a->dir, "manifest.json", &c->manifest)))
         return sp_cmd_fail("relight", ret, a->dir);
     const char *transfer = sp_json_string(sp_json_get(c->manifest, "capture_transfer"), NULL);

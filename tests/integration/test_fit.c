@@ -297,6 +297,63 @@ static void check_relight_lights(const char *face, uint32_t w0, uint32_t h0)
     free(fill);
 }
 
+/* The face's env.f32 as a PFM twice its size (each texel 2 x 2 pixels), or w x h of white for a bad aspect. */
+static int write_env_pfm(const char *face, const char *path, int bad_aspect)
+{
+    char src[1024];
+    snprintf(src, sizeof(src), "%s/env.f32", face);
+    float env[32 * 16 * 3];
+    FILE *f = fopen(src, "rb");
+    size_t n = f ? fread(env, sizeof(float), 32 * 16 * 3, f) : 0;
+    if (f)
+        fclose(f);
+    FILE *o = n == 32 * 16 * 3 ? fopen(path, "wb") : NULL;
+    if (!o)
+        return -1;
+    int w = bad_aspect ? 48 : 64, h = 32;
+    fprintf(o, "PF\n%d %d\n-1.0\n", w, h);
+    for (int y = h - 1; y >= 0; y--) /* PFM: the bottom row first */
+        for (int x = 0; x < w; x++)
+            for (int k = 0; k < 3; k++) {
+                float v = bad_aspect ? 1.0f : env[((y / 2) * 32 + x / 2) * 3 + k];
+                fwrite(&v, sizeof(v), 1, o);
+            }
+    return fclose(o) == 0 ? 0 : -1;
+}
+
+/*
+ * --env: the fitted sky written as a PFM at twice its resolution reads back (through OpenImageIO) to
+ * the same image as the fitted sky; a turn by 360 deg changes nothing; a map that is not 2:1 is
+ * refused naming its size, with no file. Skipped where the build has no OpenImageIO (exit 4).
+ */
+static void check_relight_env(const char *face, const uint8_t *def, uint32_t w0, uint32_t h0)
+{
+    char pfm[1024], bad[1024], opts[2200], args[4096], out[1024];
+    snprintf(pfm, sizeof(pfm), "%s/env64.pfm", dir);
+    snprintf(bad, sizeof(bad), "%s/env48.pfm", dir);
+    CHECK(write_env_pfm(face, pfm, 0) == 0 && write_env_pfm(face, bad, 1) == 0);
+    snprintf(out, sizeof(out), "%s/rl-envbad.png", dir);
+    snprintf(args, sizeof(args), "relight %s -o %s --env %s", face, out, bad);
+    int rc = run(args);
+    if (rc == 4) {
+        printf("SKIP (--env images): this build has no OpenImageIO\n");
+        return;
+    }
+    CHECK_MSG(rc == 2 && !exists(out) && output_contains("48x32"), "a 48x32 map: exit %d", rc);
+    uint32_t w, h;
+    snprintf(opts, sizeof(opts), "--env %s", pfm);
+    uint8_t *px = relight_rgba(face, "rl-env", opts, &w, &h);
+    CHECK_MSG(px && w == w0 && h == h0 && !memcmp(px, def, (size_t)w * h * 4), "the fitted sky through a PFM differs");
+    free(px);
+    snprintf(opts, sizeof(opts), "--env %s --env-rotate 360", pfm);
+    px = relight_rgba(face, "rl-env360", opts, &w, &h);
+    int worst = 0;
+    for (size_t i = 0; px && w == w0 && h == h0 && i < (size_t)w * h * 4; i++)
+        worst = abs((int)px[i] - (int)def[i]) > worst ? abs((int)px[i] - (int)def[i]) : worst;
+    CHECK_MSG(px && worst <= 1, "the sky turned by 360 deg differs by %d levels", worst);
+    free(px);
+}
+
 /*
  * `relight` views and materials: keyframe 0 and a zero orbit are the default view exactly; the size
  * option is honoured; specular only adds light (scale 0 never brighter than 1); a dolly zoom keeps
@@ -344,6 +401,7 @@ static void check_relight_views(const char *face)
     CHECK_MSG(orbit && coverage(orbit, w, h) > 0.3 * c0, "the back of the head from above");
     free(orbit);
     check_relight_lights(face, w0, h0);
+    check_relight_env(face, def, w0, h0);
     char args[2048], path[1024];
     snprintf(path, sizeof(path), "%s/rl-bad.png", dir);
     snprintf(args, sizeof(args), "relight %s -o %s --view keyframe:999", face, path);
