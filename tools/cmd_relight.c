@@ -13,12 +13,16 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "capture_open.h"
 #include "cmd.h"
+#include "common/pixconv.h"
 #include "common/file_util.h"
 #include "common/json.h"
 #include "export/oiio_shim.h"
 #include "export/png.h"
 #include "sp_config.h"
+#include "sunprobe/sp_capture.h"
+#include "sunprobe/sp_face_model.h"
 #include "sunprobe/sp_math.h"
 #include "sunprobe/sp_render.h"
 #include "sunprobe/sp_sunstage.h"
@@ -38,7 +42,8 @@ typedef struct fill_light {
 } fill_light;
 
 typedef struct relight_args {
-    const char *dir, *out, *env;
+    const char *dir, *out, *env, *capture;
+    int background_keyframe, have_view; /* --background capture:N (-1: none) */
     double az, el, intensity, exposure, sun_size, env_rotate;
     fill_light fill[MAX_FILLS];
     int n_fill;
@@ -71,6 +76,11 @@ static void relight_usage(FILE *out)
             "  --fov DEG          horizontal field of view; the camera moves so the head keeps its size\n"
             "  --focal MM         the same as a 35 mm-equivalent focal length\n"
             "  --size WxH         output size (default: the capture's frame size)\n"
+            "background (default: transparent):\n"
+            "  --background capture:N  composited into keyframe N's own frame of --capture FILE.spcap (the\n"
+            "                     view becomes keyframe N's unless --view is given), through the face mask\n"
+            "                     with a feathered edge: an edit that reads as the photograph\n"
+            "  --capture FILE     the capture the face was fitted from\n"
             "  --scale N          output size as a multiple of the fit resolution instead\n"
             "material:\n"
             "  --specular-scale S         every cluster's specular times S\n"
@@ -134,7 +144,8 @@ static int parse_relight(int argc, char **argv, relight_args *a)
         { "orbit", required_argument, NULL, 'b' },   { "fov", required_argument, NULL, 'f' },
         { "focal", required_argument, NULL, 'F' },   { "size", required_argument, NULL, 'z' },
         { "specular-scale", required_argument, NULL, 'k' }, { "sun-size", required_argument, NULL, 'a' },
-        { "fill", required_argument, NULL, 'l' }, { "env-rotate", required_argument, NULL, 'r' }, { 0 },
+        { "fill", required_argument, NULL, 'l' }, { "env-rotate", required_argument, NULL, 'r' },
+        { "background", required_argument, NULL, 'g' }, { "capture", required_argument, NULL, 'c' }, { 0 },
     };
     int c;
     char *end;
@@ -168,7 +179,14 @@ static int parse_relight(int argc, char **argv, relight_args *a)
             if (strncmp(optarg, "keyframe:", 9) || !optarg[9] || (a->keyframe = (int)strtol(optarg + 9, &end, 10)) < 0 ||
                 *end)
                 return bad_option("--view", optarg, "keyframe:N with N >= 0");
+            a->have_view = 1;
             break;
+        case 'g':
+            if (strncmp(optarg, "capture:", 8) || !optarg[8] ||
+                (a->background_keyframe = (int)strtol(optarg + 8, &end, 10)) < 0 || *end)
+                return bad_option("--background", optarg, "capture:N with N >= 0 (and --capture FILE)");
+            break;
+        case 'c': a->capture = optarg; break;
         case 'b':
             if (sscanf(optarg, "%lf,%lf", &a->orbit_az, &a->orbit_el) != 2 || !(fabs(a->orbit_az) <= 360.0) ||
                 !(fabs(a->orbit_el) < 90.0))
@@ -224,6 +242,12 @@ static int parse_relight(int argc, char **argv, relight_args *a)
         default: return -1;
         }
     }
+    if (a->background_keyframe >= 0 && !a->capture) {
+        fprintf(stderr, "sunprobe relight: --background capture:%d needs --capture FILE.spcap\n", a->background_keyframe);
+        return -1;
+    }
+    if (a->background_keyframe >= 0 && !a->have_view)
+        a->keyframe = a->background_keyframe;
     if (optind != argc - 1 || !a->out) {
         fprintf(stderr, "sunprobe relight: expected FACE_DIR and -o OUT.png (see --help)\n");
         return -1;
@@ -442,7 +466,123 @@ typedef struct relight_ctx {
     sp_face_asset fa;
     sp_json *cams, *manifest;
     int srgb;
+    uint8_t *bg;        /* --background: the frame, bg_w x bg_h RGB */
+    uint32_t bg_w, bg_h;
+    double bg_crop[2];  /* the fit's window origin in the frame (face-crop fits) */
+    sp_face_model model; /* for its face mask, when its topology is the asset's */
+    int have_model;
 } relight_ctx;
+
+/* Keyframe N's frame of --capture, decoded to RGB into c->bg; 0 or an exit code (message printed). */
+static int read_background(relight_ctx *c)
+{
+    const relight_args *a = c->a;
+    const sp_json *kf = sp_json_at(sp_json_get(c->cams, "frames"), (size_t)a->background_keyframe);
+    double seq = sp_json_number(sp_json_get(kf, "sequence"), -1.0);
+    if (!kf || !(seq >= 0.0)) {
+        fprintf(stderr, "sunprobe relight: --background capture:%d: %s/cameras.json has no such keyframe with a "
+                        "\"sequence\"\n", a->background_keyframe, a->dir);
+        return SP_EXIT_USAGE;
+    }
+    double crop[2];
+    if (sp_json_numbers(sp_json_get(kf, "crop_origin"), crop, 2) == 2)
+        memcpy(c->bg_crop, crop, sizeof(crop));
+    sp_capture_reader *r = NULL;
+    int ret = sp_tool_open_capture("relight", a->capture, 0, &r);
+    if (ret)
+        return ret;
+    sp_chunk ch;
+    int rc, found = 0;
+    while (!found && (rc = sp_capture_reader_next(r, &ch)) == 0) {
+        sp_frame_chunk fc;
+        if (ch.type != SP_CHUNK_FRAME || sp_chunk_parse_frame(&ch, &fc) || (double)fc.sequence != seq)
+            continue;
+        double ts = sp_json_number(sp_json_get(kf, "timestamp_ns"), NAN);
+        if (isfinite(ts) && fabs((double)ch.timestamp_ns - ts) > 1e3) {
+            fprintf(stderr, "sunprobe relight: %s: frame %.0f is at %lld ns, keyframe %d of %s at %.0f ns: not the "
+                            "fitted capture\n", a->capture, seq, (long long)ch.timestamp_ns, a->background_keyframe,
+                    a->dir, ts);
+            sp_capture_reader_close(&r);
+            return SP_EXIT_BAD_INPUT;
+        }
+        found = 1;
+        c->bg = malloc((size_t)fc.width * fc.height * 3);
+        sp_pixconv_src src = { fc.format, fc.width, fc.height, fc.stride, fc.data, fc.data_size };
+        rc = c->bg ? sp_pixconv_to_rgb24(&src, c->bg, (size_t)fc.width * fc.height * 3, fc.width * 3) : -ENOMEM;
+        c->bg_w = fc.width;
+        c->bg_h = fc.height;
+        if (rc) {
+            fprintf(stderr, "sunprobe relight: %s: frame %.0f: %s\n", a->capture, seq, sp_strerror(rc));
+            sp_capture_reader_close(&r);
+            return sp_exit_for_error(rc);
+        }
+    }
+    sp_capture_reader_close(&r);
+    if (!found) {
+        fprintf(stderr, "sunprobe relight: %s has no frame %.0f (keyframe %d of %s): not the fitted capture?\n",
+                a->capture, seq, a->background_keyframe, a->dir);
+        return SP_EXIT_BAD_INPUT;
+    }
+    return 0;
+}
+
+/*
+ * The face over the frame, in linear light: alpha is the face mask's coverage (the model's face_mask
+ * vertices where the asset has the model's topology, else the whole mesh) eroded by the feather
+ * radius and then box-blurred by it twice, so the edge fades inside the face instead of a halo.
+ */
+static void composite(const relight_ctx *c, float *sum, const float *cover, int W, int H, double exposure)
+{
+    int R = (int)lround(fmax(1.0, W / 240.0)); /* 2 px at 480 wide */
+    size_t n = (size_t)W * (size_t)H;
+    float *al = malloc(sizeof(float) * n), *tmp = malloc(sizeof(float) * n);
+    if (!al || !tmp) {
+        free(al);
+        free(tmp);
+        return;
+    }
+    for (int y = 0; y < H; y++) /* erode: the minimum over the (2R+1)^2 box */
+        for (int x = 0; x < W; x++) {
+            float m = 1.0f;
+            for (int dy = -R; dy <= R; dy++)
+                for (int dx = -R; dx <= R; dx++) {
+                    int xx = x + dx, yy = y + dy;
+                    float v = xx < 0 || yy < 0 || xx >= W || yy >= H ? 0.0f : cover[(size_t)yy * (size_t)W + (size_t)xx];
+                    m = v < m ? v : m;
+                }
+            al[(size_t)y * (size_t)W + (size_t)x] = m;
+        }
+    for (int pass = 0; pass < 2; pass++) { /* separable box blur, twice: a tent */
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                double s = 0.0;
+                for (int d = -R; d <= R; d++) {
+                    int xx = x + d < 0 ? 0 : (x + d >= W ? W - 1 : x + d);
+                    s += (double)al[(size_t)y * (size_t)W + (size_t)xx];
+                }
+                tmp[(size_t)y * (size_t)W + (size_t)x] = (float)(s / (2 * R + 1));
+            }
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                double s = 0.0;
+                for (int d = -R; d <= R; d++) {
+                    int yy = y + d < 0 ? 0 : (y + d >= H ? H - 1 : y + d);
+                    s += (double)tmp[(size_t)yy * (size_t)W + (size_t)x];
+                }
+                al[(size_t)y * (size_t)W + (size_t)x] = (float)(s / (2 * R + 1));
+            }
+    }
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++) {
+            double b = c->bg[i * 3 + (size_t)k] / 255.0; /* the frame's own encoding back to linear light */
+            /* a "sunprobe" frame holds the fit's tone map: back through sRGB (clipped at 1, as a camera) */
+            double lin = sp_srgb_decode(c->srgb ? b : sp_sunstage_display_to_srgb(b));
+            sum[i * 3 + (size_t)k] = (float)((double)al[i] * (double)sum[i * 3 + (size_t)k] +
+                                             (1.0 - (double)al[i]) * lin / exposure);
+        }
+    free(al);
+    free(tmp);
+}
 
 /*
  * The view: keyframe N (the face placed in the world as it was then, that camera), then the orbit
@@ -542,6 +682,16 @@ static int set_view(relight_ctx *c, sp_face_view *v)
     /* output size and intrinsics: the keyframe's fit-resolution camera scaled up, square pixels kept */
     int W = a->width ? a->width : (a->scale ? fit_w * a->scale : (int)lround(fit_w * ppp));
     int H = a->width ? a->height : (a->scale ? fit_h * a->scale : (int)lround(fit_h * ppp));
+    if (c->bg) { /* the frame's size; the fit's window scaled into it and moved to its origin */
+        W = (int)c->bg_w;
+        H = (int)c->bg_h;
+        v->camera.fx *= ppp;
+        v->camera.fy *= ppp;
+        v->camera.cx = (v->camera.cx + 0.5) * ppp - 0.5 + c->bg_crop[0];
+        v->camera.cy = (v->camera.cy + 0.5) * ppp - 0.5 + c->bg_crop[1];
+        fit_w = W;
+        fit_h = H;
+    }
     W = W < 1 ? 1 : (W > MAX_SIZE ? MAX_SIZE : W);
     H = H < 1 ? 1 : (H > MAX_SIZE ? MAX_SIZE : H);
     double sx = (double)W / fit_w, sy = (double)H / fit_h;
@@ -695,13 +845,23 @@ static int run_relight(relight_ctx *c)
         return sp_cmd_fail("relight", ret, a->dir);
     const char *transfer = sp_json_string(sp_json_get(c->manifest, "capture_transfer"), NULL);
     c->srgb = transfer && !strcmp(transfer, "srgb");
+    if (a->background_keyframe >= 0 && (ret = read_background(c)))
+        return ret;
     sp_face_view v;
     if ((ret = set_view(c, &v)))
         return ret;
     set_light(c, &v);
+    if (c->bg && (c->have_model = sp_face_model_load_default(&c->model) == 0) &&
+        c->model.mesh.n_vertices == c->fa.mesh.n_vertices)
+        v.vertex_mask = c->model.face_mask;
     size_t n = (size_t)v.width * (size_t)v.height;
     float *sum = malloc(sizeof(float) * 3 * n), *cover = malloc(sizeof(float) * n);
     ret = sum && cover ? render_lights(c, &v, sum, cover) : -ENOMEM;
+    if (!ret && c->bg) {
+        composite(c, sum, cover, v.width, v.height, v.exposure);
+        for (size_t i = 0; i < n; i++)
+            cover[i] = 1.0f; /* a photograph: opaque */
+    }
     if (!ret)
         ret = write_rgba(c, sum, cover, v.width, v.height, v.exposure);
     free(sum);
@@ -714,7 +874,7 @@ static int run_relight(relight_ctx *c)
 
 int sp_cmd_relight(int argc, char **argv)
 {
-    relight_args a = { 0 };
+    relight_args a = { .background_keyframe = -1 };
     for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
         a.spec_scale[k] = 1.0;
     int p = parse_relight(argc, argv, &a);
@@ -725,5 +885,8 @@ int sp_cmd_relight(int argc, char **argv)
     sp_face_asset_free(&c.fa);
     sp_json_free(c.cams);
     sp_json_free(c.manifest);
+    free(c.bg);
+    if (c.have_model)
+        sp_face_model_free(&c.model);
     return ret;
 }

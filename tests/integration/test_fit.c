@@ -355,6 +355,63 @@ static void check_relight_env(const char *face, const uint8_t *def, uint32_t w0,
 }
 
 /*
+ * --background capture:1: keyframe 1 composited into its own frame of the fitted capture; away from
+ * the head the output is that frame (as export-video decodes it) to a level; a missing --capture and a
+ * keyframe out of range are refused with no file.
+ */
+static void check_relight_background(const char *face)
+{
+    char path[2048], args[4096], frames[1024];
+    snprintf(path, sizeof(path), "%s/cameras.json", face);
+    size_t n = 0;
+    char *cams = NULL;
+    FILE *f = fopen(path, "rb");
+    if (f) {
+        cams = malloc(1 << 20);
+        n = cams ? fread(cams, 1, (1 << 20) - 1, f) : 0;
+        fclose(f);
+    }
+    if (!cams) {
+        CHECK_MSG(0, "cameras.json");
+        return;
+    }
+    cams[n] = 0;
+    const char *k = strstr(cams, "\"sequence\":");
+    k = k ? strstr(k + 1, "\"sequence\":") : NULL; /* keyframe 1's */
+    long seq = k ? strtol(k + 11, NULL, 10) : -1;
+    free(cams);
+    CHECK(seq >= 0);
+    snprintf(frames, sizeof(frames), "%s/frames", dir);
+    snprintf(args, sizeof(args), "export-video %s/s.spcap -o %s", dir, frames);
+    CHECK(run(args) == 0);
+    snprintf(args, sizeof(args), "--background capture:1 --capture %s/s.spcap", dir);
+    uint32_t w, h, fw = 0, fh = 0;
+    uint8_t *out = relight_rgba(face, "rl-bg", args, &w, &h), *frame = NULL;
+    snprintf(path, sizeof(path), "%s/frame_%06ld.png", frames, seq);
+    CHECK(sp_png_read_rgba(path, &frame, &fw, &fh) == 0);
+    if (out && frame && w == fw && h == fh) {
+        int worst = 0, opaque = 1;
+        for (uint32_t y = 0; y < h / 8; y++) /* the top corners: sky, far from the head */
+            for (uint32_t x = 0; x < w; x += (x == w / 8 ? w - w / 4 : 1)) {
+                const uint8_t *a = out + ((size_t)y * w + x) * 4, *b = frame + ((size_t)y * w + x) * 4;
+                for (int c = 0; c < 3; c++)
+                    worst = abs((int)a[c] - (int)b[c]) > worst ? abs((int)a[c] - (int)b[c]) : worst;
+                opaque &= a[3] == 255;
+            }
+        CHECK_MSG(worst <= 1 && opaque, "away from the head the composite differs from the frame by %d", worst);
+    } else {
+        CHECK_MSG(0, "composite %ux%u, frame %ux%u", w, h, fw, fh);
+    }
+    free(out);
+    free(frame);
+    snprintf(path, sizeof(path), "%s/rl-bg-bad.png", dir);
+    snprintf(args, sizeof(args), "relight %s -o %s --background capture:1", face, path);
+    CHECK(run(args) == 1 && !exists(path) && output_contains("--capture"));
+    snprintf(args, sizeof(args), "relight %s -o %s --background capture:999 --capture %s/s.spcap", face, path, dir);
+    CHECK(run(args) != 0 && !exists(path));
+}
+
+/*
  * `relight` views and materials: keyframe 0 and a zero orbit are the default view exactly; the size
  * option is honoured; specular only adds light (scale 0 never brighter than 1); a dolly zoom keeps
  * the head's size; extreme focal lengths still render; a keyframe out of range is refused, no file.
@@ -402,6 +459,7 @@ static void check_relight_views(const char *face)
     free(orbit);
     check_relight_lights(face, w0, h0);
     check_relight_env(face, def, w0, h0);
+    check_relight_background(face);
     char args[2048], path[1024];
     snprintf(path, sizeof(path), "%s/rl-bad.png", dir);
     snprintf(args, sizeof(args), "relight %s -o %s --view keyframe:999", face, path);
