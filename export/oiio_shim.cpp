@@ -65,15 +65,11 @@ int read_rgb(const char *path, float **rgb, uint32_t *width, uint32_t *height)
     return 0;
 }
 
-} // namespace
-
-extern "C" int sp_image_read_rgb(const char *path, float **rgb, uint32_t *width, uint32_t *height)
+/* Runs f, turning any exception into an error code with the path logged: none crosses into C. */
+template <class F> int guarded(const char *path, F f)
 {
-    if (!path || !rgb || !width || !height)
-        return -EINVAL;
-    *rgb = nullptr;
     try {
-        return read_rgb(path, rgb, width, height);
+        return f();
     } catch (const std::bad_alloc &) {
         return -ENOMEM;
     } catch (const std::exception &e) {
@@ -85,11 +81,21 @@ extern "C" int sp_image_read_rgb(const char *path, float **rgb, uint32_t *width,
     }
 }
 
+} // namespace
+
+extern "C" int sp_image_read_rgb(const char *path, float **rgb, uint32_t *width, uint32_t *height)
+{
+    if (!path || !rgb || !width || !height)
+        return -EINVAL;
+    *rgb = nullptr;
+    return guarded(path, [&] { return read_rgb(path, rgb, width, height); });
+}
+
 extern "C" int sp_exr_write(const char *path, const float *pixels, uint32_t width, uint32_t height, int channels)
 {
     if (!path || !pixels || !width || !height || channels < 1 || channels > 4)
         return -EINVAL;
-    try {
+    return guarded(path, [&] {
         /* the temporary keeps the extension: OIIO picks the format by it */
         std::string tmp = std::string(path) + ".tmp." + std::to_string((long)getpid()) + ".exr";
         int ret = write_exr(tmp, pixels, width, height, channels);
@@ -98,13 +104,5 @@ extern "C" int sp_exr_write(const char *path, const float *pixels, uint32_t widt
         if (ret)
             std::remove(tmp.c_str());
         return ret;
-    } catch (const std::bad_alloc &) {
-        return -ENOMEM;
-    } catch (const std::exception &e) {
-        sp_log(SP_LOG_ERROR, "oiio", "%s: %s", path, e.what());
-        return -EIO;
-    } catch (...) {
-        sp_log(SP_LOG_ERROR, "oiio", "%s: unknown exception", path);
-        return -EIO;
-    }
+    });
 }

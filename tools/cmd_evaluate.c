@@ -22,6 +22,7 @@
 #include <string.h>
 
 #include "cmd.h"
+#include "common/rigid.h"
 #include "common/file_util.h"
 #include "common/image_metrics.h"
 #include "common/json.h"
@@ -34,10 +35,7 @@
 
 #define MAX_KEYFRAMES 80
 
-typedef struct rigid {
-    double R[9]; /* row-major */
-    double t[3];
-} rigid; /* x' = R x + t */
+typedef sp_rigid rigid; /* x' = R x + t */
 
 typedef struct eval_args {
     const char *face, *capture, *json, *renders;
@@ -84,28 +82,6 @@ static void usage(FILE *out)
 
 /* ---- small rigid algebra ---- */
 
-static rigid rigid_mul(const rigid *a, const rigid *b)
-{
-    rigid r;
-    for (int i = 0; i < 3; i++) {
-        for (int j = 0; j < 3; j++)
-            r.R[i * 3 + j] = a->R[i * 3] * b->R[j] + a->R[i * 3 + 1] * b->R[3 + j] + a->R[i * 3 + 2] * b->R[6 + j];
-        r.t[i] = a->R[i * 3] * b->t[0] + a->R[i * 3 + 1] * b->t[1] + a->R[i * 3 + 2] * b->t[2] + a->t[i];
-    }
-    return r;
-}
-
-static rigid rigid_inv(const rigid *a)
-{
-    rigid r;
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            r.R[i * 3 + j] = a->R[j * 3 + i];
-    for (int i = 0; i < 3; i++)
-        r.t[i] = -(r.R[i * 3] * a->t[0] + r.R[i * 3 + 1] * a->t[1] + r.R[i * 3 + 2] * a->t[2]);
-    return r;
-}
-
 /* A 4x4 row-major JSON matrix (rotation part orthonormal) as a rigid transform; -1 if malformed. */
 static int rigid_from_json(const sp_json *m, rigid *out)
 {
@@ -126,12 +102,6 @@ static double angle_deg(const double a[3], const double b[3])
     double na = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]), nb = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
     double d = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / fmax(na * nb, 1e-300);
     return acos(fmax(-1.0, fmin(1.0, d))) * 180.0 / M_PI;
-}
-
-static void rotate(const double R[9], const double v[3], double out[3])
-{
-    for (int i = 0; i < 3; i++)
-        out[i] = R[i * 3] * v[0] + R[i * 3 + 1] * v[1] + R[i * 3 + 2] * v[2];
 }
 
 /* ---- inputs ---- */
@@ -207,8 +177,8 @@ static int register_fit(eval_ctx *c)
         if (!have0 && held && held->type == SP_JSON_BOOL && held->number == 0.0) { /* the asset is placed as the first training keyframe */
             rigid w0 = { { 0 }, { 0, 0, 0 } };
             memcpy(w0.R, e, sizeof(e));
-            rigid p = rigid_mul(&w0, &face);
-            place0 = rigid_inv(&p);
+            rigid p = sp_rigid_mul(&w0, &face);
+            place0 = sp_rigid_inv(&p);
             have0 = 1;
         }
         memcpy(E[n], e, sizeof(e));
@@ -218,10 +188,10 @@ static int register_fit(eval_ctx *c)
             for (int q = 0; q < 3; q++)
                 a[r * 3 + q] = cam.R[r * 3] * e[q * 3] + cam.R[r * 3 + 1] * e[q * 3 + 1] + cam.R[r * 3 + 2] * e[q * 3 + 2];
         sp_quat_mean_add(&world, sp_quat_from_matrix(a));
-        rigid hinv = rigid_inv(&hd);
-        HC[n] = rigid_mul(&hinv, &cam); /* camera -> true head */
+        rigid hinv = sp_rigid_inv(&hd);
+        HC[n] = sp_rigid_mul(&hinv, &cam); /* camera -> true head */
         F[n] = face;                    /* scaled model -> camera, composed with place0 below */
-        rigid ch = rigid_inv(&HC[n]);   /* the true head's origin in this camera, against the fitted one */
+        rigid ch = sp_rigid_inv(&HC[n]);   /* the true head's origin in this camera, against the fitted one */
         double dt = sqrt(ch.t[0] * ch.t[0] + ch.t[1] * ch.t[1] + ch.t[2] * ch.t[2]);
         double df = sqrt(face.t[0] * face.t[0] + face.t[1] * face.t[1] + face.t[2] * face.t[2]);
         ratio[n] = df > 0.0 ? dt / df : 1.0;
@@ -259,10 +229,10 @@ static int register_fit(eval_ctx *c)
     double med = n % 2 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
     c->asset_scale = med > 0.5 && med < 2.0 ? med : 1.0;
     for (int i = 0; i < n; i++) {
-        rigid fp = rigid_mul(&F[i], &place0);
+        rigid fp = sp_rigid_mul(&F[i], &place0);
         for (int q = 0; q < 3; q++)
             fp.t[q] *= c->asset_scale;
-        G[i] = rigid_mul(&HC[i], &fp); /* x -> k G.R x + G.t */
+        G[i] = sp_rigid_mul(&HC[i], &fp); /* x -> k G.R x + G.t */
         sp_quat_mean_add(&head, sp_quat_from_matrix(G[i].R));
     }
     sp_quat_to_matrix(sp_quat_mean_get(&head), c->asset_to_head.R);
@@ -278,12 +248,12 @@ static int register_fit(eval_ctx *c)
             centre[q] += (double)mesh->positions[(size_t)v * 3 + (size_t)q] / (double)mesh->n_vertices;
     for (int i = 0; i < n; i++) {
         double g[3];
-        rotate(G[i].R, centre, g);
+        sp_mat3_apply(G[i].R, centre, g);
         for (int q = 0; q < 3; q++)
             at[q] += (c->asset_scale * g[q] + G[i].t[q]) / n;
     }
     double rc[3];
-    rotate(c->asset_to_head.R, centre, rc);
+    sp_mat3_apply(c->asset_to_head.R, centre, rc);
     for (int q = 0; q < 3; q++)
         c->asset_to_head.t[q] = at[q] - c->asset_scale * rc[q];
     return 0;
@@ -368,7 +338,7 @@ static int score_image(eval_ctx *c, const char *kind, const sp_json *img, const 
     }
     if (!ret) {
         v.camera.fx = K[0], v.camera.fy = K[1], v.camera.cx = K[2], v.camera.cy = K[3];
-        rigid w2c = rigid_inv(&cam), a2w = rigid_mul(&head, &c->asset_to_head);
+        rigid w2c = sp_rigid_inv(&cam), a2w = sp_rigid_mul(&head, &c->asset_to_head);
         memcpy(v.camera.R, w2c.R, sizeof(w2c.R));
         memcpy(v.camera.t, w2c.t, sizeof(w2c.t));
         for (int i = 0; i < 3; i++) {
@@ -438,7 +408,7 @@ static int score_set(eval_ctx *c, const char *kind, scored *acc)
     double K[4] = { sp_json_number(sp_json_get(cam, "fx"), NAN), sp_json_number(sp_json_get(cam, "fy"), NAN),
                     sp_json_number(sp_json_get(cam, "cx"), NAN), sp_json_number(sp_json_get(cam, "cy"), NAN) };
     double fit_sun[3];
-    rotate(c->align, c->asset.sun_dir, fit_sun);
+    sp_mat3_apply(c->align, c->asset.sun_dir, fit_sun);
     double fit_I = c->asset.left_out & SP_FACE_LEFT_OUT_SUN ? 0.0 : c->asset.sun_intensity;
     const sp_json *imgs = sp_json_get(set, "images");
     for (size_t i = 0; !ret; i++) {
@@ -484,7 +454,7 @@ static void sun_error(eval_ctx *c)
     int fitted = !(c->asset.left_out & SP_FACE_LEFT_OUT_SUN) && c->asset.sun_intensity > 0.0;
     if (has_sun && fitted) {
         double d[3];
-        rotate(c->align, c->asset.sun_dir, d);
+        sp_mat3_apply(c->align, c->asset.sun_dir, d);
         c->sun_err = angle_deg(d, truth);
         c->sun_note = "";
     } else if (has_sun) {

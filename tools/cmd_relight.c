@@ -16,6 +16,7 @@
 #include "capture_open.h"
 #include "cmd.h"
 #include "common/pixconv.h"
+#include "common/rigid.h"
 #include "common/file_util.h"
 #include "common/json.h"
 #include "export/oiio_shim.h"
@@ -380,33 +381,9 @@ static int load_json(const char *dir, const char *name, sp_json **out)
     return ret;
 }
 
-/* ---- poses: x' = R x + t ---- */
+/* ---- poses ---- */
 
-typedef struct pose {
-    double R[9], t[3];
-} pose;
-
-static pose pose_mul(const pose *a, const pose *b)
-{
-    pose r;
-    for (int i = 0; i < 3; i++) {
-        for (int j = 0; j < 3; j++)
-            r.R[i * 3 + j] = a->R[i * 3] * b->R[j] + a->R[i * 3 + 1] * b->R[3 + j] + a->R[i * 3 + 2] * b->R[6 + j];
-        r.t[i] = a->R[i * 3] * b->t[0] + a->R[i * 3 + 1] * b->t[1] + a->R[i * 3 + 2] * b->t[2] + a->t[i];
-    }
-    return r;
-}
-
-static pose pose_inv(const pose *a)
-{
-    pose r;
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            r.R[i * 3 + j] = a->R[j * 3 + i];
-    for (int i = 0; i < 3; i++)
-        r.t[i] = -(r.R[i * 3] * a->t[0] + r.R[i * 3 + 1] * a->t[1] + r.R[i * 3 + 2] * a->t[2]);
-    return r;
-}
+typedef sp_rigid pose;
 
 /* Keyframe k's placement of the face model in the fit's world: camera-to-world rotation after the face pose. */
 static int keyframe_place(const sp_json *k, pose *place)
@@ -422,7 +399,7 @@ static int keyframe_place(const sp_json *k, pose *place)
         return SP_ECORRUPT;
     sp_quat_to_matrix(sp_quat_normalize((sp_quat){ q[0], q[1], q[2], q[3] }), c2w.R);
     sp_quat_to_matrix(sp_quat_from_rotvec((sp_vec3){ rv[0], rv[1], rv[2] }), face.R);
-    *place = pose_mul(&c2w, &face);
+    *place = sp_rigid_mul(&c2w, &face);
     return 0;
 }
 
@@ -436,11 +413,6 @@ static void axis_rotation(const double u[3], double a, double R[9])
     memcpy(R, m, sizeof(m));
 }
 
-static void mat_vec(const double R[9], const double x[3], double y[3])
-{
-    for (int i = 0; i < 3; i++)
-        y[i] = R[i * 3] * x[0] + R[i * 3 + 1] * x[1] + R[i * 3 + 2] * x[2];
-}
 
 /* Direction towards a light at azimuth (from world +x towards +y) and elevation, degrees. */
 static void sun_vector(double az_deg, double el_deg, double d[3])
@@ -526,6 +498,21 @@ static int read_background(relight_ctx *c)
     return 0;
 }
 
+/* out = the (2R+1)-wide box mean of in along x (vertical 0) or y (1), clamped at the borders. */
+static void box_blur(const float *in, float *out, int W, int H, int R, int vertical)
+{
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            double s = 0.0;
+            for (int d = -R; d <= R; d++) {
+                int xx = vertical ? x : (x + d < 0 ? 0 : (x + d >= W ? W - 1 : x + d));
+                int yy = vertical ? (y + d < 0 ? 0 : (y + d >= H ? H - 1 : y + d)) : y;
+                s += (double)in[(size_t)yy * (size_t)W + (size_t)xx];
+            }
+            out[(size_t)y * (size_t)W + (size_t)x] = (float)(s / (2 * R + 1));
+        }
+}
+
 /*
  * The face over the frame, in linear light: alpha is the face mask's coverage (the model's face_mask
  * vertices where the asset has the model's topology, else the whole mesh) eroded by the feather
@@ -552,26 +539,8 @@ static void composite(const relight_ctx *c, float *sum, const float *cover, int 
                 }
             al[(size_t)y * (size_t)W + (size_t)x] = m;
         }
-    for (int pass = 0; pass < 2; pass++) { /* separable box blur, twice: a tent */
-        for (int y = 0; y < H; y++)
-            for (int x = 0; x < W; x++) {
-                double s = 0.0;
-                for (int d = -R; d <= R; d++) {
-                    int xx = x + d < 0 ? 0 : (x + d >= W ? W - 1 : x + d);
-                    s += (double)al[(size_t)y * (size_t)W + (size_t)xx];
-                }
-                tmp[(size_t)y * (size_t)W + (size_t)x] = (float)(s / (2 * R + 1));
-            }
-        for (int y = 0; y < H; y++)
-            for (int x = 0; x < W; x++) {
-                double s = 0.0;
-                for (int d = -R; d <= R; d++) {
-                    int yy = y + d < 0 ? 0 : (y + d >= H ? H - 1 : y + d);
-                    s += (double)tmp[(size_t)yy * (size_t)W + (size_t)x];
-                }
-                al[(size_t)y * (size_t)W + (size_t)x] = (float)(s / (2 * R + 1));
-            }
-    }
+    for (int pass = 0; pass < 4; pass++) /* a separable box blur along x, y, x, y: a tent */
+        box_blur(pass % 2 ? tmp : al, pass % 2 ? al : tmp, W, H, R, pass % 2);
     for (size_t i = 0; i < n; i++)
         for (int k = 0; k < 3; k++) {
             double b = c->bg[i * 3 + (size_t)k] / 255.0; /* the frame's own encoding back to linear light */
@@ -620,7 +589,7 @@ static int set_view(relight_ctx *c, sp_face_view *v)
                             "face_rotvec, face_t and intrinsics\n", a->dir, a->keyframe);
             return SP_EXIT_BAD_INPUT;
         }
-        pose inv0 = pose_inv(&p0), a2w = pose_mul(&pn, &inv0);
+        pose inv0 = sp_rigid_inv(&p0), a2w = sp_rigid_mul(&pn, &inv0);
         for (int i = 0; i < 3; i++) {
             for (int j = 0; j < 3; j++)
                 v->asset_to_world[i * 4 + j] = a2w.R[i * 3 + j];
@@ -651,7 +620,7 @@ static int set_view(relight_ctx *c, sp_face_view *v)
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++)
             Rt[i * 3 + j] = v->camera.R[j * 3 + i];
-    mat_vec(Rt, v->camera.t, C);
+    sp_mat3_apply(Rt, v->camera.t, C);
     for (int k = 0; k < 3; k++)
         C[k] = -C[k];
     if (a->have_orbit) {
@@ -671,7 +640,7 @@ static int set_view(relight_ctx *c, sp_face_view *v)
             for (int j = 0; j < 3; j++)
                 M[i * 3 + j] = Raz[i * 3] * Rel[j] + Raz[i * 3 + 1] * Rel[3 + j] + Raz[i * 3 + 2] * Rel[6 + j];
         double moved[3], Rn[9];
-        mat_vec(M, off, moved);
+        sp_mat3_apply(M, off, moved);
         for (int k = 0; k < 3; k++)
             C[k] = centre[k] + moved[k];
         for (int i = 0; i < 3; i++) /* new camera-to-world M Rt, stored transposed */
@@ -725,7 +694,7 @@ static int set_view(relight_ctx *c, sp_face_view *v)
         for (int j = 0; j < 3; j++)
             v->camera.R[i * 3 + j] = Rt[j * 3 + i];
     double RC[3];
-    mat_vec(v->camera.R, C, RC);
+    sp_mat3_apply(v->camera.R, C, RC);
     for (int k = 0; k < 3; k++)
         v->camera.t[k] = -RC[k];
     v->width = W;

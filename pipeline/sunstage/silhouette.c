@@ -235,6 +235,20 @@ static int skin_mask(const float *rgb, int w, int h, const double lm[136], uint8
     return 0;
 }
 
+/* Marks with `to` every pixel of value `from` 4-connected to the `top` seeds on the stack (already `to`). */
+static void flood(uint8_t *mask, int w, int h, int *stack, int top, uint8_t from, uint8_t to)
+{
+    while (top > 0) {
+        int i = stack[--top], x = i % w, y = i / w;
+        int nb[4] = { x > 0 ? i - 1 : -1, x < w - 1 ? i + 1 : -1, y > 0 ? i - w : -1, y < h - 1 ? i + w : -1 };
+        for (int k = 0; k < 4; k++)
+            if (nb[k] >= 0 && mask[nb[k]] == from) {
+                mask[nb[k]] = to;
+                stack[top++] = nb[k];
+            }
+    }
+}
+
 /*
  * Keeps the 4-connected parts of mask that reach into the landmark outline (a highlight or a
  * shadow on the nose tip must not lose the face); stack holds w * h ints.
@@ -248,15 +262,7 @@ static void keep_face_components(uint8_t *mask, int w, int h, const double lm[13
                 mask[y * w + x] = 2;
                 stack[top++] = y * w + x;
             }
-    while (top > 0) {
-        int i = stack[--top], x = i % w, y = i / w;
-        int nb[4] = { x > 0 ? i - 1 : -1, x < w - 1 ? i + 1 : -1, y > 0 ? i - w : -1, y < h - 1 ? i + w : -1 };
-        for (int k = 0; k < 4; k++)
-            if (nb[k] >= 0 && mask[nb[k]] == 1) {
-                mask[nb[k]] = 2;
-                stack[top++] = nb[k];
-            }
-    }
+    flood(mask, w, h, stack, top, 1, 2);
     for (int i = 0; i < w * h; i++)
         mask[i] = mask[i] == 2;
 }
@@ -271,15 +277,7 @@ static void fill_holes(uint8_t *mask, int w, int h, int *stack)
                 mask[y * w + x] = 3;
                 stack[top++] = y * w + x;
             }
-    while (top > 0) {
-        int i = stack[--top], x = i % w, y = i / w;
-        int nb[4] = { x > 0 ? i - 1 : -1, x < w - 1 ? i + 1 : -1, y > 0 ? i - w : -1, y < h - 1 ? i + w : -1 };
-        for (int k = 0; k < 4; k++)
-            if (nb[k] >= 0 && !mask[nb[k]]) {
-                mask[nb[k]] = 3;
-                stack[top++] = nb[k];
-            }
-    }
+    flood(mask, w, h, stack, top, 0, 3);
     for (int i = 0; i < w * h; i++)
         mask[i] = mask[i] != 3;
 }

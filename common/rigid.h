@@ -1,0 +1,17 @@
+/* SPDX-License-Identifier: MIT */
+/* Rigid transforms x' = R x + t (R row-major) for the tools that place cameras and faces. Internal. */
+#ifndef SUNPROBE_COMMON_RIGID_H
+#define SUNPROBE_COMMON_RIGID_H
+
+typedef struct sp_rigid {
+    double R[9];
+    double t[3];
+} sp_rigid;
+
+/* a after b: x -> a(b(x)). */
+sp_rigid sp_rigid_mul(const sp_rigid *a, const sp_rigid *b);
+sp_rigid sp_rigid_inv(const sp_rigid *a);
+/* y = R x (the rotation only). */
+void sp_mat3_apply(const double R[9], const double x[3], double y[3]);
+
+#endif
