@@ -61,7 +61,7 @@ typedef struct eval_ctx {
     double camera_err_mean, camera_err_max;
     double sun_err;  /* NaN: not scored */
     const char *sun_note;
-    const char *relight_note; /* why relighting was not scored, or NULL */
+    const char *relight_note; /* why relighting was not scored, or how it was lit; NULL: the fitted sun */
     scored relight, nvs;
     sp_strbuf images; /* per-image JSON rows */
     int srgb;                /* the face directory's capture was sRGB: renders are compared as sRGB */
@@ -421,11 +421,17 @@ static int score_set(eval_ctx *c, const char *kind, scored *acc)
                 ret = SP_ECORRUPT;
                 break;
             }
-            if (!(fit_I > 0.0)) {
-                c->relight_note = "relighting not scored: the fit has no sun intensity (overcast or unobservable)";
-                break;
+            double I = fit_I;
+            if (!(I > 0.0)) { /* overcast: the fit's geometry, albedo and sky under the true sun's irradiance,
+                                 which is in the fit's units when the capture's pixels are the scene's radiance */
+                I = sp_json_number(sp_json_get(img, "sun_strength"), NAN);
+                if (!(I > 0.0 && I < 1e6)) {
+                    c->relight_note = "relighting not scored: the fit has no sun and the image no \"sun_strength\"";
+                    break;
+                }
+                c->relight_note = "relighting with the true sun's strength: the fit left the sun out";
             }
-            ret = score_image(c, kind, img, K, sun, fit_I, acc);
+            ret = score_image(c, kind, img, K, sun, I, acc);
         } else {
             ret = score_image(c, kind, img, K, fit_sun, fit_I, acc);
         }
@@ -526,6 +532,10 @@ static int write_json(const eval_ctx *c, const sp_json *fit)
         sp_strbuf_json_number(&b, mean_of(sets[i], 1));
         sp_strbuf_printf(&b, ",\"mask_overlap\":");
         sp_strbuf_json_number(&b, mean_of(sets[i], 2));
+        if (i == 0 && c->relight_note) {
+            sp_strbuf_printf(&b, ",\"note\":");
+            sp_strbuf_json_string(&b, c->relight_note);
+        }
         sp_strbuf_printf(&b, "}");
     }
     if (c->have_landmarks) {
