@@ -356,7 +356,7 @@ static int read_env(const relight_args *a, float *env)
         free(px);
 #else
         fprintf(stderr, "sunprobe relight: --env %s: this build reads only raw .f32 maps (no OpenImageIO)\n", a->env);
-        return SP_EUNSUPPORTED;
+        return SP_EDISABLED;
 #endif
     }
     for (int i = 0; i < SP_RENDER_ENV_FLOATS; i++)
