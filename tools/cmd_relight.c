@@ -636,16 +636,12 @@ static int set_view(relight_ctx *c, sp_face_view *v)
             memcpy(Rel, (double[9]){ 1, 0, 0, 0, 1, 0, 0, 0, 1 }, sizeof(Rel));
         }
         axis_rotation(up, a->orbit_az * M_PI / 180.0, Raz);
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++)
-                M[i * 3 + j] = Raz[i * 3] * Rel[j] + Raz[i * 3 + 1] * Rel[3 + j] + Raz[i * 3 + 2] * Rel[6 + j];
+        sp_mat3_mul(Raz, Rel, M);
         double moved[3], Rn[9];
         sp_mat3_apply(M, off, moved);
         for (int k = 0; k < 3; k++)
             C[k] = centre[k] + moved[k];
-        for (int i = 0; i < 3; i++) /* new camera-to-world M Rt, stored transposed */
-            for (int j = 0; j < 3; j++)
-                Rn[i * 3 + j] = M[i * 3] * Rt[j] + M[i * 3 + 1] * Rt[3 + j] + M[i * 3 + 2] * Rt[6 + j];
+        sp_mat3_mul(M, Rt, Rn); /* the new camera-to-world */
         memcpy(Rt, Rn, sizeof(Rt));
     }
     /* output size and intrinsics: the keyframe's fit-resolution camera scaled up, square pixels kept */

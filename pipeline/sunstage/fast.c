@@ -622,7 +622,7 @@ static int update_visibility(fast_ctx *c)
         size_t i = c->frame_start[fi];
         for (int p = 0; p < ss->W * ss->H && i < c->frame_start[fi + 1]; p++) {
             /* the observation order is the mask order of gather(); re-derive it from the same test */
-            if (ss_scene_is_skin(&c->sc, &o, f->rgb, p))
+            if (ss_scene_is_observed(&c->sc, &o, f->rgb, p))
                 c->o[i++].V = (double)o.visibility[p];
         }
     }
@@ -641,7 +641,7 @@ static int update_specular(fast_ctx *c, double shin, float *out)
             break;
         size_t i = c->frame_start[fi];
         for (int p = 0; p < ss->W * ss->H && i < c->frame_start[fi + 1]; p++) {
-            if (ss_scene_is_skin(&c->sc, &o, f->rgb, p))
+            if (ss_scene_is_observed(&c->sc, &o, f->rgb, p))
                 out[i++] = o.specular[(size_t)p * 3];
         }
     }

@@ -29,8 +29,8 @@ int ss_scene_open(ss_scene *sc, const sp_sunstage *ss)
         return ret;
     sc->pos = malloc(sizeof(float) * 3 * m->mesh.n_vertices);
     sc->posd = malloc(sizeof(double) * 3 * m->mesh.n_vertices);
-    sc->skin_tri = malloc(m->mesh.n_triangles ? m->mesh.n_triangles : 1);
-    if (!sc->pos || !sc->posd || !sc->skin_tri) {
+    sc->observed_tri = malloc(m->mesh.n_triangles ? m->mesh.n_triangles : 1);
+    if (!sc->pos || !sc->posd || !sc->observed_tri) {
         ss_scene_close(sc);
         return -ENOMEM;
     }
@@ -40,7 +40,7 @@ int ss_scene_open(ss_scene *sc, const sp_sunstage *ss)
         int skin = m->face_mask[v[0]] && m->face_mask[v[1]] && m->face_mask[v[2]];
         int eye = m->part[v[0]] == SP_FACE_PART_EYE && m->part[v[1]] == SP_FACE_PART_EYE &&
                   m->part[v[2]] == SP_FACE_PART_EYE;
-        sc->skin_tri[t] = skin || eye;
+        sc->observed_tri[t] = skin || eye;
     }
     sc->mesh = m->mesh;
     sc->mesh.positions = sc->pos;
@@ -53,7 +53,7 @@ void ss_scene_close(ss_scene *sc)
     sp_renderer_close(&sc->r);
     free(sc->pos);
     free(sc->posd);
-    free(sc->skin_tri);
+    free(sc->observed_tri);
     memset(sc, 0, sizeof(*sc));
 }
 
@@ -94,19 +94,19 @@ int ss_scene_setup(ss_scene *sc, const sp_sunstage *ss, const ss_frame *f, sp_re
     return 0;
 }
 
-int ss_scene_is_skin(const ss_scene *sc, const sp_render_outputs *o, const float *target, int i)
+int ss_scene_is_observed(const ss_scene *sc, const sp_render_outputs *o, const float *target, int i)
 {
     int32_t t = o->tri_id[i];
     const float *g = target + (size_t)i * 3;
     int sat = g[0] > 0.98f || g[1] > 0.98f || g[2] > 0.98f;
-    return t >= 0 && sc->skin_tri[t] && o->coverage[i] > 0.999f && !sat;
+    return t >= 0 && sc->observed_tri[t] && o->coverage[i] > 0.999f && !sat;
 }
 
 void ss_scene_mask(const ss_scene *sc, const sp_render_outputs *o, const float *target, float *mask)
 {
     int n = o->width * o->height;
     for (int i = 0; i < n; i++)
-        mask[i] = ss_scene_is_skin(sc, o, target, i) ? 1.0f : 0.0f;
+        mask[i] = ss_scene_is_observed(sc, o, target, i) ? 1.0f : 0.0f;
 }
 
 double ss_psnr(const float *img, const float *target, const float *mask, int n)

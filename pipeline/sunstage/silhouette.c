@@ -152,10 +152,8 @@ static int outline_stats(const float *rgb, int w, int h, const double lm[136], i
 #define SKIN_HI 0.6
 #define SKIN_FAR 2.5 /* background colours are learned outside the landmark outline scaled by this */
 
-static int chroma_bin(const float *p)
+static int chroma_bin(const double c[2])
 {
-    double c[2];
-    chroma(p, c);
     int a = (int)((c[0] - SKIN_LO) / (SKIN_HI - SKIN_LO) * SKIN_BINS);
     int b = (int)((c[1] - SKIN_LO) / (SKIN_HI - SKIN_LO) * SKIN_BINS);
     a = a < 0 ? 0 : a >= SKIN_BINS ? SKIN_BINS - 1 : a;
@@ -182,7 +180,7 @@ static void smooth_hist(const double *in, double *out)
 /*
  * Skin mask: a pixel is skin when its chroma is more typical of the skin inside the landmark
  * outline than of the background far from it (two per-frame chroma histograms, a likelihood
- * ratio), and within 4 sigma of the skin's chroma. Returns 0 or SP_ENODATA.
+ * ratio), and within 6 sigma of the skin's chroma. Returns 0 or SP_ENODATA.
  */
 static int skin_mask(const float *rgb, int w, int h, const double lm[136], uint8_t *mask)
 {
@@ -211,11 +209,16 @@ static int skin_mask(const float *rgb, int w, int h, const double lm[136], uint8
             const float *p = rgb + ((size_t)y * (size_t)w + (size_t)x) * 3;
             if ((double)(p[0] + p[1] + p[2]) < 0.15)
                 continue;
-            if (inside_outline(lm, x, y)) {
-                hs[chroma_bin(p)] += 1.0;
+            int in = inside_outline(lm, x, y);
+            if (!in && inside_scaled(lm, SKIN_FAR, x, y))
+                continue;
+            double c[2];
+            chroma(p, c);
+            if (in) {
+                hs[chroma_bin(c)] += 1.0;
                 ns += 1.0;
-            } else if (!inside_scaled(lm, SKIN_FAR, x, y)) {
-                hb[chroma_bin(p)] += 1.0;
+            } else {
+                hb[chroma_bin(c)] += 1.0;
                 nb += 1.0;
             }
         }
@@ -227,7 +230,7 @@ static int skin_mask(const float *rgb, int w, int h, const double lm[136], uint8
         chroma(p, c);
         double a = c[0] - m[0], b = c[1] - m[1];
         double d2 = (S[2] * a * a - 2.0 * S[1] * a * b + S[0] * b * b) / det;
-        int k = chroma_bin(p);
+        int k = chroma_bin(c);
         int skinlike = nb < 1.0 || ss[k] / ns > 0.5 * sb[k] / nb;
         mask[i] = d2 < 36.0 && skinlike && (double)(p[0] + p[1] + p[2]) >= 0.15;
     }

@@ -179,7 +179,7 @@ typedef struct ss_scene {
     sp_renderer *r;
     float *pos;        /* 3 * n_vertices world positions */
     double *posd;      /* camera-frame positions */
-    uint8_t *skin_tri; /* per triangle: all corners in the face mask */
+    uint8_t *observed_tri; /* per triangle: all corners face skin, or all an eyeball: what the fit sees */
     sp_mesh mesh;      /* view of the model mesh with pos */
     float white[3];
 } ss_scene;
@@ -189,7 +189,7 @@ void ss_scene_close(ss_scene *sc);
 /* Evaluates frame f's geometry and fills scene (pointers into ss and sc). */
 int ss_scene_setup(ss_scene *sc, const sp_sunstage *ss, const ss_frame *f, sp_render_scene *scene);
 /* Pixel i is skin, fully covered and not saturated in the target: the one mask test of every solver. */
-int ss_scene_is_skin(const ss_scene *sc, const sp_render_outputs *o, const float *target, int i);
+int ss_scene_is_observed(const ss_scene *sc, const sp_render_outputs *o, const float *target, int i);
 /* That test for every pixel (W * H floats, 1 or 0). */
 void ss_scene_mask(const ss_scene *sc, const sp_render_outputs *o, const float *target, float *mask);
 double ss_psnr(const float *img, const float *target, const float *mask, int n);
