@@ -384,8 +384,12 @@ int ss_silhouette_vertices(const sp_face_model *m, const uint8_t *scalp, const s
     }
     int slots = 2 * rows + cols;
     double *ext = malloc(sizeof(double) * (size_t)slots);
-    if (!ext)
+    uint8_t *taken = calloc(nv, 1); /* a vertex extreme in its row and its column is one residual */
+    if (!ext || !taken) {
+        free(ext);
+        free(taken);
         return -ENOMEM;
+    }
     for (int k = 0; k < slots; k++)
         idx[k] = UINT32_MAX;
     for (uint32_t i = 0; i < nv; i++) {
@@ -413,13 +417,12 @@ int ss_silhouette_vertices(const sp_face_model *m, const uint8_t *scalp, const s
         if (!(ln > 0.0) || !(lx > 0.0))
             continue;
         double c = (nn[0] * x[0] + nn[1] * x[1] + nn[2] * x[2]) / (ln * lx);
-        uint32_t tagged = i | (scalp && scalp[i] ? SS_SIL_SCALP : 0u);
-        int seen = 0; /* a vertex extreme in its row and its column is one residual */
-        for (int j = n - 1; j >= 0 && j >= n - 4; j--)
-            seen |= idx[j] == tagged;
-        if (fabs(c) < SIL_GRAZING && !seen)
-            idx[n++] = tagged;
+        if (fabs(c) < SIL_GRAZING && !taken[i]) {
+            taken[i] = 1;
+            idx[n++] = i | (scalp && scalp[i] ? SS_SIL_SCALP : 0u);
+        }
     }
+    free(taken);
     return n;
 }
 

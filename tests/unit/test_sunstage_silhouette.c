@@ -198,6 +198,12 @@ static void test_outline_and_gradient(void)
                 CHECK(v < nv && (is_scalp ? scalp[v] : m.face_mask[v]));
             }
             CHECK_MSG(tagged >= 5 && na > n, "outline with the scalp: %d vertices, %d of them scalp", na, tagged);
+            /* each vertex is one residual, however many of its row's and column's extremes it is */
+            int doubled = 0;
+            for (int j = 0; j < na; j++)
+                for (int k = j + 1; k < na; k++)
+                    doubled += (all[j] & ~SS_SIL_SCALP) == (all[k] & ~SS_SIL_SCALP);
+            CHECK_MSG(doubled == 0, "%d outline vertices are listed twice", doubled);
         }
         free(scalp);
         free(all);
