@@ -194,8 +194,9 @@ typedef struct sp_face_camera {
 SP_API void sp_face_camera_init(sp_face_camera *camera, double fx, double fy, double cx, double cy);
 
 /*
- * Marks the vertices of the cranium (above the brows, outside face_mask) in scalp
- * (n_vertices bytes, caller-owned): where a bald head's outline is, or hair covers it.
+ * Marks the vertices of the cranium (above the brows, and beside the face down to the ears' lobes:
+ * the temples, the ears; outside face_mask) in scalp (n_vertices bytes, caller-owned): where a bald
+ * head's outline is, or hair covers it.
  * Returns 0 or a negative error.
  */
 SP_API int sp_face_model_scalp(const sp_face_model *model, uint8_t *scalp);

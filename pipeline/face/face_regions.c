@@ -15,6 +15,7 @@
 #include "sunprobe/sp_math.h"
 
 #define SCALP_ABOVE_BROWS 0.25 /* outer eye-corner distances */
+#define SCALP_BELOW_NOSE 0.1   /* the ears' lobes reach about this far below the nose's base */
 
 typedef struct face_frame {
     sp_vec3 origin, ex, ey, ez;
@@ -316,12 +317,15 @@ int sp_face_model_scalp(const sp_face_model *model, uint8_t *scalp)
     int err = build_frame(model, &f);
     if (err)
         return err;
-    /* a little above the brows, so the ears (whose tops reach brow height) stay out */
-    double above = mean_y(&f, 17, 26) + SCALP_ABOVE_BROWS;
+    /* the cranium a little above the brows, and its sides with the ears beyond the jaw's ends down to the
+       nose's base (the ears' lobes); the neck below stays out */
+    double above = mean_y(&f, 17, 26) + SCALP_ABOVE_BROWS, lobes = f.ly[33] - SCALP_BELOW_NOSE;
+    double side = fmax(fabs(f.lx[0]), fabs(f.lx[16]));
     for (uint32_t i = 0; i < model->mesh.n_vertices; i++) {
         double x, y, z;
         to_frame(&f, vertex_at(&model->mesh, i), &x, &y, &z);
-        scalp[i] = !model->face_mask[i] && model->part[i] == SP_FACE_PART_SKIN && y > above;
+        scalp[i] = !model->face_mask[i] && model->part[i] == SP_FACE_PART_SKIN &&
+                   (y > above || (fabs(x) > side && y > lobes));
     }
     return 0;
 }
