@@ -24,6 +24,14 @@ int sp_exit_for_error(int err);
 /* Prints "sunprobe CMD: what: error message" to stderr and returns the exit code for err. */
 int sp_cmd_fail(const char *cmd, int err, const char *what);
 
+/*
+ * Option values (cmd_options.c): the whole string as a decimal integer / a finite number in lo..hi.
+ * On failure prints "sunprobe CMD: --OPT 'VALUE': expected ... from lo to hi" and returns -1 (an empty
+ * value is refused, not read as 0).
+ */
+int sp_opt_int(const char *cmd, const char *opt, const char *s, int lo, int hi, int *out);
+int sp_opt_double(const char *cmd, const char *opt, const char *s, double lo, double hi, double *out);
+
 int sp_cmd_info(int argc, char **argv);
 int sp_cmd_verify(int argc, char **argv);
 int sp_cmd_recover(int argc, char **argv);

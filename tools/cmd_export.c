@@ -22,16 +22,6 @@ static void export_usage(FILE *out)
                  "  --stats              print vertex, triangle and byte counts\n");
 }
 
-static int int_arg(const char *s, int lo, int hi, int *out)
-{
-    char *end;
-    long v = strtol(s, &end, 10);
-    if (*end || end == s || v < lo || v > hi)
-        return -1;
-    *out = (int)v;
-    return 0;
-}
-
 /* 1 = help shown, 0 = parsed, -1 = usage error. */
 static int parse_export(int argc, char **argv, sp_export_settings *s, const char **dir, const char **out,
                         int *stats)
@@ -44,8 +34,10 @@ static int parse_export(int argc, char **argv, sp_export_settings *s, const char
         { "uv-bits", required_argument, NULL, 'u' }, { "no-env", no_argument, NULL, 'E' },
         { "stats", no_argument, NULL, 's' }, { 0 },
     };
-    int c, bad = 0;
-    while (!bad && (c = getopt_long(argc, argv, "ho:", opts, NULL)) != -1) {
+    int c, bad = 0, li = -1;
+    while (!bad && (c = getopt_long(argc, argv, "ho:", opts, &li)) != -1) {
+        const char *on = li >= 0 ? opts[li].name : "";
+        li = -1;
         switch (c) {
         case 'h': export_usage(stdout); return 1;
         case 'o': *out = optarg; break;
@@ -58,19 +50,25 @@ static int parse_export(int argc, char **argv, sp_export_settings *s, const char
                 s->format = SP_EXPORT_DRC;
             else
                 bad = 1;
+            if (bad)
+                fprintf(stderr, "sunprobe export: --format '%s': expected glb, obj or drc\n", optarg);
             break;
         case 'D': s->draco = 0; break;
-        case 'j': s->jpeg = 1; bad = optarg && int_arg(optarg, 1, 100, &s->jpeg_quality); break;
-        case 't': bad = int_arg(optarg, 16, 8192, &s->texture_size); break;
-        case 'p': bad = int_arg(optarg, 1, 30, &s->position_bits); break;
-        case 'n': bad = int_arg(optarg, 1, 30, &s->normal_bits); break;
-        case 'u': bad = int_arg(optarg, 1, 30, &s->uv_bits); break;
+        case 'j': s->jpeg = 1; bad = optarg && sp_opt_int("export", on, optarg, 1, 100, &s->jpeg_quality); break;
+        case 't': bad = sp_opt_int("export", on, optarg, 16, 8192, &s->texture_size); break;
+        case 'p': bad = sp_opt_int("export", on, optarg, 1, 30, &s->position_bits); break;
+        case 'n': bad = sp_opt_int("export", on, optarg, 1, 30, &s->normal_bits); break;
+        case 'u': bad = sp_opt_int("export", on, optarg, 1, 30, &s->uv_bits); break;
         case 'E': s->write_env = 0; break;
         case 's': *stats = 1; break;
-        default: bad = 1;
+        default: bad = 1; /* getopt has said which option */
         }
     }
-    if (bad || optind != argc - 1 || !*out) {
+    if (bad) {
+        fprintf(stderr, "sunprobe export: see --help\n");
+        return -1;
+    }
+    if (optind != argc - 1 || !*out) {
         fprintf(stderr, "sunprobe export: expected FACE_DIR and -o OUT (see --help)\n");
         return -1;
     }

@@ -30,6 +30,7 @@ typedef struct fit_args {
     int progress;
     const char *face;     /* auto, generic, ict */
     char truth[4096];     /* truth.json of a synthetic capture, "" when none */
+    sp_partial pd;        /* FACE_DIR.partial.PID: made before the fit, so a bad location fails at once */
 } fit_args;
 
 static void fit_usage(FILE *out)
@@ -58,26 +59,6 @@ static void fit_usage(FILE *out)
                  "  --no-progress          no progress bar\n");
 }
 
-static int parse_int(const char *s, int lo, int hi, int *out)
-{
-    char *end;
-    long v = strtol(s, &end, 10);
-    if (*end || v < lo || v > hi)
-        return -1;
-    *out = (int)v;
-    return 0;
-}
-
-static int parse_double(const char *s, double lo, double hi, double *out)
-{
-    char *end;
-    double v = strtod(s, &end);
-    if (*end || !(v >= lo && v <= hi))
-        return -1;
-    *out = v;
-    return 0;
-}
-
 static int parse_fit(int argc, char **argv, fit_args *a)
 {
     static const struct option opts[] = {
@@ -93,38 +74,46 @@ static int parse_fit(int argc, char **argv, fit_args *a)
         { "threads", required_argument, NULL, 'T' },
         { 0 },
     };
-    int c, bad = 0;
-    while (!bad && (c = getopt_long(argc, argv, "ho:", opts, NULL)) != -1) {
+    int c, bad = 0, li = -1;
+    while (!bad && (c = getopt_long(argc, argv, "ho:", opts, &li)) != -1) {
+        const char *on = li >= 0 ? opts[li].name : "";
+        li = -1;
         switch (c) {
         case 'h': fit_usage(stdout); return 1;
         case 'o': a->out = optarg; break;
         case 's':
-            bad = strcmp(optarg, "fast") && strcmp(optarg, "adam");
+            if ((bad = strcmp(optarg, "fast") && strcmp(optarg, "adam")))
+                fprintf(stderr, "sunprobe fit: --solver '%s': expected fast or adam\n", optarg);
             a->set.solver = strcmp(optarg, "adam") ? SP_SUNSTAGE_SOLVER_FAST : SP_SUNSTAGE_SOLVER_ADAM;
             break;
-        case 'k': bad = parse_int(optarg, 2, 64, &a->set.keyframes); break;
-        case 'H': bad = parse_int(optarg, 0, 16, &a->set.heldout); break;
-        case 'w': bad = parse_int(optarg, 16, 1024, &a->set.fit_width); break;
-        case 't': bad = parse_int(optarg, 8, 2048, &a->set.texture_size); break;
-        case 'i': bad = parse_int(optarg, 0, 100000, &a->set.adam_iterations); break;
-        case 'b': bad = parse_double(optarg, 0, 1e6, &a->set.time_budget_s); break;
-        case 'r': bad = parse_double(optarg, 0, 360, &a->set.min_rotation_deg); break;
+        case 'k': bad = sp_opt_int("fit", on, optarg, 2, 64, &a->set.keyframes); break;
+        case 'H': bad = sp_opt_int("fit", on, optarg, 0, 16, &a->set.heldout); break;
+        case 'w': bad = sp_opt_int("fit", on, optarg, 16, 1024, &a->set.fit_width); break;
+        case 't': bad = sp_opt_int("fit", on, optarg, 8, 2048, &a->set.texture_size); break;
+        case 'i': bad = sp_opt_int("fit", on, optarg, 0, 100000, &a->set.adam_iterations); break;
+        case 'b': bad = sp_opt_double("fit", on, optarg, 0, 1e6, &a->set.time_budget_s); break;
+        case 'r': bad = sp_opt_double("fit", on, optarg, 0, 360, &a->set.min_rotation_deg); break;
         case 'n': a->set.use_dlib = 0; break;
         case 'C': a->set.face_crop = 1; break;
-        case 'S': bad = parse_double(optarg, 0, 100, &a->set.silhouette_weight); break;
-        case 'F': bad = parse_int(optarg, 0, 10000, &a->set.refine_steps); break;
-        case 'T': bad = parse_int(optarg, 0, 64, &a->set.threads); break;
+        case 'S': bad = sp_opt_double("fit", on, optarg, 0, 100, &a->set.silhouette_weight); break;
+        case 'F': bad = sp_opt_int("fit", on, optarg, 0, 10000, &a->set.refine_steps); break;
+        case 'T': bad = sp_opt_int("fit", on, optarg, 0, 64, &a->set.threads); break;
         case 'd': a->set.dlib_model = optarg; break;
         case 'R': a->report = optarg; break;
         case 'P': a->progress = 0; break;
         case 'f':
             a->face = optarg;
-            bad = strcmp(optarg, "auto") && strcmp(optarg, "generic") && strcmp(optarg, "ict");
+            if ((bad = strcmp(optarg, "auto") && strcmp(optarg, "generic") && strcmp(optarg, "ict")))
+                fprintf(stderr, "sunprobe fit: --face '%s': expected auto, generic or ict\n", optarg);
             break;
-        default: bad = 1;
+        default: bad = 1; /* getopt has said which option */
         }
     }
-    if (bad || optind != argc - 1 || !a->out) {
+    if (bad) {
+        fprintf(stderr, "sunprobe fit: see --help\n");
+        return -1;
+    }
+    if (optind != argc - 1 || !a->out) {
         fprintf(stderr, "sunprobe fit: expected CAPTURE and -o FACE_DIR (see --help)\n");
         return -1;
     }
@@ -219,17 +208,11 @@ static int stream(fit_args *a, const sp_stage *stage)
     return ret;
 }
 
-static int write_output(const fit_args *a, const sp_sunstage *ss)
+static int write_output(fit_args *a, const sp_sunstage *ss)
 {
-    sp_partial pd = { 0 };
-    int ret = sp_partial_dir_open(&pd, a->out);
-    if (ret)
-        return ret;
-    ret = sp_face_dir_write_all(ss, pd.path);
+    int ret = sp_face_dir_write_all(ss, a->pd.path);
     if (!ret)
-        ret = sp_partial_dir_commit(&pd, 0);
-    if (ret)
-        sp_partial_dir_abort(&pd);
+        ret = sp_partial_dir_commit(&a->pd, 0);
     return ret;
 }
 
@@ -291,7 +274,7 @@ static int run_fit(fit_args *a, const sp_face_model *model)
     if (cb.have_truth)
         printf("fit: ground truth %s: sun direction error %.2f deg\n", a->truth, sun_error_deg(&cb));
     if ((ret = write_output(a, ss)))
-        code = sp_cmd_fail("fit", ret, "writing the face directory");
+        code = sp_cmd_fail("fit", ret, a->out);
     else
         printf("fit: wrote %s\n", a->out);
 done:
@@ -311,8 +294,13 @@ int sp_cmd_fit(int argc, char **argv)
         fprintf(stderr, "sunprobe fit: %s exists; remove it or choose another FACE_DIR\n", a.out);
         return SP_EXIT_USAGE;
     }
+    int ret = sp_partial_dir_open(&a.pd, a.out);
+    if (ret) {
+        char what[4200];
+        snprintf(what, sizeof(what), "cannot create the face directory %s", a.out);
+        return sp_cmd_fail("fit", ret, what);
+    }
     sp_face_model model;
-    int ret;
     if (a.face && !strcmp(a.face, "generic")) {
         ret = sp_face_model_generic(&model);
     } else if (a.face && !strcmp(a.face, "ict")) {
@@ -327,9 +315,12 @@ int sp_cmd_fit(int argc, char **argv)
     } else {
         ret = sp_face_model_load_default(&model);
     }
-    if (ret)
+    if (ret) {
+        sp_partial_dir_abort(&a.pd);
         return sp_cmd_fail("fit", ret, "loading the face model");
+    }
     int code = run_fit(&a, &model);
     sp_face_model_free(&model);
+    sp_partial_dir_abort(&a.pd); /* a no-op once committed */
     return code;
 }

@@ -18,7 +18,7 @@ expect() { # expected-exit-code description command...
     fi
 }
 contains() { # file pattern description
-    grep -qE "$2" "$1" || { echo "FAIL: $3: no /$2/ in output"; sed 's/^/  | /' "$1"; fails=$((fails + 1)); }
+    grep -qE -e "$2" "$1" || { echo "FAIL: $3: no /$2/ in output"; sed 's/^/  | /' "$1"; fails=$((fails + 1)); }
 }
 
 cap=$dir/turn.spcap
@@ -72,6 +72,21 @@ expect 2 "verify torn" "$SP" verify "$dir/torn.spcap"
 contains "$dir/out.txt" "torn tail" "verify torn message"
 expect 0 "recover in place" "$SP" recover "$dir/torn.spcap"
 expect 0 "verify after recover" "$SP" verify "$dir/torn.spcap"
+
+# option values: the message names the option and its range; an empty value is not 0
+expect 1 "fit --keyframes 0" "$SP" fit "$cap" -o "$dir/face" --keyframes 0
+contains "$dir/err.txt" "--keyframes '0': expected an integer from 2 to 64" "fit --keyframes message"
+expect 1 "fit --time-budget ''" "$SP" fit "$cap" -o "$dir/face" --time-budget ""
+contains "$dir/err.txt" "--time-budget '': expected a number" "fit empty value message"
+expect 1 "fit --face nope" "$SP" fit "$cap" -o "$dir/face" --face nope
+contains "$dir/err.txt" "--face 'nope': expected auto, generic or ict" "fit --face message"
+expect 1 "export --position-bits 99" "$SP" export "$dir/face" -o "$dir/face.glb" --position-bits 99
+contains "$dir/err.txt" "--position-bits '99': expected an integer from 1 to 30" "export option message"
+# fit checks where it will write before it reads anything: the path in the message, nothing left behind
+expect 3 "fit into a missing directory" "$SP" fit "$cap" -o "$dir/no/such/face"
+contains "$dir/err.txt" "cannot create the face directory $dir/no/such/face" "fit output message"
+expect 3 "fit of a missing capture" "$SP" fit "$dir/none.spcap" -o "$dir/face"
+ls "$dir" | grep -q "face.partial" && { echo "FAIL: fit left a partial face directory"; fails=$((fails + 1)); }
 
 [ "$fails" -eq 0 ] && echo "all CLI checks passed"
 exit $((fails > 0))

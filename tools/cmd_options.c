@@ -1,0 +1,38 @@
+/* SPDX-License-Identifier: MIT */
+/* Option values shared by the commands: one parser, one message that names the option and its range. */
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "tools/cmd.h"
+
+/* strtod/strtol skip leading blanks; an empty or blank value is not a number, whatever they return */
+static int blank_start(const char *s)
+{
+    return !s || !*s || *s == ' ' || *s == '\t' || *s == '\n';
+}
+
+int sp_opt_int(const char *cmd, const char *opt, const char *s, int lo, int hi, int *out)
+{
+    char *end = NULL;
+    errno = 0;
+    long v = blank_start(s) ? 0 : strtol(s, &end, 10);
+    if (blank_start(s) || *end || errno == ERANGE || v < lo || v > hi) {
+        fprintf(stderr, "sunprobe %s: --%s '%s': expected an integer from %d to %d\n", cmd, opt, s ? s : "", lo, hi);
+        return -1;
+    }
+    *out = (int)v;
+    return 0;
+}
+
+int sp_opt_double(const char *cmd, const char *opt, const char *s, double lo, double hi, double *out)
+{
+    char *end = NULL;
+    double v = blank_start(s) ? 0.0 : strtod(s, &end);
+    if (blank_start(s) || *end || !(v >= lo && v <= hi)) {
+        fprintf(stderr, "sunprobe %s: --%s '%s': expected a number from %g to %g\n", cmd, opt, s ? s : "", lo, hi);
+        return -1;
+    }
+    *out = v;
+    return 0;
+}
