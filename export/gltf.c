@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "common/atomic_file.h"
 #include "common/file_set.h"
@@ -586,7 +587,9 @@ static int prepare(export_ctx *c)
     int ret = sp_face_dir_read(&c->asset, c->face_dir);
     if (ret) {
         sp_log(SP_LOG_ERROR, MOD, "%s: not a readable face directory: %s", c->face_dir, sp_strerror(ret));
-        return ret;
+        struct stat st;
+        /* the directory is there and a part of it is not: incomplete input, not a file-system fault */
+        return ret == -ENOENT && stat(c->face_dir, &st) == 0 && S_ISDIR(st.st_mode) ? SP_ECORRUPT : ret;
     }
     if ((ret = read_reasons(c)))
         return ret;

@@ -87,8 +87,8 @@ int sp_cmd_export(int argc, char **argv)
         return p > 0 ? SP_EXIT_OK : SP_EXIT_USAGE;
     sp_export_stats st;
     int ret = sp_export_face(dir, out, &s, &st);
-    if (ret)
-        return sp_cmd_fail("export", ret, out);
+    if (ret) /* bad input names the face directory, anything else the output */
+        return sp_cmd_fail("export", ret, sp_exit_for_error(ret) == SP_EXIT_BAD_INPUT ? dir : out);
     if (stats)
         printf("vertices %u\ntriangles %u\nraw_geometry_bytes %zu\ngeometry_bytes %zu\ntotal_bytes %zu\n"
                "specular_texture %d\nnormal_map %d\nsun %d\n",

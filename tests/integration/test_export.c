@@ -571,6 +571,16 @@ static void check_bad_input(const char *exe, const char *tmp, const char *face)
     CHECK(make_fixture(dir, 0) == 0);
     snprintf(path, sizeof(path), "%s/albedo.f32", dir);
     CHECK(unlink(path) == 0);
+    /* a part missing from a face directory is incomplete input (exit 2), not a file-system fault */
+    CHECK(sp_export_face(dir, out, &s, NULL) == SP_ECORRUPT && !exists(out));
+    snprintf(dir, sizeof(dir), "%s/no-mesh", tmp);
+    CHECK(make_fixture(dir, 0) == 0);
+    snprintf(path, sizeof(path), "%s/mesh.bin", dir);
+    CHECK(unlink(path) == 0);
+    snprintf(args, sizeof(args), "'%s' -o '%s' --no-draco", dir, out);
+    CHECK_EQ_INT(run_cli(exe, args), 2);
+    CHECK(!exists(out));
+    snprintf(dir, sizeof(dir), "%s/no-such-face-dir", tmp);
     CHECK(sp_export_face(dir, out, &s, NULL) == -ENOENT && !exists(out));
     snprintf(dir, sizeof(dir), "%s/short-clusters", tmp);
     CHECK(make_fixture(dir, 0) == 0);
