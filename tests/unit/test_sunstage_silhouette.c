@@ -190,6 +190,16 @@ static void test_outline_and_gradient(void)
             }
             CHECK_MSG(n_scalp > 20 && n_overlap == 0, "scalp vertices %d, %d of them in the face mask", n_scalp,
                       n_overlap);
+            /* the head's sides (the ears) below the brows are in it, the neck below the chin is not */
+            const float *P = m.mesh.positions;
+            double brow_y = P[m.landmarks[19] * 3 + 1], chin_y = P[m.landmarks[8] * 3 + 1];
+            int n_sides = 0, n_neck = 0;
+            for (uint32_t i = 0; i < nv; i++) {
+                n_sides += scalp[i] && (double)P[i * 3 + 1] < brow_y;
+                n_neck += scalp[i] && (double)P[i * 3 + 1] < chin_y;
+            }
+            CHECK_MSG(n_sides > 0 && n_neck == 0, "scalp: %d vertices below the brows, %d below the chin", n_sides,
+                      n_neck);
             int na = ss_silhouette_vertices(&m, scalp, &p, &cam, W, H, all, SS_SIL_CAP(W, H), work), tagged = 0;
             for (int j = 0; j < na; j++) {
                 uint32_t v = all[j] & ~SS_SIL_SCALP;
