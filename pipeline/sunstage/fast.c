@@ -37,6 +37,7 @@ typedef struct obs {
     double A[NK];      /* ambient of env lobe k / pi */
     int32_t tex[4];
     double tw[4];
+    int32_t px;        /* its pixel in the frame: the later per-frame renders (shadows, highlights) look it up */
     int8_t cluster;
     uint8_t eye;       /* on an eyeball: its albedo is fitted, but it says nothing about the light (a wet cornea) */
 } obs;
@@ -197,6 +198,7 @@ static int gather(fast_ctx *c)
                 break;
             obs *ob = &c->o[c->n++];
             memset(ob, 0, sizeof(*ob));
+            ob->px = p;
             double slope = 0.0;
             for (int ch = 0; ch < 3; ch++) {
                 double s;
@@ -619,12 +621,8 @@ static int update_visibility(fast_ctx *c)
         sp_render_outputs o;
         if ((ret = render_white(c, f, c->sun, 1.0, NULL, 0.0, 16.0, &o)))
             break;
-        size_t i = c->frame_start[fi];
-        for (int p = 0; p < ss->W * ss->H && i < c->frame_start[fi + 1]; p++) {
-            /* the observation order is the mask order of gather(); re-derive it from the same test */
-            if (ss_scene_is_observed(&c->sc, &o, f->rgb, p))
-                c->o[i++].V = (double)o.visibility[p];
-        }
+        for (size_t i = c->frame_start[fi]; i < c->frame_start[fi + 1]; i++)
+            c->o[i].V = (double)o.visibility[c->o[i].px];
     }
     return ret;
 }
@@ -639,11 +637,8 @@ static int update_specular(fast_ctx *c, double shin, float *out)
         sp_render_outputs o;
         if ((ret = render_white(c, f, c->sun, 1.0, NULL, 1.0, shin, &o)))
             break;
-        size_t i = c->frame_start[fi];
-        for (int p = 0; p < ss->W * ss->H && i < c->frame_start[fi + 1]; p++) {
-            if (ss_scene_is_observed(&c->sc, &o, f->rgb, p))
-                out[i++] = o.specular[(size_t)p * 3];
-        }
+        for (size_t i = c->frame_start[fi]; i < c->frame_start[fi + 1]; i++)
+            out[i] = o.specular[(size_t)c->o[i].px * 3];
     }
     return ret;
 }
