@@ -3,6 +3,8 @@
 #ifndef SUNPROBE_TOOLS_CMD_H
 #define SUNPROBE_TOOLS_CMD_H
 
+#include <stddef.h>
+
 /* Exit codes, documented in README.md and `sunprobe --help`. */
 enum sp_exit {
     SP_EXIT_OK = 0,
@@ -31,6 +33,11 @@ int sp_cmd_fail(const char *cmd, int err, const char *what);
  */
 int sp_opt_int(const char *cmd, const char *opt, const char *s, int lo, int hi, int *out);
 int sp_opt_double(const char *cmd, const char *opt, const char *s, double lo, double hi, double *out);
+/*
+ * s with its control characters (C0, DEL, C1) written as \xNN, into buf (n bytes; cut to fit): every
+ * string a command prints from a file goes through it, so a crafted file cannot drive the terminal.
+ */
+const char *sp_cmd_printable(const char *s, char *buf, size_t n);
 
 int sp_cmd_info(int argc, char **argv);
 int sp_cmd_verify(int argc, char **argv);

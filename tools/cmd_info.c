@@ -189,21 +189,22 @@ static double span_s(const series *s)
 
 static void print_meta(const sp_capture_meta *m)
 {
-    printf("kind:        %s\n", m->kind[0] ? m->kind : "(not given)");
+    char a[4 * 256 + 8], b[4 * 256 + 8]; /* the META strings, escaped: 4 bytes per character at most */
+    printf("kind:        %s\n", m->kind[0] ? sp_cmd_printable(m->kind, a, sizeof(a)) : "(not given)");
     if (m->source[0])
-        printf("source:      %s\n", m->source);
+        printf("source:      %s\n", sp_cmd_printable(m->source, a, sizeof(a)));
     if (m->camera_name[0])
-        printf("camera:      %s%s%s%s\n", m->camera_name, m->camera_driver[0] ? " (" : "", m->camera_driver,
-               m->camera_driver[0] ? ")" : "");
+        printf("camera:      %s%s%s%s\n", sp_cmd_printable(m->camera_name, a, sizeof(a)), m->camera_driver[0] ? " (" : "",
+               sp_cmd_printable(m->camera_driver, b, sizeof(b)), m->camera_driver[0] ? ")" : "");
     double f = sp_capture_meta_focal_px(m);
     if (isfinite(f))
         printf("focal:       %.1f px\n", f);
     if (m->imu_name[0])
-        printf("imu:         %s\n", m->imu_name);
+        printf("imu:         %s\n", sp_cmd_printable(m->imu_name, a, sizeof(a)));
     if (isfinite(m->latitude))
         printf("location:    %.5f, %.5f\n", m->latitude, m->longitude);
     if (m->utc_start[0])
-        printf("utc start:   %s\n", m->utc_start);
+        printf("utc start:   %s\n", sp_cmd_printable(m->utc_start, a, sizeof(a)));
 }
 
 static void print_text(const char *path, const info *in, const sp_capture_info *ci, uint64_t corrupt,

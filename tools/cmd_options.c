@@ -36,3 +36,21 @@ int sp_opt_double(const char *cmd, const char *opt, const char *s, double lo, do
     *out = v;
     return 0;
 }
+
+const char *sp_cmd_printable(const char *s, char *buf, size_t n)
+{
+    static const char hex[] = "0123456789abcdef";
+    size_t o = 0;
+    for (const unsigned char *p = (const unsigned char *)(s ? s : ""); *p && o + 5 < n; p++) {
+        /* C0 controls and DEL, and the C1 controls as UTF-8 (0xc2 0x80..0x9f: 0x9b is a CSI on some terminals) */
+        int c1 = p[0] == 0xc2 && p[1] >= 0x80 && p[1] <= 0x9f;
+        if (*p < 0x20 || *p == 0x7f || c1) {
+            unsigned char v = c1 ? *++p : *p;
+            buf[o++] = '\\', buf[o++] = 'x', buf[o++] = hex[v >> 4], buf[o++] = hex[v & 15];
+        } else {
+            buf[o++] = (char)*p;
+        }
+    }
+    buf[o] = '\0';
+    return buf;
+}
