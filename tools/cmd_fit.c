@@ -247,25 +247,28 @@ static int run_fit(fit_args *a, const sp_face_model *model)
         return sp_cmd_fail("fit", ret, "settings");
     sp_sunstage *ss = stage.ctx;
     int code = SP_EXIT_OK;
+    sp_report *rep = NULL;
+    const char *names[3] = { "photometric loss", "held-out PSNR dB", "sun error deg" };
+    /* the report is opened before any work, so an unwritable PREFIX fails at once rather than after the fit */
+    if (a->report && (ret = sp_report_open(&rep, a->report, "sunprobe fit", names, 3, 0))) {
+        char what[4200];
+        snprintf(what, sizeof(what), "cannot write the report %s", a->report);
+        code = sp_cmd_fail("fit", ret, what);
+        goto done;
+    }
     if ((ret = stream(a, &stage))) {
         code = sp_exit_for_error(ret);
         goto done;
     }
-    sp_report *rep = NULL;
-    const char *names[3] = { "photometric loss", "held-out PSNR dB", "sun error deg" };
     fit_cb_ctx cb = { .ss = ss };
     if (a->truth[0] && read_true_sun(a->truth, cb.true_sun) == 0)
         cb.have_truth = 1;
-    if (a->report && (ret = sp_report_open(&rep, a->report, "sunprobe fit", names, 3, 0)))
-        fprintf(stderr, "sunprobe fit: cannot write the report %s: %s\n", a->report, sp_strerror(ret));
     sp_progress bar;
     sp_progress_start(&bar, "fit", 1, a->progress ? -1 : 0);
     cb.report = rep;
     cb.bar = &bar;
     ret = sp_sunstage_fit(ss, on_progress, &cb);
     sp_progress_finish(&bar);
-    if (rep)
-        sp_report_close(&rep);
     if (ret) {
         code = sp_cmd_fail("fit", ret, "nothing to fit (see the message above)");
         goto done;
@@ -278,6 +281,11 @@ static int run_fit(fit_args *a, const sp_face_model *model)
     else
         printf("fit: wrote %s\n", a->out);
 done:
+    if (rep && (ret = sp_report_close(&rep)) && code == SP_EXIT_OK) {
+        char what[4200];
+        snprintf(what, sizeof(what), "writing the report %s", a->report);
+        code = sp_cmd_fail("fit", ret, what);
+    }
     sp_stage_close(&stage);
     return code;
 }

@@ -85,6 +85,8 @@ contains "$dir/err.txt" "--position-bits '99': expected an integer from 1 to 30"
 # fit checks where it will write before it reads anything: the path in the message, nothing left behind
 expect 3 "fit into a missing directory" "$SP" fit "$cap" -o "$dir/no/such/face"
 contains "$dir/err.txt" "cannot create the face directory $dir/no/such/face" "fit output message"
+expect 3 "fit with an unwritable --report" "$SP" fit "$cap" -o "$dir/face" --report "$dir/no/such/report"
+contains "$dir/err.txt" "cannot write the report $dir/no/such/report" "fit --report message"
 expect 3 "fit of a missing capture" "$SP" fit "$dir/none.spcap" -o "$dir/face"
 ls "$dir" | grep -q "face.partial" && { echo "FAIL: fit left a partial face directory"; fails=$((fails + 1)); }
 
