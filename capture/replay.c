@@ -326,8 +326,10 @@ static int fill_one(replay *r)
             r->eof = 1;
             return 0;
         }
-        if (ret)
+        if (ret) {
+            r->stats.error_offset = r->chunk.offset;
             return ret;
+        }
         r->have_chunk = 1;
         r->stats.bytes_read += r->chunk.payload_size;
     }
@@ -339,6 +341,8 @@ static int fill_one(replay *r)
         r->stats.corrupt_chunks++;
         return 0;
     }
+    if (ret)
+        r->stats.error_offset = r->chunk.offset;
     return ret;
 }
 

@@ -40,6 +40,16 @@ int sp_cmd_recover(int argc, char **argv)
     const char *path = argv[optind];
     sp_recover_report rep = { 0 };
     int ret = sp_capture_recover(path, out, &rep);
+    if (ret && out && sp_exit_for_error(ret) == SP_EXIT_IO) {
+        /* a file-system error with the input readable is the copy's: name it, not the input */
+        FILE *in = fopen(path, "rb");
+        if (in) {
+            fclose(in);
+            char what[4200];
+            snprintf(what, sizeof(what), "writing the recovered copy %s", out);
+            return sp_cmd_fail("recover", ret, what);
+        }
+    }
     if (ret)
         return sp_tool_capture_error("recover", path, ret, 0);
     printf("%s: kept %" PRIu64 " chunks (%" PRIu64 " bytes), dropped %" PRIu64 " bytes%s\n", out ? out : path,

@@ -146,7 +146,7 @@ static int run_stage(const replay_args *a, const sp_stage_ops *ops, const sp_run
     } else if (st.failed_in == SP_RUN_FAILED_FINISH)
         code = sp_cmd_fail("replay", ret, "finishing the stage");
     else if (ret)
-        code = sp_tool_capture_error("replay", a->path, ret, 0);
+        code = sp_tool_capture_error("replay", a->path, ret, st.replay.error_offset);
     sp_stage_close(&stage);
     if (st.failed_in == SP_RUN_FAILED_OPEN)
         return code;

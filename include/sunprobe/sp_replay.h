@@ -35,6 +35,7 @@ typedef struct sp_replay_stats {
     uint64_t bytes_read;
     int truncated;            /* the file ends in a torn chunk (run `sunprobe recover`) */
     int64_t first_ns, last_ns;
+    uint64_t error_offset;    /* byte offset of the chunk that stopped the replay with an error, else 0 */
 } sp_replay_stats;
 
 SP_API void sp_replay_default_settings(sp_replay_settings *s);

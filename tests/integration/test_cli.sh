@@ -60,7 +60,17 @@ printf '\xff' | dd of="$dir/damaged.spcap" bs=1 seek=$((size / 2)) conv=notrunc 
 expect 2 "verify damaged" "$SP" verify "$dir/damaged.spcap"
 contains "$dir/out.txt" "corrupt" "verify names the corruption"
 expect 0 "info damaged" "$SP" info "$dir/damaged.spcap"
+expect 0 "info damaged" "$SP" info "$dir/damaged.spcap"
+at=$(sed -n 's/.*first at byte \([0-9]*\).*/\1/p' "$dir/out.txt")
 expect 2 "replay damaged without skip" "$SP" replay "$dir/damaged.spcap"
+# replay names the bad chunk's real offset, the one info reports (it used to say byte 0)
+if [ -n "$at" ] && [ "$at" != 0 ]; then
+    contains "$dir/err.txt" "corrupt chunk at byte $at;" "replay corrupt offset"
+else
+    echo "FAIL: info did not report the corrupt chunk's offset"; fails=$((fails + 1))
+fi
+expect 3 "recover into a missing directory" "$SP" recover "$dir/damaged.spcap" -o "$dir/no/such/copy.spcap"
+contains "$dir/err.txt" "writing the recovered copy $dir/no/such/copy.spcap" "recover names its output"
 expect 0 "replay damaged with skip" "$SP" replay "$dir/damaged.spcap" --skip-corrupt
 expect 0 "recover to copy" "$SP" recover "$dir/damaged.spcap" -o "$dir/recovered.spcap"
 expect 0 "verify recovered" "$SP" verify "$dir/recovered.spcap"
