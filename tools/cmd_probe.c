@@ -374,7 +374,7 @@ static int run(probe_args *a, const capture_facts *facts, const char *dir)
         fprintf(stderr, "sunprobe probe: %s: %s\n", a->capture, sp_probe_message(probe));
         code = SP_EXIT_BAD_INPUT;
     } else if (ret) {
-        code = sp_tool_capture_error("probe", a->capture, ret, 0);
+        code = sp_tool_capture_error("probe", a->capture, ret, st.replay.error_offset);
     } else if ((ret = sp_probe_dir_write(dir, probe))) {
         code = sp_cmd_fail("probe", ret, "writing the probe directory");
     } else if (!a->quiet) {

@@ -69,6 +69,10 @@ if [ -n "$at" ] && [ "$at" != 0 ]; then
 else
     echo "FAIL: info did not report the corrupt chunk's offset"; fails=$((fails + 1))
 fi
+# only replay reads past a bad chunk: the others point at recover, not at an option they do not have
+expect 2 "export-video damaged" "$SP" export-video "$dir/damaged.spcap" -o "$dir/damaged-frames" -q
+contains "$dir/err.txt" "corrupt chunk at byte $at; .sunprobe recover" "export-video corrupt message"
+grep -q -e "--skip-corrupt" "$dir/err.txt" && { echo "FAIL: export-video suggests --skip-corrupt"; fails=$((fails + 1)); }
 expect 3 "recover into a missing directory" "$SP" recover "$dir/damaged.spcap" -o "$dir/no/such/copy.spcap"
 contains "$dir/err.txt" "writing the recovered copy $dir/no/such/copy.spcap" "recover names its output"
 expect 0 "replay damaged with skip" "$SP" replay "$dir/damaged.spcap" --skip-corrupt
