@@ -25,14 +25,14 @@ int sp_tool_capture_error(const char *cmd, const char *path, int err, uint64_t o
                 cmd, path, (unsigned long long)offset, path);
         break;
     case SP_ECORRUPT: /* only replay can read past a bad chunk; the others can offer what recover keeps */
-        if (!strcmp(cmd, "replay"))
+        if (offset == 0)
+            fprintf(stderr, "sunprobe %s: %s: corrupt capture header\n", cmd, path);
+        else if (!strcmp(cmd, "replay"))
             fprintf(stderr, "sunprobe %s: %s: corrupt chunk at byte %llu; use --skip-corrupt to read past it\n", cmd,
                     path, (unsigned long long)offset);
-        else if (offset > 0)
+        else
             fprintf(stderr, "sunprobe %s: %s: corrupt chunk at byte %llu; `sunprobe recover %s -o COPY` keeps the "
                             "capture before it\n", cmd, path, (unsigned long long)offset, path);
-        else
-            fprintf(stderr, "sunprobe %s: %s: corrupt capture header\n", cmd, path);
         break;
     default:
         fprintf(stderr, "sunprobe %s: %s: %s\n", cmd, path, sp_strerror(err));

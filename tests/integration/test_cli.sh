@@ -73,6 +73,10 @@ fi
 expect 2 "export-video damaged" "$SP" export-video "$dir/damaged.spcap" -o "$dir/damaged-frames" -q
 contains "$dir/err.txt" "corrupt chunk at byte $at; .sunprobe recover" "export-video corrupt message"
 grep -q -e "--skip-corrupt" "$dir/err.txt" && { echo "FAIL: export-video suggests --skip-corrupt"; fails=$((fails + 1)); }
+cp "$cap" "$dir/header.spcap"
+printf '\xff' | dd of="$dir/header.spcap" bs=1 seek=12 conv=notrunc status=none
+expect 2 "replay with a bad header" "$SP" replay "$dir/header.spcap"
+contains "$dir/err.txt" "corrupt capture header" "bad header named as such"
 expect 3 "recover into a missing directory" "$SP" recover "$dir/damaged.spcap" -o "$dir/no/such/copy.spcap"
 contains "$dir/err.txt" "writing the recovered copy $dir/no/such/copy.spcap" "recover names its output"
 expect 0 "replay damaged with skip" "$SP" replay "$dir/damaged.spcap" --skip-corrupt
