@@ -13,6 +13,9 @@
 
 #define MOD "sunstage"
 #define MAX_FILE ((size_t)1 << 30)
+#define MAX_PIXELS 1e6     /* focal length and principal point bound, pixels */
+#define MAX_KS 1000.0      /* as relight's --specular-scale bound */
+#define MAX_SHININESS 1e6
 
 /* Logs "dir/file: what" for content that would render as a blank image; returns SP_ECORRUPT. */
 static int bad_field(const char *dir, const char *file, const char *what)
@@ -138,8 +141,12 @@ static int read_camera(sp_face_asset *a, const char *dir)
     a->width = (int)sp_json_number(sp_json_get(f, "width"), 0);
     a->height = (int)sp_json_number(sp_json_get(f, "height"), 0);
     sp_json_free(root);
-    if (a->width < 1 || a->height < 1 || a->width > 16384 || a->height > 16384 || !(k[0] > 0.0) || !(k[1] > 0.0))
-        return SP_ECORRUPT;
+    if (a->width < 1 || a->height < 1 || a->width > 16384 || a->height > 16384)
+        return bad_field(dir, "cameras.json", "frames[0].width/height is not in 1..16384");
+    /* a focal length or principal point beyond a million pixels is no camera a face was seen with */
+    if (!(k[0] > 0.0 && k[0] < MAX_PIXELS && k[1] > 0.0 && k[1] < MAX_PIXELS) || !(fabs(k[2]) < MAX_PIXELS) ||
+        !(fabs(k[3]) < MAX_PIXELS))
+        return bad_field(dir, "cameras.json", "frames[0].intrinsics: fx, fy must be in (0, 1e6), |cx|, |cy| below 1e6");
     double qn = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
     if (!(qn > 1e-9 && qn < 1e150)) /* zero, NaN or Inf: no rotation to normalise */
         return bad_field(dir, "cameras.json", "frames[0].camera_to_world_wxyz is zero, NaN or Inf");
@@ -178,7 +185,17 @@ static int read_manifest(sp_face_asset *a, const char *dir, sp_json **root)
         sp_json_numbers(sp_json_get(spec, "shininess"), a->shininess, SP_RENDER_CLUSTERS) != SP_RENDER_CLUSTERS ||
         sp_json_numbers(sp_json_get(light, "sun_direction"), a->sun_dir, 3) != 3)
         return SP_ECORRUPT;
+    for (int k = 0; k < SP_RENDER_CLUSTERS; k++) {
+        if (!(a->ks[k] >= 0.0 && a->ks[k] <= MAX_KS))
+            return bad_field(dir, "manifest.json", "specular.ks: each must be in [0, 1000]");
+        if (!(a->shininess[k] > 0.0 && a->shininess[k] <= MAX_SHININESS))
+            return bad_field(dir, "manifest.json", "specular.shininess: each must be in (0, 1e6]");
+    }
     a->sun_intensity = sp_json_number(sp_json_get(light, "sun_intensity"), 0.0);
+    if (!(a->sun_intensity >= 0.0 && a->sun_intensity < 1e30))
+        return bad_field(dir, "manifest.json", "lighting.sun_intensity must be finite and >= 0");
+    if (!(isfinite(a->sun_dir[0]) && isfinite(a->sun_dir[1]) && isfinite(a->sun_dir[2])))
+        return bad_field(dir, "manifest.json", "lighting.sun_direction must be finite");
     return 0;
 }
 

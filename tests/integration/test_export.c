@@ -624,7 +624,7 @@ static int file_contains(const char *path, const char *needle)
 /* Face directories that would render blank are refused when read, naming the file and field. */
 static void check_relight_bad(const char *exe, const char *tmp)
 {
-    char dir[512], out[512], err[512], path[1024];
+    char dir[512], out[512], err[512], path[1024], args[2048];
     snprintf(out, sizeof(out), "%s/relit.png", tmp);
     snprintf(err, sizeof(err), "%s/relight.err", tmp);
     const float nan = NAN;
@@ -657,6 +657,37 @@ static void check_relight_bad(const char *exe, const char *tmp)
     CHECK(write_file(dir, "cameras.json", cams, strlen(cams)) == 0);
     CHECK_EQ_INT(run_relight(exe, dir, out, err), 2);
     CHECK(!exists(out) && file_contains(err, "cameras.json: frames[0].camera_to_world_wxyz"));
+
+    /* values the renderer would refuse are refused when read, with the field named (exit 2, not 1) */
+    snprintf(dir, sizeof(dir), "%s/relight-far-cx", tmp);
+    CHECK(make_fixture(dir, 0) == 0);
+    const char *far = "{\"frames\":[{\"width\":128,\"height\":128,\"intrinsics\":[150,150,1e308,64],"
+                      "\"camera_to_world_wxyz\":[1,0,0,0]}]}\n";
+    CHECK(write_file(dir, "cameras.json", far, strlen(far)) == 0);
+    CHECK_EQ_INT(run_relight(exe, dir, out, err), 2);
+    CHECK(!exists(out) && file_contains(err, "cameras.json: frames[0].intrinsics"));
+    snprintf(dir, sizeof(dir), "%s/relight-negative-ks", tmp);
+    CHECK(make_fixture(dir, 0) == 0);
+    {
+        char mpath[4096], text[8192];
+        snprintf(mpath, sizeof(mpath), "%s/manifest.json", dir);
+        FILE *mf = fopen(mpath, "r");
+        size_t len = mf ? fread(text, 1, sizeof(text) - 1, mf) : 0;
+        if (mf)
+            fclose(mf);
+        text[len] = 0;
+        char *ks = strstr(text, "\"ks\":[0.01");
+        CHECK(ks != NULL);
+        if (ks) {
+            char fixed[8300];
+            snprintf(fixed, sizeof(fixed), "%.*s\"ks\":[-1e308%s", (int)(ks - text), text, ks + strlen("\"ks\":[0.01"));
+            CHECK(write_file(dir, "manifest.json", fixed, strlen(fixed)) == 0);
+        }
+    }
+    CHECK_EQ_INT(run_relight(exe, dir, out, err), 2);
+    CHECK(!exists(out) && file_contains(err, "manifest.json: specular.ks"));
+    snprintf(args, sizeof(args), "'%s' -o '%s' --no-draco", dir, out);
+    CHECK_EQ_INT(run_cli(exe, args), 2);
     unlink(err);
 }
 
