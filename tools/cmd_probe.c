@@ -175,6 +175,10 @@ typedef struct capture_facts {
     uint64_t frames;
     uint32_t width, height;
     char ground_truth[256];
+    /* what a static camera's probe cannot take, found before any work: the first frame (1-based) of each */
+    uint64_t resized_at, backwards_at;
+    uint32_t resized_w, resized_h;
+    int64_t last_ns;
 } capture_facts;
 
 static void meta_ground_truth(const sp_chunk *c, capture_facts *f)
@@ -204,6 +208,11 @@ static int first_pass(const char *path, capture_facts *f)
         else if (c.type == SP_CHUNK_FRAME && !sp_chunk_parse_frame(&c, &fc) && fc.stream_id == 0) {
             if (!f->frames++)
                 f->width = fc.width, f->height = fc.height;
+            else if ((fc.width != f->width || fc.height != f->height) && !f->resized_at)
+                f->resized_at = f->frames, f->resized_w = fc.width, f->resized_h = fc.height;
+            if (f->frames > 1 && c.timestamp_ns < f->last_ns && !f->backwards_at)
+                f->backwards_at = f->frames;
+            f->last_ns = c.timestamp_ns;
         }
     }
     uint64_t off = c.offset;
@@ -397,6 +406,22 @@ int sp_cmd_probe(int argc, char **argv)
         return code;
     if (!facts.frames) {
         fprintf(stderr, "sunprobe probe: %s: no frames\n", a.capture);
+        return SP_EXIT_BAD_INPUT;
+    }
+    if (facts.width < 16 || facts.height < 16 || facts.width > 16384 || facts.height > 16384) {
+        fprintf(stderr, "sunprobe probe: %s: frames are %ux%u; the probe takes 16..16384 pixels a side\n", a.capture,
+                facts.width, facts.height);
+        return SP_EXIT_BAD_INPUT;
+    }
+    if (facts.resized_at) {
+        fprintf(stderr, "sunprobe probe: %s: frame %" PRIu64 " is %ux%u, the first was %ux%u: a probe needs one static "
+                        "camera size throughout\n", a.capture, facts.resized_at, facts.resized_w, facts.resized_h,
+                facts.width, facts.height);
+        return SP_EXIT_BAD_INPUT;
+    }
+    if (facts.backwards_at) {
+        fprintf(stderr, "sunprobe probe: %s: frame %" PRIu64 "'s timestamp is before the previous frame's: times must "
+                        "not go backwards\n", a.capture, facts.backwards_at);
         return SP_EXIT_BAD_INPUT;
     }
     if (a.holdout_half)

@@ -425,8 +425,42 @@ static int retime(const char *src, const char *dst, int64_t end, int64_t step)
     return rc == SP_EOS ? crc : rc;
 }
 
+/* n grey RGB24 frames: frame i is w x h (w2 x h2 from frame `resize_at` on), at i * 0.1 s except frame `back_at`. */
+static int raw_capture(const char *dst, int n, uint32_t w, uint32_t h, int resize_at, uint32_t w2, uint32_t h2,
+                       int back_at)
+{
+    sp_capture_writer *wr = NULL;
+    sp_capture_writer_settings ws;
+    sp_capture_writer_default_settings(&ws);
+    int rc = sp_capture_writer_open(&wr, dst, &ws);
+    uint8_t *px = calloc((size_t)(w > w2 ? w : w2) * (h > h2 ? h : h2) * 3, 1);
+    for (int i = 0; !rc && px && i < n; i++) {
+        uint32_t fw = i >= resize_at ? w2 : w, fh = i >= resize_at ? h2 : h;
+        memset(px, 100 + (i % 5), (size_t)fw * fh * 3);
+        int64_t t = (int64_t)i * 100000000 - (i == back_at ? 250000000 : 0);
+        sp_frame f = { .format = SP_PIXFMT_RGB24, .width = fw, .height = fh, .stride = fw * 3, .data = px,
+                       .capacity = (size_t)fw * fh * 3, .bytes_used = (size_t)fw * fh * 3, .timestamp_ns = t,
+                       .sequence = (uint64_t)i };
+        rc = sp_capture_write_frame(wr, &f);
+    }
+    int oom = !px;
+    free(px);
+    int crc = wr ? sp_capture_writer_close(&wr) : 0;
+    return rc ? rc : (oom ? -ENOMEM : crc);
+}
+
 static void test_bad(void)
 {
+    /* what a static camera's probe cannot take is refused before any work, with the frame named (exit 2, not 1) */
+    CHECK_EQ_INT(raw_capture(path_in("resize.spcap"), 40, 64, 48, 20, 80, 60, -1), 0);
+    CHECK_EQ_INT(run("probe", path_in("resize.spcap"), "-o", path_in("resizep"), NULL), 2);
+    CHECK(file_has("err.txt", "frame 21 is 80x60, the first was 64x48") && !exists("resizep") && no_partial_left());
+    CHECK_EQ_INT(raw_capture(path_in("back.spcap"), 40, 64, 48, 99, 64, 48, 10), 0);
+    CHECK_EQ_INT(run("probe", path_in("back.spcap"), "-o", path_in("backp"), NULL), 2);
+    CHECK(file_has("err.txt", "frame 11's timestamp is before") && !exists("backp") && no_partial_left());
+    CHECK_EQ_INT(raw_capture(path_in("tiny.spcap"), 10, 8, 8, 99, 8, 8, -1), 0);
+    CHECK_EQ_INT(run("probe", path_in("tiny.spcap"), "-o", path_in("tinyp"), NULL), 2);
+    CHECK(file_has("err.txt", "frames are 8x8; the probe takes 16..16384") && !exists("tinyp") && no_partial_left());
     CHECK(run("synth", "street", "-o", path_in("pan.spcap"), "--pan", "4", "--seconds", "6", NULL) == 0);
     CHECK(run("probe", path_in("pan.spcap"), "-o", path_in("panp"), NULL) == 2);
     CHECK(file_has("err.txt", "camera moves") && !exists("panp") && no_partial_left());
