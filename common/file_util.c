@@ -102,7 +102,7 @@ int sp_write_whole_file_atomic(const char *path, const void *data, size_t size)
     int err = sp_atomic_file_open(&af, path);
     if (err)
         return err;
-    int st = size == 0 || fwrite(data, 1, size, af.file) == size ? 0 : -EIO;
+    int st = size == 0 || fwrite(data, 1, size, af.file) == size ? 0 : sp_write_error();
     return sp_atomic_file_finish(&af, st);
 }
 

@@ -8,8 +8,18 @@
 #ifndef SUNPROBE_COMMON_FILE_UTIL_H
 #define SUNPROBE_COMMON_FILE_UTIL_H
 
+#include <errno.h>
 #include <stddef.h>
 #include <sys/types.h>
+
+/*
+ * The error of the write that just failed: -errno (a full disk is -ENOSPC, a size limit -EFBIG), or -EIO
+ * when the C library left none. Call it straight after the failing fwrite/fprintf/fflush/fclose.
+ */
+static inline int sp_write_error(void)
+{
+    return errno > 0 ? -errno : -EIO;
+}
 
 /*
  * Reads the whole file at path (regular files, pipes and other streams alike).

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "atomic_file.h"
+#include "file_util.h"
 
 struct sp_report {
     FILE *csv;
@@ -86,7 +87,7 @@ int sp_report_add(sp_report *r, double seconds, const double *values)
     }
     fputc('\n', r->csv);
     if (fflush(r->csv) != 0 && !r->error)
-        r->error = -EIO;
+        r->error = sp_write_error();
     return r->error;
 }
 
@@ -97,7 +98,7 @@ int sp_report_close(sp_report **rp)
     sp_report *r = *rp;
     int ret = r->error;
     if (r->csv && fclose(r->csv) != 0 && !ret)
-        ret = -EIO;
+        ret = sp_write_error();
     if (r->csv && r->n_rows) {
         int plot = sp_svg_plot_write(r->svg_path, r->title, "wall time (s)", r->x, r->v, r->n_rows,
                                      (const char *const *)r->names, r->n_series, r->log_scale);

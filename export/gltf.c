@@ -441,7 +441,7 @@ static int write_glb(const char *path, const sp_strbuf *json, const bin_buf *b, 
     if (fwrite(hdr, 4, 5, af.file) != 5 || fwrite(json->data, 1, json->len, af.file) != json->len ||
         fwrite(spaces, 1, jl - json->len, af.file) != jl - json->len || fwrite(bh, 4, 2, af.file) != 2 ||
         fwrite(b->data, 1, b->len, af.file) != b->len || fwrite(zeros, 1, bl - b->len, af.file) != bl - b->len)
-        ret = -EIO;
+        ret = sp_write_error();
     *total = len;
     return sp_atomic_file_finish(&af, ret);
 }
@@ -500,7 +500,7 @@ static int export_drc(export_ctx *c)
         ret = sp_atomic_file_open(&af, tmp);
     if (!ret) {
         if (fwrite(d.data, 1, d.size, af.file) != d.size)
-            ret = -EIO;
+            ret = sp_write_error();
         ret = sp_atomic_file_finish(&af, ret);
     }
     c->st.raw_geometry_bytes = (size_t)g->n_vertices * 32 + (size_t)g->n_triangles * 12;

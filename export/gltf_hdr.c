@@ -11,6 +11,7 @@
 #include <stdio.h>
 
 #include "common/atomic_file.h"
+#include "common/file_util.h"
 #include "sunprobe/sp_render.h"
 
 #define PI 3.14159265358979323846
@@ -75,12 +76,12 @@ int sp_hdr_write(const char *path, const float *rgb, int width, int height)
         return ret;
     if (fprintf(af.file, "#?RADIANCE\n# sunprobe environment map, equirectangular\nFORMAT=32-bit_rle_rgbe\n\n"
                          "-Y %d +X %d\n", height, width) < 0)
-        ret = -EIO;
+        ret = sp_write_error();
     for (size_t i = 0; !ret && i < (size_t)width * (size_t)height; i++) {
         unsigned char px[4];
         rgbe(rgb + i * 3, px);
         if (fwrite(px, 1, 4, af.file) != 4)
-            ret = -EIO;
+            ret = sp_write_error();
     }
     return sp_atomic_file_finish(&af, ret);
 }

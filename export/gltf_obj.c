@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "common/atomic_file.h"
+#include "common/file_util.h"
 #include "common/file_set.h"
 #include "export/png.h"
 
@@ -68,7 +69,7 @@ static int write_mtl(const char *out_path, sp_file_set *fs, const sp_export_text
                              (uint32_t)(t->normal.width * 3), 3)))
         fprintf(af.file, "norm %s\n", base);
     if (!ret && ferror(af.file))
-        ret = -EIO;
+        ret = sp_write_error();
     return sp_atomic_file_finish(&af, ret);
 }
 
@@ -95,7 +96,7 @@ int sp_export_write_obj(const char *out_path, sp_file_set *fs, const sp_gltf_geo
                 v[2] + 1, v[2] + 1, v[2] + 1);
     }
     if (ferror(f))
-        ret = -EIO;
+        ret = sp_write_error();
     long size = ftell(f);
     ret = sp_atomic_file_finish(&af, ret);
     st->vertices = g->n_vertices;

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "sp_config.h"
+#include "common/file_util.h"
 #if HAVE_ZLIB
 #include <zlib.h>
 #endif
@@ -50,7 +51,7 @@ static int write_chunk(FILE *f, const char type[4], const uint8_t *data, size_t 
     uint8_t tail[4];
     put_be32(tail, crc);
     if (fwrite(hdr, 1, 8, f) != 8 || (n && fwrite(data, 1, n, f) != n) || fwrite(tail, 1, 4, f) != 4)
-        return -EIO;
+        return sp_write_error();
     return 0;
 }
 
@@ -131,7 +132,7 @@ static int png_emit(FILE *f, const uint8_t *pixels, uint32_t width, uint32_t hei
     int ret = 0;
     if (fwrite(sig, 1, 8, f) != 8 || write_chunk(f, "IHDR", ihdr, 13) || write_chunk(f, "IDAT", z, z_n) ||
         write_chunk(f, "IEND", NULL, 0))
-        ret = -EIO;
+        ret = sp_write_error();
     free(z);
     return ret;
 }

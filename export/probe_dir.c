@@ -39,7 +39,7 @@ int sp_pfm_write(const char *path, const float *v, uint32_t width, uint32_t heig
                 buf[4 * i + (size_t)b] = (uint8_t)(bits >> (8 * b));
         }
         if (fwrite(buf, 4, row, af.file) != row)
-            ret = -EIO;
+            ret = sp_write_error();
     }
     free(buf);
     return sp_atomic_file_finish(&af, ret);

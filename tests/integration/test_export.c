@@ -691,11 +691,11 @@ static void check_relight_bad(const char *exe, const char *tmp)
     unlink(err);
 }
 
-/* `sh -c` with the output size limited to 64 blocks (SIGXFSZ ignored, so writes fail with EFBIG). */
-static int run_limited(const char *exe, const char *args)
+/* `sh -c` with the output size limited to 64 blocks (SIGXFSZ ignored, so writes fail with EFBIG); stderr to err. */
+static int run_limited(const char *exe, const char *args, const char *err)
 {
     char cmd[8192];
-    snprintf(cmd, sizeof(cmd), "ulimit -f 64; trap '' XFSZ; exec '%s' export %s >/dev/null 2>&1", exe, args);
+    snprintf(cmd, sizeof(cmd), "ulimit -f 64; trap '' XFSZ; exec '%s' export %s >/dev/null 2>'%s'", exe, args, err);
     int st = system(cmd);
     return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
 }
@@ -712,7 +712,8 @@ static int same_bytes(const char *path, const uint8_t *want, size_t want_n)
 /* An asset is committed whole or not at all: a failed write leaves the previous set as it was, and no new file. */
 static void check_asset_atomic(const char *exe, const char *tmp, const char *face)
 {
-    char dir[512], glb_path[512], env_path[512], path[1024], args[4096];
+    char dir[512], glb_path[512], env_path[512], path[1024], args[4096], err[512];
+    snprintf(err, sizeof(err), "%s/limited.err", tmp);
     snprintf(glb_path, sizeof(glb_path), "%s/set.glb", tmp);
     snprintf(env_path, sizeof(env_path), "%s/set.env.hdr", tmp);
     snprintf(args, sizeof(args), "'%s' -o '%s' --no-draco", face, glb_path);
@@ -725,7 +726,9 @@ static void check_asset_atomic(const char *exe, const char *tmp, const char *fac
     const float sky[4] = { 3.0f, 0.1f, 0.2f, 5.0f };
     patch(dir, "env.f32", 0, sky, sizeof(sky));
     snprintf(args, sizeof(args), "'%s' -o '%s' --no-draco", dir, glb_path);
-    CHECK_EQ_INT(run_limited(exe, args), 3);
+    CHECK_EQ_INT(run_limited(exe, args, err), 3);
+    /* the write's own error reaches the user (a full disk says so), not a generic I/O error */
+    CHECK(file_contains(err, "File too large") && !file_contains(err, "Input/output error"));
     CHECK_MSG(same_bytes(glb_path, glb0, glb_n) && same_bytes(env_path, env0, env_n),
               "the previous .glb + .env.hdr were changed by a failed export");
     free(glb0);
@@ -733,7 +736,9 @@ static void check_asset_atomic(const char *exe, const char *tmp, const char *fac
     static const char *const obj_files[] = { "fresh.obj", "fresh.mtl", "fresh_albedo.png", "fresh_normal.png",
                                              "fresh.env.hdr" };
     snprintf(args, sizeof(args), "'%s' -o '%s/fresh.obj' --format obj", dir, tmp);
-    CHECK_EQ_INT(run_limited(exe, args), 3);
+    CHECK_EQ_INT(run_limited(exe, args, err), 3);
+    CHECK(file_contains(err, "File too large") && !file_contains(err, "Input/output error"));
+    unlink(err);
     for (size_t i = 0; i < sizeof(obj_files) / sizeof(obj_files[0]); i++) {
         snprintf(path, sizeof(path), "%s/%s", tmp, obj_files[i]);
         CHECK_MSG(!exists(path), "%s was left by a failed export", path);
