@@ -16,7 +16,7 @@ static int read_text(const char *path, char **out, size_t *len, char *msg, size_
     void *buf = NULL;
     int rc = sp_read_whole_file(path, MAX_META_FILE, &buf, len);
     if (rc == -EFBIG)
-        return sp_import_fail(msg, msg_size, rc, "%s: larger than 1 MiB", path);
+        return sp_import_fail(msg, msg_size, SP_EUNSUPPORTED, "%s: larger than 1 MiB (metadata, not data)", path);
     if (rc == -ENOMEM || rc == -EIO)
         return sp_import_fail(msg, msg_size, rc, "%s: %s", path, sp_strerror(rc));
     if (rc)

@@ -16,8 +16,7 @@ static volatile sig_atomic_t interrupted;
 
 static void on_signal(int sig)
 {
-    (void)sig;
-    interrupted = 1;
+    interrupted = sig; /* which one: the exit code is 128 + it, as for every command */
 }
 
 static void usage(FILE *out)
@@ -187,7 +186,7 @@ int sp_cmd_import(int argc, char **argv)
     sp_progress_finish(&bar);
     if (rc) {
         fprintf(stderr, "sunprobe import: %s\n", report.message);
-        return sp_exit_for_error(rc);
+        return rc == -ECANCELED && interrupted ? 128 + (int)interrupted : sp_exit_for_error(rc);
     }
     if (!quiet)
         print_summary(&s, &report);

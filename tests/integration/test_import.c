@@ -155,6 +155,23 @@ static void test_bad_input(void)
     CHECK_EQ_INT(run("import", iu_path("jpg"), "-o", out, "--fps", "10", "--imu", iu_path("back.csv"), NULL), 2);
     CHECK(stderr_has("back.csv:4: time goes backwards"));
     CHECK(!iu_exists(out) && !iu_exists(iu_path("bad.spcap.partial")));
+    /* a META file over 1 MiB is bad input (exit 2), not an I/O fault */
+    {
+        size_t big = (1u << 20) + 4096;
+        char *text = malloc(big + 1);
+        CHECK(text != NULL);
+        if (text) {
+            memset(text, ' ', big);
+            memcpy(text, "{\"kind\": \"selfie\"}", 18);
+            text[big] = 0;
+            iu_write_text("big_meta.json", text);
+            free(text);
+            CHECK_EQ_INT(run("import", iu_path("jpg"), "-o", out, "--fps", "10", "--meta", iu_path("big_meta.json"),
+                             NULL), 2);
+            CHECK(stderr_has("big_meta.json: larger than 1 MiB"));
+            CHECK(!iu_exists(out));
+        }
+    }
     CHECK_EQ_INT(run("import", iu_path("no_such_dir"), "-o", out, "--fps", "10", NULL), 3);
     CHECK(stderr_has("no_such_dir"));
     CHECK(!iu_exists(out));
