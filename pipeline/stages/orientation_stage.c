@@ -111,10 +111,12 @@ static int orient_finish(void *ctx, FILE *summary)
             s->unresolved);
     if (!s->imu_samples)
         fprintf(summary, "orientation: the capture has no IMU samples\n");
+    else if (!s->resolved)
+        fprintf(summary, "orientation: no frame lies within the IMU log's time span (do their clocks overlap?)\n");
     if (s->err_n)
         fprintf(summary, "orientation: error against ground truth: mean %.3f deg, max %.3f deg, last frame %.3f deg\n",
                 s->err_sum / (double)s->err_n, s->err_max, s->err_last);
-    return commit_csv(s, s->imu_samples ? 0 : SP_ENODATA);
+    return commit_csv(s, s->imu_samples && s->resolved ? 0 : SP_ENODATA); /* an empty CSV is no result */
 }
 
 static void orient_close(void *ctx)

@@ -155,6 +155,13 @@ static void test_bad_input(void)
     CHECK_EQ_INT(run("import", iu_path("jpg"), "-o", out, "--fps", "10", "--imu", iu_path("back.csv"), NULL), 2);
     CHECK(stderr_has("back.csv:4: time goes backwards"));
     CHECK(!iu_exists(out) && !iu_exists(iu_path("bad.spcap.partial")));
+    /* an IMU log whose clock never meets the frames': the orientation stage has no result (exit 2, no CSV) */
+    iu_write_text("late_imu.csv", "t,gx,gy,gz,ax,ay,az\n1000,0,0,0,0,0,9.81\n1000.01,0,0,0,0,0,9.81\n"
+                                  "1000.02,0,0,0,0,0,9.81\n1000.03,0,0,0,0,0,9.81\n");
+    CHECK_EQ_INT(run("import", iu_path("jpg"), "-o", iu_path("late.spcap"), "--fps", "10", "--imu",
+                     iu_path("late_imu.csv"), "-q", NULL), 0);
+    CHECK_EQ_INT(run("replay", iu_path("late.spcap"), "--stage", "orientation", "-o", iu_path("late.csv"), NULL), 2);
+    CHECK(!iu_exists(iu_path("late.csv")));
     /* a META file over 1 MiB is bad input (exit 2), not an I/O fault */
     {
         size_t big = (1u << 20) + 4096;
