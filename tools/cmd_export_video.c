@@ -42,6 +42,9 @@ typedef struct exporter {
     uint32_t out_w, out_h, src_w, src_h;
     uint32_t *x0, *x1;         /* source column range of each output column */
     uint64_t seen, written;    /* frames of the stream seen, exported */
+    int made_dir;              /* PNG output: this run created the directory */
+    uint64_t *done;            /* PNG output: the frame indices this run wrote, removed again if it fails */
+    size_t n_done, cap_done;
 } exporter;
 
 static void usage(FILE *out)
@@ -240,10 +243,32 @@ static int write_frame(exporter *e, const uint8_t *rgb)
     }
     char path[4096];
     snprintf(path, sizeof(path), "%s/frame_%06llu.png", e->o->out, (unsigned long long)e->seen);
+    if (e->n_done == e->cap_done) {
+        size_t cap = e->cap_done ? 2 * e->cap_done : 256;
+        uint64_t *d = realloc(e->done, cap * sizeof(*d));
+        if (!d)
+            return -ENOMEM;
+        e->done = d, e->cap_done = cap;
+    }
     int rc = sp_png_write(path, rgb, e->out_w, e->out_h, e->out_w * 3, 3);
     if (rc)
         fprintf(stderr, "sunprobe " CMD ": %s: %s\n", path, sp_strerror(rc));
+    else
+        e->done[e->n_done++] = e->seen;
     return rc;
+}
+
+/* Removes the PNGs this run wrote, then the directory if this run made it (and it is empty). */
+static void discard_frames(exporter *e)
+{
+    char path[4096];
+    for (size_t i = 0; i < e->n_done; i++) {
+        snprintf(path, sizeof(path), "%s/frame_%06llu.png", e->o->out, (unsigned long long)e->done[i]);
+        if (unlink(path) != 0 && errno != ENOENT)
+            fprintf(stderr, "sunprobe " CMD ": could not remove %s: %s\n", path, strerror(errno));
+    }
+    if (e->made_dir && rmdir(e->o->out) != 0)
+        fprintf(stderr, "sunprobe " CMD ": could not remove %s: %s\n", e->o->out, strerror(errno));
 }
 
 static int export_frame(exporter *e, const sp_chunk *ch)
@@ -296,7 +321,9 @@ static int prepare_output(exporter *e)
     const char *out = e->o->out;
     e->video = has_ext(out, ".avi") || has_ext(out, ".mp4");
     if (!e->video) {
-        if (mkdir(out, 0777) != 0 && errno != EEXIST)
+        if (mkdir(out, 0777) == 0)
+            e->made_dir = 1;
+        else if (errno != EEXIST)
             return -errno;
         struct stat st;
         return stat(out, &st) == 0 && S_ISDIR(st.st_mode) ? 0 : -ENOTDIR;
@@ -444,6 +471,8 @@ int sp_cmd_export_video(int argc, char **argv)
         fprintf(stderr, "sunprobe " CMD ": %s: writing the video: %s\n", o.out, sp_strerror(rc));
         code = sp_exit_for_error(rc);
     }
+    if (code != SP_EXIT_OK && !e.video) /* a failed export leaves no frames of its own, nor the directory it made */
+        discard_frames(&e);
     if (code == SP_EXIT_OK && !o.quiet)
         printf("%s: %llu frames %ux%u\n", o.out, (unsigned long long)e.written, e.out_w, e.out_h);
     sp_capture_reader_close(&r);
@@ -452,5 +481,6 @@ int sp_cmd_export_video(int argc, char **argv)
     free(e.scaled);
     free(e.x0);
     free(e.x1);
+    free(e.done);
     return code;
 }

@@ -73,6 +73,8 @@ fi
 expect 2 "export-video damaged" "$SP" export-video "$dir/damaged.spcap" -o "$dir/damaged-frames" -q
 contains "$dir/err.txt" "corrupt chunk at byte $at; .sunprobe recover" "export-video corrupt message"
 grep -q -e "--skip-corrupt" "$dir/err.txt" && { echo "FAIL: export-video suggests --skip-corrupt"; fails=$((fails + 1)); }
+# and it leaves none of its frames behind, nor the directory it made for them (it wrote half of them before)
+[ -e "$dir/damaged-frames" ] && { echo "FAIL: a failed export-video left $dir/damaged-frames"; fails=$((fails + 1)); }
 cp "$cap" "$dir/header.spcap"
 printf '\xff' | dd of="$dir/header.spcap" bs=1 seek=12 conv=notrunc status=none
 expect 2 "replay with a bad header" "$SP" replay "$dir/header.spcap"
