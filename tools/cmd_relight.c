@@ -51,6 +51,7 @@ typedef struct relight_args {
     int have_sun, scale, keyframe, width, height, have_orbit;
     double orbit_az, orbit_el, fov_deg, focal_mm;
     double spec_scale[SP_RENDER_CLUSTERS];
+    const char *camera_in, *camera_out; /* --camera FILE, --save-camera FILE */
 } relight_args;
 
 static void relight_usage(FILE *out)
@@ -77,6 +78,10 @@ static void relight_usage(FILE *out)
             "  --fov DEG          horizontal field of view; the camera moves so the head keeps its size\n"
             "  --focal MM         the same as a 35 mm-equivalent focal length\n"
             "  --size WxH         output size (default: the capture's frame size)\n"
+            "  --camera FILE      a camera of its own (JSON: width, height, fx, fy, cx, cy, camera_to_world\n"
+            "                     4x4 in the face's world, OpenCV axes; see --save-camera); replaces the\n"
+            "                     options above\n"
+            "  --save-camera FILE write the camera this render used, in that format\n"
             "background (default: transparent):\n"
             "  --background capture:N  composited into keyframe N's own frame of --capture FILE.spcap (the\n"
             "                     view becomes keyframe N's unless --view is given), through the face mask\n"
@@ -146,7 +151,8 @@ static int parse_relight(int argc, char **argv, relight_args *a)
         { "focal", required_argument, NULL, 'F' },   { "size", required_argument, NULL, 'z' },
         { "specular-scale", required_argument, NULL, 'k' }, { "sun-size", required_argument, NULL, 'a' },
         { "fill", required_argument, NULL, 'l' }, { "env-rotate", required_argument, NULL, 'r' },
-        { "background", required_argument, NULL, 'g' }, { "capture", required_argument, NULL, 'c' }, { 0 },
+        { "background", required_argument, NULL, 'g' }, { "capture", required_argument, NULL, 'c' },
+        { "camera", required_argument, NULL, 'C' },  { "save-camera", required_argument, NULL, 'W' }, { 0 },
     };
     int c;
     char *end;
@@ -188,6 +194,8 @@ static int parse_relight(int argc, char **argv, relight_args *a)
                 return bad_option("--background", optarg, "capture:N with N >= 0 (and --capture FILE)");
             break;
         case 'c': a->capture = optarg; break;
+        case 'C': a->camera_in = optarg; break;
+        case 'W': a->camera_out = optarg; break;
         case 'b':
             if (sscanf(optarg, "%lf,%lf", &a->orbit_az, &a->orbit_el) != 2 || !(fabs(a->orbit_az) <= 360.0) ||
                 !(fabs(a->orbit_el) < 90.0))
@@ -249,6 +257,12 @@ static int parse_relight(int argc, char **argv, relight_args *a)
     }
     if (a->background_keyframe >= 0 && !a->have_view)
         a->keyframe = a->background_keyframe;
+    if (a->camera_in && (a->have_view || a->have_orbit || a->fov_deg > 0.0 || a->width || a->scale ||
+                         a->background_keyframe >= 0)) {
+        fprintf(stderr, "sunprobe relight: --camera gives the whole camera: it does not combine with --view, --orbit, "
+                        "--fov, --focal, --size, --scale or --background\n");
+        return -1;
+    }
     if (optind != argc - 1 || !a->out) {
         fprintf(stderr, "sunprobe relight: expected FACE_DIR and -o OUT.png (see --help)\n");
         return -1;
@@ -557,6 +571,105 @@ static void composite(const relight_ctx *c, float *sum, const float *cover, int 
  * The view: keyframe N (the face placed in the world as it was then, that camera), then the orbit
  * about the head's centre and the dolly zoom, then the output size. Returns 0 or a message'd error.
  */
+/*
+ * --camera FILE: {"width", "height", "fx", "fy", "cx", "cy", "camera_to_world": 4 rows of 4} in the face's
+ * world (the one keyframe 0's camera is at the origin of; OpenCV camera axes: x right, y down, z forward).
+ * Every field is checked, and named when it is wrong.
+ */
+static const char *camera_from_json(const sp_json *root, sp_face_view *v)
+{
+    double w = sp_json_number(sp_json_get(root, "width"), 0), h = sp_json_number(sp_json_get(root, "height"), 0);
+    double K[4] = { sp_json_number(sp_json_get(root, "fx"), NAN), sp_json_number(sp_json_get(root, "fy"), NAN),
+                    sp_json_number(sp_json_get(root, "cx"), NAN), sp_json_number(sp_json_get(root, "cy"), NAN) };
+    double M[16];
+    const sp_json *rows = sp_json_get(root, "camera_to_world");
+    int nrows = 0;
+    while (nrows < 4 && sp_json_numbers(sp_json_at(rows, (size_t)nrows), M + 4 * nrows, 4) == 4)
+        nrows++;
+    if (!(w >= 1 && w <= MAX_SIZE && h >= 1 && h <= MAX_SIZE && w == floor(w) && h == floor(h)))
+        return "width and height must be whole numbers from 1 to 8192";
+    if (!(K[0] > 0.0 && K[0] < 1e6 && K[1] > 0.0 && K[1] < 1e6))
+        return "fx and fy must be in (0, 1e6) pixels";
+    if (!(fabs(K[2]) < 1e6 && fabs(K[3]) < 1e6))
+        return "cx and cy must be finite pixels (|c| < 1e6)";
+    if (nrows != 4 || sp_json_at(rows, 4))
+        return "camera_to_world must be 4 rows of 4 numbers";
+    double R[9], Rt[9], RRt[9];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            R[i * 3 + j] = M[i * 4 + j], Rt[j * 3 + i] = M[i * 4 + j];
+    sp_mat3_mul(R, Rt, RRt);
+    double det = R[0] * (R[4] * R[8] - R[5] * R[7]) - R[1] * (R[3] * R[8] - R[5] * R[6]) +
+                 R[2] * (R[3] * R[7] - R[4] * R[6]);
+    double off = 0.0;
+    for (int i = 0; i < 9; i++)
+        off = fmax(off, fabs(RRt[i] - (i % 4 == 0 ? 1.0 : 0.0)));
+    if (!(off < 1e-3) || !(det > 0.0))
+        return "camera_to_world's 3x3 part must be a rotation (orthonormal within 1e-3, determinant +1)";
+    if (!(fabs(M[3]) < 1e6 && fabs(M[7]) < 1e6 && fabs(M[11]) < 1e6))
+        return "camera_to_world's translation must be finite metres (|t| < 1e6)";
+    if (M[12] != 0.0 || M[13] != 0.0 || M[14] != 0.0 || M[15] != 1.0)
+        return "camera_to_world's last row must be 0 0 0 1";
+    double C[3] = { M[3], M[7], M[11] }, RC[3]; /* world-to-camera: R^T and -R^T C */
+    memcpy(v->camera.R, Rt, sizeof(Rt));
+    sp_mat3_apply(v->camera.R, C, RC);
+    for (int k = 0; k < 3; k++)
+        v->camera.t[k] = -RC[k];
+    v->camera.fx = K[0], v->camera.fy = K[1], v->camera.cx = K[2], v->camera.cy = K[3];
+    v->width = (int)w;
+    v->height = (int)h;
+    return NULL;
+}
+
+static int read_camera(const relight_args *a, sp_face_view *v)
+{
+    sp_json *root = NULL;
+    char err[160] = "";
+    void *buf = NULL;
+    size_t n = 0;
+    int ret = sp_read_whole_file(a->camera_in, 1u << 20, &buf, &n);
+    if (ret) {
+        fprintf(stderr, "sunprobe relight: --camera %s: %s\n", a->camera_in, sp_strerror(ret));
+        return sp_exit_for_error(ret);
+    }
+    ret = sp_json_parse(buf, n, &root, err, sizeof(err));
+    free(buf);
+    if (ret) {
+        fprintf(stderr, "sunprobe relight: --camera %s: %s\n", a->camera_in, err);
+        return SP_EXIT_BAD_INPUT;
+    }
+    const char *bad = camera_from_json(root, v);
+    sp_json_free(root);
+    if (bad) {
+        fprintf(stderr, "sunprobe relight: --camera %s: %s\n", a->camera_in, bad);
+        return SP_EXIT_BAD_INPUT;
+    }
+    return 0;
+}
+
+/* --save-camera FILE: the view's camera in --camera's format, written atomically. */
+static int save_camera(const relight_args *a, const sp_face_view *v)
+{
+    const double *R = v->camera.R, *t = v->camera.t;
+    double C[3];
+    for (int k = 0; k < 3; k++) /* the camera's centre, -R^T t */
+        C[k] = -(R[0 * 3 + k] * t[0] + R[1 * 3 + k] * t[1] + R[2 * 3 + k] * t[2]);
+    char text[1024];
+    int n = snprintf(text, sizeof(text),
+                     "{\"width\": %d, \"height\": %d, \"fx\": %.17g, \"fy\": %.17g, \"cx\": %.17g, \"cy\": %.17g,\n"
+                     " \"camera_to_world\": [[%.17g, %.17g, %.17g, %.17g], [%.17g, %.17g, %.17g, %.17g],\n"
+                     "                     [%.17g, %.17g, %.17g, %.17g], [0, 0, 0, 1]]}\n",
+                     v->width, v->height, v->camera.fx, v->camera.fy, v->camera.cx, v->camera.cy, R[0], R[3], R[6],
+                     C[0], R[1], R[4], R[7], C[1], R[2], R[5], R[8], C[2]);
+    int ret = n > 0 && (size_t)n < sizeof(text) ? sp_write_whole_file_atomic(a->camera_out, text, (size_t)n) : -ENOMEM;
+    if (ret) {
+        char what[4200];
+        snprintf(what, sizeof(what), "--save-camera %s", a->camera_out);
+        return sp_cmd_fail("relight", ret, what);
+    }
+    return 0;
+}
+
 static int set_view(relight_ctx *c, sp_face_view *v)
 {
     const relight_args *a = c->a;
@@ -814,6 +927,10 @@ static int run_relight(relight_ctx *c)
         return ret;
     sp_face_view v;
     if ((ret = set_view(c, &v)))
+        return ret;
+    if (a->camera_in && (ret = read_camera(a, &v)))
+        return ret;
+    if (a->camera_out && (ret = save_camera(a, &v)))
         return ret;
     set_light(c, &v);
     if (c->bg && (c->have_model = sp_face_model_load_default(&c->model) == 0) &&

@@ -457,6 +457,32 @@ static void check_relight_views(const char *face)
     free(wide);
     uint8_t *orbit = relight_rgba(face, "rl-orbit", "--orbit 180,30 --sun 0,90", &w, &h);
     CHECK_MSG(orbit && coverage(orbit, w, h) > 0.3 * c0, "the back of the head from above");
+    /* --save-camera then --camera: the same camera, the same image, bit for bit */
+    {
+        char cam[1024], opts[1200];
+        snprintf(cam, sizeof(cam), "%s/rl-orbit-camera.json", dir);
+        snprintf(opts, sizeof(opts), "--orbit 180,30 --sun 0,90 --save-camera %s", cam);
+        uint32_t w1, h1, w2, h2;
+        uint8_t *saved = relight_rgba(face, "rl-orbit-saved", opts, &w1, &h1);
+        snprintf(opts, sizeof(opts), "--camera %s --sun 0,90", cam);
+        uint8_t *again = relight_rgba(face, "rl-orbit-again", opts, &w2, &h2);
+        CHECK_MSG(orbit && saved && again && w1 == w && h1 == h && w2 == w && h2 == h &&
+                      !memcmp(saved, orbit, (size_t)w * h * 4) && !memcmp(again, orbit, (size_t)w * h * 4),
+                  "--camera of a --save-camera file renders another image");
+        free(saved);
+        free(again);
+        /* a camera whose rotation is not one is refused with the field named */
+        FILE *f = fopen(cam, "w");
+        if (f) {
+            fputs("{\"width\": 64, \"height\": 48, \"fx\": 60, \"fy\": 60, \"cx\": 32, \"cy\": 24, \"camera_to_world\": "
+                  "[[2, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]}\n", f);
+            fclose(f);
+        }
+        char args2[4096], bad[1024];
+        snprintf(bad, sizeof(bad), "%s/rl-badcam.png", dir);
+        snprintf(args2, sizeof(args2), "relight %s -o %s --camera %s", face, bad, cam);
+        CHECK(run(args2) == 2 && !exists(bad) && output_contains("must be a rotation"));
+    }
     free(orbit);
     check_relight_lights(face, w0, h0);
     check_relight_env(face, def, w0, h0);
