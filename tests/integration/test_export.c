@@ -669,20 +669,17 @@ static void check_relight_bad(const char *exe, const char *tmp)
     snprintf(dir, sizeof(dir), "%s/relight-negative-ks", tmp);
     CHECK(make_fixture(dir, 0) == 0);
     {
-        char mpath[4096], text[8192];
+        char mpath[4096], fixed[8300];
         snprintf(mpath, sizeof(mpath), "%s/manifest.json", dir);
-        FILE *mf = fopen(mpath, "r");
-        size_t len = mf ? fread(text, 1, sizeof(text) - 1, mf) : 0;
-        if (mf)
-            fclose(mf);
-        text[len] = 0;
-        char *ks = strstr(text, "\"ks\":[0.01");
+        size_t len = 0;
+        char *text = (char *)slurp(mpath, &len);
+        char *ks = text ? (text[len] = 0, strstr(text, "\"ks\":[0.01")) : NULL;
         CHECK(ks != NULL);
         if (ks) {
-            char fixed[8300];
             snprintf(fixed, sizeof(fixed), "%.*s\"ks\":[-1e308%s", (int)(ks - text), text, ks + strlen("\"ks\":[0.01"));
             CHECK(write_file(dir, "manifest.json", fixed, strlen(fixed)) == 0);
         }
+        free(text);
     }
     CHECK_EQ_INT(run_relight(exe, dir, out, err), 2);
     CHECK(!exists(out) && file_contains(err, "manifest.json: specular.ks"));
