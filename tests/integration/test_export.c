@@ -744,6 +744,41 @@ static void check_asset_atomic(const char *exe, const char *tmp, const char *fac
     CHECK_MSG(system(args) != 0, "a temporary file was left behind in %s", tmp);
 }
 
+/*
+ * The Draco geometry is no larger than Debian's draco_encoder -cl 7 makes from the same mesh and bits (the
+ * OBJ export of a face without a normal map: the same positions, normals and UVs, no tangents).
+ */
+static void check_draco_size(const char *exe, const char *tmp, const char *flat)
+{
+    char cmd[4096], path[1024];
+    snprintf(cmd, sizeof(cmd), "'%s' export '%s' -o '%s/size.glb' --stats > '%s/size.txt' 2>&1", exe, flat, tmp, tmp);
+    CHECK(system(cmd) == 0);
+    snprintf(path, sizeof(path), "%s/size.txt", tmp);
+    long raw = -1, ours = -1, normal_map = -1;
+    FILE *f = fopen(path, "r");
+    char line[256];
+    while (f && fgets(line, sizeof(line), f)) {
+        sscanf(line, "raw_geometry_bytes %ld", &raw);
+        sscanf(line, "geometry_bytes %ld", &ours);
+        sscanf(line, "normal_map %ld", &normal_map);
+    }
+    if (f)
+        fclose(f);
+    CHECK(raw > 0 && ours > 0 && normal_map == 0);
+    if (ours == raw || system("command -v draco_encoder >/dev/null 2>&1") != 0) {
+        printf("note: SKIP the Draco size check: %s\n", ours == raw ? "this build has no Draco" : "no draco_encoder");
+        return;
+    }
+    snprintf(cmd, sizeof(cmd), "'%s' export '%s' -o '%s/size.obj' --format obj >/dev/null 2>&1 && draco_encoder -i "
+             "'%s/size.obj' -o '%s/size-ref.drc' -qp 14 -qt 12 -qn 10 -cl 7 >/dev/null 2>&1", exe, flat, tmp, tmp, tmp);
+    CHECK(system(cmd) == 0);
+    snprintf(path, sizeof(path), "%s/size-ref.drc", tmp);
+    struct stat st;
+    long ref = stat(path, &st) == 0 ? (long)st.st_size : -1;
+    printf("draco: %ld bytes against draco_encoder -cl 7's %ld (%.3fx)\n", ours, ref, ref > 0 ? (double)ours / ref : 0.0);
+    CHECK_MSG(ref > 0 && ours <= ref, "Draco geometry %ld bytes, draco_encoder -cl 7 %ld", ours, ref);
+}
+
 int main(int argc, char **argv)
 {
     if (argc >= 4 && !strcmp(argv[2], "fixture")) { /* flat: a new manifest that left everything out */
@@ -767,6 +802,7 @@ int main(int argc, char **argv)
     check_bad_input(argv[1], tmp, face);
     check_relight_bad(argv[1], tmp);
     check_asset_atomic(argv[1], tmp, face);
+    check_draco_size(argv[1], tmp, flat);
     char cmd[128];
     snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmp);
     if (system(cmd) != 0)
