@@ -53,7 +53,6 @@ static int parse_args(int argc, char **argv, replay_args *a)
     };
     *a = (replay_args){ .stage = "null", .speed = 1.0, .start_s = NAN };
     int c;
-    char *end;
     while ((c = getopt_long(argc, argv, "hs:rx:t:ko:l", opts, NULL)) != -1) {
         switch (c) {
         case 'h':
@@ -65,13 +64,11 @@ static int parse_args(int argc, char **argv, replay_args *a)
         case 'k': a->skip_corrupt = 1; break;
         case 'o': a->output = optarg; break;
         case 'x':
-            a->speed = strtod(optarg, &end);
-            if (*end || !(a->speed > 0 && a->speed < 1e6))
+            if (sp_opt_double("replay", "speed", optarg, 1e-6, 1e6, &a->speed))
                 return SP_EXIT_USAGE;
             break;
         case 't':
-            a->start_s = strtod(optarg, &end);
-            if (*end || !(a->start_s >= 0 && a->start_s < 1e6))
+            if (sp_opt_double("replay", "start", optarg, 0, 1e6, &a->start_s))
                 return SP_EXIT_USAGE;
             break;
         default:

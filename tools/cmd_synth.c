@@ -45,16 +45,6 @@ static void turn_usage(FILE *out)
                  "  --fsync                fdatasync after every chunk\n");
 }
 
-static int parse_number(const char *s, double lo, double hi, double *out)
-{
-    char *end;
-    double v = strtod(s, &end);
-    if (*end || !(v >= lo && v <= hi))
-        return -1;
-    *out = v;
-    return 0;
-}
-
 static int parse_turn(int argc, char **argv, turn_args *a)
 {
     static const struct option opts[] = {
@@ -67,29 +57,40 @@ static int parse_turn(int argc, char **argv, turn_args *a)
         { "fsync", no_argument, NULL, 'y' },         { 0 },
     };
     double v = 0;
-    int c, bad = 0;
-    while (!bad && (c = getopt_long(argc, argv, "ho:", opts, NULL)) != -1) {
+    int c, bad = 0, li = -1;
+    while (!bad && (c = getopt_long(argc, argv, "ho:", opts, &li)) != -1) {
+        const char *on = li >= 0 ? opts[li].name : "";
+        li = -1;
         switch (c) {
         case 'h': turn_usage(stdout); return -1;
         case 'o': a->out = optarg; break;
-        case 'W': bad = parse_number(optarg, 16, 4096, &v); a->cam.width = (uint32_t)v & ~1u; break;
-        case 'H': bad = parse_number(optarg, 16, 4096, &v); a->cam.height = (uint32_t)v & ~1u; break;
-        case 'f': bad = parse_number(optarg, 1, 240, &a->cam.fps); break;
-        case 'F': a->cam.format = sp_pixfmt_from_name(optarg); bad = a->cam.format == SP_PIXFMT_NONE; break;
-        case 'd': bad = parse_number(optarg, -3600, 3600, &a->imu.turn_deg); break;
-        case 's': bad = parse_number(optarg, 0.5, 3600, &a->imu.turn_duration_s); break;
-        case 'r': bad = parse_number(optarg, 10, 8000, &a->imu.rate_hz); break;
+        case 'W': bad = sp_opt_double("synth turn", on, optarg, 16, 4096, &v); a->cam.width = (uint32_t)v & ~1u; break;
+        case 'H': bad = sp_opt_double("synth turn", on, optarg, 16, 4096, &v); a->cam.height = (uint32_t)v & ~1u; break;
+        case 'f': bad = sp_opt_double("synth turn", on, optarg, 1, 240, &a->cam.fps); break;
+        case 'F':
+            a->cam.format = sp_pixfmt_from_name(optarg);
+            if ((bad = a->cam.format == SP_PIXFMT_NONE))
+                fprintf(stderr, "sunprobe synth turn: --format '%s': not a pixel format (yuyv, nv12, rgb24, ...)\n",
+                        optarg);
+            break;
+        case 'd': bad = sp_opt_double("synth turn", on, optarg, -3600, 3600, &a->imu.turn_deg); break;
+        case 's': bad = sp_opt_double("synth turn", on, optarg, 0.5, 3600, &a->imu.turn_duration_s); break;
+        case 'r': bad = sp_opt_double("synth turn", on, optarg, 10, 8000, &a->imu.rate_hz); break;
         case 'm': a->imu.magnetometer = 1; break;
         case 'n':
             a->imu.gyro_noise = a->imu.accel_noise = a->imu.mag_noise_ut = 0;
             a->imu.gyro_bias = a->imu.accel_bias = (sp_vec3){ 0, 0, 0 };
             break;
-        case 'S': bad = parse_number(optarg, 0, 1e15, &v); a->imu.seed = (uint64_t)v; break;
+        case 'S': bad = sp_opt_double("synth turn", on, optarg, 0, 1e15, &v); a->imu.seed = (uint64_t)v; break;
         case 'y': a->sync_every_chunk = 1; break;
         default: bad = 1;
         }
     }
-    if (bad || !a->out || optind != argc) {
+    if (bad) { /* the option's own message is out; getopt's for an unknown one */
+        fprintf(stderr, "sunprobe synth turn: see --help\n");
+        return SP_EXIT_USAGE;
+    }
+    if (!a->out || optind != argc) {
         turn_usage(stderr);
         return SP_EXIT_USAGE;
     }

@@ -664,16 +664,6 @@ static void usage(FILE *out)
             MAX_FIGURES);
 }
 
-static int parse_num(const char *s, double lo, double hi, double *out)
-{
-    char *end;
-    double v = strtod(s, &end);
-    if (end == s || *end || !(v >= lo && v <= hi))
-        return -1;
-    *out = v;
-    return 0;
-}
-
 static int parse_args(int argc, char **argv, street_args *a)
 {
     static const struct option opts[] = {
@@ -686,26 +676,32 @@ static int parse_args(int argc, char **argv, street_args *a)
         { 0 },
     };
     double v = 0;
-    int c, bad = 0;
+    int c, bad = 0, li = -1;
     optind = 0;
-    while (!bad && (c = getopt_long(argc, argv, "ho:", opts, NULL)) != -1) {
+    while (!bad && (c = getopt_long(argc, argv, "ho:", opts, &li)) != -1) {
+        const char *on = li >= 0 ? opts[li].name : "";
+        li = -1;
         switch (c) {
         case 'h': usage(stdout); return -1;
         case 'o': a->out = optarg; break;
-        case 'W': bad = parse_num(optarg, 32, 4096, &v); a->width = (uint32_t)v; break;
-        case 'H': bad = parse_num(optarg, 32, 4096, &v); a->height = (uint32_t)v; break;
-        case 'f': bad = parse_num(optarg, 1, 240, &a->fps); break;
-        case 's': bad = parse_num(optarg, 0.01, 36000, &a->seconds); break;
-        case 'n': bad = parse_num(optarg, 0, MAX_FIGURES, &v); a->figures = (unsigned)v; break;
+        case 'W': bad = sp_opt_double("synth street", on, optarg, 32, 4096, &v); a->width = (uint32_t)v; break;
+        case 'H': bad = sp_opt_double("synth street", on, optarg, 32, 4096, &v); a->height = (uint32_t)v; break;
+        case 'f': bad = sp_opt_double("synth street", on, optarg, 1, 240, &a->fps); break;
+        case 's': bad = sp_opt_double("synth street", on, optarg, 0.01, 36000, &a->seconds); break;
+        case 'n': bad = sp_opt_double("synth street", on, optarg, 0, MAX_FIGURES, &v); a->figures = (unsigned)v; break;
         case 'c': a->overcast = 1; break;
-        case 'a': bad = parse_num(optarg, -360, 360, &a->sun_az_deg); break;
-        case 'e': bad = parse_num(optarg, 5, 85, &a->sun_el_deg); break;
-        case 'p': bad = parse_num(optarg, -90, 90, &a->pan_deg_s); break;
-        case 'S': bad = parse_num(optarg, 0, 4e9, &v); a->seed = (uint64_t)v; break;
+        case 'a': bad = sp_opt_double("synth street", on, optarg, -360, 360, &a->sun_az_deg); break;
+        case 'e': bad = sp_opt_double("synth street", on, optarg, 5, 85, &a->sun_el_deg); break;
+        case 'p': bad = sp_opt_double("synth street", on, optarg, -90, 90, &a->pan_deg_s); break;
+        case 'S': bad = sp_opt_double("synth street", on, optarg, 0, 4e9, &v); a->seed = (uint64_t)v; break;
         default: bad = 1;
         }
     }
-    if (bad || !a->out || optind != argc) {
+    if (bad) { /* the option's own message is out; getopt's for an unknown one */
+        fprintf(stderr, "sunprobe synth street: see --help\n");
+        return SP_EXIT_USAGE;
+    }
+    if (!a->out || optind != argc) {
         usage(stderr);
         return SP_EXIT_USAGE;
     }

@@ -102,6 +102,12 @@ expect 1 "fit --face nope" "$SP" fit "$cap" -o "$dir/face" --face nope
 contains "$dir/err.txt" "--face 'nope': expected auto, generic or ict" "fit --face message"
 expect 1 "export --position-bits 99" "$SP" export "$dir/face" -o "$dir/face.glb" --position-bits 99
 contains "$dir/err.txt" "--position-bits '99': expected an integer from 1 to 30" "export option message"
+expect 1 "synth turn --fps 0" "$SP" synth turn -o "$dir/x.spcap" --fps 0
+contains "$dir/err.txt" "--fps '0': expected a number from 1 to 240" "synth turn option message"
+expect 1 "synth street --sun-elevation 90" "$SP" synth street -o "$dir/x.spcap" --sun-elevation 90
+contains "$dir/err.txt" "--sun-elevation '90': expected a number from 5 to 85" "synth street option message"
+expect 1 "replay --speed ''" "$SP" replay "$cap" --speed ""
+contains "$dir/err.txt" "--speed '': expected a number" "replay option message"
 # fit checks where it will write before it reads anything: the path in the message, nothing left behind
 expect 3 "fit into a missing directory" "$SP" fit "$cap" -o "$dir/no/such/face"
 contains "$dir/err.txt" "cannot create the face directory $dir/no/such/face" "fit output message"
