@@ -5,6 +5,7 @@
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -84,6 +85,33 @@ static int hex4(parser *ps, unsigned *out)
     return 0;
 }
 
+/*
+ * Length of the well-formed UTF-8 sequence at p (lead byte c already read, at p[-1]), or 0: no overlong
+ * forms, no surrogates (CESU-8), nothing above U+10FFFF (RFC 3629).
+ */
+static size_t utf8_tail(unsigned char c, const char *p, const char *end)
+{
+    size_t n = c >= 0xC2 && c <= 0xDF ? 1 : (c >= 0xE0 && c <= 0xEF ? 2 : (c >= 0xF0 && c <= 0xF4 ? 3 : 0));
+    if (!n || end - p < (ptrdiff_t)n)
+        return 0;
+    const unsigned char *q = (const unsigned char *)p;
+    unsigned lo = 0x80, hi = 0xBF; /* the first continuation byte's range, narrowed where the lead needs it */
+    if (c == 0xE0)
+        lo = 0xA0;
+    else if (c == 0xED)
+        hi = 0x9F;
+    else if (c == 0xF0)
+        lo = 0x90;
+    else if (c == 0xF4)
+        hi = 0x8F;
+    if (q[0] < lo || q[0] > hi)
+        return 0;
+    for (size_t i = 1; i < n; i++)
+        if (q[i] < 0x80 || q[i] > 0xBF)
+            return 0;
+    return n;
+}
+
 static char *parse_string(parser *ps)
 {
     sp_strbuf b = { 0 };
@@ -93,6 +121,16 @@ static char *parse_string(parser *ps)
         if (c < 0x20) {
             fail(ps, "control character in string");
             break;
+        }
+        if (c >= 0x80) {
+            size_t n = utf8_tail(c, ps->p, ps->end);
+            if (!n) {
+                fail(ps, "not UTF-8 (a bad, overlong or surrogate byte sequence)");
+                break;
+            }
+            sp_strbuf_append(&b, ps->p - 1, n + 1);
+            ps->p += n;
+            continue;
         }
         if (c != '\\') {
             sp_strbuf_append(&b, (const char *)&c, 1);
@@ -116,6 +154,16 @@ static char *parse_string(parser *ps)
                     break;
                 if (lo >= 0xDC00 && lo < 0xE000)
                     cp = 0x10000 + ((cp - 0xD800) << 10) + (lo - 0xDC00);
+            }
+            /* strings here are NUL-terminated C strings and UTF-8: a NUL would cut one short, a lone
+               surrogate would become CESU-8 */
+            if (cp == 0) {
+                fail(ps, "\\u0000 in a string");
+                break;
+            }
+            if (cp >= 0xD800 && cp < 0xE000) {
+                fail(ps, "a lone surrogate \\u escape");
+                break;
             }
             put_utf8(&b, cp);
         } else {

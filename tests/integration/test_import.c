@@ -162,6 +162,17 @@ static void test_bad_input(void)
                      iu_path("late_imu.csv"), "-q", NULL), 0);
     CHECK_EQ_INT(run("replay", iu_path("late.spcap"), "--stage", "orientation", "-o", iu_path("late.csv"), NULL), 2);
     CHECK(!iu_exists(iu_path("late.csv")));
+    /* META strings that are not UTF-8, or that a C string cannot hold, are refused with the byte (format: UTF-8) */
+    static const char *const not_utf8[][2] = { { "{\"source\": \"caf\xe9\"}", "not UTF-8" },
+                                               { "{\"source\": \"a\\u0000b\"}", "\\u0000 in a string" },
+                                               { "{\"source\": \"\\ud800\"}", "lone surrogate" } };
+    for (size_t i = 0; i < sizeof(not_utf8) / sizeof(not_utf8[0]); i++) {
+        iu_write_text("bad_meta.json", not_utf8[i][0]);
+        CHECK_EQ_INT(run("import", iu_path("jpg"), "-o", out, "--fps", "10", "--meta", iu_path("bad_meta.json"), NULL),
+                     2);
+        CHECK(stderr_has(not_utf8[i][1]));
+        CHECK(!iu_exists(out));
+    }
     /* a META file over 1 MiB is bad input (exit 2), not an I/O fault */
     {
         size_t big = (1u << 20) + 4096;

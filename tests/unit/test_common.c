@@ -44,8 +44,17 @@ static void test_json(void)
     CHECK(sp_json_get(j, "missing") == NULL);
     sp_json_free(j);
 
+    /* raw UTF-8 of 2, 3 and 4 bytes passes as it is; the edges of the valid ranges too */
+    const char *utf = "[\"\xc3\xa9\xe2\x82\xac\xf0\x9f\x98\x80\xed\x9f\xbf\xf4\x8f\xbf\xbf\"]";
+    CHECK_EQ_INT(sp_json_parse(utf, strlen(utf), &j, err, sizeof(err)), 0);
+    CHECK(j && strcmp(sp_json_string(sp_json_at(j, 0), ""), "\xc3\xa9\xe2\x82\xac\xf0\x9f\x98\x80\xed\x9f\xbf\xf4\x8f\xbf\xbf") == 0);
+    sp_json_free(j);
+    /* not UTF-8 (a stray continuation, a truncated sequence, overlong, CESU-8 surrogate, above U+10FFFF, Latin-1),
+       and escapes a C string cannot hold (NUL) or UTF-8 cannot (a lone surrogate) */
     static const char *bad[] = { "", "{", "[1,]", "{\"a\" 1}", "\"abc", "tru", "1 2", "{\"a\":1,}", "\"\\x\"",
-                                 "[\"\x01\"]" };
+                                 "[\"\x01\"]", "[\"\x80\"]", "[\"\xc3\"]", "[\"\xc0\xaf\"]", "[\"\xe0\x80\xaf\"]",
+                                 "[\"\xed\xa0\x80\"]", "[\"\xf4\x90\x80\x80\"]", "[\"caf\xe9\"]", "[\"a\\u0000b\"]",
+                                 "[\"\\ud800\"]", "[\"\\udc00x\"]", "[\"\\ud800\\u0041\"]" };
     for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
         j = NULL;
         CHECK_MSG(sp_json_parse(bad[i], strlen(bad[i]), &j, err, sizeof(err)) == SP_ECORRUPT, "input %zu", i);
