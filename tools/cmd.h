@@ -5,6 +5,8 @@
 
 #include <stddef.h>
 
+#include "sunprobe/sp_common.h"
+
 /* Exit codes, documented in README.md and `sunprobe --help`. */
 enum sp_exit {
     SP_EXIT_OK = 0,
@@ -25,6 +27,8 @@ typedef struct sp_command {
 int sp_exit_for_error(int err);
 /* Prints "sunprobe CMD: what: error message" to stderr and returns the exit code for err. */
 int sp_cmd_fail(const char *cmd, int err, const char *what);
+/* The same with what formatted (a path in it, say). */
+int sp_cmd_failf(const char *cmd, int err, const char *fmt, ...) SP_PRINTF(3, 4);
 
 /*
  * Option values (cmd_options.c): the whole string as a decimal integer / a finite number in lo..hi.

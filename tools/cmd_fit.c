@@ -251,9 +251,7 @@ static int run_fit(fit_args *a, const sp_face_model *model)
     const char *names[3] = { "photometric loss", "held-out PSNR dB", "sun error deg" };
     /* the report is opened before any work, so an unwritable PREFIX fails at once rather than after the fit */
     if (a->report && (ret = sp_report_open(&rep, a->report, "sunprobe fit", names, 3, 0))) {
-        char what[4200];
-        snprintf(what, sizeof(what), "cannot write the report %s", a->report);
-        code = sp_cmd_fail("fit", ret, what);
+        code = sp_cmd_failf("fit", ret, "cannot write the report %s", a->report);
         goto done;
     }
     if ((ret = stream(a, &stage))) {
@@ -282,9 +280,7 @@ static int run_fit(fit_args *a, const sp_face_model *model)
         printf("fit: wrote %s\n", a->out);
 done:
     if (rep && (ret = sp_report_close(&rep)) && code == SP_EXIT_OK) {
-        char what[4200];
-        snprintf(what, sizeof(what), "writing the report %s", a->report);
-        code = sp_cmd_fail("fit", ret, what);
+        code = sp_cmd_failf("fit", ret, "writing the report %s", a->report);
     }
     sp_stage_close(&stage);
     return code;
@@ -304,9 +300,7 @@ int sp_cmd_fit(int argc, char **argv)
     }
     int ret = sp_partial_dir_open(&a.pd, a.out);
     if (ret) {
-        char what[4200];
-        snprintf(what, sizeof(what), "cannot create the face directory %s", a.out);
-        return sp_cmd_fail("fit", ret, what);
+        return sp_cmd_failf("fit", ret, "cannot create the face directory %s", a.out);
     }
     sp_face_model model;
     if (a.face && !strcmp(a.face, "generic")) {

@@ -45,9 +45,7 @@ int sp_cmd_recover(int argc, char **argv)
         FILE *in = fopen(path, "rb");
         if (in) {
             fclose(in);
-            char what[4200];
-            snprintf(what, sizeof(what), "writing the recovered copy %s", out);
-            return sp_cmd_fail("recover", ret, what);
+            return sp_cmd_failf("recover", ret, "writing the recovered copy %s", out);
         }
     }
     if (ret)

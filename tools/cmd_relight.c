@@ -610,11 +610,11 @@ static const char *camera_from_json(const sp_json *root, sp_face_view *v)
         return "camera_to_world's translation must be finite metres (|t| < 1e6)";
     if (M[12] != 0.0 || M[13] != 0.0 || M[14] != 0.0 || M[15] != 1.0)
         return "camera_to_world's last row must be 0 0 0 1";
-    double C[3] = { M[3], M[7], M[11] }, RC[3]; /* world-to-camera: R^T and -R^T C */
-    memcpy(v->camera.R, Rt, sizeof(Rt));
-    sp_mat3_apply(v->camera.R, C, RC);
-    for (int k = 0; k < 3; k++)
-        v->camera.t[k] = -RC[k];
+    pose c2w = { .t = { M[3], M[7], M[11] } }, w2c;
+    memcpy(c2w.R, R, sizeof(R));
+    w2c = sp_rigid_inv(&c2w);
+    memcpy(v->camera.R, w2c.R, sizeof(w2c.R));
+    memcpy(v->camera.t, w2c.t, sizeof(w2c.t));
     v->camera.fx = K[0], v->camera.fy = K[1], v->camera.cx = K[2], v->camera.cy = K[3];
     v->width = (int)w;
     v->height = (int)h;
@@ -650,22 +650,21 @@ static int read_camera(const relight_args *a, sp_face_view *v)
 /* --save-camera FILE: the view's camera in --camera's format, written atomically. */
 static int save_camera(const relight_args *a, const sp_face_view *v)
 {
-    const double *R = v->camera.R, *t = v->camera.t;
-    double C[3];
-    for (int k = 0; k < 3; k++) /* the camera's centre, -R^T t */
-        C[k] = -(R[0 * 3 + k] * t[0] + R[1 * 3 + k] * t[1] + R[2 * 3 + k] * t[2]);
+    pose w2c, c2w;
+    memcpy(w2c.R, v->camera.R, sizeof(w2c.R));
+    memcpy(w2c.t, v->camera.t, sizeof(w2c.t));
+    c2w = sp_rigid_inv(&w2c);
+    const double *R = c2w.R, *C = c2w.t;
     char text[1024];
     int n = snprintf(text, sizeof(text),
                      "{\"width\": %d, \"height\": %d, \"fx\": %.17g, \"fy\": %.17g, \"cx\": %.17g, \"cy\": %.17g,\n"
                      " \"camera_to_world\": [[%.17g, %.17g, %.17g, %.17g], [%.17g, %.17g, %.17g, %.17g],\n"
                      "                     [%.17g, %.17g, %.17g, %.17g], [0, 0, 0, 1]]}\n",
-                     v->width, v->height, v->camera.fx, v->camera.fy, v->camera.cx, v->camera.cy, R[0], R[3], R[6],
-                     C[0], R[1], R[4], R[7], C[1], R[2], R[5], R[8], C[2]);
+                     v->width, v->height, v->camera.fx, v->camera.fy, v->camera.cx, v->camera.cy, R[0], R[1], R[2],
+                     C[0], R[3], R[4], R[5], C[1], R[6], R[7], R[8], C[2]);
     int ret = n > 0 && (size_t)n < sizeof(text) ? sp_write_whole_file_atomic(a->camera_out, text, (size_t)n) : -ENOMEM;
     if (ret) {
-        char what[4200];
-        snprintf(what, sizeof(what), "--save-camera %s", a->camera_out);
-        return sp_cmd_fail("relight", ret, what);
+        return sp_cmd_failf("relight", ret, "--save-camera %s", a->camera_out);
     }
     return 0;
 }

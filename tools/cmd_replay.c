@@ -137,9 +137,7 @@ static int run_stage(const replay_args *a, const sp_stage_ops *ops, const sp_run
     } else if (ret == -EAGAIN && st.failed_in == SP_RUN_FAILED_SOURCE)
         code = sp_cmd_fail("replay", ret, "stage holds every frame");
     else if (st.failed_in == SP_RUN_FAILED_FINISH && a->output) {
-        char what[4200];
-        snprintf(what, sizeof(what), "finishing the stage (output %s not written)", a->output);
-        code = sp_cmd_fail("replay", ret, what);
+        code = sp_cmd_failf("replay", ret, "finishing the stage (output %s not written)", a->output);
     } else if (st.failed_in == SP_RUN_FAILED_FINISH)
         code = sp_cmd_fail("replay", ret, "finishing the stage");
     else if (ret)

@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* Entry point: dispatches `sunprobe COMMAND ...` to one subcommand. */
 #include <errno.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -53,6 +54,16 @@ int sp_cmd_fail(const char *cmd, int err, const char *what)
     fprintf(stderr, "sunprobe %s: %s: %s\n", cmd, what, sp_strerror(err));
     int code = sp_exit_for_error(err);
     return code == SP_EXIT_OK ? SP_EXIT_INTERNAL : code;
+}
+
+int sp_cmd_failf(const char *cmd, int err, const char *fmt, ...)
+{
+    char what[4200];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(what, sizeof(what), fmt, ap);
+    va_end(ap);
+    return sp_cmd_fail(cmd, err, what);
 }
 
 static void usage(FILE *out)
