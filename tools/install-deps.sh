@@ -9,7 +9,8 @@ core=(meson ninja-build pkg-config gcc g++ python3 zlib1g-dev libjpeg62-turbo-de
 full=(clang libclang-rt-14-dev libopencv-dev opencv-doc libopenimageio-dev libdraco-dev libeigen3-dev
       libcamera-dev libiio-dev libdlib-dev
       chromium # chromium: the face viewer's headless test (tests/export/test_viewer.sh)
-      draco)   # draco_encoder: the reference the exported Draco geometry is measured against (test_export.c)
+      draco    # draco_encoder: the reference the exported Draco geometry is measured against (test_export.c)
+      python3-numpy python3-pil) # scoring probes against the shared street capture's truth (check_street_truth.py)
 pkgs=("${core[@]}")
 [ "$profile" = full ] && pkgs+=("${full[@]}")
 # export checks (tests/export, npm packages): Debian's node + npm unless a node is already installed

@@ -69,6 +69,22 @@ void segment_close(probe_segment *sg)
     memset(sg, 0, sizeof(*sg));
 }
 
+/*
+ * Under the open sky a cast shadow keeps the skylight and loses the sun, and skylight is bluer than
+ * sunlight: each channel keeps a different share, red the least and blue the most (on the path-traced
+ * street about 0.48, 0.57, 0.72), so the chromaticity shifts by 0.06-0.13, past the neutral test's
+ * tolerance. Accepted when the kept shares rise from red to blue (within sensor noise), blue keeps
+ * at most all of its light, and blue keeps at most SKY_SPREAD times red's share: clothing that
+ * happens to be a darker blue than the ground differs by more.
+ */
+#define SKY_SPREAD 2
+static inline int sky_lit(const uint8_t *p, const uint8_t *q)
+{
+    int32_t r = p[0], g = p[1], b = p[2], R = q[0], G = q[1], B = q[2], n = NOISE_LEVELS;
+    return (r - n) * G <= (g + n) * R && (g - n) * B <= (b + n) * G && b <= B + n &&
+           (b - n) * R <= SKY_SPREAD * (r + n) * B;
+}
+
 /* One pixel against the plate: the refined-mask test, then the shadow test on what changed. */
 static inline uint8_t classify_pixel(const probe_segment *sg, const uint8_t *p, const uint8_t *q)
 {
@@ -86,7 +102,9 @@ static inline uint8_t classify_pixel(const probe_segment *sg, const uint8_t *p, 
      */
     int32_t chroma = abs(r * S - R * s) + abs(g * S - G * s) + abs(b * S - B * s);
     int64_t allowed = (int64_t)sg->chroma_tol * s * S + 1024 * 3 * NOISE_LEVELS * (int64_t)S;
-    return (int64_t)chroma * 1024 <= allowed ? PROBE_CLS_SHADOW : PROBE_CLS_OBJECT;
+    if ((int64_t)chroma * 1024 <= allowed)
+        return PROBE_CLS_SHADOW;
+    return sky_lit(p, q) ? PROBE_CLS_SHADOW : PROBE_CLS_OBJECT;
 }
 
 static void classify(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate)

@@ -1,0 +1,175 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
+"""Scores a probe directory against a path-traced street capture's ground truth (../shared/captures).
+
+usage: check_street_truth.py PROBE_DIR CAPTURE_DIR [--json OUT] [limits]
+limits: --min-recall F --max-false-rate F --max-ground-false F --max-plane-error F --max-shadow-deg D
+        --min-plate-psnr DB
+Figures (each printed, one per line):
+  recall        share of the occluder pixels a person passed behind (gt/occlusion_hits > 0) where the map
+                would hide a figure standing as far as the farthest one hidden there (Z >= that foot row - 2)
+  false rate    share of the pixels where a person was seen (gt/ids) where the map would hide a figure
+                standing as far as the farthest one seen there (Z >= that foot row + 2)
+  ground false  share of the visible ground (gt/ground.png, no occluder) marked occluding at all
+  per occluder  marked share of each occluder's passed-behind pixels, and the spread of Z over them
+  plane         median |h - height_px| / height_px over people rows that are neither occluded nor truncated
+  shadow        when the probe says a sun shadow is present: median angle between its direction at each
+                such foot point and the true one (towards meta.sun.shadow_vanishing_point)
+  plate         PSNR (dB, 8-bit) of clean_plate.png against gt/clean_plate.png
+Rows are image rows: a foot at foot_y (pixel-centre coordinates, centres at +0.5) is on row floor(foot_y).
+Exits 1 when a limit is exceeded, 2 on unreadable input.
+"""
+import argparse, csv, json, math, os, sys
+
+import numpy as np
+from PIL import Image
+
+
+def read_pfm(path):
+    with open(path, "rb") as f:
+        kind = f.readline().strip()
+        w, h = (int(v) for v in f.readline().split())
+        scale = float(f.readline())
+        ch = 3 if kind == b"PF" else 1
+        data = np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4", count=w * h * ch)
+    return np.flipud(data.reshape(h, w, ch) if ch == 3 else data.reshape(h, w))
+
+
+def png(path, dtype=None):
+    a = np.asarray(Image.open(path))
+    return a.astype(dtype) if dtype else a
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("probe_dir")
+    ap.add_argument("capture_dir")
+    ap.add_argument("--json")
+    ap.add_argument("--min-recall", type=float)
+    ap.add_argument("--max-false-rate", type=float)
+    ap.add_argument("--max-ground-false", type=float)
+    ap.add_argument("--max-plane-error", type=float)
+    ap.add_argument("--max-shadow-deg", type=float)
+    ap.add_argument("--min-plate-psnr", type=float)
+    a = ap.parse_args()
+    cap, gt = a.capture_dir, os.path.join(a.capture_dir, "gt")
+    try:
+        meta = json.load(open(os.path.join(cap, "meta.json")))
+        probe = json.load(open(os.path.join(a.probe_dir, "probe.json")))
+        z = read_pfm(os.path.join(a.probe_dir, "occlusion.pfm"))
+        hits = png(os.path.join(gt, "occlusion_hits.png"), np.int64)
+        zmax = png(os.path.join(gt, "occlusion_zmax.png"), np.int64)
+        occluders = png(os.path.join(gt, "occluders.png"))
+        ground = png(os.path.join(gt, "ground.png")) > 0
+        people = list(csv.DictReader(open(os.path.join(gt, "people.csv"))))
+    except (OSError, ValueError, KeyError) as e:
+        print(f"check_street_truth: {e}", file=sys.stderr)
+        return 2
+    h, w = hits.shape
+    if z.shape != (h, w):
+        print(f"check_street_truth: {a.probe_dir}/occlusion.pfm is {z.shape[1]}x{z.shape[0]}, the truth {w}x{h}",
+              file=sys.stderr)
+        return 2
+    out = {}
+    behind = hits > 0
+    far_row = np.floor(zmax / 16.0)
+    recalled = behind & (z >= 0) & (z >= far_row - 2)
+    out["recall"] = float(recalled.sum() / max(behind.sum(), 1))
+    out["occluder_pixels_passed_behind"] = int(behind.sum())
+
+    # farthest foot row seen at each pixel, from the id images and the people rows
+    foot = {}
+    for r in people:
+        foot[(int(r["frame"]), int(r["id"]))] = math.floor(float(r["foot_y"]))
+    seen = np.full((h, w), -1, dtype=np.int64)
+    frames = sorted({f for f, _ in foot})
+    for f in frames:
+        ids = png(os.path.join(gt, "ids", f"{f:05d}.png"))
+        lut = np.full(256, -1, dtype=np.int64)
+        for (ff, pid), row in foot.items():
+            if ff == f and pid < 100:
+                lut[pid] = row
+        seen = np.maximum(seen, lut[ids])
+    was_seen = seen >= 0
+    wrong = was_seen & (z >= 0) & (z >= seen + 2)
+    out["false_rate"] = float(wrong.sum() / max(was_seen.sum(), 1))
+    open_ground = ground & (occluders == 0)
+    out["ground_false"] = float((open_ground & (z >= 0)).sum() / max(open_ground.sum(), 1))
+
+    per = {}
+    for o in meta.get("occluders", []):
+        m = behind & (occluders == o["index"])
+        if m.sum() < 20:
+            continue
+        zs = z[m & (z >= 0)]
+        per[o["name"]] = {"passed_behind": int(m.sum()), "recall": float((recalled & m).sum() / m.sum()),
+                          "marked": float((m & (z >= 0)).sum() / m.sum()),
+                          "z_p10_p90": [float(np.percentile(zs, 10)), float(np.percentile(zs, 90))] if zs.size else None}
+    out["occluders"] = per
+
+    plane = probe.get("plane", {})
+    errs, angs = [], []
+    shadow = probe.get("shadow", {})
+    vp = meta.get("sun", {}).get("shadow_vanishing_point")
+    for r in people:
+        if int(r["occluded"]) or int(r["truncated"]) or int(r["occluded_by_person"]) or int(r["occluded_by_car"]):
+            continue
+        x, y = float(r["foot_x"]) - 0.5, float(r["foot_y"]) - 0.5  # pixel-centre coordinates at integers
+        if plane.get("status") == "ok":
+            hp = plane["a"] * x + plane["b"] * y + plane["c"]
+            errs.append(abs(hp - float(r["height_px"])) / float(r["height_px"]))
+        if shadow.get("present") and vp:
+            u, v = x / w, y / h
+            dx = shadow["ox"][0] + shadow["ox"][1] * u + shadow["ox"][2] * v
+            dy = shadow["oy"][0] + shadow["oy"][1] * u + shadow["oy"][2] * v
+            d = abs(math.atan2(dy, dx) - math.atan2(vp[1] - y, vp[0] - x)) * 180 / math.pi
+            angs.append(min(d, 360 - d))
+    out["plane_status"] = plane.get("status")
+    out["plane_error"] = float(np.median(errs)) if errs else None
+    out["shadow_present"] = bool(shadow.get("present"))
+    out["shadow_deg"] = float(np.median(angs)) if angs else None
+    try:
+        mine = png(os.path.join(a.probe_dir, "clean_plate.png"), np.float64)[..., :3]
+        true = png(os.path.join(gt, "clean_plate.png"), np.float64)[..., :3]
+        mse = float(np.mean((mine - true) ** 2))
+        out["plate_psnr_db"] = 10 * math.log10(255.0 ** 2 / max(mse, 1e-12))
+    except OSError as e:
+        print(f"check_street_truth: {e}", file=sys.stderr)
+        return 2
+
+    print(f"recall {out['recall']:.3f} of {out['occluder_pixels_passed_behind']} occluder pixels passed behind")
+    print(f"false rate {out['false_rate']:.4f} of {int(was_seen.sum())} pixels where people were seen")
+    print(f"ground false {out['ground_false']:.4f} of {int(open_ground.sum())} open ground pixels")
+    for name, p in per.items():
+        print(f"  {name}: marked {p['marked']:.3f}, recall {p['recall']:.3f} of {p['passed_behind']} px, "
+              f"Z p10..p90 {p['z_p10_p90']}")
+    pe = out["plane_error"]
+    print(f"plane {out['plane_status']}: median relative height error "
+          + (f"{pe:.4f} over {len(errs)} rows" if pe is not None else "n/a"))
+    sd = out["shadow_deg"]
+    print("shadow " + (f"present: median direction error {sd:.2f} deg over {len(angs)} rows" if sd is not None
+                       else "left out: " + str(shadow.get("note"))))
+    print(f"plate PSNR {out['plate_psnr_db']:.2f} dB")
+    if a.json:
+        json.dump(out, open(a.json, "w"), indent=1)
+
+    fails = []
+    if a.min_recall is not None and not out["recall"] >= a.min_recall:
+        fails.append(f"recall {out['recall']:.3f} < {a.min_recall}")
+    if a.max_false_rate is not None and not out["false_rate"] <= a.max_false_rate:
+        fails.append(f"false rate {out['false_rate']:.4f} > {a.max_false_rate}")
+    if a.max_ground_false is not None and not out["ground_false"] <= a.max_ground_false:
+        fails.append(f"ground false {out['ground_false']:.4f} > {a.max_ground_false}")
+    if a.max_plane_error is not None and not (pe is not None and pe <= a.max_plane_error):
+        fails.append(f"plane error {pe} > {a.max_plane_error}")
+    if a.max_shadow_deg is not None and not (sd is not None and sd <= a.max_shadow_deg):
+        fails.append(f"shadow direction {sd} > {a.max_shadow_deg} deg (or left out)")
+    if a.min_plate_psnr is not None and not out["plate_psnr_db"] >= a.min_plate_psnr:
+        fails.append(f"plate PSNR {out['plate_psnr_db']:.2f} < {a.min_plate_psnr} dB")
+    for f in fails:
+        print("check_street_truth: FAIL " + f, file=sys.stderr)
+    return 1 if fails else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
