@@ -9,6 +9,7 @@
 
 #include "common/atomic_file.h"
 #include "common/file_util.h"
+#include "export/legend.h"
 #include "export/png.h"
 #include "export/png_read.h"
 #include "sp_config.h"
@@ -102,28 +103,54 @@ int sp_pfm_read(const char *path, float **v, uint32_t *width, uint32_t *height, 
 
 /* ---- writing a probe directory ---- */
 
-/* Occluding pixels coloured by the depth they hide (near: red, far: blue), the rest dark. */
+/* Occluding pixels coloured by the row their bottom is at (far, high in the image: blue; near: red). */
+static void occlusion_colour(double z, uint8_t rgb[3], const void *ctx)
+{
+    const sp_probe_maps *m = ctx;
+    double t = z / (m->height > 1 ? m->height - 1 : 1);
+    t = t < 0 ? 0 : t > 1 ? 1 : t;
+    rgb[0] = (uint8_t)lrint(255 * t), rgb[1] = 96, rgb[2] = (uint8_t)lrint(255 * (1 - t));
+}
+
 static void occlusion_preview(const sp_probe_maps *m, uint8_t *rgb)
 {
     for (size_t i = 0; i < (size_t)m->width * m->height; i++) {
-        float z = m->occlusion[i];
-        if (z < 0) {
+        if (m->occlusion[i] < 0)
             rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = 24;
-            continue;
-        }
-        double t = (double)z / (m->height > 1 ? m->height - 1 : 1);
-        t = t < 0 ? 0 : t > 1 ? 1 : t;
-        rgb[3 * i] = (uint8_t)lrint(255 * t), rgb[3 * i + 1] = 96, rgb[3 * i + 2] = (uint8_t)lrint(255 * (1 - t));
+        else
+            occlusion_colour(m->occlusion[i], rgb + 3 * i, m);
     }
 }
 
 /* Relative lighting 1.0 at 128 gray. */
+static uint8_t lighting_level(double v)
+{
+    v *= 128.0;
+    return (uint8_t)(v < 0 ? 0 : v > 255 ? 255 : lrint(v));
+}
+
+static void lighting_colour(double v, uint8_t rgb[3], const void *ctx)
+{
+    (void)ctx;
+    rgb[0] = rgb[1] = rgb[2] = lighting_level(v);
+}
+
 static void lighting_preview(const sp_probe_maps *m, uint8_t *rgb)
 {
-    for (size_t i = 0; i < (size_t)m->width * m->height * 3; i++) {
-        double v = 128.0 * (double)m->lighting[i];
-        rgb[i] = (uint8_t)(v < 0 ? 0 : v > 255 ? 255 : lrint(v));
-    }
+    for (size_t i = 0; i < (size_t)m->width * m->height * 3; i++)
+        rgb[i] = lighting_level((double)m->lighting[i]);
+}
+
+/* A preview with its legend (export/legend.h) under it, written as PNG. */
+static int write_preview(const char *path, const uint8_t *rgb, const sp_probe_maps *m, const sp_legend *lg)
+{
+    uint8_t *img = NULL;
+    uint32_t h = 0;
+    int ret = sp_legend_image(rgb, m->width, m->height, lg, &img, &h);
+    if (!ret)
+        ret = sp_png_write(path, img, m->width, h, m->width * 3, 3);
+    free(img);
+    return ret;
 }
 
 static int write_params(const char *dir, const sp_probe *p, const sp_probe_maps *m)
@@ -185,13 +212,18 @@ int sp_probe_dir_write(const char *dir, const sp_probe *p)
         ret = sp_pfm_write(path[1], m.occlusion, m.width, m.height, 1);
     if (!ret) {
         occlusion_preview(&m, rgb);
-        ret = sp_png_write(path[2], rgb, m.width, m.height, m.width * 3, 3);
+        sp_legend lg = { .title = "OCCLUDER: HIDES PEOPLE WITH FEET ABOVE ROW (PX)", .v0 = 0, .v1 = m.height - 1,
+                         .ticks = 5, .decimals = 0, .colour = occlusion_colour, .ctx = &m,
+                         .none_label = "NEVER OCCLUDES", .none_rgb = { 24, 24, 24 } };
+        ret = write_preview(path[2], rgb, &m, &lg);
     }
     if (!ret)
         ret = sp_pfm_write(path[3], m.lighting, m.width, m.height, 3);
     if (!ret) {
         lighting_preview(&m, rgb);
-        ret = sp_png_write(path[4], rgb, m.width, m.height, m.width * 3, 3);
+        sp_legend lg = { .title = "LIGHTING RELATIVE TO THE MEAN OBJECT, PER CHANNEL", .v0 = 0, .v1 = 2, .ticks = 5,
+                         .decimals = 1, .colour = lighting_colour, .none_label = "BLACK: NOBODY PASSED" };
+        ret = write_preview(path[4], rgb, &m, &lg);
     }
     if (!ret)
         ret = write_exr_maps(dir, &m);

@@ -28,6 +28,7 @@
 #include "check.h"
 #include "common/file_util.h"
 #include "common/json.h"
+#include "export/legend.h"
 #include "export/png.h"
 #include "export/png_read.h"
 #include "export/probe_dir.h"
@@ -336,6 +337,19 @@ static void test_sunny(void)
     if (ret)
         return;
     CHECK(exists("stp/convergence.csv") && exists("stp/convergence.svg") && exists("stp/occlusion.png"));
+    /* the previews are the map (kept pixel for pixel) with a legend strip under it */
+    for (int k = 0; k < 2; k++) {
+        uint8_t *rgba = NULL;
+        uint32_t pw = 0, ph = 0;
+        CHECK(sp_png_read_rgba(path_in(k ? "stp/lighting.png" : "stp/occlusion.png"), &rgba, &pw, &ph) == 0);
+        CHECK_MSG(pw == d.width && ph == d.height + sp_legend_height(d.width), "preview %ux%u", pw, ph);
+        for (size_t i = 0; rgba && k == 0 && i < (size_t)d.width * d.height; i++)
+            if ((d.occlusion[i] < 0) != (rgba[4 * i] == 24 && rgba[4 * i + 1] == 24 && rgba[4 * i + 2] == 24)) {
+                CHECK_MSG(0, "occlusion.png pixel %zu does not show the map", i);
+                break;
+            }
+        free(rgba);
+    }
     if (HAVE_OPENIMAGEIO) { /* the float maps as OpenEXR too */
         char *exr = slurp(path_in("stp/occlusion.exr"), NULL);
         CHECK(exr && !memcmp(exr, "v/1\x01", 4));
