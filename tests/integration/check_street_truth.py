@@ -4,7 +4,7 @@
 
 usage: check_street_truth.py PROBE_DIR CAPTURE_DIR [--json OUT] [limits]
 limits: --min-recall F --max-false-rate F --max-ground-false F --max-plane-error F --max-shadow-deg D
-        --min-plate-psnr DB
+        --min-plate-psnr DB --max-relight-changed F
 Figures (each printed, one per line):
   recall        share of the occluder pixels a person passed behind (gt/occlusion_hits > 0) where the map
                 would hide a figure standing as far as the farthest one hidden there (Z >= that foot row - 2)
@@ -16,6 +16,11 @@ Figures (each printed, one per line):
   shadow        when the probe says a sun shadow is present: median angle between its direction at each
                 such foot point and the true one (towards meta.sun.shadow_vanishing_point)
   plate         PSNR (dB, 8-bit) of clean_plate.png against gt/clean_plate.png
+  relighting    how well the lighting map carries a person's colour from one place to another (eq. 3.4):
+                for 200 random pairs of unoccluded views (>= 150 visible px) of each person, the median relative
+                luma error of colour(a) * L(box b) / L(box a) against colour(b), L the map's mean over the
+                covered pixels of the true box (at least a quarter covered); beside it the error of assuming
+                no change, colour(b) = colour(a), and both over the pairs whose colour changed by > 25%
 Rows are image rows: a foot at foot_y (pixel-centre coordinates, centres at +0.5) is on row floor(foot_y).
 Exits 1 when a limit is exceeded, 2 on unreadable input.
 """
@@ -40,6 +45,40 @@ def png(path, dtype=None):
     return a.astype(dtype) if dtype else a
 
 
+def luma(c):
+    return 0.299 * c[0] + 0.587 * c[1] + 0.114 * c[2]
+
+
+def relighting(light, people):
+    views = {}
+    for r in people:
+        if (int(r["occluded"]) or int(r["truncated"]) or int(r["occluded_by_person"]) or int(r["occluded_by_car"])
+                or int(r["vis_px"]) < 150):
+            continue
+        x0, y0, x1, y1 = (int(r[k]) for k in ("bbox_x0", "bbox_y0", "bbox_x1", "bbox_y1"))
+        v = light[y0:y1, x0:x1].reshape(-1, 3)
+        v = v[v.sum(1) > 0]
+        if len(v) < 0.25 * (x1 - x0) * (y1 - y0):
+            continue
+        colour = np.array([float(r[k]) for k in ("mean_r", "mean_g", "mean_b")])
+        views.setdefault(r["id"], []).append((colour, v.mean(0)))
+    rng = np.random.default_rng(1)
+    err, none = [], []
+    for vs in views.values():
+        for _ in range(200 if len(vs) > 1 else 0):
+            i, j = rng.choice(len(vs), 2, replace=False)
+            (ca, la), (cb, lb) = vs[i], vs[j]
+            err.append(abs(luma(ca * lb / np.maximum(la, 1e-3)) - luma(cb)) / luma(cb))
+            none.append(abs(luma(ca) - luma(cb)) / luma(cb))
+    if not err:
+        return None
+    err, none = np.array(err), np.array(none)
+    ch = none > 0.25
+    return {"pairs": int(err.size), "map": float(np.median(err)), "none": float(np.median(none)),
+            "changed": int(ch.sum()), "map_changed": float(np.median(err[ch])) if ch.any() else None,
+            "none_changed": float(np.median(none[ch])) if ch.any() else None}
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("probe_dir")
@@ -51,6 +90,7 @@ def main():
     ap.add_argument("--max-plane-error", type=float)
     ap.add_argument("--max-shadow-deg", type=float)
     ap.add_argument("--min-plate-psnr", type=float)
+    ap.add_argument("--max-relight-changed", type=float)
     a = ap.parse_args()
     cap, gt = a.capture_dir, os.path.join(a.capture_dir, "gt")
     try:
@@ -150,6 +190,17 @@ def main():
     print("shadow " + (f"present: median direction error {sd:.2f} deg over {len(angs)} rows" if sd is not None
                        else "left out: " + str(shadow.get("note"))))
     print(f"plate PSNR {out['plate_psnr_db']:.2f} dB")
+    try:
+        light = read_pfm(os.path.join(a.probe_dir, "lighting.pfm"))
+    except OSError as e:
+        print(f"check_street_truth: {e}", file=sys.stderr)
+        return 2
+    out["relighting"] = relighting(light, people)
+    r = out["relighting"]
+    if r:
+        print(f"relighting: median relative luma error {r['map']:.3f} over {r['pairs']} pairs (no change assumed: "
+              f"{r['none']:.3f}); over the {r['changed']} pairs that changed by > 25%: {r['map_changed']:.3f} "
+              f"(no change: {r['none_changed']:.3f})")
     if a.json:
         json.dump(out, open(a.json, "w"), indent=1)
 
@@ -166,6 +217,9 @@ def main():
         fails.append(f"shadow direction {sd} > {a.max_shadow_deg} deg (or left out)")
     if a.min_plate_psnr is not None and not out["plate_psnr_db"] >= a.min_plate_psnr:
         fails.append(f"plate PSNR {out['plate_psnr_db']:.2f} < {a.min_plate_psnr} dB")
+    if a.max_relight_changed is not None and not (r and r["map_changed"] is not None and
+                                                  r["map_changed"] <= a.max_relight_changed):
+        fails.append(f"relighting error over changed pairs {r and r['map_changed']} > {a.max_relight_changed}")
     for f in fails:
         print("check_street_truth: FAIL " + f, file=sys.stderr)
     return 1 if fails else 0
