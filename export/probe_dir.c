@@ -157,6 +157,7 @@ static int write_params(const char *dir, const sp_probe *p, const sp_probe_maps 
 {
     sp_probe_plane plane;
     sp_probe_shadow shadow;
+    sp_probe_stats stats;
     char *json = NULL, *path = sp_path_join_alloc(dir, "probe.json");
     int ret = path ? 0 : -ENOMEM;
     if (!ret)
@@ -164,7 +165,9 @@ static int write_params(const char *dir, const sp_probe *p, const sp_probe_maps 
     if (!ret)
         ret = sp_probe_get_shadow(p, &shadow);
     if (!ret)
-        ret = sp_probe_params_to_json(&plane, &shadow, m->width, m->height, &json);
+        ret = sp_probe_get_stats(p, &stats);
+    if (!ret)
+        ret = sp_probe_params_to_json(&plane, &shadow, &stats, m->width, m->height, &json);
     if (!ret)
         ret = sp_write_whole_file_atomic(path, json, strlen(json));
     free(json);

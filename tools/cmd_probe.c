@@ -36,7 +36,7 @@
 typedef struct probe_args {
     const char *capture, *out;
     sp_probe_settings s;
-    int holdout_half, quiet, force;
+    int holdout_half, quiet, force, objects;
     uint64_t max_frames;
     uint64_t empty[MAX_EMPTY];
     unsigned n_empty;
@@ -59,6 +59,8 @@ static void usage(FILE *out)
             "      --holdout-from N  frames from N on test the scale model instead of fitting it\n"
             "      --holdout-half    the same from the middle frame\n"
             "      --empty-frame N   also write frame_N.png and empty_N.png (objects removed); repeatable\n"
+            "      --objects         also write objects.csv: every object of every probed frame, its box,\n"
+            "                        foot point, height and class (person, car, other)\n"
             "      --max-frames N    stop after N frames\n"
             "  -f, --force           replace PROBE_DIR if it exists\n"
             "  -q, --quiet           no progress bar or summary\n"
@@ -95,7 +97,7 @@ static int bad_value(const char *opt, const char *v)
 }
 
 enum { OPT_WINDOW = 256, OPT_SAMPLES, OPT_THRESHOLD, OPT_MIN_OBJECT, OPT_DETECTOR, OPT_HOLDOUT, OPT_HOLDOUT_HALF,
-       OPT_EMPTY, OPT_MAX_FRAMES };
+       OPT_EMPTY, OPT_MAX_FRAMES, OPT_OBJECTS };
 
 static int parse_option(int c, probe_args *a)
 {
@@ -137,6 +139,7 @@ static int parse_option(int c, probe_args *a)
         return 0;
     case OPT_MAX_FRAMES:
         return parse_u64(optarg, &a->max_frames) || !a->max_frames ? bad_value("--max-frames", optarg) : 0;
+    case OPT_OBJECTS: a->objects = 1; return 0;
     case 'f': a->force = 1; return 0;
     case 'q': a->quiet = 1; return 0;
     case 'h': usage(stdout); return -1;
@@ -153,6 +156,7 @@ static int parse_args(int argc, char **argv, probe_args *a)
         { "detector", required_argument, NULL, OPT_DETECTOR }, { "holdout-from", required_argument, NULL, OPT_HOLDOUT },
         { "holdout-half", no_argument, NULL, OPT_HOLDOUT_HALF }, { "empty-frame", required_argument, NULL, OPT_EMPTY },
         { "max-frames", required_argument, NULL, OPT_MAX_FRAMES }, { "force", no_argument, NULL, 'f' },
+        { "objects", no_argument, NULL, OPT_OBJECTS },
         { "quiet", no_argument, NULL, 'q' },                  { "help", no_argument, NULL, 'h' },
         { 0 },
     };
@@ -292,7 +296,23 @@ typedef struct run_state {
     const probe_args *a;
     const char *dir;
     uint8_t *rgb;
+    FILE *objects; /* objects.csv, with --objects */
+    int objects_err;
 } run_state;
+
+/* One row per object of the frame just probed (the directory is renamed into place only when complete). */
+static int write_objects(run_state *rs, const sp_probe *probe, uint64_t index, int64_t t_ns)
+{
+    sp_probe_object obj[64];
+    unsigned n = sp_probe_frame_objects(probe, obj, 64);
+    for (unsigned i = 0; i < n && i < 64; i++)
+        fprintf(rs->objects, "%" PRIu64 ",%" PRId64 ",%s,%d,%d,%d,%d,%.2f,%.2f,%.2f,%u,%d\n", index, t_ns,
+                sp_probe_class_name(obj[i].cls), obj[i].x0, obj[i].y0, obj[i].x1, obj[i].y1, obj[i].foot_x,
+                obj[i].foot_y, obj[i].height, obj[i].area, obj[i].touches_border);
+    if (ferror(rs->objects) && !rs->objects_err)
+        rs->objects_err = sp_write_error();
+    return rs->objects_err;
+}
 
 static int write_empty(run_state *rs, const sp_probe *probe, const sp_frame *f, uint64_t index)
 {
@@ -322,7 +342,7 @@ static int write_empty(run_state *rs, const sp_probe *probe, const sp_frame *f, 
 static int on_frame(void *user, const sp_probe *probe, const sp_frame *f, uint64_t index)
 {
     run_state *rs = user;
-    int ret = 0;
+    int ret = rs->objects ? write_objects(rs, probe, index, f->timestamp_ns) : 0;
     for (unsigned i = 0; !ret && i < rs->a->n_empty; i++)
         if (rs->a->empty[i] == index)
             ret = write_empty(rs, probe, f, index);
@@ -374,11 +394,25 @@ static int run(probe_args *a, const capture_facts *facts, const char *dir)
     run.progress_total = a->max_frames && a->max_frames < facts->frames ? a->max_frames : facts->frames;
     sp_run_stats st = { 0 };
     int64_t t0 = sp_clock_monotonic_ns();
+    char *objects = a->objects ? sp_path_join_alloc(dir, "objects.csv") : NULL;
+    if (a->objects && (!objects || !(rs.objects = fopen(objects, "w")))) {
+        int err = objects ? -errno : -ENOMEM;
+        free(objects), free(rs.rgb);
+        sp_stage_close(&stage);
+        return sp_cmd_fail("probe", err, "creating objects.csv in the probe directory");
+    }
+    free(objects);
+    if (rs.objects)
+        fputs("frame,t_ns,class,x0,y0,x1,y1,foot_x,foot_y,height,area,touches_border\n", rs.objects);
     ret = rs.rgb ? sp_stage_run(a->capture, &stage, &run, &st) : -ENOMEM;
+    if (rs.objects && fclose(rs.objects) && !rs.objects_err)
+        rs.objects_err = sp_write_error();
     int code = SP_EXIT_OK;
     if (interrupted) { /* a read cut short by the signal is no capture error */
         fprintf(stderr, "sunprobe probe: interrupted after %" PRIu64 " frames; nothing written\n", st.frames);
         code = 128 + (int)interrupted;
+    } else if (rs.objects_err) {
+        code = sp_cmd_fail("probe", rs.objects_err, "writing objects.csv in the probe directory");
     } else if (ret == SP_ENODATA) {
         fprintf(stderr, "sunprobe probe: %s: %s\n", a->capture, sp_probe_message(probe));
         code = SP_EXIT_BAD_INPUT;

@@ -107,6 +107,7 @@ typedef struct sp_probe_stats {
     uint64_t frames_moving;   /* probed frames over max_foreground */
     uint64_t objects;         /* object observations (one object in one frame) */
     uint64_t people;          /* of those, labelled people */
+    uint64_t cars;            /* and labelled cars (or other vehicles); the rest are "other" */
     uint64_t hog_checked, hog_confirmed; /* SP_PROBE_DETECT_HOG */
     double covered_fraction;  /* pixels any object covered */
     double occluder_fraction; /* pixels the occlusion map marks as occluding */
@@ -128,6 +129,19 @@ typedef struct sp_probe_maps {
 } sp_probe_maps;
 
 typedef struct sp_probe sp_probe;
+
+/* What an object is taken for (PROBE.md, "Object classes"). */
+typedef enum sp_probe_class { SP_PROBE_OTHER = 0, SP_PROBE_PERSON = 1, SP_PROBE_CAR = 2 } sp_probe_class;
+
+/* One object of the last probed frame, pixels (x right, y down). */
+typedef struct sp_probe_object {
+    int x0, y0, x1, y1;       /* refined-mask box, inclusive */
+    double foot_x, foot_y;    /* bottom middle: where it stands */
+    double height;            /* foot_y - top + 1 */
+    uint32_t area;            /* refined-mask pixels */
+    int touches_border;
+    sp_probe_class cls;
+} sp_probe_object;
 
 SP_API void sp_probe_default_settings(sp_probe_settings *s);
 /*
@@ -158,6 +172,10 @@ SP_API int sp_probe_finish(sp_probe *p);
 SP_API const char *sp_probe_message(const sp_probe *p);
 
 SP_API int sp_probe_get_stats(const sp_probe *p, sp_probe_stats *out);
+/* The objects of the last pushed frame (none when it was not probed): how many there are; the first
+ * min(that, cap) are copied to out. */
+SP_API unsigned sp_probe_frame_objects(const sp_probe *p, sp_probe_object *out, unsigned cap);
+SP_API const char *sp_probe_class_name(sp_probe_class c);
 /* After finish: the models and the maps (borrowed until close). -EAGAIN before finish. */
 SP_API int sp_probe_get_plane(const sp_probe *p, sp_probe_plane *out);
 SP_API int sp_probe_get_shadow(const sp_probe *p, sp_probe_shadow *out);
@@ -173,11 +191,12 @@ SP_API int sp_probe_empty_frame(const sp_probe *p, uint8_t *dst, uint32_t dst_st
 /* ---- plane and shadow parameters as JSON ---- */
 
 /*
- * The models of a finished probe (or given ones) as a JSON object; *out is
- * malloc'd, NUL-terminated, the caller frees it.
+ * The models of a finished probe (or given ones) as a JSON object, with the
+ * observations per class when stats is not NULL; *out is malloc'd,
+ * NUL-terminated, the caller frees it.
  */
-SP_API int sp_probe_params_to_json(const sp_probe_plane *plane, const sp_probe_shadow *shadow, uint32_t width,
-                                   uint32_t height, char **out);
+SP_API int sp_probe_params_to_json(const sp_probe_plane *plane, const sp_probe_shadow *shadow,
+                                   const sp_probe_stats *stats, uint32_t width, uint32_t height, char **out);
 /* Parses what sp_probe_params_to_json wrote; SP_ECORRUPT for anything else. */
 SP_API int sp_probe_params_from_json(const char *json, size_t len, sp_probe_plane *plane, sp_probe_shadow *shadow,
                                      uint32_t *width, uint32_t *height);

@@ -69,8 +69,8 @@ static void shadow_json(sp_strbuf *b, const sp_probe_shadow *sh)
     sp_strbuf_printf(b, "}");
 }
 
-int sp_probe_params_to_json(const sp_probe_plane *plane, const sp_probe_shadow *shadow, uint32_t width,
-                            uint32_t height, char **out)
+int sp_probe_params_to_json(const sp_probe_plane *plane, const sp_probe_shadow *shadow,
+                            const sp_probe_stats *stats, uint32_t width, uint32_t height, char **out)
 {
     if (!plane || !shadow || !out || !width || !height)
         return -EINVAL;
@@ -80,6 +80,11 @@ int sp_probe_params_to_json(const sp_probe_plane *plane, const sp_probe_shadow *
     plane_json(&b, plane);
     sp_strbuf_printf(&b, ",\n");
     shadow_json(&b, shadow);
+    if (stats) /* observations per class (PROBE.md, "Object classes") */
+        sp_strbuf_printf(&b, ",\n\"objects\":{\"observations\":%llu,\"person\":%llu,\"car\":%llu,\"other\":%llu}",
+                         (unsigned long long)stats->objects, (unsigned long long)stats->people,
+                         (unsigned long long)stats->cars,
+                         (unsigned long long)(stats->objects - stats->people - stats->cars));
     sp_strbuf_printf(&b, "}\n");
     if (b.failed) {
         sp_strbuf_free(&b);

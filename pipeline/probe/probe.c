@@ -35,6 +35,8 @@ struct sp_probe {
     probe_tracks tracks;
     probe_motion motion;
     probe_completion completion[PROBE_MAX_OBJECTS];
+    sp_probe_class cls[PROBE_MAX_OBJECTS]; /* of the last frame's objects */
+    unsigned n_cls;
     probe_reservoir people, holdout;
     float *recent;
     unsigned n_recent;
@@ -228,6 +230,22 @@ static int is_person(sp_probe *p, const probe_object *o)
     return yes;
 }
 
+/*
+ * A car (or another vehicle) seen from the street: wider than tall (a side view 0.3, a front or back view
+ * about 0.8 of its width), solid (a group of people side by side leaves gaps between them: fill under
+ * 0.55), and, where the scale model is known, 0.45 to 2.2 of a person's height standing there: a car is
+ * 1.4-1.6 m against a person's ~1.7, a van or bus up to about 3.5 m; a group is a person's height but is
+ * not that solid. Not by speed: a car crosses the view in a few frames, too fast for the person tracker.
+ */
+static int car_shaped(const sp_probe *p, const probe_object *o)
+{
+    double w = o->x1 - o->x0 + 1, h = o->height, fill = o->area / (w * h);
+    if (h < 8 || h > 0.8 * w || fill < 0.55)
+        return 0;
+    double expect = sp_probe_plane_height(&p->plane, o->foot_x, o->foot_y);
+    return !isfinite(expect) || expect <= 0 || (h >= 0.45 * expect && h <= 2.2 * expect);
+}
+
 static void observe_person(sp_probe *p, const probe_object *o)
 {
     float rec[PERSON_REC] = { (float)o->foot_x, (float)o->foot_y, (float)o->height };
@@ -282,6 +300,7 @@ static int probe_frame(sp_probe *p, int64_t t)
         return SP_ENODATA;
     }
     p->segmented = 0;
+    p->n_cls = 0;
     if (!plate_ready(&p->plate))
         return 0;
     segment_frame(&p->seg, p->rgb, p->plate.median, &p->plane);
@@ -296,13 +315,16 @@ static int probe_frame(sp_probe *p, int64_t t)
     if (updated)
         maps_add_background(&p->maps, p->plate.median, p->seg.cls);
     tracks_update(&p->tracks, &p->seg, p->st.frames - 1, &p->plane, p->completion);
+    p->n_cls = p->seg.n_obj;
     for (unsigned i = 0; i < p->seg.n_obj; i++) {
         const probe_object *o = &p->seg.obj[i];
         p->st.objects++;
         maps_add_object(&p->maps, &p->seg, o, &p->plane);
         maps_add_template(&p->maps, &p->seg, o, &p->completion[i]);
-        if (is_person(p, o))
+        p->cls[i] = is_person(p, o) ? SP_PROBE_PERSON : car_shaped(p, o) ? SP_PROBE_CAR : SP_PROBE_OTHER;
+        if (p->cls[i] == SP_PROBE_PERSON)
             observe_person(p, o);
+        p->st.cars += p->cls[i] == SP_PROBE_CAR;
     }
     if (p->st.frames_probed % p->s.checkpoint_frames == 0)
         checkpoint(p);
@@ -459,10 +481,30 @@ int sp_probe_finish(sp_probe *p)
     if (p->report)
         ret = sp_report_close(&p->report);
     p->finished = 1;
-    snprintf(p->message, sizeof(p->message), "probed %llu of %llu frames: %llu object and %llu person observations",
+    snprintf(p->message, sizeof(p->message),
+             "probed %llu of %llu frames: %llu object observations (%llu people, %llu cars, %llu other)",
              (unsigned long long)p->st.frames_probed, (unsigned long long)p->st.frames,
-             (unsigned long long)p->st.objects, (unsigned long long)p->st.people);
+             (unsigned long long)p->st.objects, (unsigned long long)p->st.people, (unsigned long long)p->st.cars,
+             (unsigned long long)(p->st.objects - p->st.people - p->st.cars));
     return ret;
+}
+
+unsigned sp_probe_frame_objects(const sp_probe *p, sp_probe_object *out, unsigned cap)
+{
+    if (!p)
+        return 0;
+    for (unsigned i = 0; out && i < p->n_cls && i < cap; i++) {
+        const probe_object *o = &p->seg.obj[i];
+        out[i] = (sp_probe_object){ .x0 = o->x0, .y0 = o->y0, .x1 = o->x1, .y1 = o->y1, .foot_x = o->foot_x,
+                                    .foot_y = o->foot_y, .height = o->height, .area = o->area,
+                                    .touches_border = o->touches != 0, .cls = p->cls[i] };
+    }
+    return p->n_cls;
+}
+
+const char *sp_probe_class_name(sp_probe_class c)
+{
+    return c == SP_PROBE_PERSON ? "person" : c == SP_PROBE_CAR ? "car" : "other";
 }
 
 const char *sp_probe_message(const sp_probe *p)

@@ -4,7 +4,7 @@
 
 usage: check_street_truth.py PROBE_DIR CAPTURE_DIR [--json OUT] [limits]
 limits: --min-recall F --max-false-rate F --max-ground-false F --max-plane-error F --max-shadow-deg D
-        --min-plate-psnr DB --max-relight-changed F
+        --min-plate-psnr DB --max-relight-changed F --min-car-recall F (needs objects.csv)
 Figures (each printed, one per line):
   recall        share of the occluder pixels a person passed behind (gt/occlusion_hits > 0) where the map
                 would hide a figure standing as far as the farthest one hidden there (Z >= that foot row - 2)
@@ -16,6 +16,10 @@ Figures (each printed, one per line):
   shadow        when the probe says a sun shadow is present: median angle between its direction at each
                 such foot point and the true one (towards meta.sun.shadow_vanishing_point)
   plate         PSNR (dB, 8-bit) of clean_plate.png against gt/clean_plate.png
+  classes       with objects.csv (probe --objects): each object's true class from gt/ids inside its box
+                (car or person when that kind has more pixels there than the other and covers a fifth of the
+                box, else none): the share of true cars called car, of true people called person, and how
+                many cars were called person
   relighting    how well the lighting map carries a person's colour from one place to another (eq. 3.4):
                 for 200 random pairs of unoccluded views (>= 150 visible px) of each person, the median relative
                 luma error of colour(a) * L(box b) / L(box a) against colour(b), L the map's mean over the
@@ -47,6 +51,36 @@ def png(path, dtype=None):
 
 def luma(c):
     return 0.299 * c[0] + 0.587 * c[1] + 0.114 * c[2]
+
+
+def classes(path, gt):
+    rows = list(csv.DictReader(open(path)))
+    c = {k: 0 for k in ("cars", "car_as_car", "car_as_person", "people", "person_as_person", "person_as_car",
+                        "none", "none_as_person")}
+    ids_cache = {}
+    for r in rows:
+        f = int(r["frame"])
+        if f not in ids_cache:
+            ids_cache.clear()
+            ids_cache[f] = png(os.path.join(gt, "ids", f"{f:05d}.png"))
+        ids = ids_cache[f]
+        box = ids[int(r["y0"]):int(r["y1"]) + 1, int(r["x0"]):int(r["x1"]) + 1]
+        car, person = int((box > 100).sum()), int(((box > 0) & (box < 100)).sum())
+        truth = ("car" if car > person and car >= 0.2 * box.size else
+                 "person" if person > car and person >= 0.2 * box.size else "none")
+        said = r["class"]
+        if truth == "car":
+            c["cars"] += 1
+            c["car_as_car"] += said == "car"
+            c["car_as_person"] += said == "person"
+        elif truth == "person":
+            c["people"] += 1
+            c["person_as_person"] += said == "person"
+            c["person_as_car"] += said == "car"
+        else:
+            c["none"] += 1
+            c["none_as_person"] += said == "person"
+    return c
 
 
 def relighting(light, people):
@@ -91,6 +125,7 @@ def main():
     ap.add_argument("--max-shadow-deg", type=float)
     ap.add_argument("--min-plate-psnr", type=float)
     ap.add_argument("--max-relight-changed", type=float)
+    ap.add_argument("--min-car-recall", type=float)
     a = ap.parse_args()
     cap, gt = a.capture_dir, os.path.join(a.capture_dir, "gt")
     try:
@@ -196,6 +231,13 @@ def main():
         print(f"check_street_truth: {e}", file=sys.stderr)
         return 2
     out["relighting"] = relighting(light, people)
+    objects_csv = os.path.join(a.probe_dir, "objects.csv")
+    if os.path.exists(objects_csv):
+        out["classes"] = classes(objects_csv, gt)
+        c = out["classes"]
+        print(f"classes: {c['car_as_car']}/{c['cars']} cars called car, {c['car_as_person']} called person; "
+              f"{c['person_as_person']}/{c['people']} people called person, {c['person_as_car']} called car; "
+              f"{c['none_as_person']}/{c['none']} objects that are neither called person")
     r = out["relighting"]
     if r:
         print(f"relighting: median relative luma error {r['map']:.3f} over {r['pairs']} pairs (no change assumed: "
@@ -220,6 +262,12 @@ def main():
     if a.max_relight_changed is not None and not (r and r["map_changed"] is not None and
                                                   r["map_changed"] <= a.max_relight_changed):
         fails.append(f"relighting error over changed pairs {r and r['map_changed']} > {a.max_relight_changed}")
+    if a.min_car_recall is not None:
+        c = out.get("classes")
+        if not c or not c["cars"] or c["car_as_car"] < a.min_car_recall * c["cars"]:
+            fails.append(f"cars called car: {c and c['car_as_car']} of {c and c['cars']} (or no objects.csv)")
+        elif c["car_as_person"] or c["person_as_car"]:
+            fails.append(f"{c['car_as_person']} cars called person, {c['person_as_car']} people called car")
     for f in fails:
         print("check_street_truth: FAIL " + f, file=sys.stderr)
     return 1 if fails else 0

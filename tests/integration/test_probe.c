@@ -366,8 +366,15 @@ static void test_sunny(void)
     check_composite(&d);
     /* the same directory again: refused without --force, replaced with it */
     CHECK(run("probe", path_in("st.spcap"), "-o", path_in("stp"), "-q", NULL) == 1);
-    CHECK(run("probe", path_in("st.spcap"), "-o", path_in("stp"), "-q", "-f", "--max-frames", "200", NULL) == 0);
+    CHECK(run("probe", path_in("st.spcap"), "-o", path_in("stp"), "-q", "-f", "--max-frames", "200", "--objects",
+              NULL) == 0);
     CHECK(!exists("stp/empty_000200.png") && exists("stp/probe.json"));
+    /* --objects: a row per object of each probed frame, people among them; probe.json counts the classes */
+    char *objects = slurp(path_in("stp/objects.csv"), NULL), *params = slurp(path_in("stp/probe.json"), NULL);
+    CHECK(objects && !strncmp(objects, "frame,t_ns,class,x0,y0,x1,y1,foot_x,foot_y,height,area,touches_border\n", 69));
+    CHECK(objects && strstr(objects, ",person,") != NULL);
+    CHECK(params && strstr(params, "\"objects\":{\"observations\":") != NULL);
+    free(objects), free(params);
     sp_probe_dir_free(&d);
 }
 

@@ -4,8 +4,9 @@
  * front of everything, walkers at three depths whose heights follow h = y / 2,
  * some passing behind the pole. Checks the clean plate, that the pole occludes
  * the far walkers and not the near one, the scale model, the overcast verdict
- * on a scene without shadows, removal, the report; then bad input (too short,
- * moving camera, nothing moving) and API misuse.
+ * on a scene without shadows, removal, the report; object classes on a scene
+ * with a car and a walker; then bad input (too short, moving camera, nothing
+ * moving) and API misuse.
  */
 #include <errno.h>
 #include <math.h>
@@ -140,6 +141,49 @@ static void test_scene(void)
     unlink(prefix);
 }
 
+/* A solid car, 64 x 28 px with its wheels on row 96 (a person there is 48 px tall), driving past a walker. */
+static void test_classes(void)
+{
+    sp_probe_settings s;
+    base_settings(&s);
+    sp_probe *p = NULL;
+    CHECK(sp_probe_open(&p, W, H, &s) == 0);
+    static uint8_t img[W * H * 3];
+    static const uint8_t green[3] = { 40, 170, 60 }, paint[3] = { 20, 40, 160 };
+    int car_seen = 0, car_called_car = 0, walker_seen = 0, walker_called_car = 0, car_called_person = 0;
+    for (int f = 0; f < 500; f++) {
+        memcpy(img, background, sizeof(background));
+        double wx = fmod(f * 1.5, 200) - 20;
+        draw_walker(img, wx, 60, green);
+        int cx0 = (int)fmod(f * 4.0, 400) - 100;
+        for (int y = 96 - 27; y <= 96; y++)
+            for (int x = cx0; x < cx0 + 64; x++)
+                if (x >= 0 && x < W)
+                    memcpy(img + (y * W + x) * 3, paint, 3);
+        CHECK(sp_probe_push_rgb(p, img, W * 3, (int64_t)f * 100000000) == 0);
+        sp_probe_object o[16];
+        unsigned n = sp_probe_frame_objects(p, o, 16);
+        for (unsigned i = 0; i < n && i < 16; i++) {
+            int is_car = o[i].y1 == 96 && o[i].y0 >= 96 - 28 && abs(o[i].x0 - cx0) <= 1 && abs(o[i].x1 - (cx0 + 63)) <= 1;
+            int is_walker = o[i].y1 == 60 && fabs(0.5 * (o[i].x0 + o[i].x1) - wx) <= 3 && !o[i].touches_border;
+            car_seen += is_car, car_called_car += is_car && o[i].cls == SP_PROBE_CAR;
+            car_called_person += is_car && o[i].cls == SP_PROBE_PERSON;
+            walker_seen += is_walker, walker_called_car += is_walker && o[i].cls == SP_PROBE_CAR;
+        }
+    }
+    CHECK(sp_probe_finish(p) == 0);
+    sp_probe_stats st;
+    CHECK(sp_probe_get_stats(p, &st) == 0);
+    CHECK_MSG(car_seen > 20 && car_called_car == car_seen && !car_called_person, "car called car in %d of %d frames",
+              car_called_car, car_seen);
+    CHECK_MSG(walker_seen > 100 && !walker_called_car, "walker called car in %d of %d frames", walker_called_car,
+              walker_seen);
+    CHECK_MSG(st.cars >= (uint64_t)car_called_car && st.cars < st.objects, "%llu cars of %llu objects",
+              (unsigned long long)st.cars, (unsigned long long)st.objects);
+    CHECK(!strcmp(sp_probe_class_name(SP_PROBE_CAR), "car") && !strcmp(sp_probe_class_name(SP_PROBE_PERSON), "person"));
+    sp_probe_close(&p);
+}
+
 static int run_frames(int kind, int n, char *msg, size_t msg_size)
 {
     sp_probe_settings s;
@@ -239,6 +283,7 @@ int main(void)
 {
     make_background();
     test_scene();
+    test_classes();
     test_bad_input();
     test_misuse();
     test_clock_overflow();

@@ -197,7 +197,7 @@ static void test_params_json(void)
     sp_probe_shadow sh = { .present = 1, .ox = { 0.5, 0.1, -0.2 }, .oy = { 0.8, 0, -0.7 }, .ratio = { 0.4, 0.42, 0.5 },
                            .n_shadows = 40, .n_candidates = 50, .direction_spread_deg = 12 };
     char *json = NULL;
-    CHECK(sp_probe_params_to_json(&pl, &sh, 320, 240, &json) == 0);
+    CHECK(sp_probe_params_to_json(&pl, &sh, NULL, 320, 240, &json) == 0);
     sp_probe_plane p2;
     sp_probe_shadow s2;
     uint32_t w = 0, h = 0;
@@ -222,7 +222,7 @@ static void test_params_json(void)
     };
     for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++)
         CHECK_MSG(sp_probe_params_from_json(bad[i], strlen(bad[i]), &p2, &s2, &w, &h) == SP_ECORRUPT, "bad[%zu]", i);
-    CHECK(sp_probe_params_to_json(NULL, &sh, 1, 1, &json) == -EINVAL);
+    CHECK(sp_probe_params_to_json(NULL, &sh, NULL, 1, 1, &json) == -EINVAL);
 }
 
 int main(void)
