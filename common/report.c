@@ -118,12 +118,17 @@ int sp_report_close(sp_report **rp)
 
 /* ---- SVG ---- */
 
+/*
+ * One panel per series, stacked, sharing the time axis: each quantity gets an axis of its own, labelled
+ * with its name (and the unit the name carries), so series in different units never share a scale.
+ */
 #define W 720.0
-#define H 420.0
-#define LEFT 70.0
-#define RIGHT 170.0
+#define LEFT 78.0
+#define RIGHT 24.0
 #define TOP 40.0
-#define BOTTOM 50.0
+#define PANEL 110.0
+#define GAP 26.0
+#define BOTTOM 46.0
 
 static const char *const palette[SP_REPORT_MAX_SERIES] = {
     "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b",
@@ -154,72 +159,82 @@ static void xml_text(FILE *f, const char *s)
     }
 }
 
-static void draw_axes(FILE *f, double x0, double x1, double y0, double y1, int log_scale, const char *x_label)
+/* Panel frame at top edge `top`: grid, y tick labels, the series' name along the y axis; x ticks when `last`. */
+static void draw_panel(FILE *f, double top, double x0, double x1, double y0, double y1, int log_scale,
+                       const char *name, const char *colour, int last)
 {
-    double pw = W - LEFT - RIGHT, ph = H - TOP - BOTTOM;
-    fprintf(f, "<rect x='%.1f' y='%.1f' width='%.1f' height='%.1f' fill='none' stroke='#444'/>\n", LEFT, TOP, pw, ph);
-    for (int i = 0; i <= 4; i++) {
-        double fx = LEFT + pw * i / 4.0, fy = TOP + ph * (1.0 - i / 4.0);
-        double xv = x0 + (x1 - x0) * i / 4.0, yv = y0 + (y1 - y0) * i / 4.0;
+    double pw = W - LEFT - RIGHT;
+    fprintf(f, "<rect x='%.1f' y='%.1f' width='%.1f' height='%.1f' fill='none' stroke='#444'/>\n", LEFT, top, pw,
+            PANEL);
+    for (int i = 0; i <= 2; i++) {
+        double fy = top + PANEL * (1.0 - i / 2.0), yv = y0 + (y1 - y0) * i / 2.0;
         fprintf(f, "<line x1='%.1f' y1='%.1f' x2='%.1f' y2='%.1f' stroke='#ddd'/>\n", LEFT, fy, LEFT + pw, fy);
-        fprintf(f, "<text x='%.1f' y='%.1f' font-size='11' text-anchor='middle'>%.3g</text>\n", fx, TOP + ph + 16, xv);
-        fprintf(f, "<text x='%.1f' y='%.1f' font-size='11' text-anchor='end'>%.3g</text>\n", LEFT - 6, fy + 4,
+        fprintf(f, "<text x='%.1f' y='%.1f' font-size='10' text-anchor='end'>%.3g</text>\n", LEFT - 5, fy + 4,
                 log_scale ? pow(10.0, yv) : yv);
     }
-    fprintf(f, "<text x='%.1f' y='%.1f' font-size='12' text-anchor='middle'>", LEFT + pw / 2, H - 12);
-    xml_text(f, x_label);
-    fputs("</text>\n", f);
+    for (int i = 0; i <= 4; i++) {
+        double fx = LEFT + pw * i / 4.0;
+        fprintf(f, "<line x1='%.1f' y1='%.1f' x2='%.1f' y2='%.1f' stroke='#eee'/>\n", fx, top, fx, top + PANEL);
+        if (last)
+            fprintf(f, "<text x='%.1f' y='%.1f' font-size='11' text-anchor='middle'>%.3g</text>\n", fx,
+                    top + PANEL + 15, x0 + (x1 - x0) * i / 4.0);
+    }
+    fprintf(f, "<text x='%.1f' y='%.1f' font-size='11' fill='%s'>", LEFT + 4, top - 5, colour);
+    xml_text(f, name);
+    fputs(log_scale ? " (log scale)</text>\n" : "</text>\n", f);
 }
 
 int sp_svg_plot_write(const char *path, const char *title, const char *x_label, const double *x,
                       const double *values, size_t n_rows, const char *const *names, size_t n_series, int log_scale)
 {
-    if (!path || !x || !values || !names || n_series > SP_REPORT_MAX_SERIES)
+    if (!path || !x || !values || !names || n_series == 0 || n_series > SP_REPORT_MAX_SERIES)
         return -EINVAL;
-    double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
+    double x0 = INFINITY, x1 = -INFINITY;
     for (size_t r = 0; r < n_rows; r++) {
         x0 = fmin(x0, x[r]);
         x1 = fmax(x1, x[r]);
-        for (size_t s = 0; s < n_series; s++) {
-            double v = values[r * n_series + s];
-            if (usable(v, log_scale)) {
-                y0 = fmin(y0, ymap(v, log_scale));
-                y1 = fmax(y1, ymap(v, log_scale));
-            }
-        }
     }
+    if (!isfinite(x0))
+        x0 = 0, x1 = 1;
     if (!(x1 > x0))
         x1 = x0 + 1.0;
-    if (!isfinite(y0))
-        y0 = 0, y1 = 1;
-    if (!(y1 > y0)) /* flat series: give it a visible band */
-        y0 -= 0.5, y1 += 0.5;
+    double height = TOP + (double)n_series * (PANEL + GAP) - GAP + BOTTOM, pw = W - LEFT - RIGHT;
     sp_atomic_file af;
     int ret = sp_atomic_file_open(&af, path);
     if (ret)
         return ret;
     FILE *f = af.file;
     fprintf(f, "<svg xmlns='http://www.w3.org/2000/svg' width='%.0f' height='%.0f' font-family='sans-serif'>\n"
-               "<rect width='100%%' height='100%%' fill='white'/>\n<text x='%.1f' y='24' font-size='14'>", W, H, LEFT);
+               "<rect width='100%%' height='100%%' fill='white'/>\n<text x='%.1f' y='20' font-size='14'>",
+            W, height, LEFT);
     xml_text(f, title ? title : "");
     fputs("</text>\n", f);
-    draw_axes(f, x0, x1, y0, y1, log_scale, x_label ? x_label : "");
-    double pw = W - LEFT - RIGHT, ph = H - TOP - BOTTOM;
     for (size_t s = 0; s < n_series; s++) {
+        double y0 = INFINITY, y1 = -INFINITY, top = TOP + (double)s * (PANEL + GAP);
+        for (size_t r = 0; r < n_rows; r++) {
+            double v = values[r * n_series + s];
+            if (usable(v, log_scale)) {
+                y0 = fmin(y0, ymap(v, log_scale));
+                y1 = fmax(y1, ymap(v, log_scale));
+            }
+        }
+        if (!isfinite(y0))
+            y0 = 0, y1 = 1;
+        if (!(y1 > y0)) /* flat series: give it a visible band */
+            y0 -= 0.5, y1 += 0.5;
+        draw_panel(f, top, x0, x1, y0, y1, log_scale, names[s], palette[s], s + 1 == n_series);
         fprintf(f, "<polyline fill='none' stroke='%s' stroke-width='1.5' points='", palette[s]);
         for (size_t r = 0; r < n_rows; r++) {
             double v = values[r * n_series + s];
             if (!usable(v, log_scale))
                 continue;
             fprintf(f, "%.1f,%.1f ", LEFT + pw * (x[r] - x0) / (x1 - x0),
-                    TOP + ph * (1.0 - (ymap(v, log_scale) - y0) / (y1 - y0)));
+                    top + PANEL * (1.0 - (ymap(v, log_scale) - y0) / (y1 - y0)));
         }
-        fprintf(f, "'/>\n<rect x='%.1f' y='%.1f' width='12' height='3' fill='%s'/>"
-                   "<text x='%.1f' y='%.1f' font-size='11'>", W - RIGHT + 12, TOP + 10 + 18.0 * s, palette[s],
-                W - RIGHT + 30, TOP + 15 + 18.0 * s);
-        xml_text(f, names[s]);
-        fputs("</text>\n", f);
+        fputs("'/>\n", f);
     }
-    fputs("</svg>\n", f);
+    fprintf(f, "<text x='%.1f' y='%.1f' font-size='12' text-anchor='middle'>", LEFT + pw / 2, height - 10);
+    xml_text(f, x_label ? x_label : "");
+    fputs("</text>\n</svg>\n", f);
     return sp_atomic_file_finish(&af, ferror(f) ? -EIO : 0);
 }

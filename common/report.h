@@ -25,7 +25,10 @@ int sp_report_add(sp_report *r, double seconds, const double *values);
 /* Writes the SVG, closes the CSV; *r becomes NULL. Returns the first write error, if any. */
 int sp_report_close(sp_report **r);
 
-/* Draws an SVG line plot of n_rows x n_series values against x; used by sp_report and benchmarks. */
+/*
+ * Draws n_rows x n_series values against x as an SVG of stacked panels, one per series with its own
+ * y axis labelled by the series' name (which should carry the unit); used by sp_report and benchmarks.
+ */
 int sp_svg_plot_write(const char *path, const char *title, const char *x_label, const double *x,
                       const double *values, size_t n_rows, const char *const *names, size_t n_series, int log_scale);
 

@@ -248,7 +248,8 @@ static int run_fit(fit_args *a, const sp_face_model *model)
     sp_sunstage *ss = stage.ctx;
     int code = SP_EXIT_OK;
     sp_report *rep = NULL;
-    const char *names[3] = { "photometric loss", "held-out PSNR dB", "sun error deg" };
+    const char *names[3] = { "photometric loss [masked L2 of display values, training keyframes]", "held-out PSNR [dB]",
+                             "sun error [degrees]" };
     /* the report is opened before any work, so an unwritable PREFIX fails at once rather than after the fit */
     if (a->report && (ret = sp_report_open(&rep, a->report, "sunprobe fit", names, 3, 0))) {
         code = sp_cmd_failf("fit", ret, "cannot write the report %s", a->report);

@@ -111,9 +111,17 @@ static size_t memory_bound(uint32_t w, uint32_t h, const sp_probe_settings *s)
 
 static int open_report(sp_probe *p)
 {
-    static const char *const names[N_SERIES] = { "occlusion_change", "lighting_change", "coverage",
-                                                  "occluders",        "plane_heldout_err", "plane_change",
-                                                  "plane_truth_err",  "shadow_truth_deg" };
+    /* each with its unit: the plot gives every quantity its own panel and axis */
+    static const char *const names[N_SERIES] = {
+        "occlusion_change [share of pixels flipped since the last checkpoint]",
+        "lighting_change [mean |change| of relative luma]",
+        "coverage [share of pixels any object covered]",
+        "occluders [share of pixels marked occluding]",
+        "plane_heldout_err [median relative height error, new observations]",
+        "plane_change [relative change of the height model]",
+        "plane_truth_err [median relative height error against the truth]",
+        "shadow_truth_deg [mean shadow direction error, degrees]",
+    };
     if (!p->s.report_prefix)
         return 0;
     return sp_report_open(&p->report, p->s.report_prefix, "scene probe: convergence against run time", names,
