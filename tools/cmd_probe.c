@@ -53,6 +53,8 @@ static void usage(FILE *out)
             "  -o, --output DIR      probe directory to create (written as DIR.partial.PID, then renamed)\n"
             "      --window S        clean-plate median window in seconds (default 4)\n"
             "      --samples K       frames in that window, odd 3..31 (default 15)\n"
+            "      --settle S        a person who walks in and stops stays out of the plate this long,\n"
+            "                        then becomes background (default 120; 0: the median alone)\n"
             "      --threshold T     refined-mask colour distance |dR|+|dG|+|dB| (default 50)\n"
             "      --min-object PX   smallest object in pixels (default: width * height / 4000)\n"
             "      --detector D      shape (default) or hog (OpenCV's HOG people detector confirms)\n"
@@ -97,7 +99,7 @@ static int bad_value(const char *opt, const char *v)
 }
 
 enum { OPT_WINDOW = 256, OPT_SAMPLES, OPT_THRESHOLD, OPT_MIN_OBJECT, OPT_DETECTOR, OPT_HOLDOUT, OPT_HOLDOUT_HALF,
-       OPT_EMPTY, OPT_MAX_FRAMES, OPT_OBJECTS };
+       OPT_EMPTY, OPT_MAX_FRAMES, OPT_OBJECTS, OPT_SETTLE };
 
 static int parse_option(int c, probe_args *a)
 {
@@ -140,6 +142,7 @@ static int parse_option(int c, probe_args *a)
     case OPT_MAX_FRAMES:
         return parse_u64(optarg, &a->max_frames) || !a->max_frames ? bad_value("--max-frames", optarg) : 0;
     case OPT_OBJECTS: a->objects = 1; return 0;
+    case OPT_SETTLE: return parse_real(optarg, 0, 36000, &a->s.settle_s) ? bad_value("--settle (0..36000 s)", optarg) : 0;
     case 'f': a->force = 1; return 0;
     case 'q': a->quiet = 1; return 0;
     case 'h': usage(stdout); return -1;
@@ -156,7 +159,7 @@ static int parse_args(int argc, char **argv, probe_args *a)
         { "detector", required_argument, NULL, OPT_DETECTOR }, { "holdout-from", required_argument, NULL, OPT_HOLDOUT },
         { "holdout-half", no_argument, NULL, OPT_HOLDOUT_HALF }, { "empty-frame", required_argument, NULL, OPT_EMPTY },
         { "max-frames", required_argument, NULL, OPT_MAX_FRAMES }, { "force", no_argument, NULL, 'f' },
-        { "objects", no_argument, NULL, OPT_OBJECTS },
+        { "objects", no_argument, NULL, OPT_OBJECTS },      { "settle", required_argument, NULL, OPT_SETTLE },
         { "quiet", no_argument, NULL, 'q' },                  { "help", no_argument, NULL, 'h' },
         { 0 },
     };

@@ -47,6 +47,7 @@ typedef struct street_args {
     double sun_az_deg, sun_el_deg;
     double pan_deg_s;
     double cam_height, pitch_deg, hfov_deg;
+    double linger_s; /* every other figure stops once for 5 s up to this long; 0: nobody stops */
 } street_args;
 
 typedef struct camera {
@@ -63,6 +64,7 @@ typedef struct board {
 
 typedef struct figure {
     double height, x0, y0, x1, y1, speed, t0;
+    double stop_m, stop_s; /* stands still for stop_s seconds after walking stop_m metres */
     uint8_t shirt[3], pants[3];
 } figure;
 
@@ -197,11 +199,14 @@ static int static_shadow_at(const scene *s, sp_vec3 p)
 static int figure_at(const figure *f, double t, double *x, double *y, double *phase)
 {
     double len = hypot(f->x1 - f->x0, f->y1 - f->y0), d = (t - f->t0) * f->speed;
+    int standing = f->stop_s > 0 && d > f->stop_m && d <= f->stop_m + f->stop_s * f->speed;
+    if (f->stop_s > 0 && d > f->stop_m) /* the time spent standing is not walked */
+        d = standing ? f->stop_m : d - f->stop_s * f->speed;
     if (d < 0 || d > len || !(len > 0))
         return 0;
     *x = f->x0 + (f->x1 - f->x0) * d / len;
     *y = f->y0 + (f->y1 - f->y0) * d / len;
-    *phase = d / (0.7 * f->height) * M_PI; /* a stride of about 0.7 h */
+    *phase = standing ? 0.0 : d / (0.7 * f->height) * M_PI; /* a stride of about 0.7 h; feet together standing */
     return 1;
 }
 
@@ -245,6 +250,13 @@ static void make_figures(scene *s)
         f->speed = 1.1 + 0.5 * r[4];
         double span = s->a.seconds - 8.0 > 1.0 ? s->a.seconds - 8.0 : 1.0;
         f->t0 = -3.0 + span * ((double)i + r[5] * 0.8) / (s->n_fig ? s->n_fig : 1);
+        f->stop_m = f->stop_s = 0;
+        if (s->a.linger_s > 0 && i % 2) { /* stops where the camera sees it, x within +-5 m */
+            double len = hypot(f->x1 - f->x0, f->y1 - f->y0);
+            f->stop_m = len * (0.25 + 0.5 * unit_hash(seed, i, 17));
+            double lo = s->a.linger_s < 5 ? s->a.linger_s : 5;
+            f->stop_s = lo + (s->a.linger_s - lo) * unit_hash(seed, i, 18);
+        }
         memcpy(f->shirt, shirts[(i + (unsigned)(r[5] * 3)) % 8], 3);
         memcpy(f->pants, pants[i % 4], 3);
     }
@@ -523,7 +535,8 @@ static void truth_json(const scene *s, sp_strbuf *b)
         const figure *f = &s->fig[i];
         mean_h += f->height / s->n_fig;
         sp_strbuf_printf(b, "%s\n    {\"height_m\":%.4f,\"from\":[%.3f,%.3f],\"to\":[%.3f,%.3f],\"speed\":%.3f,"
-                            "\"t0\":%.3f}", i ? "," : "", f->height, f->x0, f->y0, f->x1, f->y1, f->speed, f->t0);
+                            "\"t0\":%.3f,\"stop_after_m\":%.3f,\"stop_s\":%.3f}", i ? "," : "", f->height, f->x0,
+                         f->y0, f->x1, f->y1, f->speed, f->t0, f->stop_m, f->stop_s);
     }
     sp_strbuf_printf(b, "],\n\"mean_height_m\":%.6f,\n\"samples\":[", s->n_fig ? mean_h : 1.75);
     int first = 1;
@@ -660,6 +673,7 @@ static void usage(FILE *out)
                  "  --sun-azimuth DEG      from the view direction towards the right (default -30: front left)\n"
                  "  --sun-elevation DEG    5..85 (default 40)\n"
                  "  --pan DEG_PER_S        turn the camera (a moving camera, for bad-input tests)\n"
+                 "  --linger S             every other figure stops once, for 5 s up to S s (default 0: none)\n"
                  "  --seed N               (default 1)\n",
             MAX_FIGURES);
 }
@@ -673,6 +687,7 @@ static int parse_args(int argc, char **argv, street_args *a)
         { "figures", required_argument, NULL, 'n' },  { "overcast", no_argument, NULL, 'c' },
         { "sun-azimuth", required_argument, NULL, 'a' }, { "sun-elevation", required_argument, NULL, 'e' },
         { "pan", required_argument, NULL, 'p' },      { "seed", required_argument, NULL, 'S' },
+        { "linger", required_argument, NULL, 'L' },
         { 0 },
     };
     double v = 0;
@@ -694,6 +709,7 @@ static int parse_args(int argc, char **argv, street_args *a)
         case 'e': bad = sp_opt_double("synth street", on, optarg, 5, 85, &a->sun_el_deg); break;
         case 'p': bad = sp_opt_double("synth street", on, optarg, -90, 90, &a->pan_deg_s); break;
         case 'S': bad = sp_opt_double("synth street", on, optarg, 0, 4e9, &v); a->seed = (uint64_t)v; break;
+        case 'L': bad = sp_opt_double("synth street", on, optarg, 0, 3600, &a->linger_s); break;
         default: bad = 1;
         }
     }

@@ -43,6 +43,7 @@ typedef struct sp_probe_truth_sample {
 typedef struct sp_probe_settings {
     double window_s;          /* clean-plate median window in seconds, default 4 */
     unsigned window_samples;  /* frames kept for the median, odd, 3..31, default 15 */
+    double settle_s;          /* a person who walked in and stopped stays out of the plate this long, default 120 */
     unsigned fg_threshold;    /* refined mask: |dR|+|dG|+|dB| to the plate above this, default 50 */
     double shadow_min_ratio;  /* a shadow pixel keeps this much of the plate's brightness at least, default 0.3 */
     double shadow_max_ratio;  /* and at most this much, default 0.85 */
@@ -108,6 +109,7 @@ typedef struct sp_probe_stats {
     uint64_t objects;         /* object observations (one object in one frame) */
     uint64_t people;          /* of those, labelled people */
     uint64_t cars;            /* and labelled cars (or other vehicles); the rest are "other" */
+    uint64_t repeats;         /* person views the models skipped: a tracked person who had not moved since */
     uint64_t hog_checked, hog_confirmed; /* SP_PROBE_DETECT_HOG */
     double covered_fraction;  /* pixels any object covered */
     double occluder_fraction; /* pixels the occlusion map marks as occluding */

@@ -81,10 +81,13 @@ int sp_probe_params_to_json(const sp_probe_plane *plane, const sp_probe_shadow *
     sp_strbuf_printf(&b, ",\n");
     shadow_json(&b, shadow);
     if (stats) /* observations per class (PROBE.md, "Object classes") */
-        sp_strbuf_printf(&b, ",\n\"objects\":{\"observations\":%llu,\"person\":%llu,\"car\":%llu,\"other\":%llu}",
+        sp_strbuf_printf(&b,
+                         ",\n\"objects\":{\"observations\":%llu,\"person\":%llu,\"car\":%llu,\"other\":%llu,"
+                         "\"repeated_still\":%llu}",
                          (unsigned long long)stats->objects, (unsigned long long)stats->people,
                          (unsigned long long)stats->cars,
-                         (unsigned long long)(stats->objects - stats->people - stats->cars));
+                         (unsigned long long)(stats->objects - stats->people - stats->cars - stats->repeats),
+                         (unsigned long long)stats->repeats);
     sp_strbuf_printf(&b, "}\n");
     if (b.failed) {
         sp_strbuf_free(&b);

@@ -9,6 +9,7 @@
 #include "probe_internal.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -109,10 +110,10 @@ int probe_median_bytes(const uint8_t *const *in, unsigned k, size_t n, uint8_t *
     return 0;
 }
 
-int plate_open(probe_plate *pl, uint32_t width, uint32_t height, unsigned k, int64_t window_ns)
+int plate_open(probe_plate *pl, uint32_t width, uint32_t height, unsigned k, int64_t window_ns, int64_t settle_ns)
 {
     memset(pl, 0, sizeof(*pl));
-    if (k < 3 || k > PROBE_MAX_WIRES || window_ns <= 0)
+    if (k < 3 || k > PROBE_MAX_WIRES || window_ns <= 0 || settle_ns < 0)
         return -EINVAL;
     pl->width = width;
     pl->height = height;
@@ -122,7 +123,10 @@ int plate_open(probe_plate *pl, uint32_t width, uint32_t height, unsigned k, int
     pl->next_sample_ns = INT64_MIN;
     pl->ring = malloc(pl->bytes * k);
     pl->median = calloc(1, pl->bytes);
-    if (!pl->ring || !pl->median) {
+    pl->held = calloc((size_t)width * height, sizeof(uint16_t));
+    double settle = (double)settle_ns / (double)pl->interval_ns;
+    pl->settle_samples = settle < 65535 ? (unsigned)ceil(settle) : 65535;
+    if (!pl->ring || !pl->median || !pl->held) {
         plate_close(pl);
         return -ENOMEM;
     }
@@ -139,10 +143,41 @@ void plate_close(probe_plate *pl)
 {
     free(pl->ring);
     free(pl->median);
+    free(pl->held);
     pl->ring = pl->median = NULL;
+    pl->held = NULL;
 }
 
-int plate_offer(probe_plate *pl, const uint8_t *rgb, int64_t t_ns)
+/*
+ * The new sample: the frame, except where an object that walked in stands (hold): there the slot
+ * keeps the sample it held, taken a window earlier, for up to settle_samples samples in a row, so the
+ * median there is over older views of the background. A person who stops for a while does not become
+ * background; a car that parks for good does after the settling time.
+ */
+static void take_sample(probe_plate *pl, uint8_t *slot, const uint8_t *rgb, const plate_hold *hold)
+{
+    if (!hold || !plate_ready(pl)) {
+        memcpy(slot, rgb, pl->bytes);
+        if (pl->held)
+            memset(pl->held, 0, (size_t)pl->width * pl->height * sizeof(uint16_t));
+        return;
+    }
+    for (uint32_t y = 0; y < pl->height; y++) {
+        const uint8_t *cells = hold->cells + (size_t)(y / hold->block) * hold->gw;
+        for (uint32_t x = 0; x < pl->width; x++) {
+            size_t i = (size_t)y * pl->width + x;
+            int keep = cells[x / hold->block] && pl->held[i] < pl->settle_samples;
+            if (cells[x / hold->block])
+                pl->held[i] = (uint16_t)(pl->held[i] < UINT16_MAX ? pl->held[i] + 1 : UINT16_MAX);
+            else
+                pl->held[i] = 0;
+            if (!keep) /* kept: the slot holds the sample taken a window ago, a view of the background */
+                memcpy(slot + 3 * i, rgb + 3 * i, 3);
+        }
+    }
+}
+
+int plate_offer(probe_plate *pl, const uint8_t *rgb, int64_t t_ns, const plate_hold *hold)
 {
     if (pl->next_sample_ns != INT64_MIN && t_ns < pl->next_sample_ns)
         return 0;
@@ -154,7 +189,7 @@ int plate_offer(probe_plate *pl, const uint8_t *rgb, int64_t t_ns)
     if (base > INT64_MAX - step)
         return -ERANGE; /* timestamps at the end of the clock's range */
     int64_t due = base + step;
-    memcpy(pl->ring + (size_t)pl->next * pl->bytes, rgb, pl->bytes);
+    take_sample(pl, pl->ring + (size_t)pl->next * pl->bytes, rgb, hold);
     pl->next = (pl->next + 1) % pl->k;
     if (pl->filled < pl->k)
         pl->filled++;

@@ -24,6 +24,8 @@
 #define PERSON_REC 3     /* x, y, h */
 #define RECENT_MAX 1024  /* observations between checkpoints scored before they join the fit */
 #define N_SERIES 8
+#define REPEAT_MOVE 0.015 /* of the height: closer to the last counted foot point, a person's view repeats */
+#define STILL_FRAMES 10   /* a person still for this many frames feeds the maps once in this many */
 
 struct sp_probe {
     sp_probe_settings s;
@@ -35,6 +37,9 @@ struct sp_probe {
     probe_tracks tracks;
     probe_motion motion;
     probe_completion completion[PROBE_MAX_OBJECTS];
+    uint8_t *hold, *hold_prev; /* seg.gw * seg.gh: cells the next plate sample keeps (see plate_offer) */
+    int hold_valid;          /* the last frame set hold */
+    uint64_t hold_frame;     /* the frame number after the one that set hold_prev (0: none) */
     sp_probe_class cls[PROBE_MAX_OBJECTS]; /* of the last frame's objects */
     unsigned n_cls;
     probe_reservoir people, holdout;
@@ -61,6 +66,7 @@ void sp_probe_default_settings(sp_probe_settings *s)
     memset(s, 0, sizeof(*s));
     s->window_s = 4.0;
     s->window_samples = 15;
+    s->settle_s = 120.0;
     s->fg_threshold = 50;
     s->shadow_min_ratio = 0.3;
     s->shadow_max_ratio = 0.85;
@@ -80,7 +86,8 @@ static int check_settings(const sp_probe_settings *s, uint32_t width, uint32_t h
 {
     if (width < 16 || height < 16 || width > 16384 || height > 16384)
         return -EINVAL; /* rows are stored as int16 */
-    if (!(s->window_s > 0 && s->window_s <= 3600) || s->window_samples < 3 ||
+    if (!(s->window_s > 0 && s->window_s <= 3600) || !(s->settle_s >= 0 && s->settle_s <= 36000) ||
+        s->window_samples < 3 ||
         s->window_samples > PROBE_MAX_WIRES || s->window_samples % 2 == 0)
         return -EINVAL;
     if (s->fg_threshold < 1 || s->fg_threshold > 765 || s->block < 2 || s->block > 15)
@@ -102,10 +109,10 @@ static int check_settings(const sp_probe_settings *s, uint32_t width, uint32_t h
 static size_t memory_bound(uint32_t w, uint32_t h, const sp_probe_settings *s)
 {
     size_t px = (size_t)w * h, cells = ((size_t)w / s->block + 1) * ((size_t)h / s->block + 1);
-    size_t per_px = 3 * (size_t)s->window_samples + 3 /* plate */ + 3 /* frame */ + 1 /* classes */ +
+    size_t per_px = 3 * (size_t)s->window_samples + 3 /* plate */ + 2 /* held */ + 3 /* frame */ + 1 /* classes */ +
                     4 * PROBE_EVIDENCE * 2 /* occlusion slots */ + 16 /* lighting */ + 16 /* long-term plate */ +
                     3 + 4 + 12 /* final maps */ + 5 /* checkpoint */;
-    return px * per_px + px / 8 /* motion thumbnails */ + cells * 30 + PROBE_MAX_TRACKS * sizeof(probe_track) +
+    return px * per_px + px / 8 /* motion thumbnails */ + cells * 32 + PROBE_MAX_TRACKS * sizeof(probe_track) +
            (size_t)s->max_observations * 4 * (2 * PERSON_REC + 4) + RECENT_MAX * PERSON_REC * 4;
 }
 
@@ -131,9 +138,13 @@ static int open_report(sp_probe *p)
 static int open_parts(sp_probe *p)
 {
     const sp_probe_settings *s = &p->s;
-    int ret = plate_open(&p->plate, p->width, p->height, s->window_samples, (int64_t)(s->window_s * 1e9));
+    int ret = plate_open(&p->plate, p->width, p->height, s->window_samples, (int64_t)(s->window_s * 1e9),
+                         (int64_t)(s->settle_s * 1e9));
     if (!ret)
         ret = segment_open(&p->seg, p->width, p->height, s);
+    if (!ret && (!(p->hold = calloc((size_t)p->seg.gw * p->seg.gh, 1)) ||
+                 !(p->hold_prev = calloc((size_t)p->seg.gw * p->seg.gh, 1))))
+        ret = -ENOMEM;
     if (!ret)
         ret = maps_open(&p->maps, p->width, p->height, s->min_occlusion_events);
     if (!ret)
@@ -218,6 +229,8 @@ void sp_probe_close(sp_probe **pp)
     reservoir_close(&p->holdout);
     probe_hog_close(&p->hog);
     free(p->recent);
+    free(p->hold);
+    free(p->hold_prev);
     free(p->rgb);
     free(p->truth);
     free(p);
@@ -271,6 +284,80 @@ static void observe_person(sp_probe *p, const probe_object *o)
 static void checkpoint(sp_probe *p);
 
 /*
+ * The cells of this frame's objects that walked in (their track moved half their height or more), or
+ * that stand where the last frame held (a person who stopped: trackers lose still or merged people, and
+ * a new track has not moved), one cell around them included: the next plate sample keeps the plate's
+ * value there (plate_offer), so a person who stops stays out of the plate. A ghost (the plate still
+ * shows someone who left before the plate held them) appears in place and never moves, so it is not
+ * held and clears within half the window.
+ */
+static int object_cell(const probe_segment *sg, const probe_object *o, int cx, int cy)
+{
+    return cx >= 0 && cy >= 0 && cx < (int)sg->gw && cy < (int)sg->gh &&
+           sg->lab_obj[(size_t)cy * sg->gw + (size_t)cx] == o->label;
+}
+
+/*
+ * A ghost (the plate shows someone who is gone) has its outline in the plate, not in the frame; a
+ * body standing there has it in the frame. Compares the luma gradient of the two along the object's
+ * refined-mask outline.
+ */
+static int ghost_like(const sp_probe *p, const probe_object *o)
+{
+    const probe_segment *sg = &p->seg;
+    double in_frame = 0, in_plate = 0;
+    for (int y = o->y0 > 0 ? o->y0 : 1; y <= o->y1 && y + 1 < (int)p->height; y++)
+        for (int x = o->x0 > 0 ? o->x0 : 1; x <= o->x1 && x + 1 < (int)p->width; x++) {
+            if (!segment_in_mask(sg, o, (uint32_t)x, (uint32_t)y) ||
+                (segment_in_mask(sg, o, (uint32_t)x - 1, (uint32_t)y) &&
+                 segment_in_mask(sg, o, (uint32_t)x + 1, (uint32_t)y) &&
+                 segment_in_mask(sg, o, (uint32_t)x, (uint32_t)y - 1) &&
+                 segment_in_mask(sg, o, (uint32_t)x, (uint32_t)y + 1)))
+                continue; /* not on the outline */
+            size_t i = (size_t)y * p->width + (size_t)x, w = p->width;
+            for (int c = 0; c < 3; c++) {
+                const uint8_t *f = p->rgb + c, *q = p->plate.median + c;
+                in_frame += abs(f[3 * (i + 1)] - f[3 * (i - 1)]) + abs(f[3 * (i + w)] - f[3 * (i - w)]);
+                in_plate += abs(q[3 * (i + 1)] - q[3 * (i - 1)]) + abs(q[3 * (i + w)] - q[3 * (i - w)]);
+            }
+        }
+    return in_plate > in_frame;
+}
+
+static void hold_movers(sp_probe *p)
+{
+    const probe_segment *sg = &p->seg;
+    uint8_t *prev = p->hold;
+    p->hold = p->hold_prev, p->hold_prev = prev;
+    int had = p->hold_frame == p->st.frames; /* the previous frame set what is now prev */
+    memset(p->hold, 0, (size_t)sg->gw * sg->gh);
+    for (unsigned i = 0; i < sg->n_obj; i++) {
+        const probe_track *k = p->completion[i].owner;
+        const probe_object *o = &sg->obj[i];
+        const int32_t *box = sg->comp + 5 * o->label; /* the component's cells: the body and its shadow */
+        int cx0 = box[0], cy0 = box[1], cx1 = box[2], cy1 = box[3];
+        int moved = k && k->travel >= 0.5 * k->height, stays = 0;
+        for (int cy = cy0; had && !moved && !stays && cy <= cy1; cy++)
+            for (int cx = cx0; !stays && cx <= cx1; cx++)
+                stays = object_cell(sg, o, cx, cy) && prev[(size_t)cy * sg->gw + (size_t)cx];
+        if ((!moved && !stays) || ghost_like(p, o))
+            continue;
+        for (int cy = cy0 - 1; cy <= cy1 + 1; cy++)
+            for (int cx = cx0 - 1; cx <= cx1 + 1; cx++) {
+                if (cx < 0 || cy < 0 || cx >= (int)sg->gw || cy >= (int)sg->gh)
+                    continue;
+                int own = 0; /* the cell or a neighbour is the object's */
+                for (int dy = -1; dy <= 1 && !own; dy++)
+                    for (int dx = -1; dx <= 1 && !own; dx++)
+                        own = object_cell(sg, o, cx + dx, cy + dy);
+                p->hold[(size_t)cy * sg->gw + (size_t)cx] |= (uint8_t)own;
+            }
+    }
+    p->hold_valid = 1;
+    p->hold_frame = p->st.frames + 1;
+}
+
+/*
  * The view shifted in more than `share` of at least `min_checks` motion
  * checks, or that share of the probed frames differs from the plate almost
  * everywhere: a moving camera (or a light that keeps jumping). Says so.
@@ -300,7 +387,9 @@ static int probe_frame(sp_probe *p, int64_t t)
     motion_frame(&p->motion, p->rgb, p->width);
     if (camera_moves(p, 10, 0.8))
         return SP_ENODATA;
-    int updated = plate_offer(&p->plate, p->rgb, t);
+    plate_hold hold = { .cells = p->hold, .block = p->seg.block, .gw = p->seg.gw };
+    int updated = plate_offer(&p->plate, p->rgb, t, p->hold_valid ? &hold : NULL);
+    p->hold_valid = 0;
     if (updated < 0) {
         snprintf(p->message, sizeof(p->message),
                  "frame %llu: timestamp %lld ns is too close to the end of the clock's range (int64 overflow)",
@@ -323,14 +412,34 @@ static int probe_frame(sp_probe *p, int64_t t)
     if (updated)
         maps_add_background(&p->maps, p->plate.median, p->seg.cls);
     tracks_update(&p->tracks, &p->seg, p->st.frames - 1, &p->plane, p->completion);
+    hold_movers(p);
     p->n_cls = p->seg.n_obj;
     for (unsigned i = 0; i < p->seg.n_obj; i++) {
         const probe_object *o = &p->seg.obj[i];
         p->st.objects++;
-        maps_add_object(&p->maps, &p->seg, o, &p->plane);
-        maps_add_template(&p->maps, &p->seg, o, &p->completion[i]);
+        /*
+         * A person standing still shows the same view frame after frame: for the scale and shadow models
+         * that is one observation, not hundreds (they would outweigh everyone who walked past), so a
+         * tracked person counts again once the foot point moved REPEAT_MOVE of the height. The maps take
+         * every frame of a short stop (a walker held up behind a pole is evidence each frame) but, once
+         * a person has stood still for STILL_FRAMES, one frame in STILL_FRAMES.
+         */
+        probe_track *k = p->completion[i].owner;
+        uint64_t now = p->st.frames;
+        int repeat = k && k->evidenced && hypot(o->foot_x - k->ex, o->foot_y - k->ey) < REPEAT_MOVE * o->height;
+        if (k && !repeat)
+            k->evidenced = 1, k->ex = o->foot_x, k->ey = o->foot_y, k->still_since = now;
+        int to_maps = !k || !repeat || now - k->still_since < STILL_FRAMES || now - k->fed >= STILL_FRAMES;
+        if (to_maps) {
+            maps_add_object(&p->maps, &p->seg, o, &p->plane);
+            maps_add_template(&p->maps, &p->seg, o, &p->completion[i]);
+            if (k)
+                k->fed = now;
+        }
         p->cls[i] = is_person(p, o) ? SP_PROBE_PERSON : car_shaped(p, o) ? SP_PROBE_CAR : SP_PROBE_OTHER;
-        if (p->cls[i] == SP_PROBE_PERSON)
+        if (p->cls[i] == SP_PROBE_PERSON && repeat)
+            p->st.repeats++;
+        else if (p->cls[i] == SP_PROBE_PERSON)
             observe_person(p, o);
         p->st.cars += p->cls[i] == SP_PROBE_CAR;
     }
@@ -490,10 +599,12 @@ int sp_probe_finish(sp_probe *p)
         ret = sp_report_close(&p->report);
     p->finished = 1;
     snprintf(p->message, sizeof(p->message),
-             "probed %llu of %llu frames: %llu object observations (%llu people, %llu cars, %llu other)",
+             "probed %llu of %llu frames: %llu object observations (%llu people, %llu cars, %llu other; "
+             "%llu more views of people standing still)",
              (unsigned long long)p->st.frames_probed, (unsigned long long)p->st.frames,
              (unsigned long long)p->st.objects, (unsigned long long)p->st.people, (unsigned long long)p->st.cars,
-             (unsigned long long)(p->st.objects - p->st.people - p->st.cars));
+             (unsigned long long)(p->st.objects - p->st.people - p->st.cars - p->st.repeats),
+             (unsigned long long)p->st.repeats);
     return ret;
 }
 

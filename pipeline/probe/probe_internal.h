@@ -30,13 +30,24 @@ typedef struct probe_plate {
     unsigned n_wires, out_wire, n_pairs;
     uint8_t pairs[PROBE_MAX_PAIRS][2];
     uint64_t updates;
+    uint16_t *held;          /* width * height: consecutive samples the plate's value was kept instead */
+    unsigned settle_samples; /* after this many, a held pixel takes the frame again (a lasting change) */
 } probe_plate;
 
-int plate_open(probe_plate *pl, uint32_t width, uint32_t height, unsigned k, int64_t window_ns);
+/* The pixels a sample keeps the plate's value at: cells of block x block pixels, gw per row, nonzero = held. */
+typedef struct plate_hold {
+    const uint8_t *cells;
+    unsigned block;
+    uint32_t gw;
+} plate_hold;
+
+/* settle_ns: how long a held pixel stays held before the frame's value is sampled there anyway. */
+int plate_open(probe_plate *pl, uint32_t width, uint32_t height, unsigned k, int64_t window_ns, int64_t settle_ns);
 void plate_close(probe_plate *pl);
-/* Samples the frame when the interval has passed; 1 when the plate was recomputed, else 0; -ERANGE
- * when the next sampling time would overflow int64. */
-int plate_offer(probe_plate *pl, const uint8_t *rgb, int64_t t_ns);
+/* Samples the frame when the interval has passed, keeping the plate's own value where hold (may be
+ * NULL) says an object that walked in stands; 1 when the plate was recomputed, else 0; -ERANGE when
+ * the next sampling time would overflow int64. */
+int plate_offer(probe_plate *pl, const uint8_t *rgb, int64_t t_ns, const plate_hold *hold);
 static inline int plate_ready(const probe_plate *pl) { return pl->filled == pl->k; }
 /* Element-wise median of `k` (3..PROBE_MAX_WIRES) byte arrays of n bytes into out: exposed for tests. */
 int probe_median_bytes(const uint8_t *const *in, unsigned k, size_t n, uint8_t *out);
@@ -121,6 +132,10 @@ typedef struct probe_track {
     uint64_t last_frame;
     double fx, fy, vx, vy;   /* foot point when last seen, velocity per frame */
     double height;
+    double travel;           /* foot-point path length since it started, px: a ghost never moves */
+    double ex, ey;           /* foot point when its view last fed the scale and shadow models */
+    int evidenced;
+    uint64_t still_since, fed; /* frame it last moved at, frame its view last fed the maps */
     uint32_t area;           /* template pixels */
     int tw, th, ax;          /* template size, column of the foot point */
     uint8_t mask[PROBE_TMPL_H * PROBE_TMPL_W]; /* last, see start_track */
@@ -134,6 +149,7 @@ typedef struct probe_tracks {
 typedef struct probe_completion {
     const probe_track *track;
     int x, y;
+    probe_track *owner;      /* the track the object was matched to or started, NULL: none */
 } probe_completion;
 
 int tracks_open(probe_tracks *t);

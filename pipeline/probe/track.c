@@ -90,12 +90,12 @@ static int template_worthy(const probe_object *o, const sp_probe_plane *plane)
     return o->person && !o->touches && (!isfinite(expect) || fabs(o->height - expect) <= 0.15 * expect);
 }
 
-static void start_track(probe_tracks *t, const probe_segment *sg, const probe_object *o, uint64_t frame,
-                        const sp_probe_plane *plane)
+static probe_track *start_track(probe_tracks *t, const probe_segment *sg, const probe_object *o, uint64_t frame,
+                                const sp_probe_plane *plane)
 {
     probe_track *k = free_slot(t, frame);
     if (!k)
-        return;
+        return NULL;
     memset(k, 0, offsetof(probe_track, mask)); /* the template is rewritten before it is read */
     k->alive = 1;
     k->last_frame = frame;
@@ -103,6 +103,7 @@ static void start_track(probe_tracks *t, const probe_segment *sg, const probe_ob
     k->height = o->height;
     if (template_worthy(o, plane))
         take_template(k, sg, o);
+    return k;
 }
 
 /*
@@ -124,6 +125,7 @@ static void follow(probe_track *k, const probe_segment *sg, const probe_object *
         c->track = k;
         c->x = (int)lrint(nx), c->y = (int)lrint(ny);
     }
+    k->travel += hypot(nx - k->fx, ny - k->fy);
     k->vx = 0.6 * k->vx + 0.4 * (nx - k->fx) / dt;
     k->vy = 0.6 * k->vy + 0.4 * (ny - k->fy) / dt;
     k->fx = nx, k->fy = ny;
@@ -142,7 +144,7 @@ void tracks_update(probe_tracks *t, const probe_segment *sg, uint64_t frame, con
     uint8_t taken[PROBE_MAX_TRACKS] = { 0 };
     for (unsigned i = 0; i < sg->n_obj; i++) {
         const probe_object *o = &sg->obj[i];
-        out[i].track = NULL;
+        out[i].track = out[i].owner = NULL;
         if (o->touches & PROBE_TOUCH_BOTTOM)
             continue;
         double best = (double)INFINITY;
@@ -158,10 +160,11 @@ void tracks_update(probe_tracks *t, const probe_segment *sg, uint64_t frame, con
             }
         }
         if (best_k < 0) {
-            start_track(t, sg, o, frame, plane);
+            out[i].owner = start_track(t, sg, o, frame, plane);
             continue;
         }
         taken[best_k] = 1;
         follow(&t->track[best_k], sg, o, frame, best_top, plane, &out[i]);
+        out[i].owner = &t->track[best_k];
     }
 }

@@ -59,7 +59,7 @@ static void test_plate(void)
 {
     enum { W = 40, H = 30 };
     probe_plate pl;
-    CHECK(plate_open(&pl, W, H, 5, 1000000000) == 0);
+    CHECK(plate_open(&pl, W, H, 5, 1000000000, 0) == 0);
     static uint8_t bg[W * H * 3], frame[W * H * 3];
     for (unsigned i = 0; i < sizeof(bg); i++)
         bg[i] = (uint8_t)(i * 7 % 251);
@@ -70,14 +70,14 @@ static void test_plate(void)
             for (int x = 4 * f - 20; x < 4 * f - 14; x++) /* over any pixel for less than a sample */
                 if (x >= 0 && x < W)
                     memset(frame + (y * W + x) * 3, 255, 3);
-        updates += plate_offer(&pl, frame, (int64_t)f * 100000000); /* 10 fps, sample every 200 ms */
+        updates += plate_offer(&pl, frame, (int64_t)f * 100000000, NULL); /* 10 fps, sample every 200 ms */
     }
     CHECK(plate_ready(&pl));
     CHECK_MSG(updates >= 8 && updates <= 12, "%d plate updates", updates);
     CHECK(memcmp(pl.median, bg, sizeof(bg)) == 0);
     plate_close(&pl);
-    CHECK(plate_open(&pl, W, H, 2, 1000) == -EINVAL);
-    CHECK(plate_open(&pl, W, H, 5, 0) == -EINVAL);
+    CHECK(plate_open(&pl, W, H, 2, 1000, 0) == -EINVAL);
+    CHECK(plate_open(&pl, W, H, 5, 0, 0) == -EINVAL);
 }
 
 /* h = a x + b y + c on a grid, a share of wild outliers; n records of {x, y, h}. */
