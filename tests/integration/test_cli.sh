@@ -106,6 +106,9 @@ expect 1 "synth turn --fps 0" "$SP" synth turn -o "$dir/x.spcap" --fps 0
 contains "$dir/err.txt" "--fps '0': expected a number from 1 to 240" "synth turn option message"
 expect 1 "synth street --sun-elevation 90" "$SP" synth street -o "$dir/x.spcap" --sun-elevation 90
 contains "$dir/err.txt" "--sun-elevation '90': expected a number from 5 to 85" "synth street option message"
+expect 1 "synth street --linger -1" "$SP" synth street -o "$dir/x.spcap" --linger -1
+expect 1 "probe --settle -1" "$SP" probe "$cap" -o "$dir/p" --settle -1
+contains "$dir/err.txt" "bad value for --settle \(0\.\.36000 s\): '-1'" "probe --settle message"
 expect 1 "replay --speed ''" "$SP" replay "$cap" --speed ""
 contains "$dir/err.txt" "--speed '': expected a number" "replay option message"
 # fit checks where it will write before it reads anything: the path in the message, nothing left behind
