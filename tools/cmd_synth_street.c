@@ -48,6 +48,7 @@ typedef struct street_args {
     double pan_deg_s;
     double cam_height, pitch_deg, hfov_deg;
     double linger_s; /* every other figure stops once for 5 s up to this long; 0: nobody stops */
+    double noise;    /* sensor noise: standard deviation in 8-bit levels per channel, 0: none */
 } street_args;
 
 typedef struct camera {
@@ -612,6 +613,19 @@ static void scene_free(scene *s)
     free(s->hidden_count);
 }
 
+/* Gaussian sensor noise (Box-Muller on the pixel's hashes), independent per frame, pixel and channel. */
+static void add_noise(scene *s, uint64_t index)
+{
+    size_t n = (size_t)s->cam.w * s->cam.h * 3;
+    uint32_t key = (uint32_t)s->a.seed * 0x9E3779B1u ^ (uint32_t)index;
+    for (size_t i = 0; i < n; i++) {
+        double u1 = (hash32(key, (uint32_t)i, 91) + 1.0) * (1.0 / 4294967297.0);
+        double u2 = hash32(key, (uint32_t)i, 92) * (1.0 / 4294967296.0);
+        double v = s->frame[i] + s->a.noise * sqrt(-2.0 * log(u1)) * cos(2.0 * M_PI * u2);
+        s->frame[i] = (uint8_t)(v < 0 ? 0 : v > 255 ? 255 : lrint(v));
+    }
+}
+
 static int write_meta(sp_capture_writer *w, const scene *s)
 {
     char *truth = path_with(s->a.out, ".truth.json");
@@ -647,6 +661,8 @@ static int write_capture(scene *s, const char *partial)
     for (uint64_t i = 0; !ret && i < n; i++) {
         double t = (double)i / s->a.fps;
         render_frame(s, i, t);
+        if (s->a.noise > 0)
+            add_noise(s, i);
         sp_frame f = { .format = SP_PIXFMT_RGB24, .width = s->cam.w, .height = s->cam.h, .stride = s->cam.w * 3,
                        .data = s->frame, .capacity = (size_t)s->cam.w * s->cam.h * 3,
                        .bytes_used = (size_t)s->cam.w * s->cam.h * 3, .timestamp_ns = (int64_t)llround(t * 1e9),
@@ -674,6 +690,7 @@ static void usage(FILE *out)
                  "  --sun-elevation DEG    5..85 (default 40)\n"
                  "  --pan DEG_PER_S        turn the camera (a moving camera, for bad-input tests)\n"
                  "  --linger S             every other figure stops once, for 5 s up to S s (default 0: none)\n"
+                 "  --noise SIGMA          sensor noise, standard deviation in 8-bit levels (default 0)\n"
                  "  --seed N               (default 1)\n",
             MAX_FIGURES);
 }
@@ -687,7 +704,7 @@ static int parse_args(int argc, char **argv, street_args *a)
         { "figures", required_argument, NULL, 'n' },  { "overcast", no_argument, NULL, 'c' },
         { "sun-azimuth", required_argument, NULL, 'a' }, { "sun-elevation", required_argument, NULL, 'e' },
         { "pan", required_argument, NULL, 'p' },      { "seed", required_argument, NULL, 'S' },
-        { "linger", required_argument, NULL, 'L' },
+        { "linger", required_argument, NULL, 'L' },   { "noise", required_argument, NULL, 'N' },
         { 0 },
     };
     double v = 0;
@@ -710,6 +727,7 @@ static int parse_args(int argc, char **argv, street_args *a)
         case 'p': bad = sp_opt_double("synth street", on, optarg, -90, 90, &a->pan_deg_s); break;
         case 'S': bad = sp_opt_double("synth street", on, optarg, 0, 4e9, &v); a->seed = (uint64_t)v; break;
         case 'L': bad = sp_opt_double("synth street", on, optarg, 0, 3600, &a->linger_s); break;
+        case 'N': bad = sp_opt_double("synth street", on, optarg, 0, 64, &a->noise); break;
         default: bad = 1;
         }
     }

@@ -109,7 +109,7 @@ static int check_settings(const sp_probe_settings *s, uint32_t width, uint32_t h
 static size_t memory_bound(uint32_t w, uint32_t h, const sp_probe_settings *s)
 {
     size_t px = (size_t)w * h, cells = ((size_t)w / s->block + 1) * ((size_t)h / s->block + 1);
-    size_t per_px = 3 * (size_t)s->window_samples + 3 /* plate */ + 2 /* held */ + 3 /* frame */ + 1 /* classes */ +
+    size_t per_px = 3 * (size_t)s->window_samples + 3 /* plate */ + 2 /* held */ + 3 /* frame */ + 3 /* denoised */ + 1 /* classes */ +
                     4 * PROBE_EVIDENCE * 2 /* occlusion slots */ + 16 /* lighting */ + 16 /* long-term plate */ +
                     3 + 4 + 12 /* final maps */ + 5 /* checkpoint */;
     return px * per_px + px / 8 /* motion thumbnails */ + cells * 32 + PROBE_MAX_TRACKS * sizeof(probe_track) +

@@ -97,6 +97,10 @@ typedef struct probe_segment {
     uint8_t *grid, *tmp;               /* gw * gh: changed cells, morphology scratch */
     int32_t *lab_obj;                  /* gw * gh component labels of changed cells, 0 = none */
     int32_t *rows;                     /* height: per-row counts scratch */
+    uint8_t *denoised;                 /* width * height * 3: the grainy frame denoised (classify) */
+    int32_t *colsum;                   /* 3 * width: denoising scratch */
+    double noise;                      /* the last frame's noise against the plate, 8-bit levels */
+    int32_t noise_allow;               /* the noise the shadow tests allow for, levels */
     int32_t *parent;                   /* union-find scratch, gw * gh + 1 */
     int32_t *comp;                     /* per label: x0, y0, x1, y1, cells (5 each), gw * gh + 1 labels */
     int32_t *objbox;                   /* the same over the cells holding object pixels */

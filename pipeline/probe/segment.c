@@ -17,6 +17,7 @@
 #include <string.h>
 
 #define NOISE_LEVELS 2 /* sensor noise assumed by the shadow test, in 8-bit levels */
+#define NOISY_LEVELS 1.5 /* measured noise from which a frame is grainy (classify) */
 
 int segment_open(probe_segment *sg, uint32_t width, uint32_t height, const sp_probe_settings *s)
 {
@@ -43,7 +44,9 @@ int segment_open(probe_segment *sg, uint32_t width, uint32_t height, const sp_pr
     sg->objbox = malloc((cells + 1) * 5 * sizeof(int32_t));
     sg->order = malloc((cells + 1) * sizeof(int32_t));
     sg->rows = malloc((size_t)height * sizeof(int32_t));
-    if (!sg->cls || !sg->cell_obj || !sg->cell_sh || !sg->grid || !sg->tmp || !sg->lab_obj || !sg->parent ||
+    sg->denoised = malloc((size_t)width * height * 3);
+    sg->colsum = malloc((size_t)width * 3 * sizeof(int32_t));
+    if (!sg->denoised || !sg->colsum || !sg->cls || !sg->cell_obj || !sg->cell_sh || !sg->grid || !sg->tmp || !sg->lab_obj || !sg->parent ||
         !sg->comp || !sg->objbox || !sg->order || !sg->rows) {
         segment_close(sg);
         return -ENOMEM;
@@ -66,6 +69,8 @@ void segment_close(probe_segment *sg)
     free(sg->objbox);
     free(sg->order);
     free(sg->rows);
+    free(sg->denoised);
+    free(sg->colsum);
     memset(sg, 0, sizeof(*sg));
 }
 
@@ -78,20 +83,33 @@ void segment_close(probe_segment *sg)
  * happens to be a darker blue than the ground differs by more.
  */
 #define SKY_SPREAD 2
-static inline int sky_lit(const uint8_t *p, const uint8_t *q)
+static inline int sky_lit(const uint8_t *p, const uint8_t *q, int32_t n)
 {
-    int32_t r = p[0], g = p[1], b = p[2], R = q[0], G = q[1], B = q[2], n = NOISE_LEVELS;
+    int32_t r = p[0], g = p[1], b = p[2], R = q[0], G = q[1], B = q[2];
     return (r - n) * G <= (g + n) * R && (g - n) * B <= (b + n) * G && b <= B + n &&
            (b - n) * R <= SKY_SPREAD * (r + n) * B;
 }
 
-/* One pixel against the plate: the refined-mask test, then the shadow test on what changed. */
-static inline uint8_t classify_pixel(const probe_segment *sg, const uint8_t *p, const uint8_t *q)
+/*
+ * One pixel against the plate: the refined-mask test, then the shadow test on what changed. p is the
+ * frame's pixel, sp the same pixel of the denoised frame (NULL on clean footage, see classify). On
+ * grainy footage a pixel has changed when both it and its 3x3 neighbourhood differ from the plate, one
+ * by the threshold and the other by half of it: a lone noisy pixel is not an object, a quiet pixel
+ * beside a changed body stays background (edges do not move), and a body pixel noise brought near the
+ * plate's colour is object.
+ */
+static inline uint8_t classify_pixel(const probe_segment *sg, const uint8_t *p, const uint8_t *sp, const uint8_t *q)
 {
-    int32_t r = p[0], g = p[1], b = p[2], R = q[0], G = q[1], B = q[2];
-    int32_t d = abs(r - R) + abs(g - G) + abs(b - B);
-    if (d <= (int32_t)sg->fg_threshold)
+    int32_t R = q[0], G = q[1], B = q[2], t = (int32_t)sg->fg_threshold;
+    int32_t d = abs(p[0] - R) + abs(p[1] - G) + abs(p[2] - B);
+    if (sp) {
+        int32_t ds = abs(sp[0] - R) + abs(sp[1] - G) + abs(sp[2] - B);
+        if (!((d > t && 2 * ds > t) || (ds > t && 2 * d > t)))
+            return PROBE_CLS_BG;
+    } else if (d <= t) {
         return PROBE_CLS_BG;
+    }
+    int32_t r = p[0], g = p[1], b = p[2];
     int32_t s = r + g + b, S = R + G + B;
     /* darker by a bounded ratio: lo <= s/S <= hi, in 1/1024 */
     if (s * 1024 < sg->shadow_lo * S || s * 1024 > sg->shadow_hi * S)
@@ -101,14 +119,65 @@ static inline uint8_t classify_pixel(const probe_segment *sg, const uint8_t *p, 
      * term is what sensor noise of NOISE levels per channel does to the chromaticity of a dark pixel
      */
     int32_t chroma = abs(r * S - R * s) + abs(g * S - G * s) + abs(b * S - B * s);
-    int64_t allowed = (int64_t)sg->chroma_tol * s * S + 1024 * 3 * NOISE_LEVELS * (int64_t)S;
+    int64_t allowed = (int64_t)sg->chroma_tol * s * S + 1024 * 3 * sg->noise_allow * (int64_t)S;
     if ((int64_t)chroma * 1024 <= allowed)
         return PROBE_CLS_SHADOW;
-    return sky_lit(p, q) ? PROBE_CLS_SHADOW : PROBE_CLS_OBJECT;
+    return sky_lit(p, q, sg->noise_allow) ? PROBE_CLS_SHADOW : PROBE_CLS_OBJECT;
+}
+
+/*
+ * Sensor noise of the frame against the plate, in 8-bit levels: 1.4826 x the median absolute green
+ * difference over every 7th pixel (most pixels are background, so the median is the noise's).
+ */
+static double frame_noise(const probe_segment *sg, const uint8_t *rgb, const uint8_t *plate)
+{
+    unsigned hist[256] = { 0 }, n = 0;
+    size_t px = (size_t)sg->width * sg->height;
+    for (size_t i = 1; i < px; i += 7, n++)
+        hist[abs(rgb[3 * i + 1] - plate[3 * i + 1])]++;
+    unsigned acc = 0, k = 0;
+    while (k < 255 && (acc += hist[k]) * 2 < n)
+        k++;
+    return 1.4826 * k;
+}
+
+/*
+ * The frame as the plate plus the 3x3 mean of its difference to the plate: noise cut to a third,
+ * while the plate's own edges stay sharp (a static edge's difference is noise only).
+ */
+static void denoise(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate)
+{
+    uint32_t w = sg->width, h = sg->height;
+    int32_t *col = sg->colsum; /* 3 * w: the vertical 3-sums of the difference on this row */
+    for (uint32_t y = 0; y < h; y++) {
+        size_t r0 = (size_t)(y ? y - 1 : 0) * w, r1 = (size_t)y * w, r2 = (size_t)(y + 1 < h ? y + 1 : y) * w;
+        for (uint32_t i = 0; i < 3 * w; i++)
+            col[i] = rgb[3 * r0 + i] - plate[3 * r0 + i] + rgb[3 * r1 + i] - plate[3 * r1 + i] + rgb[3 * r2 + i] -
+                     plate[3 * r2 + i];
+        uint8_t *out = sg->denoised + 3 * r1;
+        const uint8_t *q = plate + 3 * r1;
+        for (uint32_t x = 0; x < w; x++) {
+            uint32_t xl = x ? x - 1 : 0, xr = x + 1 < w ? x + 1 : x;
+            for (int c = 0; c < 3; c++) {
+                int32_t sum = col[3 * xl + c] + col[3 * x + c] + col[3 * xr + c];
+                int32_t v = q[3 * x + c] + (sum >= 0 ? (sum + 4) / 9 : -((-sum + 4) / 9));
+                out[3 * x + c] = (uint8_t)(v < 0 ? 0 : v > 255 ? 255 : v);
+            }
+        }
+    }
 }
 
 static void classify(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate)
 {
+    /* clean footage (a renderer's, a good sensor in daylight) is classified as it is: denoising would only
+     * blur thin legs and poles; grainy footage on its denoised copy */
+    sg->noise = frame_noise(sg, rgb, plate);
+    int grainy = sg->noise >= NOISY_LEVELS;
+    /* the shadow tests read the pixel itself (its denoised copy lost the street's recall) with room for
+     * 1.5 sigma of the measured noise */
+    sg->noise_allow = grainy && 1.5 * sg->noise > NOISE_LEVELS ? (int32_t)lrint(1.5 * sg->noise) : NOISE_LEVELS;
+    if (grainy)
+        denoise(sg, rgb, plate);
     size_t cells = (size_t)sg->gw * sg->gh;
     memset(sg->cell_obj, 0, cells);
     memset(sg->cell_sh, 0, cells);
@@ -121,7 +190,8 @@ static void classify(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate
             uint32_t xe = x + sg->block < sg->width ? x + sg->block : sg->width;
             unsigned no = 0, ns = 0;
             for (; x < xe; x++) {
-                uint8_t c = classify_pixel(sg, rgb + (row + x) * 3, plate + (row + x) * 3);
+                uint8_t c = classify_pixel(sg, rgb + (row + x) * 3, grainy ? sg->denoised + (row + x) * 3 : NULL,
+                                           plate + (row + x) * 3);
                 sg->cls[row + x] = c;
                 no += c == PROBE_CLS_OBJECT;
                 ns += c == PROBE_CLS_SHADOW;

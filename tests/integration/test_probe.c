@@ -171,7 +171,7 @@ static uint16_t *read_truth(const char *prefix, const char *suffix, uint32_t *w,
     return read_pgm16(name, w, h);
 }
 
-static void check_occlusion(const sp_probe_dir *d, const char *prefix)
+static void check_occlusion_min(const sp_probe_dir *d, const char *prefix, double min_recall)
 {
     uint32_t w, h;
     uint16_t *far = read_truth(prefix, "hidden-far", &w, &h), *cnt = read_truth(prefix, "hidden-count", &w, &h);
@@ -199,15 +199,20 @@ static void check_occlusion(const sp_probe_dir *d, const char *prefix)
            "%.4f of %zu pixels where figures were seen would wrongly hide them\n",
            prefix, recall, n, recall3, n3, false_rate, n_seen);
     CHECK_MSG(n > 500, "%zu occluder pixels in the truth", n);
-    /* the bound; seeds 1-10 give 0.908-0.994 (PROBE.md, occlusion figures) */
-    CHECK_MSG(recall >= 0.90, "occluder recall %.3f", recall);
+    CHECK_MSG(recall >= min_recall, "occluder recall %.3f", recall);
     CHECK_MSG(false_rate <= 0.01, "false occluder rate %.4f", false_rate);
     free(far), free(cnt), free(seen);
 }
 
-static void check_plane_and_shadow(const sp_probe_dir *d, int sunny)
+/* the bound; seeds 1-10 give 0.908-0.994 (PROBE.md, occlusion figures) */
+static void check_occlusion(const sp_probe_dir *d, const char *prefix)
 {
-    sp_json *t = read_json(sunny ? "st.truth.json" : "oc.truth.json");
+    check_occlusion_min(d, prefix, 0.90);
+}
+
+static void check_plane_and_shadow_in(const sp_probe_dir *d, const char *truth, int sunny)
+{
+    sp_json *t = read_json(truth);
     const sp_json *samples = sp_json_get(t, "samples");
     CHECK(samples && samples->count > 20);
     double err[512], ang[512];
@@ -252,6 +257,12 @@ static void check_plane_and_shadow(const sp_probe_dir *d, int sunny)
     }
     sp_json_free(t);
 }
+
+static void check_plane_and_shadow(const sp_probe_dir *d, int sunny)
+{
+    check_plane_and_shadow_in(d, sunny ? "st.truth.json" : "oc.truth.json", sunny);
+}
+
 
 /* Mean absolute difference of two PNGs of the same size, -1 when unreadable. */
 static double png_diff(const char *a, const char *b)
@@ -418,6 +429,34 @@ static void test_seeds(void)
             continue;
         cap[strlen(cap) - strlen(".spcap")] = '\0';
         check_occlusion(&d, cap);
+        sp_probe_dir_free(&d);
+    }
+}
+
+/*
+ * Sensor noise of 3 levels per channel (synth street --noise): with every pixel classified as it is,
+ * seed 1 gave recall 0.844 and a false rate of 1.27%, seed 4 0.795, the plane 10% and 6.5% off and the
+ * shadow 7 degrees; the grainy path (denoised change test, noise-scaled shadow tests) is held to
+ * recall 0.85 here (0.916 and 0.894 measured) and to the walkers' plane, shadow and false-rate bounds.
+ */
+static void test_noise(void)
+{
+    static const char *const seeds[] = { "1", "4" };
+    for (int i = 0; i < 2; i++) {
+        char cap[32], dir[32], truth[48];
+        snprintf(cap, sizeof(cap), "nz%s.spcap", seeds[i]);
+        snprintf(dir, sizeof(dir), "nz%sp", seeds[i]);
+        snprintf(truth, sizeof(truth), "nz%s.truth.json", seeds[i]);
+        CHECK(run("synth", "street", "-o", path_in(cap), "--seed", seeds[i], "--noise", "3", NULL) == 0);
+        CHECK(run("probe", path_in(cap), "-o", path_in(dir), "-q", NULL) == 0);
+        sp_probe_dir d;
+        int ret = sp_probe_dir_load(path_in(dir), &d);
+        CHECK_MSG(ret == 0, "loading the probe directory of noisy seed %s: %s", seeds[i], sp_strerror(ret));
+        if (ret)
+            continue;
+        cap[strlen(cap) - strlen(".spcap")] = '\0';
+        check_occlusion_min(&d, cap, 0.85);
+        check_plane_and_shadow_in(&d, truth, 1);
         sp_probe_dir_free(&d);
     }
 }
@@ -610,7 +649,7 @@ static void cleanup(void)
 int main(int argc, char **argv)
 {
     if (argc != 3) {
-        fprintf(stderr, "usage: test_probe SUNPROBE sunny|seeds|linger|overcast|bad|vtest\n");
+        fprintf(stderr, "usage: test_probe SUNPROBE sunny|seeds|linger|noise|overcast|bad|vtest\n");
         return 99;
     }
     sunprobe = argv[1];
@@ -625,6 +664,8 @@ int main(int argc, char **argv)
         test_seeds();
     else if (!strcmp(argv[2], "linger"))
         test_linger();
+    else if (!strcmp(argv[2], "noise"))
+        test_noise();
     else if (!strcmp(argv[2], "overcast"))
         test_overcast();
     else if (!strcmp(argv[2], "bad"))
