@@ -66,7 +66,7 @@ void sp_probe_default_settings(sp_probe_settings *s)
     memset(s, 0, sizeof(*s));
     s->window_s = 4.0;
     s->window_samples = 15;
-    s->settle_s = 120.0;
+    s->settle_s = 0.0; /* opt-in: see PROBE.md, "People who stop" */
     s->fg_threshold = 50;
     s->shadow_min_ratio = 0.3;
     s->shadow_max_ratio = 0.85;

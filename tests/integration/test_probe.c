@@ -399,7 +399,7 @@ static void test_linger(void)
 {
     CHECK(run("synth", "street", "-o", path_in("lg.spcap"), "--seed", "3", "--linger", "60", "--figures", "16",
               "--seconds", "120", NULL) == 0);
-    CHECK(run("probe", path_in("lg.spcap"), "-o", path_in("lgp"), "-q", NULL) == 0);
+    CHECK(run("probe", path_in("lg.spcap"), "-o", path_in("lgp"), "-q", "--settle", "120", NULL) == 0);
     double dp = png_diff("lgp/clean_plate.png", "lg.background.png");
     printf("lingering: clean plate differs from the empty street by %.3f levels\n", dp);
     CHECK_MSG(dp >= 0 && dp < 0.8, "clean plate off by %.3f levels", dp);

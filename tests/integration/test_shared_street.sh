@@ -24,7 +24,11 @@ trap 'rm -rf "$tmp"' EXIT
 rc=$?
 [ $rc = 4 ] && { echo "SKIP: this build cannot import JPEG frames"; cat "$tmp/import.log"; exit 77; }
 [ $rc = 0 ] || { cat "$tmp/import.log"; exit 1; }
-"$sp" probe "$tmp/s.spcap" -o "$tmp/p" --objects || exit 1
+"$sp" probe "$tmp/s.spcap" -o "$tmp/p" --objects >"$tmp/probe.log" 2>&1
+rc=$?
+[ $rc = 4 ] && { echo "SKIP: this build cannot decode JPEG frames"; cat "$tmp/probe.log"; exit 77; }
+[ $rc = 0 ] || { cat "$tmp/probe.log"; exit 1; }
+cat "$tmp/probe.log"
 fail=0
 "$py" "$here/check_street_truth.py" "$tmp/p" "$cap" --json "$tmp/score.json" --min-recall 0.22 \
     --max-false-rate 0.02 --max-ground-false 0.065 --max-plane-error 0.065 --min-plate-psnr 42 \
