@@ -38,8 +38,7 @@ struct sp_probe {
     probe_motion motion;
     probe_completion completion[PROBE_MAX_OBJECTS];
     uint8_t *hold, *hold_prev; /* seg.gw * seg.gh: cells the next plate sample keeps (see plate_offer) */
-    int hold_valid;          /* the last frame set hold */
-    uint64_t hold_frame;     /* the frame number after the one that set hold_prev (0: none) */
+    uint64_t hold_frame;     /* st.frames of the frame after the one that set hold (0: none) */
     sp_probe_class cls[PROBE_MAX_OBJECTS]; /* of the last frame's objects */
     unsigned n_cls;
     probe_reservoir people, holdout;
@@ -109,8 +108,8 @@ static int check_settings(const sp_probe_settings *s, uint32_t width, uint32_t h
 static size_t memory_bound(uint32_t w, uint32_t h, const sp_probe_settings *s)
 {
     size_t px = (size_t)w * h, cells = ((size_t)w / s->block + 1) * ((size_t)h / s->block + 1);
-    size_t per_px = 3 * (size_t)s->window_samples + 3 /* plate */ + 2 /* held */ + 3 /* frame */ + 3 /* denoised */ + 1 /* classes */ +
-                    4 * PROBE_EVIDENCE * 2 /* occlusion slots */ + 16 /* lighting */ + 16 /* long-term plate */ +
+    size_t per_px = 3 * (size_t)s->window_samples + 3 /* plate */ + 2 /* held */ + 3 /* frame */ +
+                    3 /* denoised */ + 1 /* classes */ + 4 * PROBE_EVIDENCE * 2 /* occlusion slots */ + 16 /* lighting */ + 16 /* long-term plate */ +
                     3 + 4 + 12 /* final maps */ + 5 /* checkpoint */;
     return px * per_px + px / 8 /* motion thumbnails */ + cells * 32 + PROBE_MAX_TRACKS * sizeof(probe_track) +
            (size_t)s->max_observations * 4 * (2 * PERSON_REC + 4) + RECENT_MAX * PERSON_REC * 4;
@@ -283,14 +282,7 @@ static void observe_person(sp_probe *p, const probe_object *o)
 
 static void checkpoint(sp_probe *p);
 
-/*
- * The cells of this frame's objects that walked in (their track moved half their height or more), or
- * that stand where the last frame held (a person who stopped: trackers lose still or merged people, and
- * a new track has not moved), one cell around them included: the next plate sample keeps the plate's
- * value there (plate_offer), so a person who stops stays out of the plate. A ghost (the plate still
- * shows someone who left before the plate held them) appears in place and never moves, so it is not
- * held and clears within half the window.
- */
+/* Cell (cx, cy) of the coarse grid is one of object o's component. */
 static int object_cell(const probe_segment *sg, const probe_object *o, int cx, int cy)
 {
     return cx >= 0 && cy >= 0 && cx < (int)sg->gw && cy < (int)sg->gh &&
@@ -324,8 +316,17 @@ static int ghost_like(const sp_probe *p, const probe_object *o)
     return in_plate > in_frame;
 }
 
+/*
+ * The cells of this frame's objects that walked in (their track moved half their height or more), or
+ * that stand where the last frame held (a person who stopped: trackers lose still or merged people, and
+ * a new track has not moved), one cell around them included: the next plate sample keeps the slot's
+ * older background value there (plate_offer), so a person who stops stays out of the plate. Ghosts
+ * (ghost_like) are not held and clear within half the window. Nothing to do when holding is off.
+ */
 static void hold_movers(sp_probe *p)
 {
+    if (!p->plate.settle_samples)
+        return;
     const probe_segment *sg = &p->seg;
     uint8_t *prev = p->hold;
     p->hold = p->hold_prev, p->hold_prev = prev;
@@ -353,7 +354,6 @@ static void hold_movers(sp_probe *p)
                 p->hold[(size_t)cy * sg->gw + (size_t)cx] |= (uint8_t)own;
             }
     }
-    p->hold_valid = 1;
     p->hold_frame = p->st.frames + 1;
 }
 
@@ -388,8 +388,7 @@ static int probe_frame(sp_probe *p, int64_t t)
     if (camera_moves(p, 10, 0.8))
         return SP_ENODATA;
     plate_hold hold = { .cells = p->hold, .block = p->seg.block, .gw = p->seg.gw };
-    int updated = plate_offer(&p->plate, p->rgb, t, p->hold_valid ? &hold : NULL);
-    p->hold_valid = 0;
+    int updated = plate_offer(&p->plate, p->rgb, t, p->hold_frame == p->st.frames ? &hold : NULL);
     if (updated < 0) {
         snprintf(p->message, sizeof(p->message),
                  "frame %llu: timestamp %lld ns is too close to the end of the clock's range (int64 overflow)",

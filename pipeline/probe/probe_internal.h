@@ -30,11 +30,11 @@ typedef struct probe_plate {
     unsigned n_wires, out_wire, n_pairs;
     uint8_t pairs[PROBE_MAX_PAIRS][2];
     uint64_t updates;
-    uint16_t *held;          /* width * height: consecutive samples the plate's value was kept instead */
+    uint16_t *held;          /* width * height: consecutive samples the slot's older value was kept instead */
     unsigned settle_samples; /* after this many, a held pixel takes the frame again (a lasting change) */
 } probe_plate;
 
-/* The pixels a sample keeps the plate's value at: cells of block x block pixels, gw per row, nonzero = held. */
+/* Where a sample keeps the slot's older value: cells of block x block pixels, gw per row, nonzero = held. */
 typedef struct plate_hold {
     const uint8_t *cells;
     unsigned block;
@@ -44,7 +44,7 @@ typedef struct plate_hold {
 /* settle_ns: how long a held pixel stays held before the frame's value is sampled there anyway. */
 int plate_open(probe_plate *pl, uint32_t width, uint32_t height, unsigned k, int64_t window_ns, int64_t settle_ns);
 void plate_close(probe_plate *pl);
-/* Samples the frame when the interval has passed, keeping the plate's own value where hold (may be
+/* Samples the frame when the interval has passed, keeping the slot's older value where hold (may be
  * NULL) says an object that walked in stands; 1 when the plate was recomputed, else 0; -ERANGE when
  * the next sampling time would overflow int64. */
 int plate_offer(probe_plate *pl, const uint8_t *rgb, int64_t t_ns, const plate_hold *hold);

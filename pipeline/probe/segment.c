@@ -46,8 +46,8 @@ int segment_open(probe_segment *sg, uint32_t width, uint32_t height, const sp_pr
     sg->rows = malloc((size_t)height * sizeof(int32_t));
     sg->denoised = malloc((size_t)width * height * 3);
     sg->colsum = malloc((size_t)width * 3 * sizeof(int32_t));
-    if (!sg->denoised || !sg->colsum || !sg->cls || !sg->cell_obj || !sg->cell_sh || !sg->grid || !sg->tmp || !sg->lab_obj || !sg->parent ||
-        !sg->comp || !sg->objbox || !sg->order || !sg->rows) {
+    if (!sg->cls || !sg->cell_obj || !sg->cell_sh || !sg->grid || !sg->tmp || !sg->lab_obj || !sg->parent ||
+        !sg->comp || !sg->objbox || !sg->order || !sg->rows || !sg->denoised || !sg->colsum) {
         segment_close(sg);
         return -ENOMEM;
     }

@@ -164,7 +164,8 @@ static void test_classes(void)
         sp_probe_object o[16];
         unsigned n = sp_probe_frame_objects(p, o, 16);
         for (unsigned i = 0; i < n && i < 16; i++) {
-            int is_car = o[i].y1 == 96 && o[i].y0 >= 96 - 28 && abs(o[i].x0 - cx0) <= 1 && abs(o[i].x1 - (cx0 + 63)) <= 1;
+            int is_car = o[i].y1 == 96 && o[i].y0 >= 96 - 28 && abs(o[i].x0 - cx0) <= 1 &&
+                         abs(o[i].x1 - (cx0 + 63)) <= 1;
             int is_walker = o[i].y1 == 60 && fabs(0.5 * (o[i].x0 + o[i].x1) - wx) <= 3 && !o[i].touches_border;
             car_seen += is_car, car_called_car += is_car && o[i].cls == SP_PROBE_CAR;
             car_called_person += is_car && o[i].cls == SP_PROBE_PERSON;
