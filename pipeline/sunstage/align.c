@@ -13,6 +13,13 @@
 #include <stdlib.h>
 #include <string.h>
 
+/*
+ * "px" below is a reference pixel: a pixel of the frame scaled to REF_WIDTH wide (the default fit width),
+ * whatever the fit resolution or crop. Image residuals are converted to it (frame_unit), so the balance of
+ * data, robust thresholds and priors does not move with the resolution: measured in fit pixels, a 256 px
+ * fit weighed the priors 4x less and fitted a smaller head than the same capture at 128 px.
+ */
+#define REF_WIDTH 128.0
 #define HUBER_PX 1.0
 #define W_JAW 0.5     /* jaw contour landmarks slide along the silhouette: trust them less */
 #define W_ID 1.0      /* px^2 per unit identity coefficient squared */
@@ -36,6 +43,14 @@ static ss_frame *frame_at(const align_ctx *a, int fi)
     return a->one ? a->one : &a->ss->res.slots[a->idx[fi]];
 }
 
+/* Reference pixels per fit pixel of frame f: exactly 1 for a whole-frame fit REF_WIDTH wide. */
+static double frame_unit(const sp_sunstage *ss, const ss_frame *f)
+{
+    if (ss->set.face_crop && ss->fe.cap_w > 0 && f->win.s > 0.0) /* the crop's pixels across the whole frame */
+        return REF_WIDTH / ((double)ss->fe.cap_w * f->win.s);
+    return REF_WIDTH / (double)ss->W;
+}
+
 /* Landmark weight for the point residual (du, dv): Huber on its length times the jaw factor. */
 static double lm_weight(int k, double du, double dv)
 {
@@ -54,7 +69,8 @@ static double silhouette_term(align_ctx *a, int fi, ss_frame *f, const sp_face_p
                               int with_jac)
 {
     const sp_face_model *m = a->ss->model;
-    const double W_SIL = a->ss->set.silhouette_weight; /* px^2 per outline vertex */
+    /* px^2 per outline vertex, in reference pixels; finer rows give more outline vertices, each weighs less */
+    const double u = frame_unit(a->ss, f), W_SIL = a->ss->set.silhouette_weight * u;
     if (!a->use_sil || !f->sil_ok || !f->sil || !(W_SIL > 0.0))
         return 0.0;
     uint32_t *idx = a->sil_idx + (size_t)fi * (size_t)a->sil_cap;
@@ -68,19 +84,20 @@ static double silhouette_term(align_ctx *a, int fi, ss_frame *f, const sp_face_p
     uint32_t nc = sp_face_model_n_params(m);
     double cost = 0.0;
     for (int j = 0; j < n; j++) {
-        double r = a->sil_r[j], rc = r < SS_SIL_MAX ? r : SS_SIL_MAX;
+        double r = u * a->sil_r[j], rc = r < SS_SIL_MAX ? r : SS_SIL_MAX;
         cost += W_SIL * (rc > SS_SIL_HUBER ? SS_SIL_HUBER * (2.0 * rc - SS_SIL_HUBER) : rc * rc);
         if (!with_jac || r >= SS_SIL_MAX)
             continue; /* truncated: an outlier has no pull */
         double w = W_SIL * (r > SS_SIL_HUBER ? SS_SIL_HUBER / r : 1.0);
+        double wr = w * u, wj = w * u * u; /* the Jacobian is per fit pixel: u J per reference pixel */
         const double *J = a->sil_jac + (size_t)j * nc;
         for (uint32_t i = 0; i < nc; i++) {
             if (col[i] < 0 || J[i] == 0.0)
                 continue;
-            a->Jtr[col[i]] += w * J[i] * r;
+            a->Jtr[col[i]] += wr * J[i] * r;
             for (uint32_t k = 0; k < nc; k++)
                 if (col[k] >= 0)
-                    a->JtJ[(size_t)col[i] * (size_t)a->P + (size_t)col[k]] += w * J[i] * J[k];
+                    a->JtJ[(size_t)col[i] * (size_t)a->P + (size_t)col[k]] += wj * J[i] * J[k];
         }
     }
     return cost;
@@ -118,9 +135,10 @@ static double evaluate(align_ctx *a, int with_jac)
             else
                 col[j] = a->shared ? a->n_id : -1;
         }
+        const double u = frame_unit(ss, f);
         for (int k = 0; k < 68; k++) {
-            double du = a->uv[2 * k] - f->lm[2 * k], dv = a->uv[2 * k + 1] - f->lm[2 * k + 1];
-            double w = lm_weight(k, du, dv);
+            double du = u * (a->uv[2 * k] - f->lm[2 * k]), dv = u * (a->uv[2 * k + 1] - f->lm[2 * k + 1]);
+            double w = lm_weight(k, du, dv), wr = w * u, wj = w * u * u; /* the Jacobian is per fit pixel */
             cost += (k <= 16 ? W_JAW : 1.0) * huber_cost(hypot(du, dv));
             if (!with_jac)
                 continue;
@@ -130,10 +148,10 @@ static double evaluate(align_ctx *a, int with_jac)
                 for (uint32_t i = 0; i < nc; i++) {
                     if (col[i] < 0 || J[i] == 0.0)
                         continue;
-                    a->Jtr[col[i]] += w * J[i] * r;
+                    a->Jtr[col[i]] += wr * J[i] * r;
                     for (uint32_t j = 0; j < nc; j++)
                         if (col[j] >= 0)
-                            a->JtJ[(size_t)col[i] * (size_t)a->P + (size_t)col[j]] += w * J[i] * J[j];
+                            a->JtJ[(size_t)col[i] * (size_t)a->P + (size_t)col[j]] += wj * J[i] * J[j];
                 }
             }
         }
