@@ -43,7 +43,8 @@ static void fit_usage(FILE *out)
                  "  --heldout N            held-out keyframes (default 3)\n"
                  "  --fit-width W          fitting resolution: the face crop's side, or the frame's width\n"
                  "  --face-crop            fit a square crop around the face instead of the whole frame\n"
-                 "  --texture N            albedo/displacement rows (default 128)\n"
+                 "  --texture N|auto       albedo/displacement rows, 8-2048 (default 128); auto: one texel per\n"
+                 "                         face pixel of the best keyframe\n"
                  "  --iterations N         Adam steps (default 300)\n"
                  "  --time-budget S        stop the photometric stage after S seconds\n"
                  "  --min-rotation DEG     below this camera-yaw range lighting is unobservable (default 90)\n"
@@ -89,7 +90,12 @@ static int parse_fit(int argc, char **argv, fit_args *a)
         case 'k': bad = sp_opt_int("fit", on, optarg, 2, 64, &a->set.keyframes); break;
         case 'H': bad = sp_opt_int("fit", on, optarg, 0, 16, &a->set.heldout); break;
         case 'w': bad = sp_opt_int("fit", on, optarg, 16, 1024, &a->set.fit_width); break;
-        case 't': bad = sp_opt_int("fit", on, optarg, 8, 2048, &a->set.texture_size); break;
+        case 't':
+            if (strcmp(optarg, "auto") == 0)
+                a->set.texture_size = 0;
+            else
+                bad = sp_opt_int("fit", on, optarg, 8, 2048, &a->set.texture_size);
+            break;
         case 'i': bad = sp_opt_int("fit", on, optarg, 0, 100000, &a->set.adam_iterations); break;
         case 'b': bad = sp_opt_double("fit", on, optarg, 0, 1e6, &a->set.time_budget_s); break;
         case 'r': bad = sp_opt_double("fit", on, optarg, 0, 360, &a->set.min_rotation_deg); break;

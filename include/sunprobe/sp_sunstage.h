@@ -33,7 +33,8 @@ typedef struct sp_sunstage_settings {
     int fit_width;          /* fit image width: the face crop's side, or the whole frame's width (default 128) */
     int face_crop;          /* 1: fit a square crop around the face (1.8x the landmarks' extent), resampled to
                                fit_width; 0: the whole frame box-downsampled to fit_width (default 0) */
-    int texture_size;       /* albedo/displacement height; width doubles for two-tile UVs (default 128) */
+    int texture_size;       /* albedo/displacement height; width doubles for two-tile UVs (default 128); 0: matched
+                               to the data after stage 1 (one texel per face pixel, SUNSTAGE.md) */
     int adam_iterations;    /* Adam steps (default 300) */
     double time_budget_s;   /* stop the photometric stage after this wall time; 0 = none (default 0) */
     double min_rotation_deg; /* yaw range below which lighting is called unobservable (default 90) */

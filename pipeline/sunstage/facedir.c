@@ -169,7 +169,7 @@ static void manifest_lighting(const sp_sunstage *ss, sp_strbuf *b)
 /* "left_out": [{"part":..., "reason":...}] so readers need not infer it from zeros. */
 static void manifest_left_out(const sp_sunstage *ss, sp_strbuf *b)
 {
-    const char *part[5], *why[5];
+    const char *part[6], *why[6];
     int n = 0;
     const char *light = ss->fit.unobservable ? "lighting unobservable: too little camera rotation (see lighting.notes)"
                                          : "overcast: the sun does not explain the shading (see lighting.notes)";
@@ -192,6 +192,10 @@ static void manifest_left_out(const sp_sunstage *ss, sp_strbuf *b)
     if (!nz) {
         part[n] = "displacement";
         why[n++] = ss->fit.disp_note[0] ? ss->fit.disp_note : "displacement map not fitted";
+    }
+    if (ss->fit.texture_coarse) {
+        part[n] = "texture detail";
+        why[n++] = ss->fit.texture_note;
     }
     if (ss->fit.unobservable) {
         part[n] = "environment";
@@ -221,9 +225,14 @@ static int write_manifest(const sp_sunstage *ss, const char *dir)
                      ss->model->mesh.n_triangles);
     sp_strbuf_printf(&b, "\"textures\":{\"width\":%d,\"height\":%d,\"albedo\":\"albedo.f32\",\"albedo_png\":"
                          "\"albedo.png\",%s\"displacement\":\"displacement.f32\",\"clusters\":\"clusters.u8\","
-                         "\"cluster_width\":%u,\"cluster_height\":%u},\n",
+                         "\"cluster_width\":%u,\"cluster_height\":%u",
                      ss->fit.tw, ss->fit.th, ss->fit.have_observed ? "\"albedo_observed\":\"albedo_observed.u8\"," : "",
                      ss->model->cluster_width, ss->model->cluster_height);
+    if (ss->fit.texture_note[0]) { /* texture_size 0: how the rows were chosen */
+        sp_strbuf_printf(&b, ",\"rows_chosen\":");
+        sp_strbuf_json_string(&b, ss->fit.texture_note);
+    }
+    sp_strbuf_printf(&b, "},\n");
     if (ss->fe.lm_n) /* the landmark tracker's record: every frame it ran on (sunprobe evaluate scores it) */
         sp_strbuf_printf(&b, "\"landmarks\":\"landmarks.csv\",\n");
     sp_strbuf_printf(&b, "\"specular\":{\"ks\":");

@@ -38,9 +38,17 @@ typedef struct obs {
     int32_t tex[4];
     double tw[4];
     int32_t px;        /* its pixel in the frame: the later per-frame renders (shadows, highlights) look it up */
+    double u, v;       /* its texture coordinates: the taps again for another map size */
     int8_t cluster;
     uint8_t eye;       /* on an eyeball: its albedo is fitted, but it says nothing about the light (a wet cornea) */
+    uint8_t clip;      /* bit ch: L[ch] is a lower bound (the camera clipped it), a cost only while the model is below */
 } obs;
+
+/* A clipped channel that the model already reaches costs nothing (a one-sided, censored observation). */
+static inline int bound_met(const obs *o, int ch, double model)
+{
+    return (o->clip >> ch & 1) && model >= o->L[ch];
+}
 
 typedef struct fast_ctx {
     sp_sunstage *ss;
@@ -192,18 +200,24 @@ static int gather(fast_ctx *c)
         ss_scene_mask(&c->sc, &o, f->rgb, mask);
         size_t first = c->n;
         for (int p = 0; p < npx; p++) {
-            if (!(mask[p] > 0.0f))
+            const float *bound = f->clip + (size_t)p * SS_CLIP_FLOATS;
+            int clipped = !(mask[p] > 0.0f) && bound[3] > 0.0f && ss_scene_covers(&c->sc, &o, p);
+            if (!(mask[p] > 0.0f) && !clipped)
                 continue;
+            if (clipped && m->part[m->mesh.tri_vertices[(size_t)o.tri_id[p] * 3]] == SP_FACE_PART_EYE)
+                continue; /* a clipped eye is a cornea's glint: no bound on the eye's albedo */
             if ((ret = grow(c, c->n + 1)))
                 break;
             obs *ob = &c->o[c->n++];
             memset(ob, 0, sizeof(*ob));
             ob->px = p;
+            ob->clip = clipped ? (uint8_t)bound[3] : 0;
+            const float *val = clipped ? bound : f->rgb + (size_t)p * 3;
             double slope = 0.0;
             for (int ch = 0; ch < 3; ch++) {
                 double s;
                 /* display = tonemap(exposure * L): divide the exposure out, scale the slope by it */
-                ob->L[ch] = ss_tonemap_inverse((double)f->rgb[(size_t)p * 3 + (size_t)ch], &s) / f->expo;
+                ob->L[ch] = ss_tonemap_inverse((double)val[ch], &s) / f->expo;
                 slope += (s * f->expo) * (s * f->expo) / 3.0;
             }
             ob->w = slope;
@@ -217,6 +231,8 @@ static int gather(fast_ctx *c)
                 u += (double)b[k] * (double)m->mesh.uvs[tu[k] * 2];
                 v += (double)b[k] * (double)m->mesh.uvs[tu[k] * 2 + 1];
             }
+            ob->u = u;
+            ob->v = v;
             texel_taps(ss, u, v, ob);
             int cx = (int)(u * m->cluster_width), cy = (int)((1.0 - v) * m->cluster_height);
             cx = cx < 0 ? 0 : (cx >= (int)m->cluster_width ? (int)m->cluster_width - 1 : cx);
@@ -229,10 +245,8 @@ static int gather(fast_ctx *c)
             const float *env = c->envb + (size_t)k * SP_RENDER_ENV_FLOATS;
             if ((ret = render_white(c, f, c->sun, 0.0, env, 0.0, 16.0, &o)))
                 break;
-            size_t i = first;
-            for (int p = 0; p < npx; p++)
-                if (mask[p] > 0.0f)
-                    c->o[i++].A[k] = (double)o.ambient[(size_t)p * 3];
+            for (size_t i = first; i < c->n; i++)
+                c->o[i].A[k] = (double)o.ambient[(size_t)c->o[i].px * 3];
         }
     }
     c->frame_start[c->nf] = c->n;
@@ -292,8 +306,8 @@ static void cost_task(void *ctx, int k)
             continue;
         double sp = spec_of(c, o);
         for (int ch = 0; ch < 3; ch++) {
-            double r = albedo_at(c->ss, o, ch) * shading(c, o, ch) + sp - o->L[ch];
-            e += o->w * r * r;
+            double model = albedo_at(c->ss, o, ch) * shading(c, o, ch) + sp, r = model - o->L[ch];
+            e += bound_met(o, ch, model) ? 0.0 : o->w * r * r;
         }
     }
     c->part[(size_t)k * PART] = e;
@@ -320,11 +334,11 @@ static void lane_task(void *ctx, int j)
         double sp = spec_of(c, o);
         for (int ch = 0; ch < 3; ch++) {
             double S = shading(c, o, ch);
-            double r = o->L[ch] - sp - albedo_at(c->ss, o, ch) * S;
+            double model = sp + albedo_at(c->ss, o, ch) * S, r = bound_met(o, ch, model) ? 0.0 : o->L[ch] - model;
             for (int k = 0; k < 4; k++) {
                 double *t = sum + (size_t)o->tex[k] * 6 + (size_t)ch * 2;
                 double ws = o->w * o->tw[k] * S;
-                t[0] += ws * r;
+                t[0] += ws * r; /* a met bound adds no pull but keeps its curvature: still a majoriser */
                 t[1] += ws * S; /* sum of taps is 1: a majoriser, so the Jacobi step never overshoots */
             }
         }
@@ -454,8 +468,12 @@ static void lighting_task(void *ctx, int k)
         for (int j = 0; j < NK; j++)
             h[1 + j] = o->A[j];
         int cl = c->use_spec ? o->cluster : -1;
+        double sp = o->clip ? spec_of(c, o) : 0.0;
         for (int ch = 0; ch < 3; ch++) {
-            double a = albedo_at(c->ss, o, ch), u = o->w * a * a, wl = o->w * a * o->L[ch];
+            double a = albedo_at(c->ss, o, ch);
+            if (o->clip && bound_met(o, ch, a * shading(c, o, ch) + sp))
+                continue; /* the current lighting already reaches the bound: not an active row */
+            double u = o->w * a * a, wl = o->w * a * o->L[ch];
             double *t = blk[ch];
             for (int p = 0; p < NH; p++) {
                 double up = u * h[p];
@@ -654,8 +672,8 @@ static void cluster_costs(const fast_ctx *c, double *e)
             continue;
         double sp = spec_of(c, o);
         for (int ch = 0; ch < 3; ch++) {
-            double r = albedo_at(c->ss, o, ch) * shading(c, o, ch) + sp - o->L[ch];
-            e[o->cluster] += o->w * r * r;
+            double model = albedo_at(c->ss, o, ch) * shading(c, o, ch) + sp, r = model - o->L[ch];
+            e[o->cluster] += bound_met(o, ch, model) ? 0.0 : o->w * r * r;
         }
     }
 }
@@ -857,6 +875,92 @@ static int fit_sun(fast_ctx *c, sp_sunstage_callback cb, void *user)
     return 0;
 }
 
+/* The current map resampled (bilinear, texel centres) into a map of `rows`: the coarser map's start. */
+static void resample_map(const float *src, int sw, int sh, float *dst, int dw, int dh)
+{
+    for (int y = 0; y < dh; y++)
+        for (int x = 0; x < dw; x++) {
+            double fx = ((double)x + 0.5) * sw / dw - 0.5, fy = ((double)y + 0.5) * sh / dh - 0.5;
+            int x0 = (int)floor(fx), y0 = (int)floor(fy);
+            double ax = fx - x0, ay = fy - y0;
+            for (int ch = 0; ch < 3; ch++) {
+                double v = 0.0;
+                for (int k = 0; k < 4; k++) {
+                    int xi = x0 + (k & 1), yi = y0 + (k >> 1);
+                    xi = xi < 0 ? 0 : (xi >= sw ? sw - 1 : xi);
+                    yi = yi < 0 ? 0 : (yi >= sh ? sh - 1 : yi);
+                    v += ((k & 1) ? ax : 1.0 - ax) * ((k >> 1) ? ay : 1.0 - ay) * (double)src[((size_t)yi * sw + xi) * 3 + ch];
+                }
+                dst[((size_t)y * dw + x) * 3 + ch] = (float)v;
+            }
+        }
+}
+
+/* Moves the fit to a map of `rows`, starting from `from` (tw x th x 3 of the old size) resampled. */
+static int remap(fast_ctx *c, int rows, const float *from, int fw, int fh)
+{
+    sp_sunstage *ss = c->ss;
+    int ret = ss_fit_alloc_maps(ss, rows);
+    if (ret)
+        return ret;
+    if (fw == ss->fit.tw && fh == ss->fit.th)
+        memcpy(ss->fit.albedo, from, sizeof(float) * 3 * (size_t)fw * (size_t)fh);
+    else
+        resample_map(from, fw, fh, ss->fit.albedo, ss->fit.tw, ss->fit.th);
+    c->nt = (size_t)ss->fit.tw * (size_t)ss->fit.th;
+    for (size_t i = 0; i < c->n; i++)
+        texel_taps(ss, c->o[i].u, c->o[i].v, &c->o[i]);
+    return plan_sums(c);
+}
+
+/*
+ * texture_size 0: the map's rows chosen on the held-out frames, between SS_TEXTURE_ROWS and the rows that
+ * give one texel per face pixel. Where the keyframes agree to a fraction of a pixel (the synthetic
+ * captures) the finer map resolves detail between pixels; where they do not (another renderer's head,
+ * landmarks a few percent off), its texels between the pixel samples take up the disagreement, a dot grid
+ * at full resolution, and the held-out frames say so.
+ */
+static int choose_texture(fast_ctx *c)
+{
+    sp_sunstage *ss = c->ss;
+    int fine_w = ss->fit.tw, fine_h = ss->fit.th, coarse = ss->fit.matched_rows;
+    if (ss->set.texture_size != 0 || coarse <= 0 || coarse >= fine_h)
+        return 0;
+    double h_fine = NAN, h_coarse = NAN, x_fine[NL];
+    commit(c);
+    ss_evaluate(ss, &c->sc, NULL, &h_fine);
+    if (!isfinite(h_fine)) {
+        sp_log(SP_LOG_INFO, MOD, "texture: %d rows (no held-out frames to compare %d rows with)", fine_h, coarse);
+        return 0;
+    }
+    size_t n = (size_t)fine_w * (size_t)fine_h * 3;
+    float *fine = malloc(sizeof(float) * n);
+    if (!fine)
+        return -ENOMEM;
+    memcpy(fine, ss->fit.albedo, sizeof(float) * n);
+    memcpy(x_fine, c->x, sizeof(x_fine));
+    int ret = remap(c, coarse, fine, fine_w, fine_h);
+    if (!ret) {
+        alternate(c, 4, 3);
+        commit(c);
+        ss_evaluate(ss, &c->sc, NULL, &h_coarse);
+    }
+    int keep_coarse = !ret && h_coarse > h_fine;
+    if (!ret) {
+        snprintf(ss->fit.texture_note, sizeof(ss->fit.texture_note),
+                 "%d texture rows: held-out PSNR %.2f dB against %.2f dB with %d rows", keep_coarse ? coarse : fine_h,
+                 keep_coarse ? h_coarse : h_fine, keep_coarse ? h_fine : h_coarse, keep_coarse ? fine_h : coarse);
+        ss->fit.texture_coarse = keep_coarse;
+        sp_log(SP_LOG_INFO, MOD, "texture: %s", ss->fit.texture_note);
+    }
+    if (!ret && !keep_coarse) { /* back to the finer map exactly as it was */
+        memcpy(c->x, x_fine, sizeof(x_fine));
+        ret = remap(c, fine_h, fine, fine_w, fine_h);
+    }
+    free(fine);
+    return ret;
+}
+
 static int fast_run(fast_ctx *c, sp_sunstage_callback cb, void *user)
 {
     sp_sunstage *ss = c->ss;
@@ -886,12 +990,18 @@ static int fast_run(fast_ctx *c, sp_sunstage_callback cb, void *user)
             return ret;
         alternate(c, 4, 3);
     }
+    if ((ret = choose_texture(c)))
+        return ret;
     if ((ret = fill_unseen(c)))
         return ret;
     commit(c);
     report(c, cb, user, 7, SS_FAST_PHASES);
-    sp_log(SP_LOG_INFO, MOD, "fast solver: %zu observations, sun (%.3f %.3f %.3f) I %.3f, train %.2f dB", c->n,
-           ss->fit.sun_dir[0], ss->fit.sun_dir[1], ss->fit.sun_dir[2], ss->fit.sun_I, ss->fit.train_psnr);
+    size_t n_clip = 0;
+    for (size_t i = 0; i < c->n; i++)
+        n_clip += c->o[i].clip != 0;
+    sp_log(SP_LOG_INFO, MOD, "fast solver: %zu observations (%zu clipped: lower bounds), sun (%.3f %.3f %.3f) I %.3f, "
+           "train %.2f dB", c->n, n_clip, ss->fit.sun_dir[0], ss->fit.sun_dir[1], ss->fit.sun_dir[2], ss->fit.sun_I,
+           ss->fit.train_psnr);
     return 0;
 }
 

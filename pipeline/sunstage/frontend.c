@@ -53,7 +53,8 @@ static int setup_geometry(sp_sunstage *ss, uint32_t w, uint32_t h)
     if (!ss->fe.rgb24)
         return -ENOMEM;
     ss->fe.work_rgb = malloc((size_t)ss->W * (size_t)ss->H * 3 * sizeof(float));
-    if (!ss->fe.work_rgb)
+    ss->fe.work_clip = malloc((size_t)ss->W * (size_t)ss->H * SS_CLIP_FLOATS * sizeof(float));
+    if (!ss->fe.work_rgb || !ss->fe.work_clip)
         return -ENOMEM;
     return ss_reservoir_alloc(ss);
 }
@@ -63,29 +64,33 @@ static int setup_geometry(sp_sunstage *ss, uint32_t w, uint32_t h)
  * that encoding (the synthesiser's) is averaged as it is; an sRGB one is decoded to linear light first
  * (averaging encoded values would bias every footprint that spans an edge), then encoded for the fit. A
  * footprint touching a clipped (255) value is marked saturated (1.0), which the face mask drops: clipped
- * light has no known radiance.
+ * light has no known radiance; its lower bound goes to the clip buffer (SS_CLIP_FLOATS).
  */
 typedef struct pixel_sum {
     double acc[3];
-    int clipped;
+    int clipped;  /* bit c: channel c touched 255 */
+    int outside;  /* part of the footprint lies outside the frame: nothing known, not even a bound */
 } pixel_sum;
 
 static void pixel_add(pixel_sum *p, const float *lut, const uint8_t *px, double wt)
 {
     for (int c = 0; c < 3; c++) {
         p->acc[c] += wt * (lut ? (double)lut[px[c]] : (double)px[c]);
-        p->clipped |= lut && px[c] == 255 && wt > 0.0;
+        p->clipped |= (lut && px[c] == 255 && wt > 0.0) << c;
     }
 }
 
-static void pixel_store(const pixel_sum *p, const float *lut, double wsum, float *out)
+static void pixel_store(const pixel_sum *p, const float *lut, double wsum, float *out, float *clip)
 {
-    for (int c = 0; c < 3; c++)
+    for (int c = 0; c < 3; c++) {
         out[c] = lut ? (p->clipped ? 1.0f : (float)ss_tonemap(p->acc[c] / wsum)) : (float)(p->acc[c] / (255.0 * wsum));
+        clip[c] = p->clipped && !p->outside ? (float)ss_tonemap(p->acc[c] / wsum) : 0.0f;
+    }
+    clip[3] = p->outside ? 0.0f : (float)p->clipped;
 }
 
 /* Box filter from the capture-size RGB24 buffer to dst (dw x dh RGB floats in the fit's encoding). */
-static void downsample(const uint8_t *src, int sw, int sh, int dw, int dh, const float *lut, float *rgb)
+static void downsample(const uint8_t *src, int sw, int sh, int dw, int dh, const float *lut, float *rgb, float *clip)
 {
     for (int y = 0; y < dh; y++) {
         int y0 = y * sh / dh, y1 = (y + 1) * sh / dh;
@@ -95,11 +100,12 @@ static void downsample(const uint8_t *src, int sw, int sh, int dw, int dh, const
             int x0 = x * sw / dw, x1 = (x + 1) * sw / dw;
             if (x1 <= x0)
                 x1 = x0 + 1;
-            pixel_sum p = { { 0, 0, 0 }, 0 };
+            pixel_sum p = { { 0, 0, 0 }, 0, 0 };
             for (int yy = y0; yy < y1; yy++)
                 for (int xx = x0; xx < x1; xx++)
                     pixel_add(&p, lut, src + ((size_t)yy * (size_t)sw + (size_t)xx) * 3, 1.0);
-            pixel_store(&p, lut, (double)((y1 - y0) * (x1 - x0)), rgb + ((size_t)y * (size_t)dw + (size_t)x) * 3);
+            size_t i = (size_t)y * (size_t)dw + (size_t)x;
+            pixel_store(&p, lut, (double)((y1 - y0) * (x1 - x0)), rgb + i * 3, clip + i * SS_CLIP_FLOATS);
         }
     }
 }
@@ -185,14 +191,14 @@ static void tag_landmarks(const sp_sunstage *ss, const sp_frame_tags *tags, doub
  * as saturated.
  */
 static void resample_window(const uint8_t *src, int sw, int sh, const ss_window *w, int W, int H, const float *lut,
-                            float *out)
+                            float *out, float *clip)
 {
     static const uint8_t white[3] = { 255, 255, 255 };
     int n = (int)ceil(1.0 / w->s - 1e-9);
     n = n < 1 ? 1 : (n > 8 ? 8 : n);
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
-            pixel_sum p = { { 0, 0, 0 }, 0 };
+            pixel_sum p = { { 0, 0, 0 }, 0, 0 };
             for (int j = 0; j < n; j++)
                 for (int i = 0; i < n; i++) {
                     double u = w->x0 + ((double)x + ((double)i + 0.5) / n) / w->s - 0.5;
@@ -200,6 +206,7 @@ static void resample_window(const uint8_t *src, int sw, int sh, const ss_window 
                     if (u < -0.5 || v < -0.5 || u > sw - 0.5 || v > sh - 0.5) {
                         pixel_add(&p, lut, white, 1.0);
                         p.clipped = 1; /* outside the frame: nothing known */
+                        p.outside = 1;
                         continue;
                     }
                     int u0 = (int)floor(u), v0 = (int)floor(v);
@@ -212,7 +219,8 @@ static void resample_window(const uint8_t *src, int sw, int sh, const ss_window 
                         pixel_add(&p, lut, src + ((size_t)vv * (size_t)sw + (size_t)uu) * 3, wt);
                     }
                 }
-            pixel_store(&p, lut, (double)(n * n), out + ((size_t)y * (size_t)W + (size_t)x) * 3);
+            size_t i = (size_t)y * (size_t)W + (size_t)x;
+            pixel_store(&p, lut, (double)(n * n), out + i * 3, clip + i * SS_CLIP_FLOATS);
         }
 }
 
@@ -246,7 +254,7 @@ static int offer(sp_sunstage *ss, const sp_frame *frame, int64_t t, const sp_fra
 {
     ss->counts.accepted++;
     int slot = -1;
-    int ret = ss_reservoir_offer(ss, ss->fe.work_rgb, lm, sharp, expo, frame->sequence, t, tags->camera_to_world, 0,
+    int ret = ss_reservoir_offer(ss, ss->fe.work_rgb, ss->fe.work_clip, lm, sharp, expo, frame->sequence, t, tags->camera_to_world, 0,
                                  &slot);
     if (!ret && slot >= 0) {
         ss->res.slots[slot].has_truth = tags->has_true_orientation;
@@ -271,7 +279,7 @@ static int crop_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const s
     }
     ss_window_around(ss, lmc, &ss->fe.win);
     resample_window(ss->fe.rgb24, ss->fe.cap_w, ss->fe.cap_h, &ss->fe.win, ss->W, ss->H, ss->fe.srgb ? ss->fe.lut : NULL,
-                    ss->fe.work_rgb);
+                    ss->fe.work_rgb, ss->fe.work_clip);
     double sharp;
     if (skip_by_quality(ss, ss->fe.work_rgb, &sharp))
         return 0;
@@ -296,7 +304,7 @@ int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const s
     if (ss->set.face_crop)
         return crop_frame(ss, frame, t, tags);
     downsample(ss->fe.rgb24, ss->fe.cap_w, ss->fe.cap_h, ss->W, ss->H, ss->fe.srgb ? ss->fe.lut : NULL,
-               ss->fe.work_rgb);
+               ss->fe.work_rgb, ss->fe.work_clip);
     double sharp;
     if (skip_by_quality(ss, ss->fe.work_rgb, &sharp))
         return 0;

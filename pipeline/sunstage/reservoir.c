@@ -21,8 +21,9 @@ int ss_reservoir_alloc(sp_sunstage *ss)
         return -ENOMEM;
     for (int i = 0; i < ss->res.n_slots; i++) {
         ss->res.slots[i].rgb = malloc(px * sizeof(float));
+        ss->res.slots[i].clip = malloc(px / 3 * SS_CLIP_FLOATS * sizeof(float));
         ss->res.slots[i].exp = calloc(ss->model->n_exp + 1, sizeof(double));
-        if (!ss->res.slots[i].rgb || !ss->res.slots[i].exp)
+        if (!ss->res.slots[i].rgb || !ss->res.slots[i].clip || !ss->res.slots[i].exp)
             return -ENOMEM;
     }
     return 0;
@@ -32,6 +33,7 @@ void ss_reservoir_free(sp_sunstage *ss)
 {
     for (int i = 0; ss->res.slots && i < ss->res.n_slots; i++) {
         free(ss->res.slots[i].rgb);
+        free(ss->res.slots[i].clip);
         free(ss->res.slots[i].exp);
         free(ss->res.slots[i].sil);
     }
@@ -46,8 +48,8 @@ static double heading(sp_quat q)
     return atan2(fwd.y, fwd.x);
 }
 
-int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const double lm[136], double score, double expo,
-                       uint64_t seq, int64_t t, sp_quat q, int heldout_hint, int *slot_out)
+int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const float *clip, const double lm[136], double score,
+                       double expo, uint64_t seq, int64_t t, sp_quat q, int heldout_hint, int *slot_out)
 {
     if (!ss->res.slots) {
         int ret = ss_reservoir_alloc(ss);
@@ -91,7 +93,12 @@ int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const double lm[136], 
         ss_window_camera(ss, &f->win, &f->cam);
     f->has_truth = 0;
     sp_quat_to_matrix(f->q_c2w, f->R_c2w);
-    memcpy(f->rgb, rgb, (size_t)ss->W * (size_t)ss->H * 3 * sizeof(float));
+    size_t npx = (size_t)ss->W * (size_t)ss->H;
+    memcpy(f->rgb, rgb, npx * 3 * sizeof(float));
+    if (clip)
+        memcpy(f->clip, clip, npx * SS_CLIP_FLOATS * sizeof(float));
+    else
+        memset(f->clip, 0, npx * SS_CLIP_FLOATS * sizeof(float));
     memcpy(f->lm, lm, sizeof(f->lm));
     memset(f->exp, 0, ss->model->n_exp * sizeof(double));
     return 0;

@@ -94,12 +94,17 @@ int ss_scene_setup(ss_scene *sc, const sp_sunstage *ss, const ss_frame *f, sp_re
     return 0;
 }
 
-int ss_scene_is_observed(const ss_scene *sc, const sp_render_outputs *o, const float *target, int i)
+int ss_scene_covers(const ss_scene *sc, const sp_render_outputs *o, int i)
 {
     int32_t t = o->tri_id[i];
+    return t >= 0 && sc->observed_tri[t] && o->coverage[i] > 0.999f;
+}
+
+int ss_scene_is_observed(const ss_scene *sc, const sp_render_outputs *o, const float *target, int i)
+{
     const float *g = target + (size_t)i * 3;
     int sat = g[0] > 0.98f || g[1] > 0.98f || g[2] > 0.98f;
-    return t >= 0 && sc->observed_tri[t] && o->coverage[i] > 0.999f && !sat;
+    return ss_scene_covers(sc, o, i) && !sat;
 }
 
 void ss_scene_mask(const ss_scene *sc, const sp_render_outputs *o, const float *target, float *mask)

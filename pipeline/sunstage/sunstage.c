@@ -25,7 +25,7 @@ void sp_sunstage_default_settings(sp_sunstage_settings *s)
     s->keyframes = 12;
     s->heldout = 3;
     s->fit_width = 128;
-    s->texture_size = 128;
+    s->texture_size = 0;
     s->adam_iterations = 300;
     s->min_rotation_deg = 90.0;
     s->blur_ratio = 0.35;
@@ -38,7 +38,8 @@ static int check_settings(const sp_sunstage_settings *s)
 {
     if (s->keyframes < 2 || s->keyframes > 64 || s->heldout < 0 || s->heldout > 16)
         return -EINVAL;
-    if (s->fit_width < 16 || s->fit_width > 1024 || s->texture_size < 8 || s->texture_size > 2048)
+    if (s->fit_width < 16 || s->fit_width > 1024 || (s->texture_size != 0 && s->texture_size < 8) ||
+        s->texture_size > 2048)
         return -EINVAL;
     if (s->adam_iterations < 0 || !(s->time_budget_s >= 0.0) || !(s->blur_ratio >= 0.0) ||
         !(s->silhouette_weight >= 0.0 && s->silhouette_weight <= 100.0) || s->refine_steps < 0 ||
@@ -67,6 +68,72 @@ static void init_lighting(sp_sunstage *ss)
     }
 }
 
+/* Two tiles wide for two-tile UVs. */
+int ss_fit_alloc_maps(sp_sunstage *ss, int rows)
+{
+    const sp_face_model *m = ss->model;
+    free(ss->fit.albedo);
+    free(ss->fit.disp);
+    free(ss->fit.observed);
+    ss->fit.th = rows;
+    ss->fit.tw = m->cluster_width > m->cluster_height ? 2 * rows : rows;
+    size_t texels = (size_t)ss->fit.tw * (size_t)ss->fit.th;
+    ss->fit.albedo = malloc(texels * 3 * sizeof(float));
+    ss->fit.disp = calloc(texels, sizeof(float));
+    ss->fit.observed = calloc(texels, 1);
+    if (!ss->fit.albedo || !ss->fit.disp || !ss->fit.observed)
+        return -ENOMEM;
+    for (size_t i = 0; i < texels * 3; i++)
+        ss->fit.albedo[i] = 0.5f;
+    return 0;
+}
+
+/*
+ * Rows of a map matched to the data: one texel per face pixel of the keyframe that shows the most face.
+ * Finer texels lie between every pixel's sample; the fit sets them to whatever reproduces its
+ * fit-resolution frames, which at full resolution is a dot grid (measured in SUNSTAGE.md, "Map resolution").
+ */
+static int matched_texture_rows(sp_sunstage *ss, const int *idx, int n, int *rows)
+{
+    const sp_face_model *m = ss->model;
+    ss_scene sc;
+    int ret = ss_scene_open(&sc, ss);
+    if (ret)
+        return ret;
+    double uv_area = 0.0; /* of the triangles the fit observes, in the unit UV square */
+    for (uint32_t t = 0; t < m->mesh.n_triangles; t++) {
+        if (!sc.observed_tri[t])
+            continue;
+        const uint32_t *tu = m->mesh.tri_uvs + (size_t)t * 3;
+        const float *a = m->mesh.uvs + tu[0] * 2, *b = m->mesh.uvs + tu[1] * 2, *c = m->mesh.uvs + tu[2] * 2;
+        uv_area += 0.5 * fabs((double)(b[0] - a[0]) * (double)(c[1] - a[1]) - (double)(c[0] - a[0]) * (double)(b[1] - a[1]));
+    }
+    long most = 0;
+    for (int i = 0; i < n && !ret; i++) {
+        sp_render_scene scene;
+        sp_render_outputs o;
+        if ((ret = ss_scene_setup(&sc, ss, &ss->res.slots[idx[i]], &scene)))
+            break;
+        scene.shadow_mode = SP_RENDER_SHADOW_OFF;
+        if ((ret = sp_render(sc.r, &scene, &o)))
+            break;
+        long px = 0;
+        for (int p = 0; p < ss->W * ss->H; p++)
+            px += ss_scene_covers(&sc, &o, p);
+        most = px > most ? px : most;
+    }
+    ss_scene_close(&sc);
+    if (ret)
+        return ret;
+    double aspect = m->cluster_width > m->cluster_height ? 2.0 : 1.0;
+    double r = uv_area > 0.0 ? sqrt((double)most / (aspect * uv_area)) : 128.0;
+    int ri = (int)ceil(r / 8.0) * 8;
+    *rows = ri < 16 ? 16 : (ri > 1024 ? 1024 : ri);
+    sp_log(SP_LOG_INFO, MOD, "texture: %d rows would give one texel per face pixel (%ld face pixels in the best "
+           "keyframe, %.3f of the UV square)", *rows, most, uv_area);
+    return 0;
+}
+
 int sp_sunstage_open(sp_sunstage **out, const sp_sunstage_settings *s, const sp_face_model *model)
 {
     if (!out || !s || !model || !model->mesh.n_vertices)
@@ -82,24 +149,17 @@ int sp_sunstage_open(sp_sunstage **out, const sp_sunstage_settings *s, const sp_
     ss->model = model;
     sp_capture_meta_init(&ss->meta);
     ss->fit.scale = 1.0;
-    ss->fit.th = s->texture_size;
-    ss->fit.tw = model->cluster_width > model->cluster_height ? 2 * s->texture_size : s->texture_size;
-    size_t texels = (size_t)ss->fit.tw * (size_t)ss->fit.th;
     ss->fit.id = calloc(model->n_id + 1, sizeof(double));
-    ss->fit.albedo = malloc(texels * 3 * sizeof(float));
-    ss->fit.disp = calloc(texels, sizeof(float));
-    ss->fit.observed = calloc(texels, 1);
     ss->scalp = malloc(model->mesh.n_vertices);
     if (ss->scalp && sp_face_model_scalp(model, ss->scalp)) { /* a model without a face frame: face outline only */
         free(ss->scalp);
         ss->scalp = NULL;
     }
-    if (!ss->fit.id || !ss->fit.albedo || !ss->fit.disp || !ss->fit.observed) {
+    /* a map matched to the data (texture_size 0) is sized after stage 1; until then the old default */
+    if (!ss->fit.id || ss_fit_alloc_maps(ss, s->texture_size ? s->texture_size : SS_TEXTURE_ROWS)) {
         sp_sunstage_close(&ss);
         return -ENOMEM;
     }
-    for (size_t i = 0; i < texels * 3; i++)
-        ss->fit.albedo[i] = 0.5f;
     init_lighting(ss);
     ss->fit.train_psnr = ss->fit.heldout_psnr = NAN;
     *out = ss;
@@ -116,6 +176,7 @@ void sp_sunstage_close(sp_sunstage **pss)
     free(ss->fe.lm_log);
     free(ss->fe.rgb24);
     free(ss->fe.work_rgb);
+    free(ss->fe.work_clip);
     ss_reservoir_free(ss);
     free(ss->fit.id);
     free(ss->fit.albedo);
@@ -212,7 +273,7 @@ int sp_sunstage_add_keyframe(sp_sunstage *ss, const float *rgb, int width, int h
     sp_face_camera_init(&ss->cam, fx, fy, cx, cy);
     ss->cap_fx = fx, ss->cap_fy = fy, ss->cap_cx = cx, ss->cap_cy = cy;
     ss->fe.win = (ss_window){ 0.0, 0.0, 1.0 }; /* the image is the fit image */
-    return ss_reservoir_offer(ss, rgb, landmarks, 1.0, 1.0, ss->counts.accepted++, 0, camera_to_world, heldout ? 2 : 3,
+    return ss_reservoir_offer(ss, rgb, NULL, landmarks, 1.0, 1.0, ss->counts.accepted++, 0, camera_to_world, heldout ? 2 : 3,
                               NULL);
 }
 
@@ -333,6 +394,11 @@ int sp_sunstage_fit(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
     if (nh > 0 && ss_align_landmarks(ss, hidx, nh, 0, 20) < 0)
         sp_log(SP_LOG_WARN, MOD, "held-out frames could not be aligned");
     sp_log(SP_LOG_INFO, MOD, "stage 1: %d keyframes, landmark RMS %.2f px", n, rms);
+    if (ss->set.texture_size == 0 && ss->set.solver == SP_SUNSTAGE_SOLVER_FAST) { /* the fast solver chooses */
+        int ret = matched_texture_rows(ss, idx, n, &ss->fit.matched_rows);
+        if (ret)
+            return ret;
+    }
     ss->fit.align_s = (double)(sp_clock_monotonic_ns() - ss->fit.t0) * 1e-9;
     if (cb) {
         sp_sunstage_progress p = { "align", 1, 1, (double)(sp_clock_monotonic_ns() - ss->fit.t0) * 1e-9, rms, NAN };

@@ -19,6 +19,15 @@ typedef struct ss_window {
 } ss_window;
 
 /* One reservoir slot: a fit-resolution frame and its per-frame parameters. */
+/*
+ * A footprint that touched a clipped (255) value has no known radiance, but its mean with the clipped
+ * values taken at the clip level is a lower bound of it. rgb holds 1.0 there (the face mask drops it);
+ * clip[4 i .. 4 i + 2] holds that bound per channel in the fit's encoding and clip[4 i + 3] the channels
+ * that touched the clip as bits (1 red, 2 green, 4 blue; an unclipped channel's value is exact). Zeros
+ * everywhere else. The fast solver keeps such pixels as one-sided observations (fast.c).
+ */
+#define SS_CLIP_FLOATS 4
+
 typedef struct ss_frame {
     int used, heldout;
     uint64_t sequence;
@@ -27,6 +36,7 @@ typedef struct ss_frame {
     double expo;        /* exposure relative to the capture's first frame (exposure_us x gain), else 1 */
     double yaw;         /* camera heading, radians */
     float *rgb;         /* W * H * 3 display values */
+    float *clip;        /* W * H * 4: footprints the camera clipped (frontend.c, SS_CLIP_*), else zeros */
     double lm[136];     /* landmarks at fit resolution */
     sp_face_camera cam; /* the frame's intrinsics at fit resolution (identity pose) */
     ss_window win;      /* where the fit image lies in the capture frame */
@@ -55,6 +65,7 @@ typedef struct ss_frontend {
     int cap_w, cap_h;           /* capture size */
     uint8_t *rgb24;             /* capture-size conversion buffer */
     float *work_rgb;            /* W * H * 3: the frame at fit resolution */
+    float *work_clip;           /* W * H * 4: its clipped footprints (ss_frame.clip) */
     double sharp_mean;          /* running mean of the sharpness (blur check) */
     uint64_t sharp_n;
     double expo_ref;            /* exposure_us x gain of the first frame, 0 when unknown */
@@ -77,6 +88,7 @@ typedef struct ss_fit_state {
     double *id;                 /* n_id identity coefficients */
     double scale;
     int tw, th;                 /* texture size */
+    int matched_rows;           /* texture_size 0: rows of one texel per face pixel (after stage 1), else 0 */
     float *albedo, *disp;
     uint8_t *observed;          /* per texel: 1 when a keyframe saw it, 0 when filled from its neighbours */
     int have_observed;          /* the fast solver set `observed` (the Adam reference fills nothing) */
@@ -86,6 +98,8 @@ typedef struct ss_fit_state {
     int sun_dropped, unobservable, fitted;
     char notes[512];
     char disp_note[160];        /* why the displacement map stays zero, "" when fitted */
+    char texture_note[160];     /* texture_size 0: why the map has the rows it has, "" otherwise */
+    int texture_coarse;         /* that choice left detail out (a coarser map won on the held-out frames) */
     double yaw_range, train_psnr, heldout_psnr, seconds;
     double frontend_s, align_s, solve_s, refine_s; /* wall time per phase */
     int64_t t0;                 /* start of the fit, for progress times */
@@ -116,13 +130,16 @@ void ss_frame_params(const sp_sunstage *ss, const ss_frame *f, sp_face_params *p
 /* ---- reservoir.c ---- */
 /* Allocates the slots (fit resolution known); -ENOMEM. */
 int ss_reservoir_alloc(sp_sunstage *ss);
+/* (Re)allocates the albedo (at 0.5), displacement and observed maps at `rows` (sunstage.c). */
+int ss_fit_alloc_maps(sp_sunstage *ss, int rows);
+#define SS_TEXTURE_ROWS 128 /* the map's rows by default, and the finer choice of texture_size 0 */
 void ss_reservoir_free(sp_sunstage *ss);
 /*
  * Offers a frame to its yaw bin (heldout_hint 0: by sequence; 2 / 3: the first free held-out /
  * training slot); *slot_out (may be NULL) gets the slot it took, untouched when it lost.
  */
-int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const double lm[136], double score, double expo,
-                       uint64_t seq, int64_t t, sp_quat q, int heldout_hint, int *slot_out);
+int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const float *clip, const double lm[136], double score,
+                       double expo, uint64_t seq, int64_t t, sp_quat q, int heldout_hint, int *slot_out);
 /* The fit camera of a window: the capture's intrinsics moved and scaled into it. */
 void ss_window_camera(const sp_sunstage *ss, const ss_window *w, sp_face_camera *cam);
 /* The face-crop window around 68 landmarks in capture pixels (W x W fit pixels). */
@@ -190,6 +207,8 @@ void ss_scene_close(ss_scene *sc);
 int ss_scene_setup(ss_scene *sc, const sp_sunstage *ss, const ss_frame *f, sp_render_scene *scene);
 /* Pixel i is skin, fully covered and not saturated in the target: the one mask test of every solver. */
 int ss_scene_is_observed(const ss_scene *sc, const sp_render_outputs *o, const float *target, int i);
+/* The geometric half of that test: pixel i is fully covered by skin (or an eyeball) the fit sees. */
+int ss_scene_covers(const ss_scene *sc, const sp_render_outputs *o, int i);
 /* That test for every pixel (W * H floats, 1 or 0). */
 void ss_scene_mask(const ss_scene *sc, const sp_render_outputs *o, const float *target, float *mask);
 double ss_psnr(const float *img, const float *target, const float *mask, int n);

@@ -513,6 +513,34 @@ static void check_thread_independence(const char *face)
     }
 }
 
+/*
+ * The default map size is chosen on the held-out frames (texture_size 0): the manifest says which rows won
+ * and by how much, and keeping the default rows leaves the fit exactly as a fit asked for them.
+ */
+static void check_texture_choice(const char *face, const char *manifest)
+{
+    const char *note = strstr(manifest, "\"rows_chosen\":\"");
+    CHECK_MSG(note != NULL, "the manifest does not say how the texture rows were chosen");
+    int rows = 0, other = 0;
+    double won = NAN, lost = NAN;
+    if (!note || sscanf(note, "\"rows_chosen\":\"%d texture rows: held-out PSNR %lf dB against %lf dB with %d rows",
+                        &rows, &won, &lost, &other) != 4)
+        return;
+    CHECK_MSG(won >= lost, "%d rows were kept with %.2f dB against %.2f dB", rows, won, lost);
+    CHECK_MSG((strstr(manifest, "\"part\":\"texture detail\"") != NULL) == (rows < other),
+              "left_out must list the texture detail exactly when the coarser map won");
+    if (rows < other)
+        return; /* a fresh fit at the coarse rows is not the chosen map (it starts from the finer one) */
+    char args[2048], fixed[600], a[700], b[700];
+    snprintf(fixed, sizeof(fixed), "%s.fixed", face);
+    snprintf(args, sizeof(args), "fit %s/s.spcap -o %s --face generic --keyframes 8 --heldout 2 --no-progress "
+                                 "--texture %d", dir, fixed, rows);
+    CHECK_MSG(run(args) == 0, "fit --texture %d failed", rows);
+    snprintf(a, sizeof(a), "%s/albedo.f32", face);
+    snprintf(b, sizeof(b), "%s/albedo.f32", fixed);
+    CHECK_MSG(same_bytes(a, b), "the chosen %d-row map differs from a fit asked for %d rows", rows, rows);
+}
+
 static void synth_fit(void)
 {
     char args[2048], face[512];
@@ -569,6 +597,7 @@ static void synth_fit(void)
     int flat = displacement_flat(face);
     CHECK_MSG(flat >= 0 && listed == flat, "displacement listed %d, all zero %d", listed, flat);
     check_left_out_reader(face, buf, flat);
+    check_texture_choice(face, buf);
     check_thread_independence(face);
     snprintf(args, sizeof(args), "relight %s --sun 30,40 -o %s/relit.png", face, dir);
     CHECK(run(args) == 0);

@@ -248,6 +248,173 @@ static void test_end_to_end(const sp_face_model *m, enum sp_sunstage_solver solv
     free(t);
 }
 
+/*
+ * The camera clipped the brightest pixels at display level `level`: they read 1.0 (the face mask drops
+ * them) and, with bounds, carry what the front end keeps for them: the clipped value as a lower bound.
+ */
+static int cmp_float(const void *a, const void *b)
+{
+    float x = *(const float *)a, y = *(const float *)b;
+    return (x > y) - (x < y);
+}
+
+/* The display level that `share` of the lit pixels' brightest channels exceed. */
+static float level_above(const sp_sunstage *ss, double share)
+{
+    size_t npx = (size_t)W * H, n = 0;
+    float *v = malloc(sizeof(float) * npx * (size_t)ss->res.n_slots);
+    for (int i = 0; v && i < ss->res.n_slots; i++)
+        for (size_t p = 0; ss->res.slots[i].used && p < npx; p++) {
+            const float *g = ss->res.slots[i].rgb + p * 3;
+            float mx = fmaxf(g[0], fmaxf(g[1], g[2]));
+            if (mx > 0.05f)
+                v[n++] = mx;
+        }
+    float level = 1.0f;
+    if (v && n) {
+        qsort(v, n, sizeof(float), cmp_float);
+        level = v[(size_t)((1.0 - share) * (double)(n - 1))];
+    }
+    free(v);
+    return level;
+}
+
+static void clip_frames(sp_sunstage *ss, float level, int with_bounds)
+{
+    size_t npx = (size_t)W * H;
+    for (int i = 0; i < ss->res.n_slots; i++) {
+        ss_frame *f = &ss->res.slots[i];
+        if (!f->used)
+            continue;
+        memset(f->clip, 0, npx * SS_CLIP_FLOATS * sizeof(float));
+        for (size_t p = 0; p < npx; p++) {
+            float *g = f->rgb + p * 3, *b = f->clip + p * SS_CLIP_FLOATS;
+            int bits = (g[0] > level) | (g[1] > level) << 1 | (g[2] > level) << 2;
+            if (!bits)
+                continue;
+            for (int c = 0; c < 3 && with_bounds; c++)
+                b[c] = fminf(g[c], level);
+            b[3] = with_bounds ? (float)bits : 0.0f;
+            g[0] = g[1] = g[2] = 1.0f;
+        }
+    }
+}
+
+/* Share of the clipped channels of the training keyframes that the fitted render reaches (within 0.02). */
+static double bounds_reached(sp_sunstage *ss, const sp_sunstage *clipped_as)
+{
+    ss_scene sc;
+    if (ss_scene_open(&sc, ss))
+        return NAN;
+    size_t reached = 0, n = 0;
+    for (int i = 0; i < ss->res.n_slots; i++) {
+        const ss_frame *f = &ss->res.slots[i], *ref = &clipped_as->res.slots[i];
+        sp_render_scene scene;
+        sp_render_outputs o;
+        if (!f->used || f->heldout || ss_scene_setup(&sc, ss, f, &scene) || sp_render(sc.r, &scene, &o))
+            continue;
+        for (int p = 0; p < W * H; p++) {
+            const float *b = ref->clip + (size_t)p * SS_CLIP_FLOATS;
+            if (!ss_scene_covers(&sc, &o, p))
+                continue;
+            for (int c = 0; c < 3; c++)
+                if ((int)b[3] >> c & 1) {
+                    n++;
+                    reached += o.image[(size_t)p * 3 + (size_t)c] >= b[c] - 0.02f;
+                }
+        }
+    }
+    ss_scene_close(&sc);
+    return n ? (double)reached / (double)n : (double)NAN;
+}
+
+/* Clipped highlights are lower bounds: the fit reaches them, where dropping them let it fall below. */
+static void test_clip_bounds(const sp_face_model *m)
+{
+    truth *t = calloc(1, sizeof(*t));
+    make_truth(t, m);
+    t->I = 5.0; /* a hard sun: the sunlit side clips */
+    sp_renderer_settings rs;
+    sp_renderer_default_settings(&rs);
+    rs.width = W;
+    rs.height = H;
+    rs.shadow_size = 256;
+    sp_renderer *r = NULL;
+    CHECK(sp_renderer_open(&r, &rs) == 0);
+    sp_sunstage_settings set;
+    sp_sunstage_default_settings(&set);
+    set.keyframes = 8;
+    set.heldout = 2;
+    set.texture_size = 64;
+    sp_sunstage *ss[2] = { NULL, NULL };
+    double reached[2], sun_I[2] = { NAN, NAN };
+    for (int k = 0; k < 2; k++) {
+        CHECK(sp_sunstage_open(&ss[k], &set, m) == 0);
+        CHECK(add_frames(ss[k], r, m, t, 8, 360.0, 0, 0.0) == 0);
+        CHECK(add_frames(ss[k], r, m, t, 2, 360.0, 1, 100.0) == 0);
+        clip_frames(ss[k], level_above(ss[k], 0.5), k == 0); /* half the lit pixels: a phone under a hard sun */
+        CHECK(sp_sunstage_fit(ss[k], NULL, NULL) == 0);
+        sp_sunstage_result res;
+        CHECK(sp_sunstage_get_result(ss[k], &res) == 0);
+        sun_I[k] = res.sun_intensity;
+    }
+    /* both scored on the clipped channels the bounds described */
+    reached[0] = bounds_reached(ss[0], ss[0]);
+    reached[1] = bounds_reached(ss[1], ss[0]);
+    fprintf(stderr, "clip bounds: reached %.3f with bounds, %.3f with the pixels dropped; sun %.3f / %.3f (true %.1f)\n",
+            reached[0], reached[1], sun_I[0], sun_I[1], t->I);
+    /* dropped, the sunlit half of the face is gone and the sun with it (0.24 reached, sun 0 when written) */
+    CHECK_MSG(reached[0] >= 0.9, "with bounds the fit reaches %.3f of the clipped channels", reached[0]);
+    CHECK_MSG(reached[0] > reached[1] + 0.2, "bounds %.3f, dropped %.3f", reached[0], reached[1]);
+    CHECK_MSG(sun_I[0] > 0.0, "the fit with bounds lost the sun");
+    for (int k = 0; k < 2; k++)
+        sp_sunstage_close(&ss[k]);
+    sp_renderer_close(&r);
+    free(t);
+}
+
+/*
+ * texture_size 0 chooses the rows on the held-out frames; when it keeps the finer map, the fit is exactly
+ * the one asked for those rows (the coarser trial is undone without a trace).
+ */
+static void test_texture_choice(const sp_face_model *m)
+{
+    truth *t = calloc(1, sizeof(*t));
+    make_truth(t, m);
+    sp_renderer_settings rs;
+    sp_renderer_default_settings(&rs);
+    rs.width = W;
+    rs.height = H;
+    rs.shadow_size = 256;
+    sp_renderer *r = NULL;
+    CHECK(sp_renderer_open(&r, &rs) == 0);
+    sp_sunstage_result res[2];
+    sp_sunstage *ss[2] = { NULL, NULL };
+    for (int k = 0; k < 2; k++) {
+        sp_sunstage_settings set;
+        sp_sunstage_default_settings(&set);
+        set.keyframes = 8;
+        set.heldout = 2;
+        set.texture_size = k == 0 ? 0 : SS_TEXTURE_ROWS;
+        CHECK(sp_sunstage_open(&ss[k], &set, m) == 0);
+        CHECK(add_frames(ss[k], r, m, t, 8, 360.0, 0, 0.0) == 0);
+        CHECK(add_frames(ss[k], r, m, t, 2, 360.0, 1, 100.0) == 0);
+        CHECK(sp_sunstage_fit(ss[k], NULL, NULL) == 0);
+        CHECK(sp_sunstage_get_result(ss[k], &res[k]) == 0);
+    }
+    fprintf(stderr, "texture choice: %s\n", ss[0]->fit.texture_note);
+    CHECK_MSG(ss[0]->fit.texture_note[0] != 0, "no texture choice recorded");
+    CHECK_MSG(res[0].tex_height == SS_TEXTURE_ROWS, "these frames agree to the pixel: the %d-row map should win, "
+              "%d rows did (%s)", SS_TEXTURE_ROWS, res[0].tex_height, ss[0]->fit.texture_note);
+    if (res[0].tex_height == res[1].tex_height)
+        CHECK(memcmp(res[0].albedo, res[1].albedo, sizeof(float) * 3 * (size_t)res[0].tex_width *
+                     (size_t)res[0].tex_height) == 0);
+    for (int k = 0; k < 2; k++)
+        sp_sunstage_close(&ss[k]);
+    sp_renderer_close(&r);
+    free(t);
+}
+
 /* Too little rotation: the fitter must say the lighting is unobservable and not fit a sun. */
 static void test_unobservable(const sp_face_model *m)
 {
@@ -348,6 +515,8 @@ int main(int argc, char **argv)
     if (argc < 2 || strcmp(argv[1], "--fast-only"))
         test_end_to_end(&m, SP_SUNSTAGE_SOLVER_ADAM);
     test_unobservable(&m);
+    test_clip_bounds(&m);
+    test_texture_choice(&m);
     sp_face_model_free(&m);
     return check_exit();
 }
