@@ -10,6 +10,8 @@ cd "$(dirname "$0")/.."
 tools/install-deps.sh full || exit 3
 
 jobs=$(nproc 2>/dev/null || echo 2)
+logs_dir=build-check-logs # setup and build logs, beside the build trees (ignored by git), never in the source root
+mkdir -p "$logs_dir"
 logs=()
 status=0
 
@@ -18,9 +20,9 @@ run_suite() { # name, meson options...
     logs+=("$dir/meson-logs/testlog.json") # a build that fails leaves none: counted as a failure
     echo "=== $dir: meson setup $*"
     if [ ! -f "$dir/build.ninja" ]; then
-        meson setup "$dir" -Dwerror=true "$@" >"$dir.setup.log" 2>&1 || { cat "$dir.setup.log"; status=1; return; }
+        meson setup "$dir" -Dwerror=true "$@" >"$logs_dir/$dir.setup.log" 2>&1 || { cat "$logs_dir/$dir.setup.log"; status=1; return; }
     fi
-    ninja -C "$dir" -j "$jobs" >"$dir.build.log" 2>&1 || { tail -50 "$dir.build.log"; status=1; return; }
+    ninja -C "$dir" -j "$jobs" >"$logs_dir/$dir.build.log" 2>&1 || { tail -50 "$logs_dir/$dir.build.log"; status=1; return; }
     meson test -C "$dir" --num-processes "$jobs" --print-errorlogs || status=1
 }
 
@@ -33,9 +35,9 @@ run_vm() {
     echo "=== $dir: static minimal build, vm suite"
     if [ ! -f "$dir/build.ninja" ]; then
         meson setup "$dir" -Dwerror=true -Dauto_features=disabled -Dv4l2=enabled -Dvm_tests=true \
-            -Dc_link_args=-static -Dcpp_link_args=-static >"$dir.setup.log" 2>&1 || { cat "$dir.setup.log"; status=1; return; }
+            -Dc_link_args=-static -Dcpp_link_args=-static >"$logs_dir/$dir.setup.log" 2>&1 || { cat "$logs_dir/$dir.setup.log"; status=1; return; }
     fi
-    ninja -C "$dir" -j "$jobs" tools/sunprobe tests/vm/uhid_gyro >"$dir.build.log" 2>&1 || { tail -50 "$dir.build.log"; status=1; return; }
+    ninja -C "$dir" -j "$jobs" tools/sunprobe tests/vm/uhid_gyro >"$logs_dir/$dir.build.log" 2>&1 || { tail -50 "$logs_dir/$dir.build.log"; status=1; return; }
     meson test -C "$dir" --no-rebuild --suite vm --print-errorlogs || status=1
 }
 # ---- end run_vm ----
@@ -48,9 +50,9 @@ run_cross() {
     echo "=== $dir: aarch64 cross build, unit suite under qemu-aarch64"
     if [ ! -f "$dir/build.ninja" ]; then
         meson setup "$dir" --cross-file cross/aarch64-linux-gnu.txt -Dwerror=true -Dauto_features=disabled \
-            -Dv4l2=enabled >"$dir.setup.log" 2>&1 || { cat "$dir.setup.log"; status=1; return; }
+            -Dv4l2=enabled >"$logs_dir/$dir.setup.log" 2>&1 || { cat "$logs_dir/$dir.setup.log"; status=1; return; }
     fi
-    ninja -C "$dir" -j "$jobs" >"$dir.build.log" 2>&1 || { tail -50 "$dir.build.log"; status=1; return; }
+    ninja -C "$dir" -j "$jobs" >"$logs_dir/$dir.build.log" 2>&1 || { tail -50 "$logs_dir/$dir.build.log"; status=1; return; }
     meson test -C "$dir" --no-rebuild --suite unit --num-processes "$jobs" --timeout-multiplier 2 \
         --print-errorlogs || status=1
 }

@@ -13,8 +13,9 @@ cd "$(dirname "$0")/.."
 
 tools/install-deps.sh full
 out=${1:-out/demo}
+mkdir -p "$out"
 if [ ! -f build/build.ninja ]; then
-    meson setup build -Dbuildtype=release >build-setup.log 2>&1 || { cat build-setup.log; exit 1; }
+    meson setup build -Dbuildtype=release >"$out/build-setup.log" 2>&1 || { cat "$out/build-setup.log"; exit 1; }
 fi
 ninja -C build >/dev/null
 sp=build/tools/sunprobe
