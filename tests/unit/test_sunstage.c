@@ -199,10 +199,8 @@ static int add_frames(sp_sunstage *ss, sp_renderer *r, const sp_face_model *m, c
     return ret;
 }
 
-static void test_end_to_end(const sp_face_model *m, enum sp_sunstage_solver solver)
+static sp_renderer *open_renderer(void)
 {
-    truth *t = calloc(1, sizeof(*t));
-    make_truth(t, m);
     sp_renderer_settings rs;
     sp_renderer_default_settings(&rs);
     rs.width = W;
@@ -210,6 +208,23 @@ static void test_end_to_end(const sp_face_model *m, enum sp_sunstage_solver solv
     rs.shadow_size = 256;
     sp_renderer *r = NULL;
     CHECK(sp_renderer_open(&r, &rs) == 0);
+    return r;
+}
+
+/* A fitter with the truth's turn: 8 training keyframes over 360 deg and 2 held-out ones. */
+static void open_turn(sp_sunstage **ss, const sp_sunstage_settings *set, sp_renderer *r, const sp_face_model *m,
+                      const truth *t)
+{
+    CHECK(sp_sunstage_open(ss, set, m) == 0);
+    CHECK(add_frames(*ss, r, m, t, 8, 360.0, 0, 0.0) == 0);
+    CHECK(add_frames(*ss, r, m, t, 2, 360.0, 1, 100.0) == 0);
+}
+
+static void test_end_to_end(const sp_face_model *m, enum sp_sunstage_solver solver)
+{
+    truth *t = calloc(1, sizeof(*t));
+    make_truth(t, m);
+    sp_renderer *r = open_renderer();
     sp_sunstage_settings set;
     sp_sunstage_default_settings(&set);
     set.solver = solver;
@@ -218,9 +233,7 @@ static void test_end_to_end(const sp_face_model *m, enum sp_sunstage_solver solv
     set.texture_size = 64;
     set.adam_iterations = 40;
     sp_sunstage *ss = NULL;
-    CHECK(sp_sunstage_open(&ss, &set, m) == 0);
-    CHECK(add_frames(ss, r, m, t, 8, 360.0, 0, 0.0) == 0);
-    CHECK(add_frames(ss, r, m, t, 2, 360.0, 1, 100.0) == 0);
+    open_turn(&ss, &set, r, m, t);
     CHECK(sp_sunstage_fit(ss, NULL, NULL) == 0);
     sp_sunstage_result res;
     CHECK(sp_sunstage_get_result(ss, &res) == 0);
@@ -334,13 +347,7 @@ static void test_clip_bounds(const sp_face_model *m)
     truth *t = calloc(1, sizeof(*t));
     make_truth(t, m);
     t->I = 5.0; /* a hard sun: the sunlit side clips */
-    sp_renderer_settings rs;
-    sp_renderer_default_settings(&rs);
-    rs.width = W;
-    rs.height = H;
-    rs.shadow_size = 256;
-    sp_renderer *r = NULL;
-    CHECK(sp_renderer_open(&r, &rs) == 0);
+    sp_renderer *r = open_renderer();
     sp_sunstage_settings set;
     sp_sunstage_default_settings(&set);
     set.keyframes = 8;
@@ -349,9 +356,7 @@ static void test_clip_bounds(const sp_face_model *m)
     sp_sunstage *ss[2] = { NULL, NULL };
     double reached[2], sun_I[2] = { NAN, NAN };
     for (int k = 0; k < 2; k++) {
-        CHECK(sp_sunstage_open(&ss[k], &set, m) == 0);
-        CHECK(add_frames(ss[k], r, m, t, 8, 360.0, 0, 0.0) == 0);
-        CHECK(add_frames(ss[k], r, m, t, 2, 360.0, 1, 100.0) == 0);
+        open_turn(&ss[k], &set, r, m, t);
         clip_frames(ss[k], level_above(ss[k], 0.5), k == 0); /* half the lit pixels: a phone under a hard sun */
         CHECK(sp_sunstage_fit(ss[k], NULL, NULL) == 0);
         sp_sunstage_result res;
@@ -381,13 +386,7 @@ static void test_texture_choice(const sp_face_model *m)
 {
     truth *t = calloc(1, sizeof(*t));
     make_truth(t, m);
-    sp_renderer_settings rs;
-    sp_renderer_default_settings(&rs);
-    rs.width = W;
-    rs.height = H;
-    rs.shadow_size = 256;
-    sp_renderer *r = NULL;
-    CHECK(sp_renderer_open(&r, &rs) == 0);
+    sp_renderer *r = open_renderer();
     sp_sunstage_result res[2];
     sp_sunstage *ss[2] = { NULL, NULL };
     for (int k = 0; k < 2; k++) {
@@ -396,9 +395,7 @@ static void test_texture_choice(const sp_face_model *m)
         set.keyframes = 8;
         set.heldout = 2;
         set.texture_size = k == 0 ? 0 : SS_TEXTURE_ROWS;
-        CHECK(sp_sunstage_open(&ss[k], &set, m) == 0);
-        CHECK(add_frames(ss[k], r, m, t, 8, 360.0, 0, 0.0) == 0);
-        CHECK(add_frames(ss[k], r, m, t, 2, 360.0, 1, 100.0) == 0);
+        open_turn(&ss[k], &set, r, m, t);
         CHECK(sp_sunstage_fit(ss[k], NULL, NULL) == 0);
         CHECK(sp_sunstage_get_result(ss[k], &res[k]) == 0);
     }
