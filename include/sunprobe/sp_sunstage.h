@@ -256,6 +256,24 @@ SP_API int sp_face_asset_render(const sp_face_asset *asset, const sp_face_view *
  */
 SP_API int sp_face_asset_render_radiance(const sp_face_asset *asset, const sp_face_view *v, float *radiance,
                                          float *mask);
+/*
+ * One render's decomposition, linear light before exposure, each per pixel and premultiplied by the
+ * head's coverage (0 off the head); every buffer caller-owned, NULL to skip it.
+ * radiance = diffuse + specular + ambient.
+ */
+typedef struct sp_face_passes {
+    float *radiance;   /* RGB, width * height * 3 */
+    float *diffuse;    /* RGB sun diffuse, shadowed */
+    float *specular;   /* RGB sun specular, shadowed */
+    float *ambient;    /* RGB sky (environment) diffuse */
+    float *visibility; /* sun visibility in [0, 1], width * height */
+    float *normal;     /* world shading normal xyz, width * height * 3 */
+    float *albedo;     /* RGB albedo as sampled */
+    float *mask;       /* face coverage as sp_face_asset_render's mask, width * height */
+    float *coverage;   /* the whole head's coverage, width * height */
+} sp_face_passes;
+/* Renders view v into the buffers p names; -EINVAL when p names none, else as sp_face_asset_render. */
+SP_API int sp_face_asset_render_passes(const sp_face_asset *asset, const sp_face_view *v, const sp_face_passes *p);
 /* The fit's tone map (the display encoding sp_face_asset_render returns) of linear light x >= 0. */
 SP_API double sp_sunstage_linear_to_display(double x);
 
