@@ -132,6 +132,13 @@ typedef struct sp_render_scene {
     double sun_intensity;    /* white irradiance at normal incidence, >= 0 */
     double sun_angular_radius; /* radians; > 0 with sun_samples > 1 makes an area sun (forward only) */
     int sun_samples;         /* directions sampled over the sun disk (default 1) */
+    /*
+     * Radians, 0..pi/2 (default 0); > 0 makes the sun a disk of this angular radius in one pass (forward
+     * only; sun_samples > 1 takes precedence): soft shadows from one map (percentage-closer, the penumbra
+     * from the blocker's distance), diffuse wrapped over the terminator as the disk sets, and the
+     * Blinn-Phong lobe widened by the disk (1 / s' = 1 / s + r^2 / 16). RENDERER.md, "Soft sun".
+     */
+    double sun_soft_radius;
     double exposure;         /* linear scale before the tone map, >= 0 (default 1) */
     double background[3];    /* linear radiance of pixels no triangle covers (default 0) */
     /* Soft shadow test V = 1 - sigmoid(k (d_hit - b d_map)); depth units in RENDERER.md. */

@@ -232,6 +232,7 @@ typedef struct sp_face_view {
                                   possibly times a uniform scale) */
     double sun_dir[3];         /* world, towards the sun */
     double sun_intensity;      /* 0: no sun, no cast shadows */
+    double sun_angular_radius; /* radians, 0..pi/2: > 0 a sun disk, soft shadows and highlights (sun_soft_radius) */
     const float *env;          /* SP_RENDER_ENV_FLOATS radiance in its own frame; NULL: the asset's (borrowed) */
     double env_to_world[9];    /* rotation (row-major) of the environment into the world */
     double exposure;           /* default 1 */

@@ -207,6 +207,8 @@ static int validate_lighting(const sp_render_scene *sc)
         return bad("sun_intensity (finite, >= 0)");
     if (!(sc->sun_angular_radius >= 0.0 && sc->sun_angular_radius <= 0.5) || sc->sun_samples < 1)
         return bad("area sun (angular radius 0..0.5 rad, samples >= 1)");
+    if (!(sc->sun_soft_radius >= 0.0 && sc->sun_soft_radius <= 0.5 * M_PI))
+        return bad("soft sun (angular radius 0..pi/2 rad)");
     if (!isfinite(sc->exposure) || sc->exposure < 0.0 || !finite_n(sc->background, 3))
         return bad("exposure (finite, >= 0) or background");
     if (!isfinite(sc->shadow_k) || sc->shadow_k < 0.0 || !isfinite(sc->shadow_bias) || !(sc->shadow_bias > 0.0))
@@ -313,6 +315,13 @@ static void setup_frame(sp_renderer *r, const sp_render_scene *sc, int n_sun)
         x->s_clamped[k] = !(s >= SP_RENDER_SHININESS_MIN && s <= SP_RENDER_SHININESS_MAX);
         x->s[k] = s < SP_RENDER_SHININESS_MIN ? SP_RENDER_SHININESS_MIN
                                               : (s > SP_RENDER_SHININESS_MAX ? SP_RENDER_SHININESS_MAX : s);
+    }
+    if (n_sun == 1 && sc->sun_soft_radius > 0.0) { /* the soft sun (forward only) */
+        double rr = sc->sun_soft_radius;
+        x->soft_tan = tan(rr < 1.4 ? rr : 1.4); /* the penumbra is capped anyway; no tan(pi/2) */
+        x->soft_sin = sin(rr);
+        for (int k = 0; k < SP_RENDER_CLUSTERS; k++) /* the lobe seen through the disk: variances add */
+            x->s[k] = fmax(SP_RENDER_SHININESS_MIN, 1.0 / (1.0 / x->s[k] + rr * rr / 16.0));
     }
 }
 
@@ -493,7 +502,7 @@ int render_begin(sp_renderer *r, const sp_render_scene *sc, int need_backward, i
     if (err)
         return err;
     *n_sun = sun_sample_count(r, sc);
-    if (need_backward && (*n_sun != 1 || sc->n_lights != 0)) {
+    if (need_backward && (*n_sun != 1 || sc->n_lights != 0 || sc->sun_soft_radius > 0.0)) {
         sp_log(SP_LOG_ERROR, MODULE, "no gradients for an area sun or fill lights (forward only)");
         return SP_EUNSUPPORTED;
     }
@@ -511,7 +520,7 @@ void render_end(sp_renderer *r, const sp_render_scene *sc, int n_sun)
     r->last_nv = sc->mesh->n_vertices;
     r->last_nt = sc->mesh->n_triangles;
     r->have_render = 1;
-    r->backward_ok = n_sun == 1 && sc->n_lights == 0;
+    r->backward_ok = n_sun == 1 && sc->n_lights == 0 && !(sc->sun_soft_radius > 0.0);
 }
 
 int sp_render(sp_renderer *r, const sp_render_scene *sc, sp_render_outputs *out)

@@ -110,7 +110,8 @@ static int render_view(const sp_face_asset *a, const sp_face_view *v, float *rgb
     if (!a || !v || !(rgb || p->radiance || p->mask || p->coverage || decomposed) || !a->mesh.n_vertices || v->width < 1 || v->height < 1 || v->width > 8192 ||
         v->height > 8192 || v->supersample < 1 || v->supersample > 4 || !(v->camera.fx > 0.0) ||
         !(v->camera.fy > 0.0) || !finite_n(v->asset_to_world, 12) || !finite_n(v->env_to_world, 9) ||
-        !finite_n(v->camera.R, 9) || !finite_n(v->camera.t, 3) || !(v->sun_intensity >= 0.0))
+        !finite_n(v->camera.R, 9) || !finite_n(v->camera.t, 3) || !(v->sun_intensity >= 0.0) ||
+        !(v->sun_angular_radius >= 0.0 && v->sun_angular_radius <= 0.5 * M_PI))
         return -EINVAL;
     size_t nv = a->mesh.n_vertices;
     float *pos = malloc(sizeof(float) * 3 * nv);
@@ -152,6 +153,7 @@ static int render_view(const sp_face_asset *a, const sp_face_view *v, float *rgb
     sc.env = env;
     memcpy(sc.sun_dir, v->sun_dir, sizeof(sc.sun_dir));
     sc.sun_intensity = v->sun_intensity;
+    sc.sun_soft_radius = v->sun_intensity > 0.0 ? v->sun_angular_radius : 0.0;
     sc.shadow_mode = v->sun_intensity > 0.0 ? SP_RENDER_SHADOW_RENDER : SP_RENDER_SHADOW_OFF;
     sc.exposure = v->exposure > 0.0 ? v->exposure : 1.0;
     sp_render_outputs o;

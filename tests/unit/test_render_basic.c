@@ -255,6 +255,49 @@ static void count_shadow(const sp_render_scene *sc, const sp_render_outputs *o, 
         }
 }
 
+/*
+ * The soft sun (one shadow map, percentage-closer): a radius of 1e-9 is the point sun bit for bit; 0.08 rad
+ * softens the edge about as the 16-sample area sun does; pi/2 has no dark umbra left and, at 1e5 times the
+ * light, stays finite; only forward. sc renders the point sun, partial0 its partly lit pixels.
+ */
+static void test_soft_sun(sp_renderer *r, sp_render_scene *sc, sp_render_outputs *o, uint32_t n_plane, int partial0,
+                          sp_render_grads *g)
+{
+    const int W = o->width, H = o->height;
+    size_t n = (size_t)W * (size_t)H * 3;
+    float *point = malloc(sizeof(float) * n);
+    CHECK_EQ_INT(sp_render(r, sc, o), 0);
+    if (point)
+        memcpy(point, o->radiance, sizeof(float) * n);
+    sc->sun_soft_radius = 1e-9;
+    CHECK_EQ_INT(sp_render(r, sc, o), 0);
+    CHECK_MSG(point && !memcmp(point, o->radiance, sizeof(float) * n), "a soft sun of 1e-9 rad is not the point sun");
+    int in, out, partial, bad;
+    sc->sun_soft_radius = 0.08;
+    CHECK_EQ_INT(sp_render(r, sc, o), 0);
+    count_shadow(sc, o, n_plane, W, H, &in, &out, &partial, &bad);
+    printf("soft sun: partial %d (point sun %d)\n", partial, partial0);
+    CHECK(partial > partial0 + 20);
+    static float dl[64 * 64 * 3];
+    CHECK_EQ_INT(sp_render_backward(r, sc, dl, g), SP_EUNSUPPORTED);
+    sc->sun_soft_radius = 0.5 * PI;
+    sc->sun_intensity = 1e5;
+    CHECK_EQ_INT(sp_render(r, sc, o), 0);
+    float vmin = 1.0f;
+    int finite = 1;
+    for (size_t i = 0; i < n; i++)
+        finite &= isfinite(o->radiance[i]) && o->radiance[i] >= 0.0f;
+    for (int i = 0; i < W * H; i++)
+        if (o->coverage[i] > 0.999f && o->visibility)
+            vmin = o->visibility[i] < vmin ? o->visibility[i] : vmin;
+    CHECK_MSG(finite && vmin > 0.05f, "a 90-deg soft sun at 1e5: finite %d, darkest visibility %g", finite, (double)vmin);
+    sc->sun_soft_radius = 2.0;
+    CHECK(sp_render(r, sc, o) != 0); /* beyond pi/2 */
+    sc->sun_soft_radius = 0.0;
+    sc->sun_intensity = 2.0;
+    free(point);
+}
+
 static void test_cast_shadow(void)
 {
     const int W = 64, H = 64;
@@ -290,6 +333,9 @@ static void test_cast_shadow(void)
     sp_render_grads g;
     memset(&g, 0, sizeof(g));
     CHECK_EQ_INT(sp_render_backward(r, &sc, dl, &g), SP_EUNSUPPORTED);
+    sc.sun_angular_radius = 0.0;
+    sc.sun_samples = 1;
+    test_soft_sun(r, &sc, &o, n_plane, partial, &g);
     sp_mesh_free(&m);
     sp_renderer_close(&r);
 }
