@@ -24,7 +24,6 @@
 #include "sunprobe/sp_math.h"
 
 #define MAX_SIZE 8192
-#define AREA_SUN_SAMPLES 24 /* directions over an area sun's disk */
 #define FILM_HALF_WIDTH_MM 18.0 /* --focal is the 35 mm equivalent: a 36 mm wide frame */
 
 /* Names for --specular-scale NAME=S, in cluster order (FACE_MODEL.md). */
@@ -667,12 +666,12 @@ typedef struct light_sums {
     int all;
 } light_sums;
 
-enum render_kind { RENDER_BASE, RENDER_AREA_SAMPLE, RENDER_FILL };
+enum render_kind { RENDER_BASE, RENDER_FILL };
 
 /*
  * Adds one render of view v: the beauty and the diffuse and specular passes (scaled per channel by rgb,
- * NULL = white); the sky's ambient, the normal, albedo and alpha from the base render; the sun's
- * visibility from the base render of a point sun or w of each area sample's; the coverages by the base.
+ * NULL = white); the sky's ambient, the normal, albedo, the sun's visibility (times w) and the coverages
+ * from the base render.
  */
 static int add_render(relight_ctx *c, const sp_face_view *v, enum render_kind kind, double w, const double *rgb,
                       light_sums *ls)
@@ -690,7 +689,7 @@ static int add_render(relight_ctx *c, const sp_face_view *v, enum render_kind ki
         float *s = ls->sum[k];
         const float *x = k == PASS_ALPHA ? ls->cover : (k == PASS_FACE ? ls->face : t[k]);
         int add = k <= PASS_SPECULAR, base_only = k == PASS_AMBIENT || k >= PASS_NORMAL;
-        if (k == PASS_VISIBILITY && (kind == RENDER_AREA_SAMPLE || (kind == RENDER_BASE && w > 0.0))) {
+        if (k == PASS_VISIBILITY && kind == RENDER_BASE) {
             for (size_t i = 0; i < n; i++)
                 s[i] += (float)(fabs(w) * (double)x[i]);
         } else if (add || (base_only && kind == RENDER_BASE)) {
@@ -702,9 +701,9 @@ static int add_render(relight_ctx *c, const sp_face_view *v, enum render_kind ki
 }
 
 /*
- * Light is additive: the sky with the sun (one render when the sun is a point), then an area sun as
- * AREA_SUN_SAMPLES point suns spread evenly (Fibonacci spiral) over its disk, each a share of its
- * irradiance and its own shadow, then every fill with its own shadow and colour; in linear light.
+ * Light is additive: the sky with the sun in one render (a sun disk of --sun-size is the renderer's soft
+ * sun: one shadow map, soft shadows and highlights), then every fill with its own shadow and colour, as a
+ * sun under a black sky; in linear light.
  */
 static int render_lights(relight_ctx *c, const sp_face_view *v0, light_sums *ls)
 {
@@ -712,33 +711,12 @@ static int render_lights(relight_ctx *c, const sp_face_view *v0, light_sums *ls)
     float *dark = calloc(SP_RENDER_ENV_FLOATS, sizeof(float));
     int ret = dark ? 0 : -ENOMEM;
     sp_face_view v = *v0;
-    int area = a->sun_size > 0.0 && v0->sun_intensity > 0.0;
-    if (area)
-        v.sun_intensity = 0.0;
+    v.sun_angular_radius = 0.5 * a->sun_size * M_PI / 180.0;
     if (!ret)
-        ret = add_render(c, &v, RENDER_BASE, area ? 0.0 : 1.0, NULL, ls);
+        ret = add_render(c, &v, RENDER_BASE, 1.0, NULL, ls);
     v.env = dark;
+    v.sun_angular_radius = 0.0;
     memcpy(v.env_to_world, (double[9]){ 1, 0, 0, 0, 1, 0, 0, 0, 1 }, sizeof(v.env_to_world));
-    if (area) {
-        const double *s = v0->sun_dir, r = 0.5 * a->sun_size * M_PI / 180.0;
-        double u[3] = { fabs(s[0]) < 0.9 ? 1.0 : 0.0, fabs(s[0]) < 0.9 ? 0.0 : 1.0, 0.0 }, w[3];
-        double t = u[0] * s[0] + u[1] * s[1] + u[2] * s[2];
-        for (int k = 0; k < 3; k++)
-            u[k] -= t * s[k];
-        double un = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-        for (int k = 0; k < 3; k++)
-            u[k] /= un;
-        w[0] = s[1] * u[2] - s[2] * u[1], w[1] = s[2] * u[0] - s[0] * u[2], w[2] = s[0] * u[1] - s[1] * u[0];
-        v.sun_intensity = v0->sun_intensity / AREA_SUN_SAMPLES;
-        for (int i = 0; !ret && i < AREA_SUN_SAMPLES; i++) {
-            /* equal-area rings of the spherical cap: cos of the angle uniform in [cos r, 1] */
-            double ct = 1.0 - (1.0 - cos(r)) * ((double)i + 0.5) / AREA_SUN_SAMPLES, st = sqrt(fmax(0.0, 1.0 - ct * ct));
-            double ph = (double)i * M_PI * (3.0 - sqrt(5.0));
-            for (int k = 0; k < 3; k++)
-                v.sun_dir[k] = ct * s[k] + st * (cos(ph) * u[k] + sin(ph) * w[k]);
-            ret = add_render(c, &v, RENDER_AREA_SAMPLE, 1.0 / AREA_SUN_SAMPLES, NULL, ls);
-        }
-    }
     for (int f = 0; !ret && f < a->n_fill; f++) {
         if (!(a->fill[f].intensity > 0.0))
             continue; /* no light, nothing to add */
