@@ -44,6 +44,8 @@ static void relight_usage(FILE *out)
             "  --intensity I      sun irradiance (default: the fitted one, 3 if the fit had no sun)\n"
             "  --sun-size DEG     the sun's angular diameter: soft shadows and highlights (default 0: a point)\n"
             "  --fill dir,AZ,EL,I[,R,G,B]  a directional fill light with its own shadow (repeatable, 8)\n"
+            "  --fill point,AZ,EL,I[,R,G,B]  a point light 1 m from the head's centre that way, I its\n"
+            "                     irradiance at 1 m (falling off as 1/d^2), with its own shadow\n"
             "  --env FILE         the sky: an equirectangular image (OpenEXR, Radiance .hdr, PFM, ... through\n"
             "                     OpenImageIO; z up, row 0 straight up, u = azimuth / 360 from world +x\n"
             "                     towards +y, linear), or a raw 16x32x3 float32 .f32 as env.f32; default: fitted\n"
@@ -234,17 +236,19 @@ static int parse_relight(int argc, char **argv, relight_args *a)
         case 'l': {
             fill_light *f = &a->fill[a->n_fill];
             f->rgb[0] = f->rgb[1] = f->rgb[2] = 1.0;
-            int got = a->n_fill < MAX_FILLS ? sscanf(optarg, "dir,%lf,%lf,%lf,%lf,%lf,%lf", &f->az, &f->el,
-                                                     &f->intensity, &f->rgb[0], &f->rgb[1], &f->rgb[2])
-                                            : 0;
+            f->point = !strncmp(optarg, "point,", 6);
+            const char *vals = f->point ? optarg + 6 : (!strncmp(optarg, "dir,", 4) ? optarg + 4 : NULL);
+            int got = a->n_fill < MAX_FILLS && vals ? sscanf(vals, "%lf,%lf,%lf,%lf,%lf,%lf", &f->az, &f->el,
+                                                             &f->intensity, &f->rgb[0], &f->rgb[1], &f->rgb[2])
+                                                    : 0;
             int ok = (got == 3 || got == 6) && fabs(f->az) <= 720.0 && f->el >= -90.0 && f->el <= 90.0 &&
                      f->intensity >= 0.0 && f->intensity <= 1e6;
             for (int k = 0; ok && k < 3; k++)
                 ok = f->rgb[k] >= 0.0 && f->rgb[k] <= 1e3;
             if (!ok)
                 return bad_option("--fill", optarg,
-                                  "dir,AZ,EL,INTENSITY[,R,G,B] (degrees, intensity in [0, 1e6], at most 8 fills; "
-                                  "point lights are not built yet)");
+                                  "dir|point,AZ,EL,INTENSITY[,R,G,B] (degrees, intensity in [0, 1e6], at most 8 "
+                                  "fills)");
             a->n_fill++;
             break;
         }
@@ -560,6 +564,7 @@ static int set_view(relight_ctx *c, sp_face_view *v)
         for (int k = 0; k < 3; k++)
             centre[k] += w[k] / (double)c->fa.mesh.n_vertices;
     }
+    memcpy(c->centre, centre, sizeof(centre));
     /* camera centre C = -R^T t and camera-to-world rotation R^T */
     double Rt[9], C[3];
     for (int i = 0; i < 3; i++)
@@ -722,6 +727,9 @@ static int render_lights(relight_ctx *c, const sp_face_view *v0, light_sums *ls)
             continue; /* no light, nothing to add */
         sun_vector(a->fill[f].az, a->fill[f].el, v.sun_dir);
         v.sun_intensity = a->fill[f].intensity;
+        v.sun_is_point = a->fill[f].point;
+        for (int k = 0; k < 3; k++) /* 1 m from the head's centre */
+            v.sun_position[k] = c->centre[k] + v.sun_dir[k];
         ret = add_render(c, &v, RENDER_FILL, 0.0, a->fill[f].rgb, ls);
     }
     free(dark);

@@ -17,6 +17,7 @@
 
 typedef struct fill_light {
     double az, el, intensity, rgb[3];
+    int point; /* a point light 1 m from the head's centre, else directional */
 } fill_light;
 
 typedef struct relight_args {
@@ -40,6 +41,7 @@ typedef struct relight_ctx {
     sp_json *cams, *manifest;
     int srgb;
     double kf_exposure; /* the view's keyframe's exposure (cameras.json), 1 when absent */
+    double centre[3];   /* the head's centre in the world (the mesh's centroid), for point fills */
     float *bg;          /* --background: linear RGB, bg_w x bg_h */
     uint32_t bg_w, bg_h;
     int bg_is_capture;  /* the face's own frame: blend through the eroded face mask */
@@ -59,6 +61,9 @@ int relight_pass_channels(int pass);
 int relight_ends_with(const char *s, const char *tail);
 /* --env into env (SP_RENDER_ENV_FLOATS); 0 or a negative error, message printed. */
 int relight_read_env(const relight_args *a, float *env);
+/* RGBA in the output's encoding (sRGB for an sRGB capture or a picture, else the fit's tone map) of n pixels. */
+void relight_encode(const relight_ctx *c, const float *radiance, const float *cover, size_t n, double exposure,
+                    uint8_t *rgba);
 /* -o OUT: PNG (capture encoding), .exr (RGBA linear, OpenImageIO) or .pfm (RGB linear); 0 or -errno. */
 int relight_write_image(const relight_ctx *c, const float *radiance, const float *cover, int W, int H,
                         double exposure);

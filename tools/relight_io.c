@@ -131,12 +131,9 @@ int relight_read_env(const relight_args *a, float *env)
 }
 
 /* RGBA of linear light in the capture's encoding: sRGB (clipped) for an sRGB capture, else the fit's tone map. */
-static int write_png(const relight_ctx *c, const float *radiance, const float *cover, int W, int H, double exposure)
+void relight_encode(const relight_ctx *c, const float *radiance, const float *cover, size_t n, double exposure,
+                    uint8_t *px)
 {
-    size_t n = (size_t)W * (size_t)H;
-    uint8_t *px = malloc(n * 4);
-    if (!px)
-        return -ENOMEM;
     for (size_t i = 0; i < n; i++) {
         for (int k = 0; k < 3; k++) {
             double x = exposure * (double)radiance[i * 3 + (size_t)k];
@@ -146,6 +143,15 @@ static int write_png(const relight_ctx *c, const float *radiance, const float *c
         }
         px[i * 4 + 3] = (uint8_t)lround(255.0 * fmin(1.0, fmax(0.0, (double)cover[i])));
     }
+}
+
+static int write_png(const relight_ctx *c, const float *radiance, const float *cover, int W, int H, double exposure)
+{
+    size_t n = (size_t)W * (size_t)H;
+    uint8_t *px = malloc(n * 4);
+    if (!px)
+        return -ENOMEM;
+    relight_encode(c, radiance, cover, n, exposure, px);
     int ret = sp_png_write(c->a->out, px, (uint32_t)W, (uint32_t)H, (uint32_t)W * 4, 4);
     free(px);
     return ret;

@@ -233,6 +233,8 @@ typedef struct sp_face_view {
     double sun_dir[3];         /* world, towards the sun */
     double sun_intensity;      /* 0: no sun, no cast shadows */
     double sun_angular_radius; /* radians, 0..pi/2: > 0 a sun disk, soft shadows and highlights (sun_soft_radius) */
+    int sun_is_point;          /* 1: the sun is a point light at sun_position (world, metres), sun_intensity at 1 m */
+    double sun_position[3];
     const float *env;          /* SP_RENDER_ENV_FLOATS radiance in its own frame; NULL: the asset's (borrowed) */
     double env_to_world[9];    /* rotation (row-major) of the environment into the world */
     double exposure;           /* default 1 */

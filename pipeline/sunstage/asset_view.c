@@ -111,7 +111,7 @@ static int render_view(const sp_face_asset *a, const sp_face_view *v, float *rgb
         v->height > 8192 || v->supersample < 1 || v->supersample > 4 || !(v->camera.fx > 0.0) ||
         !(v->camera.fy > 0.0) || !finite_n(v->asset_to_world, 12) || !finite_n(v->env_to_world, 9) ||
         !finite_n(v->camera.R, 9) || !finite_n(v->camera.t, 3) || !(v->sun_intensity >= 0.0) ||
-        !(v->sun_angular_radius >= 0.0 && v->sun_angular_radius <= 0.5 * M_PI))
+        !(v->sun_angular_radius >= 0.0 && v->sun_angular_radius <= 0.5 * M_PI) || !finite_n(v->sun_position, 3))
         return -EINVAL;
     size_t nv = a->mesh.n_vertices;
     float *pos = malloc(sizeof(float) * 3 * nv);
@@ -154,6 +154,8 @@ static int render_view(const sp_face_asset *a, const sp_face_view *v, float *rgb
     memcpy(sc.sun_dir, v->sun_dir, sizeof(sc.sun_dir));
     sc.sun_intensity = v->sun_intensity;
     sc.sun_soft_radius = v->sun_intensity > 0.0 ? v->sun_angular_radius : 0.0;
+    sc.sun_is_point = v->sun_is_point != 0;
+    memcpy(sc.sun_position, v->sun_position, sizeof(sc.sun_position));
     sc.shadow_mode = v->sun_intensity > 0.0 ? SP_RENDER_SHADOW_RENDER : SP_RENDER_SHADOW_OFF;
     sc.exposure = v->exposure > 0.0 ? v->exposure : 1.0;
     sp_render_outputs o;

@@ -154,6 +154,7 @@ static void check_extremes(void)
         "--sun 40,20 --sun-size 90 --intensity 1e5", "--sun 40,0 --fill dir,200,0,1e5,1,1,1",
         "--focal 1 --sun 40,10",               "--focal 10000 --sun 40,10",
         "--sun 40,20 --intensity 1e5 --exposure 1e5",
+        "--sun 40,10 --fill point,200,0,1e5,1,1,1", "--sun 40,10 --fill point,0,-90,1e5",
     };
     char *out = in_dir("extreme.pfm");
     for (size_t k = 0; k < sizeof(opts) / sizeof(opts[0]); k++) {
@@ -271,6 +272,26 @@ static void check_paint(void)
     free(def);
     free(c);
     free(r);
+}
+
+/* A point fill of intensity 0 changes nothing; a white one only brightens, and brightens the head. */
+static void check_point_fill(void)
+{
+    uint32_t w0 = 0, h0 = 0, w1 = 0, h1 = 0, w2 = 0, h2 = 0;
+    uint8_t *def = relight_png("--sun 60,30", "pf-def.png", &w0, &h0);
+    uint8_t *f0 = relight_png("--sun 60,30 --fill point,240,10,0", "pf-0.png", &w1, &h1);
+    uint8_t *f1 = relight_png("--sun 60,30 --fill point,240,10,2", "pf-1.png", &w2, &h2);
+    size_t n = (size_t)w0 * h0 * 4;
+    CHECK_MSG(def && f0 && w1 == w0 && h1 == h0 && !memcmp(def, f0, n), "a point fill of 0 changed the render");
+    int darker = 0, brighter = 0;
+    for (size_t i = 0; def && f1 && w2 == w0 && h2 == h0 && i < n; i++) {
+        darker += i % 4 != 3 && f1[i] < def[i];
+        brighter += i % 4 != 3 && f1[i] > def[i];
+    }
+    CHECK_MSG(f1 && darker == 0 && brighter > 300, "a point fill darkened %d channels, brightened %d", darker, brighter);
+    free(def);
+    free(f0);
+    free(f1);
 }
 
 /* cameras.json and manifest.json of the fit (caller frees), or NULL. */
@@ -408,6 +429,7 @@ int main(int argc, char **argv)
         check_exr();
         check_background_file();
         check_paint();
+        check_point_fill();
         check_round_trip();
     }
     char cmd[300];

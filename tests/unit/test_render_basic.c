@@ -80,6 +80,43 @@ static sp_mesh facing_quad(double half, int n)
     return m;
 }
 
+/*
+ * A point sun h = 0.5 m in front of the quad with intensity I h^2 lights the point straight below it as the
+ * directional sun of I does (1/d^2 at normal incidence) and the rest less (cos / d^2); no gradients.
+ */
+static void test_point_sun(void)
+{
+    const int W = 33, H = 33;
+    sp_renderer *r = open_renderer(W, H, 1);
+    sp_mesh m = facing_quad(0.5, 2);
+    float alb[3] = { 0.5f, 0.4f, 0.3f };
+    sp_render_scene sc;
+    sp_render_scene_defaults(&sc);
+    front_camera(&sc.camera, 1.0, 40.0, W, H);
+    sc.mesh = &m;
+    sc.albedo = (sp_render_texture){ 1, 1, alb };
+    sc.sun_dir[1] = -1.0, sc.sun_dir[2] = 0.0;
+    sc.sun_intensity = 2.0;
+    sp_render_outputs o;
+    CHECK_EQ_INT(sp_render(r, &sc, &o), 0);
+    double centre = (double)o.diffuse[(16 * W + 16) * 3], corner = (double)o.diffuse[0];
+    sc.sun_is_point = 1;
+    sc.sun_position[1] = -0.5;
+    sc.sun_intensity = 2.0 * 0.25;
+    CHECK_EQ_INT(sp_render(r, &sc, &o), 0);
+    CHECK_NEAR(o.diffuse[(16 * W + 16) * 3], centre, 1e-5 * centre);
+    CHECK_MSG((double)o.diffuse[0] < 0.9 * corner && o.diffuse[0] > 0.0f, "corner %g, directional %g",
+              (double)o.diffuse[0], corner);
+    static float dl[33 * 33 * 3];
+    sp_render_grads g;
+    memset(&g, 0, sizeof(g));
+    CHECK_EQ_INT(sp_render_backward(r, &sc, dl, &g), SP_EUNSUPPORTED);
+    sc.sun_position[0] = NAN;
+    CHECK(sp_render(r, &sc, &o) != 0);
+    sp_mesh_free(&m);
+    sp_renderer_close(&r);
+}
+
 static void test_flat_quad(void)
 {
     const int W = 33, H = 33;
@@ -600,6 +637,7 @@ static void test_mesh_edited_in_place(void)
 int main(void)
 {
     test_flat_quad();
+    test_point_sun();
     test_sphere_cosine();
     test_cast_shadow();
     test_perspective_uv();
