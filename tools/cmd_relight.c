@@ -80,6 +80,9 @@ static void relight_usage(FILE *out)
             "output:\n"
             "  -o OUT             .png (capture encoding, RGBA), .exr (linear RGBA, OpenImageIO) or .pfm (linear RGB)\n"
             "  --supersample N    N x N samples per pixel, 1..4 (default 2)\n"
+            "  --panel            one labelled figure instead (thesis Fig. 4.2): the input frame (with --capture),\n"
+            "                     the reconstruction, a soft sun, a fill light, sky and sun turned 180 deg,\n"
+            "                     two novel views, 24 and 135 mm, shinier skin; from this view and light\n"
             "  --passes DIR       also the light's parts, linear: beauty, diffuse, specular, ambient, visibility,\n"
             "                     normal, albedo, alpha, face (PFM, and OpenEXR where built; DIR/passes.json\n"
             "                     lists them)\n");
@@ -144,7 +147,7 @@ static int parse_relight(int argc, char **argv, relight_args *a)
         { "fill", required_argument, NULL, 'l' }, { "env-rotate", required_argument, NULL, 'r' },
         { "background", required_argument, NULL, 'g' }, { "capture", required_argument, NULL, 'c' },
         { "camera", required_argument, NULL, 'C' },  { "save-camera", required_argument, NULL, 'W' },
-        { "supersample", required_argument, NULL, 'u' }, { "passes", required_argument, NULL, 'P' },  { "albedo-paint", required_argument, NULL, 'p' }, { 0 },
+        { "supersample", required_argument, NULL, 'u' }, { "panel", no_argument, NULL, 'N' }, { "passes", required_argument, NULL, 'P' },  { "albedo-paint", required_argument, NULL, 'p' }, { 0 },
     };
     int c;
     char *end;
@@ -189,6 +192,7 @@ static int parse_relight(int argc, char **argv, relight_args *a)
                 return bad_option("--background", optarg, "capture:N with N >= 0 (and --capture FILE), or FILE");
             break;
         case 'P': a->passes_dir = optarg; break;
+        case 'N': a->panel = 1; break;
         case 'u':
             a->supersample = (int)strtol(optarg, &end, 10);
             if (end == optarg || *end || a->supersample < 1 || a->supersample > 4)
@@ -270,6 +274,12 @@ static int parse_relight(int argc, char **argv, relight_args *a)
                          a->background_keyframe >= 0)) {
         fprintf(stderr, "sunprobe relight: --camera gives the whole camera: it does not combine with --view, --orbit, "
                         "--fov, --focal, --size, --scale or --background\n");
+        return -1;
+    }
+    if (a->panel && (a->camera_in || a->passes_dir || a->background_keyframe >= 0 || a->background_file ||
+                     !relight_ends_with(a->out, ".png"))) {
+        fprintf(stderr, "sunprobe relight: --panel writes one PNG figure of its own views: it does not combine with "
+                        "--camera, --passes or --background, and -o must end in .png\n");
         return -1;
     }
     if (optind != argc - 1 || !a->out) {
@@ -660,8 +670,8 @@ static void set_light(relight_ctx *c, sp_face_view *v)
     }
     /* the keyframe's own exposure (keyframe 0's under --camera), so its view looks as its photograph did */
     v->exposure = (a->exposure > 0.0 ? a->exposure : 1.0) * c->kf_exposure;
-    for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
-        c->fa.ks[k] *= a->spec_scale[k];
+    for (int k = 0; k < SP_RENDER_CLUSTERS; k++) /* from the fitted values, so views can be made again */
+        c->fa.ks[k] = c->ks_fitted[k] * a->spec_scale[k];
 }
 
 /* The sums the lights are added into: the beauty always, every pass for --passes. */
@@ -736,38 +746,49 @@ static int render_lights(relight_ctx *c, const sp_face_view *v0, light_sums *ls)
     return ret;
 }
 
+static void free_sums(light_sums *ls)
+{
+    for (int k = 0; k < PASS_COUNT; k++) {
+        free(ls->sum[k]);
+        free(ls->tmp[k]);
+    }
+    free(ls->cover);
+    free(ls->face);
+}
+
+/* ls (all set to 0 but .all) gets its buffers and every light of view v; 0 or a negative error. */
+static int render_sums(relight_ctx *c, const sp_face_view *v, light_sums *ls)
+{
+    size_t n = (size_t)v->width * (size_t)v->height;
+    int ret = 0;
+    for (int k = 0; k < (ls->all ? PASS_COUNT : 1) && !ret; k++) {
+        size_t m = n * (size_t)relight_pass_channels(k);
+        ls->sum[k] = calloc(m, sizeof(float));
+        ls->tmp[k] = malloc(sizeof(float) * m);
+        ret = ls->sum[k] && ls->tmp[k] ? 0 : -ENOMEM;
+    }
+    ls->cover = ret ? NULL : malloc(sizeof(float) * n);
+    ls->face = ret ? NULL : malloc(sizeof(float) * n);
+    return ls->cover && ls->face ? render_lights(c, v, ls) : -ENOMEM;
+}
+
 /* Renders every light of view v, composites and writes -o (and --passes into pd->path); 0 or an error. */
 static int render_and_write(relight_ctx *c, sp_face_view *v, const sp_partial *pd)
 {
-    const relight_args *a = c->a;
     size_t n = (size_t)v->width * (size_t)v->height;
-    light_sums ls = { .all = a->passes_dir != NULL };
-    int ret = 0;
-    for (int k = 0; k < (ls.all ? PASS_COUNT : 1) && !ret; k++) {
-        size_t m = n * (size_t)relight_pass_channels(k);
-        ls.sum[k] = calloc(m, sizeof(float));
-        ls.tmp[k] = malloc(sizeof(float) * m);
-        ret = ls.sum[k] && ls.tmp[k] ? 0 : -ENOMEM;
-    }
-    float *cover = ls.cover = ret ? NULL : malloc(sizeof(float) * n);
-    ls.face = ret ? NULL : malloc(sizeof(float) * n);
-    ret = cover && ls.face ? render_lights(c, v, &ls) : -ENOMEM;
+    light_sums ls = { .all = c->a->passes_dir != NULL };
+    int ret = render_sums(c, v, &ls);
     if (!ret && ls.all)
         ret = relight_write_passes(pd->path, ls.sum, v->width, v->height, v->exposure);
     if (!ret && c->bg) {
-        relight_composite(c, ls.sum[PASS_BEAUTY], c->bg_is_capture ? ls.face : cover, v->width, v->height,
+        relight_composite(c, ls.sum[PASS_BEAUTY], c->bg_is_capture ? ls.face : ls.cover, v->width, v->height,
                           v->exposure);
         for (size_t i = 0; i < n; i++)
-            cover[i] = 1.0f; /* a photograph: opaque */
+            ls.cover[i] = 1.0f; /* a photograph: opaque */
     }
     if (!ret)
-        ret = relight_write_image(c, ls.sum[PASS_BEAUTY], cover, v->width, v->height, v->exposure);
-    for (int k = 0; k < PASS_COUNT; k++) {
-        free(ls.sum[k]);
-        free(ls.tmp[k]);
-    }
-    free(cover);
-    free(ls.face);
+        ret = relight_write_image(c, ls.sum[PASS_BEAUTY], ls.cover, v->width, v->height, v->exposure);
+    free_sums(&ls);
     return ret;
 }
 
@@ -780,6 +801,7 @@ static int read_inputs(relight_ctx *c)
         fprintf(stderr, "sunprobe relight: %s is not a readable face directory: %s\n", a->dir, sp_strerror(ret));
         return sp_exit_for_error(ret == -ENOENT ? SP_EFORMAT : ret);
     }
+    memcpy(c->ks_fitted, c->fa.ks, sizeof(c->ks_fitted));
     if (a->env && (ret = relight_read_env(a, c->fa.env)))
         return sp_exit_for_error(ret);
     if ((ret = load_json(a->dir, "cameras.json", &c->cams)) || (ret = load_json(a->dir, "manifest.json", &c->manifest)))
@@ -833,6 +855,47 @@ static int commit_passes(sp_partial *pd)
     return ret == -EEXIST ? SP_EXIT_USAGE : (ret ? sp_exit_for_error(ret) : 0);
 }
 
+/* The view and light of c->a (and --save-camera written); 0 or an exit code (message printed). */
+static int make_view(relight_ctx *c, sp_face_view *v)
+{
+    const relight_args *a = c->a;
+    int ret = set_view(c, v);
+    if (!ret && a->camera_in)
+        ret = read_camera(a, v);
+    if (!ret && a->camera_out)
+        ret = save_camera(a, v);
+    if (ret)
+        return ret;
+    set_light(c, v);
+    v->supersample = a->supersample ? a->supersample : v->supersample;
+    if (c->bg_is_capture || a->passes_dir)
+        v->vertex_mask = face_mask_for(c);
+    if (a->sky_turn != 0.0) { /* the panel's new light: the sky about the vertical */
+        double t = a->sky_turn * M_PI / 180.0;
+        double R[9] = { cos(t), -sin(t), 0, sin(t), cos(t), 0, 0, 0, 1 };
+        memcpy(v->env_to_world, R, sizeof(R));
+    }
+    return 0;
+}
+
+int relight_tile(relight_ctx *c, uint8_t **rgba, int *W, int *H)
+{
+    sp_face_view v;
+    int ret = make_view(c, &v);
+    if (ret)
+        return ret;
+    light_sums ls = { 0 };
+    size_t n = (size_t)v.width * (size_t)v.height;
+    ret = render_sums(c, &v, &ls);
+    *rgba = ret ? NULL : malloc(n * 4);
+    if (*rgba)
+        relight_encode(c, ls.sum[PASS_BEAUTY], ls.cover, n, v.exposure, *rgba);
+    free_sums(&ls);
+    *W = v.width;
+    *H = v.height;
+    return *rgba ? 0 : sp_cmd_fail("relight", ret ? ret : -ENOMEM, "--panel");
+}
+
 static int run_relight(relight_ctx *c, sp_partial *pd)
 {
     const relight_args *a = c->a;
@@ -851,17 +914,11 @@ static int run_relight(relight_ctx *c, sp_partial *pd)
         return sp_cmd_failf("relight", ret, "--passes %s", a->passes_dir);
     if ((ret = read_inputs(c)))
         return ret;
+    if (a->panel)
+        return relight_panel(c);
     sp_face_view v;
-    if ((ret = set_view(c, &v)))
+    if ((ret = make_view(c, &v)))
         return ret;
-    if (a->camera_in && (ret = read_camera(a, &v)))
-        return ret;
-    if (a->camera_out && (ret = save_camera(a, &v)))
-        return ret;
-    set_light(c, &v);
-    v.supersample = a->supersample ? a->supersample : v.supersample;
-    if (c->bg_is_capture || a->passes_dir)
-        v.vertex_mask = face_mask_for(c);
     if ((ret = render_and_write(c, &v, pd)))
         return sp_cmd_fail("relight", ret, a->out);
     if (a->passes_dir && (ret = commit_passes(pd)))
@@ -887,6 +944,7 @@ int sp_cmd_relight(int argc, char **argv)
     sp_json_free(c.cams);
     sp_json_free(c.manifest);
     free(c.bg);
+    free(c.bg_raw);
     free(c.fit_mask);
     if (c.have_model)
         sp_face_model_free(&c.model);

@@ -29,7 +29,8 @@ typedef struct relight_args {
     double az, el, intensity, exposure, sun_size, env_rotate;
     fill_light fill[MAX_FILLS];
     int n_fill;
-    int have_sun, scale, keyframe, width, height, have_orbit, supersample;
+    int have_sun, scale, keyframe, width, height, have_orbit, supersample, panel;
+    double sky_turn; /* degrees the sky is turned about the vertical (the panel's new light) */
     double orbit_az, orbit_el, fov_deg, focal_mm;
     double spec_scale[SP_RENDER_CLUSTERS];
     const char *camera_in, *camera_out; /* --camera FILE, --save-camera FILE */
@@ -42,7 +43,9 @@ typedef struct relight_ctx {
     int srgb;
     double kf_exposure; /* the view's keyframe's exposure (cameras.json), 1 when absent */
     double centre[3];   /* the head's centre in the world (the mesh's centroid), for point fills */
+    double ks_fitted[SP_RENDER_CLUSTERS]; /* before --specular-scale */
     float *bg;          /* --background: linear RGB, bg_w x bg_h */
+    uint8_t *bg_raw;    /* capture:N: the frame's RGB24 as decoded */
     uint32_t bg_w, bg_h;
     int bg_is_capture;  /* the face's own frame: blend through the eroded face mask */
     double bg_crop[2];  /* the fit's window origin in the frame (face-crop fits) */
@@ -76,6 +79,10 @@ int relight_read_background(relight_ctx *c);
 int relight_read_background_file(relight_ctx *c);
 /* The head over c->bg resampled to W x H, in linear light; cover is the head's (or face's) coverage. */
 void relight_composite(const relight_ctx *c, float *sum, const float *cover, int W, int H, double exposure);
+/* c->a's picture as RGBA in the output's encoding (*rgba malloc'd, *W x *H); 0 or an exit code. */
+int relight_tile(relight_ctx *c, uint8_t **rgba, int *W, int *H);
+/* --panel: the figure of relight_panel.c into c->a->out; an exit code. */
+int relight_panel(relight_ctx *c);
 /* --albedo-paint: the RGBA PNG composited over c->fa.albedo; 0 or an exit code (message printed). */
 int relight_paint(relight_ctx *c);
 

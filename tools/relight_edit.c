@@ -64,7 +64,8 @@ int relight_read_background(relight_ctx *c)
             double b = rgb[i] / 255.0;
             c->bg[i] = (float)sp_srgb_decode(c->srgb ? b : sp_sunstage_display_to_srgb(b));
         }
-        free(rgb);
+        free(c->bg_raw);
+        c->bg_raw = rgb; /* as decoded, for the panel's input tile */
         c->bg_w = fc.width;
         c->bg_h = fc.height;
         c->bg_is_capture = 1;

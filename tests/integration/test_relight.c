@@ -404,6 +404,67 @@ static void check_round_trip(void)
     sp_json_free(man);
 }
 
+/* The largest difference of tile k (W x H at column k % 5, row k / 5, rows cap apart) from rgb (RGBA, over grey 40). */
+static int tile_diff(const uint8_t *panel, uint32_t pw, int k, uint32_t W, uint32_t H, uint32_t cap, const uint8_t *rgba,
+                     int *n_off)
+{
+    int worst = 0;
+    *n_off = 0;
+    for (uint32_t y = 0; y < H; y++)
+        for (uint32_t x = 0; x < W; x++) {
+            const uint8_t *p = panel + ((size_t)((uint32_t)(k / 5) * (H + cap) + y) * pw + (uint32_t)(k % 5) * W + x) * 4;
+            const uint8_t *q = rgba + ((size_t)y * W + x) * 4;
+            int d = 0;
+            for (int c = 0; c < 3; c++) {
+                int want = (q[c] * q[3] + 40 * (255 - q[3]) + 127) / 255;
+                d = abs(p[c] - want) > d ? abs(p[c] - want) : d;
+            }
+            worst = d > worst ? d : worst;
+            *n_off += d > 2;
+        }
+    return worst;
+}
+
+/*
+ * --panel: ten tiles of the default view's size with captions; the input frame is the keyframe's frame, the
+ * reconstruction the default render, every other tile differs from it; --panel with --passes is refused.
+ */
+static void check_panel(void)
+{
+    uint32_t w = 0, h = 0, pw = 0, ph = 0, fw = 0, fh = 0;
+    uint8_t *def = relight_png("", "panel-def.png", &w, &h), *panel = NULL, *frame = NULL;
+    char *out = in_dir("panel.png"), path[800];
+    int rc = run("relight %s -o %s --panel --capture %s/s.spcap", face, out, dir);
+    CHECK_MSG(rc == 0 && sp_png_read_rgba(out, &panel, &pw, &ph) == 0, "--panel: exit %d", rc);
+    sp_json *cams = face_json("cameras.json");
+    snprintf(path, sizeof(path), "%s/frames/frame_%06.0f.png", dir,
+             sp_json_number(sp_json_get(sp_json_at(sp_json_get(cams, "frames"), 0), "sequence"), -1));
+    sp_json_free(cams);
+    uint32_t cap = (ph - 2 * h) / 2;
+    int ok = def && panel && pw == 5 * w && ph > 2 * h && cap >= 8 && cap <= 40 && sp_png_read_rgba(path, &frame, &fw, &fh) == 0;
+    CHECK_MSG(ok, "panel %ux%u for tiles of %ux%u", pw, ph, w, h);
+    if (ok) {
+        int n_off, worst = tile_diff(panel, pw, 1, w, h, cap, def, &n_off);
+        CHECK_MSG(worst <= 1, "the reconstruction tile differs from the default render by %d", worst);
+        worst = fw == w && fh == h ? tile_diff(panel, pw, 0, w, h, cap, frame, &n_off) : 999;
+        CHECK_MSG(worst <= 1, "the input tile differs from keyframe 0's frame by %d", worst);
+        for (int k = 2; k < 10; k++) {
+            tile_diff(panel, pw, k, w, h, cap, def, &n_off);
+            CHECK_MSG(n_off > 50, "tile %d differs from the reconstruction in only %d pixels", k, n_off);
+        }
+        int text = 0;
+        for (uint32_t y = h; y < h + cap; y++)
+            for (uint32_t x = w; x < 2 * w; x++)
+                text += panel[((size_t)y * pw + x) * 4] != 40;
+        CHECK_MSG(text > 20, "no caption under the reconstruction (%d pixels)", text);
+    }
+    free(def);
+    free(panel);
+    free(frame);
+    char *bad = in_dir("panel-bad.png");
+    CHECK(run("relight %s -o %s --panel --passes %s", face, bad, in_dir("panel-passes")) == 1 && !exists(bad));
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 2)
@@ -430,6 +491,7 @@ int main(int argc, char **argv)
         check_background_file();
         check_paint();
         check_point_fill();
+        check_panel();
         check_round_trip();
     }
     char cmd[300];
