@@ -182,7 +182,11 @@ int relight_write_image(const relight_ctx *c, const float *radiance, const float
     float *px = linear_pixels(radiance, cover, n, exposure, exr);
     if (!px)
         return -ENOMEM;
+#if HAVE_OPENIMAGEIO
     int ret = exr ? sp_exr_write(out, px, (uint32_t)W, (uint32_t)H, 4) : sp_pfm_write(out, px, (uint32_t)W, (uint32_t)H, 3);
+#else
+    int ret = exr ? SP_EDISABLED : sp_pfm_write(out, px, (uint32_t)W, (uint32_t)H, 3); /* refused before any work */
+#endif
     free(px);
     return ret;
 }
