@@ -491,6 +491,8 @@ static int keyframe_mesh(relight_ctx *c, const sp_json *kf)
     int ok = id && ex && pos &&
              sp_json_numbers(sp_json_get(c->manifest, "identity"), id, m->n_id) == m->n_id &&
              sp_json_numbers(sp_json_get(kf, "expression"), ex, m->n_exp) == m->n_exp &&
+             !sp_json_at(sp_json_get(c->manifest, "identity"), m->n_id) && /* not another model's longer basis */
+             !sp_json_at(sp_json_get(kf, "expression"), m->n_exp) &&
              sp_json_numbers(sp_json_get(kf, "face_rotvec"), p.rotvec, 3) == 3 &&
              sp_json_numbers(sp_json_get(kf, "face_t"), p.t, 3) == 3 &&
              sp_json_numbers(sp_json_get(kf, "camera_to_world_wxyz"), q, 4) == 4;

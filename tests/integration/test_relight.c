@@ -206,6 +206,31 @@ static uint8_t *relight_png(const char *opts, const char *name, uint32_t *w, uin
     return px;
 }
 
+/* A sky the same at every azimuth (rows of one colour each), turned by 180 deg, lights the face the same. */
+static void check_symmetric_sky(void)
+{
+    char *env = in_dir("sym.f32"), opts[800];
+    float v[16 * 32 * 3];
+    for (int i = 0; i < 16 * 32; i++)
+        for (int c = 0; c < 3; c++)
+            v[i * 3 + c] = (float)(0.2 + 0.05 * (i / 32) + 0.1 * c);
+    FILE *f = fopen(env, "wb");
+    CHECK(f && fwrite(v, sizeof(v), 1, f) == 1);
+    if (f)
+        fclose(f);
+    uint32_t w0 = 0, h0 = 0, w1 = 0, h1 = 0;
+    snprintf(opts, sizeof(opts), "--sun 60,30 --env %s", env);
+    uint8_t *a = relight_png(opts, "sym-0.png", &w0, &h0);
+    snprintf(opts, sizeof(opts), "--sun 60,30 --env %s --env-rotate 180", env);
+    uint8_t *b = relight_png(opts, "sym-180.png", &w1, &h1);
+    int worst = a && b && w0 == w1 && h0 == h1 ? 0 : 999;
+    for (size_t i = 0; worst < 999 && i < (size_t)w0 * h0 * 4; i++)
+        worst = abs(a[i] - b[i]) > worst ? abs(a[i] - b[i]) : worst;
+    CHECK_MSG(worst <= 1, "a symmetric sky turned by 180 deg changed the render by %d levels", worst);
+    free(a);
+    free(b);
+}
+
 /* --background FILE: the picture's size, opaque, the picture where the head is not, the head over it. */
 static void check_background_file(void)
 {
@@ -488,6 +513,7 @@ int main(int argc, char **argv)
         check_passes();
         check_extremes();
         check_exr();
+        check_symmetric_sky();
         check_background_file();
         check_paint();
         check_point_fill();

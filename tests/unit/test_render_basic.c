@@ -80,6 +80,15 @@ static sp_mesh facing_quad(double half, int n)
     return m;
 }
 
+/* The scene of a quad m seen head-on from 1 m (40 deg field), one albedo alb (borrowed). */
+static void quad_scene(sp_render_scene *sc, const sp_mesh *m, const float *alb, int W, int H)
+{
+    sp_render_scene_defaults(sc);
+    front_camera(&sc->camera, 1.0, 40.0, W, H);
+    sc->mesh = m;
+    sc->albedo = (sp_render_texture){1, 1, alb};
+}
+
 /*
  * A point sun h = 0.5 m in front of the quad with intensity I h^2 lights the point straight below it as the
  * directional sun of I does (1/d^2 at normal incidence) and the rest less (cos / d^2); no gradients.
@@ -91,10 +100,7 @@ static void test_point_sun(void)
     sp_mesh m = facing_quad(0.5, 2);
     float alb[3] = { 0.5f, 0.4f, 0.3f };
     sp_render_scene sc;
-    sp_render_scene_defaults(&sc);
-    front_camera(&sc.camera, 1.0, 40.0, W, H);
-    sc.mesh = &m;
-    sc.albedo = (sp_render_texture){ 1, 1, alb };
+    quad_scene(&sc, &m, alb, W, H);
     sc.sun_dir[1] = -1.0, sc.sun_dir[2] = 0.0;
     sc.sun_intensity = 2.0;
     sp_render_outputs o;
@@ -127,10 +133,7 @@ static void test_flat_quad(void)
     for (int i = 0; i < SP_RENDER_ENV_FLOATS; i++)
         env[i] = 0.2f;
     sp_render_scene sc;
-    sp_render_scene_defaults(&sc);
-    front_camera(&sc.camera, 1.0, 40.0, W, H);
-    sc.mesh = &m;
-    sc.albedo = (sp_render_texture){1, 1, alb};
+    quad_scene(&sc, &m, alb, W, H);
     sc.env = env;
     sc.sun_dir[0] = 0, sc.sun_dir[1] = -3.0, sc.sun_dir[2] = 0; /* any length */
     sc.sun_intensity = 2.0;
@@ -475,10 +478,7 @@ static void test_supersample_coverage(void)
     CHECK(testmesh_grid(&m, p0, eu, ev, 1, 1) == 0);
     float alb[3] = {0.5f, 0.5f, 0.5f};
     sp_render_scene sc;
-    sp_render_scene_defaults(&sc);
-    front_camera(&sc.camera, 1.0, 40.0, W, H);
-    sc.mesh = &m;
-    sc.albedo = (sp_render_texture){1, 1, alb};
+    quad_scene(&sc, &m, alb, W, H);
     sc.background[0] = sc.background[1] = sc.background[2] = 0.25;
     sc.exposure = 2.0;
     sp_render_outputs o;
@@ -503,10 +503,7 @@ static void test_fill_lights(void)
     sp_mesh m = facing_quad(0.5, 2);
     float alb[3] = {0.5f, 0.4f, 0.3f};
     sp_render_scene sc;
-    sp_render_scene_defaults(&sc);
-    front_camera(&sc.camera, 1.0, 40.0, W, H);
-    sc.mesh = &m;
-    sc.albedo = (sp_render_texture){1, 1, alb};
+    quad_scene(&sc, &m, alb, W, H);
     sc.n_lights = 2;
     sc.lights[0] = (sp_render_light){SP_RENDER_LIGHT_DIRECTIONAL, {0, -1, 0}, {1.0, 0.5, 0.25}};
     sc.lights[1] = (sp_render_light){SP_RENDER_LIGHT_POINT, {0, -0.5, 0}, {1.0, 1.0, 1.0}};

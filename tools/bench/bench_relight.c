@@ -15,6 +15,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "bench_util.h"
 #include "pipeline/render/testmesh.h"
 #include "sunprobe/sp_render.h"
 
@@ -22,31 +23,12 @@
 #define SAMPLES 24
 #define TEX 256
 
-static int64_t cpu_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
-}
-
-static int cmp(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof(double), cmp);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 /* One way's render: seconds of thread CPU, or -1 on failure. */
 static double render_way(sp_renderer *r, sp_render_scene *sc, int way)
 {
     sp_render_outputs o;
     const double radius = 2.5 * M_PI / 180.0, *l = sc->sun_dir, I = sc->sun_intensity;
-    int64_t t0 = cpu_ns();
+    int64_t t0 = bench_thread_cpu_ns();
     int err = 0;
     sc->sun_soft_radius = way == 1 ? radius : 0.0;
     if (way != 2) {
@@ -69,7 +51,7 @@ static double render_way(sp_renderer *r, sp_render_scene *sc, int way)
             err = sp_render(r, &s, &o);
         }
     }
-    return err ? -1.0 : (double)(cpu_ns() - t0) * 1e-9;
+    return err ? -1.0 : (double)(bench_thread_cpu_ns() - t0) * 1e-9;
 }
 
 int main(int argc, char **argv)
@@ -123,9 +105,9 @@ int main(int argc, char **argv)
         }
     printf("bench_relight: %dx%d, 2x2 samples, %u triangles, one thread, median of %d\n", set.width, set.height,
            head.n_triangles, RUNS);
-    double base = median(t[0], RUNS);
+    double base = bench_median(t[0], RUNS);
     for (int way = 0; way < 3; way++) {
-        double m = way ? median(t[way], RUNS) : base;
+        double m = way ? bench_median(t[way], RUNS) : base;
         printf("  %-22s %8.3f s CPU  %6.2fx the point sun\n", names[way], m, m / base);
     }
     sp_renderer_close(&r);
