@@ -77,6 +77,8 @@ static void relight_usage(FILE *out)
             "                             lips, left-eye, right-eye, jaw-neck, other (repeatable)\n"
             "  --albedo-paint PNG         RGBA paint in the albedo's UV layout (FACE_DIR/albedo.png's), sRGB,\n"
             "                             laid over the albedo by its alpha (a PNG without alpha is refused)\n"
+            "  --albedo-paint-image PNG,N RGBA paint over keyframe N's frame (its size), projected onto the\n"
+            "                             texels that view sees\n"
             "output:\n"
             "  -o OUT             .png (capture encoding, RGBA), .exr (linear RGBA, OpenImageIO) or .pfm (linear RGB)\n"
             "  --supersample N    N x N samples per pixel, 1..4 (default 2)\n"
@@ -147,7 +149,8 @@ static int parse_relight(int argc, char **argv, relight_args *a)
         { "fill", required_argument, NULL, 'l' }, { "env-rotate", required_argument, NULL, 'r' },
         { "background", required_argument, NULL, 'g' }, { "capture", required_argument, NULL, 'c' },
         { "camera", required_argument, NULL, 'C' },  { "save-camera", required_argument, NULL, 'W' },
-        { "supersample", required_argument, NULL, 'u' }, { "panel", no_argument, NULL, 'N' }, { "passes", required_argument, NULL, 'P' },  { "albedo-paint", required_argument, NULL, 'p' }, { 0 },
+        { "supersample", required_argument, NULL, 'u' }, { "panel", no_argument, NULL, 'N' },
+        { "albedo-paint-image", required_argument, NULL, 'I' }, { "passes", required_argument, NULL, 'P' },  { "albedo-paint", required_argument, NULL, 'p' }, { 0 },
     };
     int c;
     char *end;
@@ -193,6 +196,16 @@ static int parse_relight(int argc, char **argv, relight_args *a)
             break;
         case 'P': a->passes_dir = optarg; break;
         case 'N': a->panel = 1; break;
+        case 'I': {
+            const char *comma = strrchr(optarg, ',');
+            a->paint_keyframe = comma && comma[1] ? (int)strtol(comma + 1, &end, 10) : -1;
+            if (!comma || comma == optarg || *end || a->paint_keyframe < 0)
+                return bad_option("--albedo-paint-image", optarg, "PNG,KEYFRAME (an RGBA PNG of keyframe N's frame)");
+            static char png[4096];
+            snprintf(png, sizeof(png), "%.*s", (int)(comma - optarg), optarg);
+            a->paint_image = png;
+            break;
+        }
         case 'u':
             a->supersample = (int)strtol(optarg, &end, 10);
             if (end == optarg || *end || a->supersample < 1 || a->supersample > 4)
@@ -898,6 +911,27 @@ int relight_tile(relight_ctx *c, uint8_t **rgba, int *W, int *H)
     return *rgba ? 0 : sp_cmd_fail("relight", ret ? ret : -ENOMEM, "--panel");
 }
 
+/* --albedo-paint-image: keyframe N's view at its frame's size, its depth, the paint projected; an exit code. */
+static int paint_from_image(relight_ctx *c)
+{
+    relight_args *keep = c->a, k = *keep;
+    k.keyframe = k.paint_keyframe, k.have_view = 1, k.have_orbit = 0, k.fov_deg = 0.0, k.width = k.height = 0;
+    k.scale = 0, k.camera_in = k.camera_out = NULL, k.supersample = 1, k.sky_turn = 0.0;
+    c->a = &k;
+    sp_face_view v;
+    int ret = set_view(c, &v);
+    float *depth = ret ? NULL : malloc(sizeof(float) * (size_t)v.width * (size_t)v.height);
+    v.supersample = 1;
+    sp_face_passes p = { .depth = depth };
+    if (!ret && (!depth || (ret = sp_face_asset_render_passes(&c->fa, &v, &p))))
+        ret = sp_cmd_fail("relight", depth ? ret : -ENOMEM, "--albedo-paint-image");
+    if (!ret)
+        ret = relight_paint_image(c, &v, depth, k.paint_image);
+    free(depth);
+    c->a = keep;
+    return ret;
+}
+
 static int run_relight(relight_ctx *c, sp_partial *pd)
 {
     const relight_args *a = c->a;
@@ -915,6 +949,8 @@ static int run_relight(relight_ctx *c, sp_partial *pd)
     if (ret)
         return sp_cmd_failf("relight", ret, "--passes %s", a->passes_dir);
     if ((ret = read_inputs(c)))
+        return ret;
+    if (a->paint_image && (ret = paint_from_image(c)))
         return ret;
     if (a->panel)
         return relight_panel(c);

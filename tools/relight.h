@@ -26,6 +26,8 @@ typedef struct relight_args {
     const char *background_file;        /* --background FILE */
     const char *passes_dir;             /* --passes DIR */
     const char *paint;                  /* --albedo-paint PNG */
+    const char *paint_image;            /* --albedo-paint-image PNG,KEYFRAME: the PNG ... */
+    int paint_keyframe;                 /* ... and the keyframe */
     double az, el, intensity, exposure, sun_size, env_rotate;
     fill_light fill[MAX_FILLS];
     int n_fill;
@@ -81,6 +83,11 @@ int relight_read_background_file(relight_ctx *c);
 void relight_composite(const relight_ctx *c, float *sum, const float *cover, int W, int H, double exposure);
 /* c->a's picture as RGBA in the output's encoding (*rgba malloc'd, *W x *H); 0 or an exit code. */
 int relight_tile(relight_ctx *c, uint8_t **rgba, int *W, int *H);
+/*
+ * --albedo-paint-image: the RGBA PNG at path, painted over keyframe N's frame (view v at the frame's size,
+ * depth its per-pixel z), laid over the albedo texels that view sees; 0 or an exit code (message printed).
+ */
+int relight_paint_image(relight_ctx *c, const sp_face_view *v, const float *depth, const char *path);
 /* --panel: the figure of relight_panel.c into c->a->out; an exit code. */
 int relight_panel(relight_ctx *c);
 /* --albedo-paint: the RGBA PNG composited over c->fa.albedo; 0 or an exit code (message printed). */

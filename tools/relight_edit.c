@@ -224,29 +224,38 @@ int relight_read_background_file(relight_ctx *c)
  * --albedo-paint PNG: an RGBA picture in the albedo's UV layout (albedo.png's: row 0 = top, v = 1; any
  * size, sampled bilinearly at each texel's centre), its colour sRGB, alpha straight, laid over the albedo.
  */
-int relight_paint(relight_ctx *c)
+/* An RGBA PNG that must carry alpha (option opt names it in messages); 0 or an exit code (message printed). */
+static int read_paint(const char *opt, const char *path, uint8_t **rgba, uint32_t *w, uint32_t *h)
 {
-    const char *path = c->a->paint;
     void *buf = NULL;
     size_t size = 0;
-    uint8_t *rgba = NULL;
-    uint32_t w = 0, h = 0;
     int ret = sp_read_whole_file(path, 512u << 20, &buf, &size), alpha = 0;
     if (!ret && (alpha = sp_png_has_alpha(buf, size)) < 0)
         ret = alpha;
     if (!ret && !alpha) {
-        fprintf(stderr, "sunprobe relight: --albedo-paint %s: the PNG has no alpha channel (paint is RGBA: alpha 0 "
-                        "keeps the albedo)\n", path);
+        fprintf(stderr, "sunprobe relight: %s %s: the PNG has no alpha channel (paint is RGBA: alpha 0 keeps the "
+                        "albedo)\n", opt, path);
         free(buf);
         return SP_EXIT_BAD_INPUT;
     }
     if (!ret)
-        ret = sp_png_decode_rgba(buf, size, &rgba, &w, &h);
+        ret = sp_png_decode_rgba(buf, size, rgba, w, h);
     free(buf);
     if (ret) {
-        fprintf(stderr, "sunprobe relight: --albedo-paint %s: %s\n", path, sp_strerror(ret));
+        fprintf(stderr, "sunprobe relight: %s %s: %s\n", opt, path, sp_strerror(ret));
         return sp_exit_for_error(ret == -ENOENT ? SP_EFORMAT : ret);
     }
+    return 0;
+}
+
+int relight_paint(relight_ctx *c)
+{
+    const char *path = c->a->paint;
+    uint8_t *rgba = NULL;
+    uint32_t w = 0, h = 0;
+    int ret = read_paint("--albedo-paint", path, &rgba, &w, &h);
+    if (ret)
+        return ret;
     float lut[256];
     for (int i = 0; i < 256; i++)
         lut[i] = (float)sp_srgb_decode(i / 255.0);
@@ -269,6 +278,85 @@ int relight_paint(relight_ctx *c)
             for (int k = 0; k < 3; k++)
                 al[k] = (float)(p[k] + (1.0 - p[3]) * (double)al[k]);
         }
+    free(rgba);
+    return 0;
+}
+
+/* The albedo texel (x, y) painted with the sRGB RGBA pixel q (alpha straight). */
+static void paint_texel(sp_face_asset *fa, int x, int y, const uint8_t *q)
+{
+    float *al = fa->albedo + ((size_t)y * (size_t)fa->tex_width + (size_t)x) * 3;
+    double a = q[3] / 255.0;
+    for (int k = 0; k < 3; k++)
+        al[k] = (float)(a * sp_srgb_decode(q[k] / 255.0) + (1.0 - a) * (double)al[k]);
+}
+
+/* World point of barycentrics b on triangle t of the asset where view v puts it. */
+static void tri_point(const sp_face_asset *fa, const sp_face_view *v, uint32_t t, const double b[3], double w[3])
+{
+    const double *M = v->asset_to_world;
+    w[0] = w[1] = w[2] = 0.0;
+    for (int i = 0; i < 3; i++) {
+        const float *p = fa->mesh.positions + (size_t)fa->mesh.tri_vertices[t * 3 + (uint32_t)i] * 3;
+        for (int k = 0; k < 3; k++)
+            w[k] += b[i] * (M[k * 4] * (double)p[0] + M[k * 4 + 1] * (double)p[1] + M[k * 4 + 2] * (double)p[2] +
+                            M[k * 4 + 3]);
+    }
+}
+
+/* Triangle t's texels seen in view v (depth: its per-pixel z) take the paint's pixel they project to. */
+static void project_triangle(sp_face_asset *fa, const sp_face_view *v, const float *depth, const uint8_t *rgba,
+                             uint32_t t)
+{
+    double u[3], s[3];
+    for (int i = 0; i < 3; i++) { /* texel coordinates, centres at integers; row 0 is v = 1 */
+        const float *uv = fa->mesh.uvs + (size_t)fa->mesh.tri_uvs[t * 3 + (uint32_t)i] * 2;
+        u[i] = (double)uv[0] * fa->tex_width - 0.5;
+        s[i] = (1.0 - (double)uv[1]) * fa->tex_height - 0.5;
+    }
+    double area = (u[1] - u[0]) * (s[2] - s[0]) - (u[2] - u[0]) * (s[1] - s[0]);
+    if (!(fabs(area) > 1e-12))
+        return;
+    int x0 = (int)fmax(0.0, ceil(fmin(u[0], fmin(u[1], u[2])))), x1 = (int)fmin(fa->tex_width - 1, floor(fmax(u[0], fmax(u[1], u[2]))));
+    int y0 = (int)fmax(0.0, ceil(fmin(s[0], fmin(s[1], s[2])))), y1 = (int)fmin(fa->tex_height - 1, floor(fmax(s[0], fmax(s[1], s[2]))));
+    const sp_render_camera *cam = &v->camera;
+    for (int y = y0; y <= y1; y++)
+        for (int x = x0; x <= x1; x++) {
+            double b1 = ((x - u[0]) * (s[2] - s[0]) - (u[2] - u[0]) * (y - s[0])) / area;
+            double b2 = ((u[1] - u[0]) * (y - s[0]) - (x - u[0]) * (s[1] - s[0])) / area;
+            double b[3] = { 1.0 - b1 - b2, b1, b2 }, w[3], q[3];
+            if (b[0] < 0.0 || b1 < 0.0 || b2 < 0.0)
+                continue;
+            tri_point(fa, v, t, b, w);
+            for (int k = 0; k < 3; k++)
+                q[k] = cam->R[k * 3] * w[0] + cam->R[k * 3 + 1] * w[1] + cam->R[k * 3 + 2] * w[2] + cam->t[k];
+            if (!(q[2] > 1e-6))
+                continue;
+            long px = lround(cam->fx * q[0] / q[2] + cam->cx), py = lround(cam->fy * q[1] / q[2] + cam->cy);
+            if (px < 0 || py < 0 || px >= v->width || py >= v->height)
+                continue;
+            size_t i = (size_t)py * (size_t)v->width + (size_t)px;
+            /* seen: the nearest surface at that pixel, within 5 mm (a pixel's footprint on a face at arm's length) */
+            if (depth[i] > 0.0f && fabs(q[2] - (double)depth[i]) < 0.005)
+                paint_texel(fa, x, y, rgba + i * 4);
+        }
+}
+
+int relight_paint_image(relight_ctx *c, const sp_face_view *v, const float *depth, const char *path)
+{
+    uint8_t *rgba = NULL;
+    uint32_t w = 0, h = 0;
+    int ret = read_paint("--albedo-paint-image", path, &rgba, &w, &h);
+    if (ret)
+        return ret;
+    if (w != (uint32_t)v->width || h != (uint32_t)v->height) {
+        fprintf(stderr, "sunprobe relight: --albedo-paint-image %s is %ux%u: keyframe %d's frame is %dx%d\n", path, w,
+                h, c->a->paint_keyframe, v->width, v->height);
+        free(rgba);
+        return SP_EXIT_BAD_INPUT;
+    }
+    for (uint32_t t = 0; t < c->fa.mesh.n_triangles; t++)
+        project_triangle(&c->fa, v, depth, rgba, t);
     free(rgba);
     return 0;
 }

@@ -274,6 +274,7 @@ typedef struct sp_face_passes {
     float *albedo;     /* RGB albedo as sampled */
     float *mask;       /* face coverage as sp_face_asset_render's mask, width * height */
     float *coverage;   /* the whole head's coverage, width * height */
+    float *depth;      /* camera-space z (metres) of each pixel's central sample, 0 where it misses the head */
 } sp_face_passes;
 /* Renders view v into the buffers p names; -EINVAL when p names none, else as sp_face_asset_render. */
 SP_API int sp_face_asset_render_passes(const sp_face_asset *asset, const sp_face_view *v, const sp_face_passes *p);

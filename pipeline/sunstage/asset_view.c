@@ -107,7 +107,7 @@ static int render_view(const sp_face_asset *a, const sp_face_view *v, float *rgb
     const sp_face_passes none = { 0 };
     const sp_face_passes *p = ps ? ps : &none;
     int decomposed = p->diffuse || p->specular || p->ambient || p->visibility || p->normal || p->albedo;
-    if (!a || !v || !(rgb || p->radiance || p->mask || p->coverage || decomposed) || !a->mesh.n_vertices || v->width < 1 || v->height < 1 || v->width > 8192 ||
+    if (!a || !v || !(rgb || p->radiance || p->mask || p->coverage || p->depth || decomposed) || !a->mesh.n_vertices || v->width < 1 || v->height < 1 || v->width > 8192 ||
         v->height > 8192 || v->supersample < 1 || v->supersample > 4 || !(v->camera.fx > 0.0) ||
         !(v->camera.fy > 0.0) || !finite_n(v->asset_to_world, 12) || !finite_n(v->env_to_world, 9) ||
         !finite_n(v->camera.R, 9) || !finite_n(v->camera.t, 3) || !(v->sun_intensity >= 0.0) ||
@@ -171,6 +171,11 @@ static int render_view(const sp_face_asset *a, const sp_face_view *v, float *rgb
     copy_out(p->normal, o.normal, 3 * npx);
     copy_out(p->albedo, o.albedo, 3 * npx);
     copy_out(p->coverage, o.coverage, npx);
+    int ss = o.sample_width / o.width;
+    for (int y = 0; p->depth && y < o.height; y++) /* the sample nearest the pixel's centre */
+        for (int x = 0; x < o.width; x++)
+            p->depth[(size_t)y * (size_t)o.width + (size_t)x] =
+                o.depth[(size_t)(y * ss + ss / 2) * (size_t)o.sample_width + (size_t)(x * ss + ss / 2)];
     if (p->mask)
         face_coverage(&o, &a->mesh, v->vertex_mask, p->mask);
 done:

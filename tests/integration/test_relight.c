@@ -299,6 +299,52 @@ static void check_paint(void)
     free(r);
 }
 
+/*
+ * --albedo-paint-image: transparent paint over keyframe 0's frame changes nothing; a blue stripe down the
+ * middle of the frame turns the face blue there in the same view and nowhere in the left quarter; a picture
+ * of another size, or without alpha, is refused with no file.
+ */
+static void check_paint_image(void)
+{
+    uint32_t w = 0, h = 0, w1 = 0, h1 = 0, w2 = 0, h2 = 0;
+    uint8_t *def = relight_png("", "pi-def.png", &w, &h);
+    if (!def) {
+        CHECK_MSG(0, "default render");
+        return;
+    }
+    static const uint8_t clear[4] = { 0, 0, 255, 0 }, red[4] = { 255, 0, 0, 255 };
+    char *p0 = in_dir("pi-clear.png"), *p1 = in_dir("pi-stripe.png"), *p2 = in_dir("pi-small.png"), opts[800];
+    uint8_t *stripe = malloc((size_t)w * h * 4);
+    for (size_t i = 0; stripe && i < (size_t)w * h; i++) {
+        uint32_t x = (uint32_t)(i % w);
+        uint8_t px[4] = { 0, 0, 255, (uint8_t)(x >= w / 2 - w / 16 && x < w / 2 + w / 16 ? 255 : 0) };
+        memcpy(stripe + i * 4, px, 4);
+    }
+    CHECK(stripe && write_png_fill(p0, (int)w, (int)h, 4, clear) == 0 &&
+          sp_png_write(p1, stripe, w, h, w * 4, 4) == 0 && write_png_fill(p2, 16, 16, 4, red) == 0);
+    snprintf(opts, sizeof(opts), "--albedo-paint-image %s,0", p0);
+    uint8_t *c = relight_png(opts, "pi-0.png", &w1, &h1);
+    CHECK_MSG(c && w1 == w && h1 == h && !memcmp(c, def, (size_t)w * h * 4), "transparent image paint changed the render");
+    snprintf(opts, sizeof(opts), "--albedo-paint-image %s,0", p1);
+    uint8_t *b = relight_png(opts, "pi-1.png", &w2, &h2);
+    int bluer = 0, left = 0;
+    for (size_t i = 0; b && w2 == w && h2 == h && i < (size_t)w * h; i++) {
+        uint32_t x = (uint32_t)(i % w);
+        if (def[i * 4 + 3] == 255 && x >= w / 2 - w / 32 && x < w / 2 + w / 32)
+            bluer += b[i * 4 + 2] > def[i * 4 + 2] + 8 && b[i * 4] < def[i * 4];
+        if (x < w / 4)
+            left += memcmp(b + i * 4, def + i * 4, 4) != 0;
+    }
+    CHECK_MSG(b && bluer > 50 && left == 0, "a blue stripe: %d face pixels bluer, %d changed in the left quarter",
+              bluer, left);
+    char *out = in_dir("pi-bad.png");
+    CHECK(run("relight %s -o %s --albedo-paint-image %s,0", face, out, p2) == 2 && !exists(out) && said("16x16"));
+    free(def);
+    free(stripe);
+    free(c);
+    free(b);
+}
+
 /* A point fill of intensity 0 changes nothing; a white one only brightens, and brightens the head. */
 static void check_point_fill(void)
 {
@@ -517,6 +563,7 @@ int main(int argc, char **argv)
         check_background_file();
         check_paint();
         check_point_fill();
+        check_paint_image();
         check_panel();
         check_round_trip();
     }
