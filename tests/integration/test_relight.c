@@ -302,7 +302,7 @@ static void check_paint(void)
 /*
  * --albedo-paint-image: transparent paint over keyframe 0's frame changes nothing; a blue stripe down the
  * middle of the frame turns the face blue there in the same view and nowhere in the left quarter; a picture
- * of another size, or without alpha, is refused with no file.
+ * of another size is refused naming it, with no file.
  */
 static void check_paint_image(void)
 {
