@@ -326,3 +326,21 @@ int sp_png_read_rgba(const char *path, uint8_t **rgba, uint32_t *width, uint32_t
     free(buf);
     return ret;
 }
+
+int sp_png_has_alpha(const uint8_t *data, size_t size)
+{
+    static const uint8_t sig[8] = { 0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n' };
+    if (!data || size < 33 || memcmp(data, sig, 8) || memcmp(data + 12, "IHDR", 4))
+        return SP_EFORMAT;
+    if (data[25] == 4 || data[25] == 6) /* gray + alpha, RGBA */
+        return 1;
+    for (size_t p = 8; p + 12 <= size;) { /* a tRNS chunk before the image data gives the others alpha */
+        uint32_t len = get_be32(data + p);
+        if (!memcmp(data + p + 4, "tRNS", 4))
+            return 1;
+        if (!memcmp(data + p + 4, "IDAT", 4) || len > size - p - 12)
+            break;
+        p += 12 + (size_t)len;
+    }
+    return 0;
+}

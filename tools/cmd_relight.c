@@ -3,8 +3,12 @@
  * `sunprobe relight FACE_DIR -o OUT.png [light] [camera] [material]`: renders a fitted face
  * through sp_face_asset_render (the path `sunprobe evaluate` scores), from any fitted keyframe's
  * view, orbited about the head and dolly-zoomed, under the fitted or a new sun, with the
- * specular scaled; an RGBA PNG in the capture's encoding, transparent off the head.
+ * specular and the albedo edited; an RGBA PNG in the capture's encoding, transparent off the head or over
+ * a background, or linear OpenEXR / PFM; the light's passes on request.
  */
+#include "relight.h"
+
+#include <dirent.h>
 #include <errno.h>
 #include <getopt.h>
 #include <math.h>
@@ -13,24 +17,13 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "capture_open.h"
 #include "cmd.h"
-#include "common/pixconv.h"
-#include "common/rigid.h"
 #include "common/file_util.h"
-#include "common/json.h"
-#include "export/oiio_shim.h"
-#include "export/png.h"
+#include "common/rigid.h"
 #include "sp_config.h"
-#include "sunprobe/sp_capture.h"
-#include "sunprobe/sp_face_model.h"
 #include "sunprobe/sp_math.h"
-#include "sunprobe/sp_render.h"
-#include "sunprobe/sp_sunstage.h"
 
 #define MAX_SIZE 8192
-#define MAX_FILLS 8
-#define AREA_SUN_SAMPLES 24 /* directions over an area sun's disk */
 #define FILM_HALF_WIDTH_MM 18.0 /* --focal is the 35 mm equivalent: a 36 mm wide frame */
 
 /* Names for --specular-scale NAME=S, in cluster order (FACE_MODEL.md). */
@@ -38,21 +31,6 @@ static const char *const cluster_names[SP_RENDER_CLUSTERS] = { "forehead",  "nos
                                                                "chin",      "lips",      "left-eye",   "right-eye",
                                                                "jaw-neck",  "other" };
 
-typedef struct fill_light {
-    double az, el, intensity, rgb[3];
-} fill_light;
-
-typedef struct relight_args {
-    const char *dir, *out, *env, *capture;
-    int background_keyframe, have_view; /* --background capture:N (-1: none) */
-    double az, el, intensity, exposure, sun_size, env_rotate;
-    fill_light fill[MAX_FILLS];
-    int n_fill;
-    int have_sun, scale, keyframe, width, height, have_orbit;
-    double orbit_az, orbit_el, fov_deg, focal_mm;
-    double spec_scale[SP_RENDER_CLUSTERS];
-    const char *camera_in, *camera_out; /* --camera FILE, --save-camera FILE */
-} relight_args;
 
 static void relight_usage(FILE *out)
 {
@@ -66,6 +44,8 @@ static void relight_usage(FILE *out)
             "  --intensity I      sun irradiance (default: the fitted one, 3 if the fit had no sun)\n"
             "  --sun-size DEG     the sun's angular diameter: soft shadows and highlights (default 0: a point)\n"
             "  --fill dir,AZ,EL,I[,R,G,B]  a directional fill light with its own shadow (repeatable, 8)\n"
+            "  --fill point,AZ,EL,I[,R,G,B]  a point light 1 m from the head's centre that way, I its\n"
+            "                     irradiance at 1 m (falling off as 1/d^2), with its own shadow\n"
             "  --env FILE         the sky: an equirectangular image (OpenEXR, Radiance .hdr, PFM, ... through\n"
             "                     OpenImageIO; z up, row 0 straight up, u = azimuth / 360 from world +x\n"
             "                     towards +y, linear), or a raw 16x32x3 float32 .f32 as env.f32; default: fitted\n"
@@ -83,6 +63,9 @@ static void relight_usage(FILE *out)
             "                     options above\n"
             "  --save-camera FILE write the camera this render used, in that format\n"
             "background (default: transparent):\n"
+            "  --background FILE  the head over a picture (PNG; with OpenImageIO also .exr/.hdr/.pfm, linear, and\n"
+            "                     others as sRGB), stretched to the output; the output takes its size unless\n"
+            "                     --size, --scale or --camera set one\n"
             "  --background capture:N  composited into keyframe N's own frame of --capture FILE.spcap (the\n"
             "                     view becomes keyframe N's unless --view is given), through the face mask\n"
             "                     with a feathered edge: an edit that reads as the photograph\n"
@@ -91,7 +74,20 @@ static void relight_usage(FILE *out)
             "material:\n"
             "  --specular-scale S         every cluster's specular times S\n"
             "  --specular-scale NAME=S    one cluster: forehead, nose, left-cheek, right-cheek, chin,\n"
-            "                             lips, left-eye, right-eye, jaw-neck, other (repeatable)\n");
+            "                             lips, left-eye, right-eye, jaw-neck, other (repeatable)\n"
+            "  --albedo-paint PNG         RGBA paint in the albedo's UV layout (FACE_DIR/albedo.png's), sRGB,\n"
+            "                             laid over the albedo by its alpha (a PNG without alpha is refused)\n"
+            "  --albedo-paint-image PNG,N RGBA paint over keyframe N's frame (its size), projected onto the\n"
+            "                             texels that view sees\n"
+            "output:\n"
+            "  -o OUT             .png (capture encoding, RGBA), .exr (linear RGBA, OpenImageIO) or .pfm (linear RGB)\n"
+            "  --supersample N    N x N samples per pixel, 1..4 (default 2)\n"
+            "  --panel            one labelled figure instead (thesis Fig. 4.2): the input frame (with --capture),\n"
+            "                     the reconstruction, a soft sun, a fill light, sky and sun turned 180 deg,\n"
+            "                     two novel views, 24 and 135 mm, shinier skin; from this view and light\n"
+            "  --passes DIR       also the light's parts, linear: beauty, diffuse, specular, ambient, visibility,\n"
+            "                     normal, albedo, alpha, face (PFM, and OpenEXR where built; DIR/passes.json\n"
+            "                     lists them)\n");
 }
 
 static int parse_size(const char *s, int *w, int *h)
@@ -152,7 +148,9 @@ static int parse_relight(int argc, char **argv, relight_args *a)
         { "specular-scale", required_argument, NULL, 'k' }, { "sun-size", required_argument, NULL, 'a' },
         { "fill", required_argument, NULL, 'l' }, { "env-rotate", required_argument, NULL, 'r' },
         { "background", required_argument, NULL, 'g' }, { "capture", required_argument, NULL, 'c' },
-        { "camera", required_argument, NULL, 'C' },  { "save-camera", required_argument, NULL, 'W' }, { 0 },
+        { "camera", required_argument, NULL, 'C' },  { "save-camera", required_argument, NULL, 'W' },
+        { "supersample", required_argument, NULL, 'u' }, { "panel", no_argument, NULL, 'N' },
+        { "albedo-paint-image", required_argument, NULL, 'I' }, { "passes", required_argument, NULL, 'P' },  { "albedo-paint", required_argument, NULL, 'p' }, { 0 },
     };
     int c;
     char *end;
@@ -189,10 +187,31 @@ static int parse_relight(int argc, char **argv, relight_args *a)
             a->have_view = 1;
             break;
         case 'g':
-            if (strncmp(optarg, "capture:", 8) || !optarg[8] ||
-                (a->background_keyframe = (int)strtol(optarg + 8, &end, 10)) < 0 || *end)
-                return bad_option("--background", optarg, "capture:N with N >= 0 (and --capture FILE)");
+            if (strncmp(optarg, "capture:", 8)) {
+                a->background_file = optarg;
+                break;
+            }
+            if (!optarg[8] || (a->background_keyframe = (int)strtol(optarg + 8, &end, 10)) < 0 || *end)
+                return bad_option("--background", optarg, "capture:N with N >= 0 (and --capture FILE), or FILE");
             break;
+        case 'P': a->passes_dir = optarg; break;
+        case 'N': a->panel = 1; break;
+        case 'I': {
+            const char *comma = strrchr(optarg, ',');
+            a->paint_keyframe = comma && comma[1] ? (int)strtol(comma + 1, &end, 10) : -1;
+            if (!comma || comma == optarg || *end || a->paint_keyframe < 0)
+                return bad_option("--albedo-paint-image", optarg, "PNG,KEYFRAME (an RGBA PNG of keyframe N's frame)");
+            static char png[4096];
+            snprintf(png, sizeof(png), "%.*s", (int)(comma - optarg), optarg);
+            a->paint_image = png;
+            break;
+        }
+        case 'u':
+            a->supersample = (int)strtol(optarg, &end, 10);
+            if (end == optarg || *end || a->supersample < 1 || a->supersample > 4)
+                return bad_option("--supersample", optarg, "an integer 1..4");
+            break;
+        case 'p': a->paint = optarg; break;
         case 'c': a->capture = optarg; break;
         case 'C': a->camera_in = optarg; break;
         case 'W': a->camera_out = optarg; break;
@@ -234,17 +253,19 @@ static int parse_relight(int argc, char **argv, relight_args *a)
         case 'l': {
             fill_light *f = &a->fill[a->n_fill];
             f->rgb[0] = f->rgb[1] = f->rgb[2] = 1.0;
-            int got = a->n_fill < MAX_FILLS ? sscanf(optarg, "dir,%lf,%lf,%lf,%lf,%lf,%lf", &f->az, &f->el,
-                                                     &f->intensity, &f->rgb[0], &f->rgb[1], &f->rgb[2])
-                                            : 0;
+            f->point = !strncmp(optarg, "point,", 6);
+            const char *vals = f->point ? optarg + 6 : (!strncmp(optarg, "dir,", 4) ? optarg + 4 : NULL);
+            int got = a->n_fill < MAX_FILLS && vals ? sscanf(vals, "%lf,%lf,%lf,%lf,%lf,%lf", &f->az, &f->el,
+                                                             &f->intensity, &f->rgb[0], &f->rgb[1], &f->rgb[2])
+                                                    : 0;
             int ok = (got == 3 || got == 6) && fabs(f->az) <= 720.0 && f->el >= -90.0 && f->el <= 90.0 &&
                      f->intensity >= 0.0 && f->intensity <= 1e6;
             for (int k = 0; ok && k < 3; k++)
                 ok = f->rgb[k] >= 0.0 && f->rgb[k] <= 1e3;
             if (!ok)
                 return bad_option("--fill", optarg,
-                                  "dir,AZ,EL,INTENSITY[,R,G,B] (degrees, intensity in [0, 1e6], at most 8 fills; "
-                                  "point lights are not built yet)");
+                                  "dir|point,AZ,EL,INTENSITY[,R,G,B] (degrees, intensity in [0, 1e6], at most 8 "
+                                  "fills)");
             a->n_fill++;
             break;
         }
@@ -255,6 +276,11 @@ static int parse_relight(int argc, char **argv, relight_args *a)
         fprintf(stderr, "sunprobe relight: --background capture:%d needs --capture FILE.spcap\n", a->background_keyframe);
         return -1;
     }
+    if (a->background_keyframe >= 0 && a->background_file) {
+        fprintf(stderr, "sunprobe relight: one --background: capture:%d or %s\n", a->background_keyframe,
+                a->background_file);
+        return -1;
+    }
     if (a->background_keyframe >= 0 && !a->have_view)
         a->keyframe = a->background_keyframe;
     if (a->camera_in && (a->have_view || a->have_orbit || a->fov_deg > 0.0 || a->width || a->scale ||
@@ -263,121 +289,17 @@ static int parse_relight(int argc, char **argv, relight_args *a)
                         "--fov, --focal, --size, --scale or --background\n");
         return -1;
     }
+    if (a->panel && (a->camera_in || a->passes_dir || a->background_keyframe >= 0 || a->background_file ||
+                     !relight_ends_with(a->out, ".png"))) {
+        fprintf(stderr, "sunprobe relight: --panel writes one PNG figure of its own views: it does not combine with "
+                        "--camera, --passes or --background, and -o must end in .png\n");
+        return -1;
+    }
     if (optind != argc - 1 || !a->out) {
         fprintf(stderr, "sunprobe relight: expected FACE_DIR and -o OUT.png (see --help)\n");
         return -1;
     }
     a->dir = argv[optind];
-    return 0;
-}
-
-static int ends_with(const char *s, const char *tail)
-{
-    size_t n = strlen(s), m = strlen(tail);
-    return n >= m && !strcmp(s + n - m, tail);
-}
-
-static int read_raw_env(const char *path, float *env)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        int e = errno;
-        fprintf(stderr, "sunprobe relight: --env %s: %s\n", path, strerror(e));
-        return -e;
-    }
-    size_t n = fread(env, sizeof(float), SP_RENDER_ENV_FLOATS, f);
-    int extra = fgetc(f) != EOF;
-    fclose(f);
-    if (n != SP_RENDER_ENV_FLOATS || extra) {
-        fprintf(stderr, "sunprobe relight: --env %s: a raw map is 16x32x3 float32 (6144 bytes)\n", path);
-        return SP_EFORMAT;
-    }
-    return 0;
-}
-
-/*
- * An equirectangular image (w x h, z up, row 0 straight up, u = azimuth / 2 pi from +x towards +y)
- * into the renderer's 16 x 32 map, turned by rot radians of azimuth: each texel the solid-angle
- * weighted mean of the pixels whose centres fall in it, or for a map coarser than that the pixel at
- * the texel's centre.
- */
-static void resample_env(const float *px, uint32_t w, uint32_t h, double rot, float *env)
-{
-    double acc[SP_RENDER_ENV_FLOATS] = { 0 }, wsum[SP_RENDER_ENV_H * SP_RENDER_ENV_W] = { 0 };
-    for (uint32_t y = 0; y < h; y++) {
-        double theta = ((double)y + 0.5) / h * M_PI, sw = sin(theta);
-        int row = (int)(theta / M_PI * SP_RENDER_ENV_H);
-        row = row >= SP_RENDER_ENV_H ? SP_RENDER_ENV_H - 1 : row;
-        for (uint32_t x = 0; x < w; x++) {
-            double phi = fmod(((double)x + 0.5) / w * 2.0 * M_PI + rot, 2.0 * M_PI);
-            phi = phi < 0.0 ? phi + 2.0 * M_PI : phi;
-            int col = (int)(phi / (2.0 * M_PI) * SP_RENDER_ENV_W) % SP_RENDER_ENV_W;
-            size_t t = (size_t)row * SP_RENDER_ENV_W + (size_t)col;
-            for (int k = 0; k < 3; k++)
-                acc[t * 3 + (size_t)k] += sw * (double)px[((size_t)y * w + x) * 3 + (size_t)k];
-            wsum[t] += sw;
-        }
-    }
-    for (int row = 0; row < SP_RENDER_ENV_H; row++)
-        for (int col = 0; col < SP_RENDER_ENV_W; col++) {
-            size_t t = (size_t)row * SP_RENDER_ENV_W + (size_t)col;
-            if (wsum[t] > 0.0) {
-                for (int k = 0; k < 3; k++)
-                    env[t * 3 + (size_t)k] = (float)(acc[t * 3 + (size_t)k] / wsum[t]);
-                continue;
-            }
-            double phi = fmod(((double)col + 0.5) / SP_RENDER_ENV_W * 2.0 * M_PI - rot + 4.0 * M_PI, 2.0 * M_PI);
-            uint32_t x = (uint32_t)(phi / (2.0 * M_PI) * w) % w;
-            uint32_t y = (uint32_t)(((double)row + 0.5) / SP_RENDER_ENV_H * h);
-            y = y >= h ? h - 1 : y;
-            for (int k = 0; k < 3; k++)
-                env[t * 3 + (size_t)k] = px[((size_t)y * w + x) * 3 + (size_t)k];
-        }
-}
-
-/* --env: raw .f32 or an equirectangular image; refuses other aspects, negative and non-finite light. */
-static int read_env(const relight_args *a, float *env)
-{
-    int ret;
-    if (ends_with(a->env, ".f32")) {
-        if ((ret = read_raw_env(a->env, env)))
-            return ret;
-        if (a->env_rotate != 0.0) { /* a raw map is an equirectangular image too */
-            float raw[SP_RENDER_ENV_FLOATS];
-            memcpy(raw, env, sizeof(raw));
-            resample_env(raw, SP_RENDER_ENV_W, SP_RENDER_ENV_H, a->env_rotate * M_PI / 180.0, env);
-        }
-    } else {
-        if (access(a->env, R_OK) != 0) {
-            int e = errno;
-            fprintf(stderr, "sunprobe relight: --env %s: %s\n", a->env, strerror(e));
-            return -e;
-        }
-#if HAVE_OPENIMAGEIO
-        float *px = NULL;
-        uint32_t w = 0, h = 0;
-        if ((ret = sp_image_read_rgb(a->env, &px, &w, &h))) {
-            fprintf(stderr, "sunprobe relight: --env %s: not readable as an image: %s\n", a->env, sp_strerror(ret));
-            return ret;
-        }
-        if (w != 2 * h) {
-            fprintf(stderr, "sunprobe relight: --env %s is %ux%u: an equirectangular map is twice as wide as tall\n",
-                    a->env, w, h);
-            free(px);
-            return SP_EFORMAT;
-        }
-        resample_env(px, w, h, a->env_rotate * M_PI / 180.0, env);
-        free(px);
-#else
-        fprintf(stderr, "sunprobe relight: --env %s: this build reads only raw .f32 maps (no OpenImageIO)\n", a->env);
-        return SP_EDISABLED;
-#endif
-    }
-    for (int i = 0; i < SP_RENDER_ENV_FLOATS; i++)
-        if (!isfinite(env[i]) || env[i] < 0.0f) {
-            fprintf(stderr, "sunprobe relight: --env %s: a negative or non-finite radiance\n", a->env);
-            return SP_ECORRUPT;
-        }
     return 0;
 }
 
@@ -447,130 +369,6 @@ static void world_point(const sp_face_asset *fa, const sp_face_view *v, uint32_t
                v->asset_to_world[k * 4 + 2] * p[2] + v->asset_to_world[k * 4 + 3];
 }
 
-typedef struct relight_ctx {
-    const relight_args *a;
-    sp_face_asset fa;
-    sp_json *cams, *manifest;
-    int srgb;
-    uint8_t *bg;        /* --background: the frame, bg_w x bg_h RGB */
-    uint32_t bg_w, bg_h;
-    double bg_crop[2];  /* the fit's window origin in the frame (face-crop fits) */
-    sp_face_model model; /* for its face mask, when its topology is the asset's */
-    int have_model;
-} relight_ctx;
-
-/* Keyframe N's frame of --capture, decoded to RGB into c->bg; 0 or an exit code (message printed). */
-static int read_background(relight_ctx *c)
-{
-    const relight_args *a = c->a;
-    const sp_json *kf = sp_json_at(sp_json_get(c->cams, "frames"), (size_t)a->background_keyframe);
-    double seq = sp_json_number(sp_json_get(kf, "sequence"), -1.0);
-    if (!kf || !(seq >= 0.0)) {
-        fprintf(stderr, "sunprobe relight: --background capture:%d: %s/cameras.json has no such keyframe with a "
-                        "\"sequence\"\n", a->background_keyframe, a->dir);
-        return SP_EXIT_USAGE;
-    }
-    double crop[2];
-    if (sp_json_numbers(sp_json_get(kf, "crop_origin"), crop, 2) == 2)
-        memcpy(c->bg_crop, crop, sizeof(crop));
-    sp_capture_reader *r = NULL;
-    int ret = sp_tool_open_capture("relight", a->capture, 0, &r);
-    if (ret)
-        return ret;
-    sp_chunk ch;
-    int rc, found = 0;
-    while (!found && (rc = sp_capture_reader_next(r, &ch)) == 0) {
-        sp_frame_chunk fc;
-        if (ch.type != SP_CHUNK_FRAME || sp_chunk_parse_frame(&ch, &fc) || (double)fc.sequence != seq)
-            continue;
-        double ts = sp_json_number(sp_json_get(kf, "timestamp_ns"), NAN);
-        if (isfinite(ts) && fabs((double)ch.timestamp_ns - ts) > 1e3) {
-            fprintf(stderr, "sunprobe relight: %s: frame %.0f is at %lld ns, keyframe %d of %s at %.0f ns: not the "
-                            "fitted capture\n", a->capture, seq, (long long)ch.timestamp_ns, a->background_keyframe,
-                    a->dir, ts);
-            sp_capture_reader_close(&r);
-            return SP_EXIT_BAD_INPUT;
-        }
-        found = 1;
-        c->bg = malloc((size_t)fc.width * fc.height * 3);
-        sp_pixconv_src src = { fc.format, fc.width, fc.height, fc.stride, fc.data, fc.data_size };
-        rc = c->bg ? sp_pixconv_to_rgb24(&src, c->bg, (size_t)fc.width * fc.height * 3, fc.width * 3) : -ENOMEM;
-        c->bg_w = fc.width;
-        c->bg_h = fc.height;
-        if (rc) {
-            fprintf(stderr, "sunprobe relight: %s: frame %.0f: %s\n", a->capture, seq, sp_strerror(rc));
-            sp_capture_reader_close(&r);
-            return sp_exit_for_error(rc);
-        }
-    }
-    sp_capture_reader_close(&r);
-    if (!found) {
-        fprintf(stderr, "sunprobe relight: %s has no frame %.0f (keyframe %d of %s): not the fitted capture?\n",
-                a->capture, seq, a->background_keyframe, a->dir);
-        return SP_EXIT_BAD_INPUT;
-    }
-    return 0;
-}
-
-/* out = the (2R+1)-wide box mean of in along x (vertical 0) or y (1), clamped at the borders. */
-static void box_blur(const float *in, float *out, int W, int H, int R, int vertical)
-{
-    for (int y = 0; y < H; y++)
-        for (int x = 0; x < W; x++) {
-            double s = 0.0;
-            for (int d = -R; d <= R; d++) {
-                int xx = vertical ? x : (x + d < 0 ? 0 : (x + d >= W ? W - 1 : x + d));
-                int yy = vertical ? (y + d < 0 ? 0 : (y + d >= H ? H - 1 : y + d)) : y;
-                s += (double)in[(size_t)yy * (size_t)W + (size_t)xx];
-            }
-            out[(size_t)y * (size_t)W + (size_t)x] = (float)(s / (2 * R + 1));
-        }
-}
-
-/*
- * The face over the frame, in linear light: alpha is the face mask's coverage (the model's face_mask
- * vertices where the asset has the model's topology, else the whole mesh) eroded by the feather
- * radius and then box-blurred by it twice, so the edge fades inside the face instead of a halo.
- */
-static void composite(const relight_ctx *c, float *sum, const float *cover, int W, int H, double exposure)
-{
-    int R = (int)lround(fmax(1.0, W / 240.0)); /* 2 px at 480 wide */
-    size_t n = (size_t)W * (size_t)H;
-    float *al = malloc(sizeof(float) * n), *tmp = malloc(sizeof(float) * n);
-    if (!al || !tmp) {
-        free(al);
-        free(tmp);
-        return;
-    }
-    for (int y = 0; y < H; y++) /* erode: the minimum over the (2R+1)^2 box */
-        for (int x = 0; x < W; x++) {
-            float m = 1.0f;
-            for (int dy = -R; dy <= R; dy++)
-                for (int dx = -R; dx <= R; dx++) {
-                    int xx = x + dx, yy = y + dy;
-                    float v = xx < 0 || yy < 0 || xx >= W || yy >= H ? 0.0f : cover[(size_t)yy * (size_t)W + (size_t)xx];
-                    m = v < m ? v : m;
-                }
-            al[(size_t)y * (size_t)W + (size_t)x] = m;
-        }
-    for (int pass = 0; pass < 4; pass++) /* a separable box blur along x, y, x, y: a tent */
-        box_blur(pass % 2 ? tmp : al, pass % 2 ? al : tmp, W, H, R, pass % 2);
-    for (size_t i = 0; i < n; i++)
-        for (int k = 0; k < 3; k++) {
-            double b = c->bg[i * 3 + (size_t)k] / 255.0; /* the frame's own encoding back to linear light */
-            /* a "sunprobe" frame holds the fit's tone map: back through sRGB (clipped at 1, as a camera) */
-            double lin = sp_srgb_decode(c->srgb ? b : sp_sunstage_display_to_srgb(b));
-            sum[i * 3 + (size_t)k] = (float)((double)al[i] * (double)sum[i * 3 + (size_t)k] +
-                                             (1.0 - (double)al[i]) * lin / exposure);
-        }
-    free(al);
-    free(tmp);
-}
-
-/*
- * The view: keyframe N (the face placed in the world as it was then, that camera), then the orbit
- * about the head's centre and the dolly zoom, then the output size. Returns 0 or a message'd error.
- */
 /*
  * --camera FILE: {"width", "height", "fx", "fy", "cx", "cy", "camera_to_world": 4 rows of 4} in the face's
  * world (the one keyframe 0's camera is at the origin of; OpenCV camera axes: x right, y down, z forward).
@@ -669,6 +467,67 @@ static int save_camera(const relight_args *a, const sp_face_view *v)
     return 0;
 }
 
+/*
+ * What the fit observed of the model the asset was fitted with (the default one or the generic head): its
+ * face_mask skin and the eyeballs, per vertex (c->fit_mask); NULL when neither model has the asset's topology.
+ */
+static const uint8_t *face_mask_for(relight_ctx *c)
+{
+    for (int generic = 0; generic < 2 && !c->fit_mask; generic++) {
+        if ((c->have_model = (generic ? sp_face_model_generic(&c->model) : sp_face_model_load_default(&c->model)) == 0) &&
+            c->model.mesh.n_vertices == c->fa.mesh.n_vertices && (c->fit_mask = malloc(c->fa.mesh.n_vertices))) {
+            for (uint32_t i = 0; i < c->fa.mesh.n_vertices; i++)
+                c->fit_mask[i] = c->model.face_mask[i] || (c->model.part && c->model.part[i] == SP_FACE_PART_EYE);
+            return c->fit_mask;
+        }
+        if (c->have_model)
+            sp_face_model_free(&c->model);
+        c->have_model = 0;
+    }
+    return c->fit_mask;
+}
+
+/*
+ * Keyframe kf's face as the fit rendered it, into c->fa.mesh: the model (when one of this build has the
+ * asset's topology) with the fit's identity and scale and the keyframe's expression and pose, turned into
+ * the world by its camera. 1 when done, 0 when the rigidly moved asset must do (no such model or data).
+ */
+static int keyframe_mesh(relight_ctx *c, const sp_json *kf)
+{
+    const sp_face_model *m = face_mask_for(c) ? &c->model : NULL;
+    if (!m || !m->n_exp || !m->n_id)
+        return 0;
+    double *id = malloc(sizeof(double) * m->n_id), *ex = malloc(sizeof(double) * m->n_exp), q[4];
+    double *pos = malloc(sizeof(double) * 3 * m->mesh.n_vertices), R[9];
+    sp_face_params p;
+    sp_face_params_init(&p);
+    int ok = id && ex && pos &&
+             sp_json_numbers(sp_json_get(c->manifest, "identity"), id, m->n_id) == m->n_id &&
+             sp_json_numbers(sp_json_get(kf, "expression"), ex, m->n_exp) == m->n_exp &&
+             !sp_json_at(sp_json_get(c->manifest, "identity"), m->n_id) && /* not another model's longer basis */
+             !sp_json_at(sp_json_get(kf, "expression"), m->n_exp) &&
+             sp_json_numbers(sp_json_get(kf, "face_rotvec"), p.rotvec, 3) == 3 &&
+             sp_json_numbers(sp_json_get(kf, "face_t"), p.t, 3) == 3 &&
+             sp_json_numbers(sp_json_get(kf, "camera_to_world_wxyz"), q, 4) == 4;
+    p.id = id, p.exp = ex, p.s = sp_json_number(sp_json_get(c->manifest, "scale"), 1.0);
+    ok = ok && sp_face_model_eval(m, &p, pos) == 0;
+    if (ok) {
+        sp_quat_to_matrix(sp_quat_normalize((sp_quat){ q[0], q[1], q[2], q[3] }), R);
+        for (uint32_t i = 0; i < m->mesh.n_vertices; i++)
+            for (int r = 0; r < 3; r++)
+                c->fa.mesh.positions[(size_t)i * 3 + (size_t)r] =
+                    (float)(R[r * 3] * pos[i * 3] + R[r * 3 + 1] * pos[i * 3 + 1] + R[r * 3 + 2] * pos[i * 3 + 2]);
+    }
+    free(id);
+    free(ex);
+    free(pos);
+    return ok;
+}
+
+/*
+ * The view: keyframe N (the face placed in the world as it was then, that camera), then the orbit
+ * about the head's centre and the dolly zoom, then the output size. Returns 0 or a message'd error.
+ */
 static int set_view(relight_ctx *c, sp_face_view *v)
 {
     const relight_args *a = c->a;
@@ -683,10 +542,13 @@ static int set_view(relight_ctx *c, sp_face_view *v)
         return SP_EXIT_USAGE;
     }
     const sp_json *kf = sp_json_at(frames, (size_t)a->keyframe);
+    double expo = sp_json_number(sp_json_get(kf, "exposure"), 1.0); /* absent before the fit wrote it */
+    c->kf_exposure = expo > 0.0 && expo < 1e6 ? expo : 1.0;
     double ppp = sp_json_number(sp_json_get(kf, "capture_pixels_per_pixel"), 1.0);
     ppp = ppp >= 1.0 && ppp <= 64.0 ? ppp : 1.0;
     int fit_w = c->fa.width, fit_h = c->fa.height;
-    if (a->keyframe > 0) { /* the asset is placed as the first training keyframe: move it as keyframe N had it */
+    int evaluated = keyframe_mesh(c, kf); /* else the asset as the first training keyframe placed it, moved */
+    if (a->keyframe > 0) {
         const sp_json *ref = NULL;
         for (size_t i = 0; i < n_frames && !ref; i++) {
             const sp_json *held = sp_json_get(sp_json_at(frames, i), "heldout");
@@ -702,7 +564,7 @@ static int set_view(relight_ctx *c, sp_face_view *v)
             return SP_EXIT_BAD_INPUT;
         }
         pose inv0 = sp_rigid_inv(&p0), a2w = sp_rigid_mul(&pn, &inv0);
-        for (int i = 0; i < 3; i++) {
+        for (int i = 0; i < 3 && !evaluated; i++) { /* an evaluated mesh is already where keyframe N had it */
             for (int j = 0; j < 3; j++)
                 v->asset_to_world[i * 4 + j] = a2w.R[i * 3 + j];
             v->asset_to_world[i * 4 + 3] = a2w.t[i];
@@ -727,6 +589,7 @@ static int set_view(relight_ctx *c, sp_face_view *v)
         for (int k = 0; k < 3; k++)
             centre[k] += w[k] / (double)c->fa.mesh.n_vertices;
     }
+    memcpy(c->centre, centre, sizeof(centre));
     /* camera centre C = -R^T t and camera-to-world rotation R^T */
     double Rt[9], C[3];
     for (int i = 0; i < 3; i++)
@@ -759,7 +622,7 @@ static int set_view(relight_ctx *c, sp_face_view *v)
     /* output size and intrinsics: the keyframe's fit-resolution camera scaled up, square pixels kept */
     int W = a->width ? a->width : (a->scale ? fit_w * a->scale : (int)lround(fit_w * ppp));
     int H = a->width ? a->height : (a->scale ? fit_h * a->scale : (int)lround(fit_h * ppp));
-    if (c->bg) { /* the frame's size; the fit's window scaled into it and moved to its origin */
+    if (c->bg_is_capture) { /* the frame's size; the fit's window scaled into it and moved to its origin */
         W = (int)c->bg_w;
         H = (int)c->bg_h;
         v->camera.fx *= ppp;
@@ -820,136 +683,286 @@ static void set_light(relight_ctx *c, sp_face_view *v)
     } else {
         v->sun_intensity = fitted_sun ? (a->intensity > 0.0 ? a->intensity : c->fa.sun_intensity) : 0.0;
     }
-    v->exposure = a->exposure > 0.0 ? a->exposure : 1.0;
-    for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
-        c->fa.ks[k] *= a->spec_scale[k];
+    /* the keyframe's own exposure (keyframe 0's under --camera), so its view looks as its photograph did */
+    v->exposure = (a->exposure > 0.0 ? a->exposure : 1.0) * c->kf_exposure;
+    for (int k = 0; k < SP_RENDER_CLUSTERS; k++) /* from the fitted values, so views can be made again */
+        c->fa.ks[k] = c->ks_fitted[k] * a->spec_scale[k];
 }
 
-/* RGBA of linear light in the capture's encoding: sRGB (clipped) for an sRGB capture, else the fit's tone map. */
-static int write_rgba(const relight_ctx *c, const float *radiance, const float *cover, int W, int H, double exposure)
-{
-    size_t n = (size_t)W * (size_t)H;
-    uint8_t *px = malloc(n * 4);
-    if (!px)
-        return -ENOMEM;
-    for (size_t i = 0; i < n; i++) {
-        for (int k = 0; k < 3; k++) {
-            double x = exposure * (double)radiance[i * 3 + (size_t)k];
-            double d = c->srgb ? (x >= 1.0 ? 1.0 : (x > 0.0 ? sp_srgb_encode(x) : 0.0))
-                               : sp_sunstage_linear_to_display(x);
-            px[i * 4 + (size_t)k] = (uint8_t)lround(255.0 * fmin(1.0, fmax(0.0, d)));
-        }
-        px[i * 4 + 3] = (uint8_t)lround(255.0 * fmin(1.0, fmax(0.0, (double)cover[i])));
-    }
-    int ret = sp_png_write(c->a->out, px, (uint32_t)W, (uint32_t)H, (uint32_t)W * 4, 4);
-    free(px);
-    return ret;
-}
+/* The sums the lights are added into: the beauty always, every pass for --passes. */
+typedef struct light_sums {
+    float *sum[PASS_COUNT], *tmp[PASS_COUNT];
+    float *cover, *face; /* the head's and the face's coverage, from the base render */
+    int all;
+} light_sums;
 
-/* out += the view's radiance under v's light (scaled per channel by rgb, NULL = white); cover set if not NULL. */
-static int add_render(relight_ctx *c, const sp_face_view *v, const double *rgb, float *out, float *cover, float *tmp)
+enum render_kind { RENDER_BASE, RENDER_FILL };
+
+/*
+ * Adds one render of view v: the beauty and the diffuse and specular passes (scaled per channel by rgb,
+ * NULL = white); the sky's ambient, the normal, albedo, the sun's visibility (times w) and the coverages
+ * from the base render.
+ */
+static int add_render(relight_ctx *c, const sp_face_view *v, enum render_kind kind, double w, const double *rgb,
+                      light_sums *ls)
 {
     size_t n = (size_t)v->width * (size_t)v->height;
-    int ret = sp_face_asset_render_radiance(&c->fa, v, tmp, cover);
-    for (size_t i = 0; !ret && i < n * 3; i++)
-        out[i] += (float)((double)tmp[i] * (rgb ? rgb[i % 3] : 1.0));
+    float *const *t = ls->tmp;
+    sp_face_passes p = { .radiance = t[PASS_BEAUTY], .mask = kind == RENDER_BASE ? ls->face : NULL,
+                         .coverage = kind == RENDER_BASE ? ls->cover : NULL };
+    if (ls->all)
+        p.diffuse = t[PASS_DIFFUSE], p.specular = t[PASS_SPECULAR], p.ambient = t[PASS_AMBIENT],
+        p.visibility = t[PASS_VISIBILITY], p.normal = t[PASS_NORMAL], p.albedo = t[PASS_ALBEDO];
+    int ret = sp_face_asset_render_passes(&c->fa, v, &p);
+    for (int k = 0; !ret && k < (ls->all ? PASS_COUNT : 1); k++) {
+        int ch = relight_pass_channels(k);
+        float *s = ls->sum[k];
+        const float *x = k == PASS_ALPHA ? ls->cover : (k == PASS_FACE ? ls->face : t[k]);
+        int add = k <= PASS_SPECULAR, base_only = k == PASS_AMBIENT || k >= PASS_NORMAL;
+        if (k == PASS_VISIBILITY && kind == RENDER_BASE) {
+            for (size_t i = 0; i < n; i++)
+                s[i] += (float)(fabs(w) * (double)x[i]);
+        } else if (add || (base_only && kind == RENDER_BASE)) {
+            for (size_t i = 0; i < n * (size_t)ch; i++)
+                s[i] += (float)((double)x[i] * (rgb && ch == 3 ? rgb[i % 3] : 1.0));
+        }
+    }
     return ret;
 }
 
 /*
- * Light is additive: the sky with the sun (one render when the sun is a point), then an area sun as
- * AREA_SUN_SAMPLES point suns spread evenly (Fibonacci spiral) over its disk, each a share of its
- * irradiance and its own shadow, then every fill with its own shadow and colour; in linear light.
+ * Light is additive: the sky with the sun in one render (a sun disk of --sun-size is the renderer's soft
+ * sun: one shadow map, soft shadows and highlights), then every fill with its own shadow and colour, as a
+ * sun under a black sky; in linear light.
  */
-static int render_lights(relight_ctx *c, const sp_face_view *v0, float *sum, float *cover)
+static int render_lights(relight_ctx *c, const sp_face_view *v0, light_sums *ls)
 {
     const relight_args *a = c->a;
-    size_t n = (size_t)v0->width * (size_t)v0->height;
-    float *tmp = malloc(sizeof(float) * 3 * n), *dark = calloc(SP_RENDER_ENV_FLOATS, sizeof(float));
-    int ret = tmp && dark ? 0 : -ENOMEM;
-    memset(sum, 0, sizeof(float) * 3 * n);
+    float *dark = calloc(SP_RENDER_ENV_FLOATS, sizeof(float));
+    int ret = dark ? 0 : -ENOMEM;
     sp_face_view v = *v0;
-    int area = a->sun_size > 0.0 && v0->sun_intensity > 0.0;
-    if (area)
-        v.sun_intensity = 0.0;
+    v.sun_angular_radius = 0.5 * a->sun_size * M_PI / 180.0;
     if (!ret)
-        ret = add_render(c, &v, NULL, sum, cover, tmp);
+        ret = add_render(c, &v, RENDER_BASE, 1.0, NULL, ls);
     v.env = dark;
+    v.sun_angular_radius = 0.0;
     memcpy(v.env_to_world, (double[9]){ 1, 0, 0, 0, 1, 0, 0, 0, 1 }, sizeof(v.env_to_world));
-    if (area) {
-        const double *s = v0->sun_dir, r = 0.5 * a->sun_size * M_PI / 180.0;
-        double u[3] = { fabs(s[0]) < 0.9 ? 1.0 : 0.0, fabs(s[0]) < 0.9 ? 0.0 : 1.0, 0.0 }, w[3];
-        double t = u[0] * s[0] + u[1] * s[1] + u[2] * s[2];
-        for (int k = 0; k < 3; k++)
-            u[k] -= t * s[k];
-        double un = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-        for (int k = 0; k < 3; k++)
-            u[k] /= un;
-        w[0] = s[1] * u[2] - s[2] * u[1], w[1] = s[2] * u[0] - s[0] * u[2], w[2] = s[0] * u[1] - s[1] * u[0];
-        v.sun_intensity = v0->sun_intensity / AREA_SUN_SAMPLES;
-        for (int i = 0; !ret && i < AREA_SUN_SAMPLES; i++) {
-            /* equal-area rings of the spherical cap: cos of the angle uniform in [cos r, 1] */
-            double ct = 1.0 - (1.0 - cos(r)) * ((double)i + 0.5) / AREA_SUN_SAMPLES, st = sqrt(fmax(0.0, 1.0 - ct * ct));
-            double ph = (double)i * M_PI * (3.0 - sqrt(5.0));
-            for (int k = 0; k < 3; k++)
-                v.sun_dir[k] = ct * s[k] + st * (cos(ph) * u[k] + sin(ph) * w[k]);
-            ret = add_render(c, &v, NULL, sum, NULL, tmp);
-        }
-    }
     for (int f = 0; !ret && f < a->n_fill; f++) {
         if (!(a->fill[f].intensity > 0.0))
             continue; /* no light, nothing to add */
         sun_vector(a->fill[f].az, a->fill[f].el, v.sun_dir);
         v.sun_intensity = a->fill[f].intensity;
-        ret = add_render(c, &v, a->fill[f].rgb, sum, NULL, tmp);
+        v.sun_is_point = a->fill[f].point;
+        for (int k = 0; k < 3; k++) /* 1 m from the head's centre */
+            v.sun_position[k] = c->centre[k] + v.sun_dir[k];
+        ret = add_render(c, &v, RENDER_FILL, 0.0, a->fill[f].rgb, ls);
     }
-    free(tmp);
     free(dark);
     return ret;
 }
 
-static int run_relight(relight_ctx *c)
+static void free_sums(light_sums *ls)
 {
-    const relight_args *a = c->a;
+    for (int k = 0; k < PASS_COUNT; k++) {
+        free(ls->sum[k]);
+        free(ls->tmp[k]);
+    }
+    free(ls->cover);
+    free(ls->face);
+}
+
+/* ls (all set to 0 but .all) gets its buffers and every light of view v; 0 or a negative error. */
+static int render_sums(relight_ctx *c, const sp_face_view *v, light_sums *ls)
+{
+    size_t n = (size_t)v->width * (size_t)v->height;
+    int ret = 0;
+    for (int k = 0; k < (ls->all ? PASS_COUNT : 1) && !ret; k++) {
+        size_t m = n * (size_t)relight_pass_channels(k);
+        ls->sum[k] = calloc(m, sizeof(float));
+        ls->tmp[k] = malloc(sizeof(float) * m);
+        ret = ls->sum[k] && ls->tmp[k] ? 0 : -ENOMEM;
+    }
+    ls->cover = ret ? NULL : malloc(sizeof(float) * n);
+    ls->face = ret ? NULL : malloc(sizeof(float) * n);
+    return ls->cover && ls->face ? render_lights(c, v, ls) : -ENOMEM;
+}
+
+/* Renders every light of view v, composites and writes -o (and --passes into pd->path); 0 or an error. */
+static int render_and_write(relight_ctx *c, sp_face_view *v, const sp_partial *pd)
+{
+    size_t n = (size_t)v->width * (size_t)v->height;
+    light_sums ls = { .all = c->a->passes_dir != NULL };
+    int ret = render_sums(c, v, &ls);
+    if (!ret && ls.all)
+        ret = relight_write_passes(pd->path, ls.sum, v->width, v->height, v->exposure);
+    if (!ret && c->bg) {
+        relight_composite(c, ls.sum[PASS_BEAUTY], c->bg_is_capture ? ls.face : ls.cover, v->width, v->height,
+                          v->exposure);
+        for (size_t i = 0; i < n; i++)
+            ls.cover[i] = 1.0f; /* a photograph: opaque */
+    }
+    if (!ret)
+        ret = relight_write_image(c, ls.sum[PASS_BEAUTY], ls.cover, v->width, v->height, v->exposure);
+    free_sums(&ls);
+    return ret;
+}
+
+/* The face directory, its sky, edits and backgrounds read; 0 or an exit code (message printed). */
+static int read_inputs(relight_ctx *c)
+{
+    relight_args *a = c->a;
     int ret = sp_face_dir_read(&c->fa, a->dir);
     if (ret) {
         fprintf(stderr, "sunprobe relight: %s is not a readable face directory: %s\n", a->dir, sp_strerror(ret));
         return sp_exit_for_error(ret == -ENOENT ? SP_EFORMAT : ret);
     }
-    if (a->env && (ret = read_env(a, c->fa.env)))
+    memcpy(c->ks_fitted, c->fa.ks, sizeof(c->ks_fitted));
+    if (a->env && (ret = relight_read_env(a, c->fa.env)))
         return sp_exit_for_error(ret);
     if ((ret = load_json(a->dir, "cameras.json", &c->cams)) || (ret = load_json(a->dir, "manifest.json", &c->manifest)))
         return sp_cmd_fail("relight", ret, a->dir);
     const char *transfer = sp_json_string(sp_json_get(c->manifest, "capture_transfer"), NULL);
     c->srgb = transfer && !strcmp(transfer, "srgb");
-    if (a->background_keyframe >= 0 && (ret = read_background(c)))
+    if (a->paint && (ret = relight_paint(c)))
         return ret;
-    sp_face_view v;
-    if ((ret = set_view(c, &v)))
+    if (a->background_keyframe >= 0 && (ret = relight_read_background(c)))
         return ret;
-    if (a->camera_in && (ret = read_camera(a, &v)))
+    if (a->background_file && (ret = relight_read_background_file(c)))
         return ret;
-    if (a->camera_out && (ret = save_camera(a, &v)))
-        return ret;
-    set_light(c, &v);
-    if (c->bg && (c->have_model = sp_face_model_load_default(&c->model) == 0) &&
-        c->model.mesh.n_vertices == c->fa.mesh.n_vertices)
-        v.vertex_mask = c->model.face_mask;
-    size_t n = (size_t)v.width * (size_t)v.height;
-    float *sum = malloc(sizeof(float) * 3 * n), *cover = malloc(sizeof(float) * n);
-    ret = sum && cover ? render_lights(c, &v, sum, cover) : -ENOMEM;
-    if (!ret && c->bg) {
-        composite(c, sum, cover, v.width, v.height, v.exposure);
-        for (size_t i = 0; i < n; i++)
-            cover[i] = 1.0f; /* a photograph: opaque */
+    if (a->background_file)
+        c->srgb = 1; /* the picture's encoding, not the capture's */
+    if (a->background_file && !a->width && !a->scale && !a->camera_in) { /* the picture's size */
+        a->width = c->bg_w > MAX_SIZE ? MAX_SIZE : (int)c->bg_w;
+        a->height = c->bg_h > MAX_SIZE ? MAX_SIZE : (int)c->bg_h;
     }
-    if (!ret)
-        ret = write_rgba(c, sum, cover, v.width, v.height, v.exposure);
-    free(sum);
-    free(cover);
+    return 0;
+}
+
+/* 1 when --passes may go to dir: absent, empty, or an earlier passes directory (it holds passes.json). */
+static int passes_dir_usable(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return errno == ENOENT;
+    int entries = 0;
+    for (struct dirent *e; (e = readdir(d));)
+        entries += strcmp(e->d_name, ".") && strcmp(e->d_name, "..");
+    closedir(d);
+    char *marker = sp_path_join_alloc(dir, "passes.json");
+    int ours = marker && sp_is_regular_file(marker) == 1;
+    free(marker);
+    return !entries || ours;
+}
+
+/* The passes directory under its name; an older one is replaced only when it is a passes directory. */
+static int commit_passes(sp_partial *pd)
+{
+    char *final = strdup(pd->final_path ? pd->final_path : "");
+    char *old = final ? sp_path_join_alloc(final, "passes.json") : NULL;
+    int ret = sp_partial_dir_commit(pd, old && sp_is_regular_file(old) == 1 ? SP_PARTIAL_REPLACE : 0);
+    if (ret == -EEXIST)
+        fprintf(stderr, "sunprobe relight: --passes %s exists and is not a passes directory (no passes.json): not "
+                        "replaced\n", final);
+    else if (ret)
+        sp_cmd_failf("relight", ret, "--passes %s", final);
+    free(old);
+    free(final);
+    return ret == -EEXIST ? SP_EXIT_USAGE : (ret ? sp_exit_for_error(ret) : 0);
+}
+
+/* The view and light of c->a (and --save-camera written); 0 or an exit code (message printed). */
+static int make_view(relight_ctx *c, sp_face_view *v)
+{
+    const relight_args *a = c->a;
+    int ret = set_view(c, v);
+    if (!ret && a->camera_in)
+        ret = read_camera(a, v);
+    if (!ret && a->camera_out)
+        ret = save_camera(a, v);
     if (ret)
+        return ret;
+    set_light(c, v);
+    v->supersample = a->supersample ? a->supersample : v->supersample;
+    if (c->bg_is_capture || a->passes_dir)
+        v->vertex_mask = face_mask_for(c);
+    if (a->sky_turn != 0.0) { /* the panel's new light: the sky about the vertical */
+        double t = a->sky_turn * M_PI / 180.0;
+        double R[9] = { cos(t), -sin(t), 0, sin(t), cos(t), 0, 0, 0, 1 };
+        memcpy(v->env_to_world, R, sizeof(R));
+    }
+    return 0;
+}
+
+int relight_tile(relight_ctx *c, uint8_t **rgba, int *W, int *H)
+{
+    sp_face_view v;
+    int ret = make_view(c, &v);
+    if (ret)
+        return ret;
+    light_sums ls = { 0 };
+    size_t n = (size_t)v.width * (size_t)v.height;
+    ret = render_sums(c, &v, &ls);
+    *rgba = ret ? NULL : malloc(n * 4);
+    if (*rgba)
+        relight_encode(c, ls.sum[PASS_BEAUTY], ls.cover, n, v.exposure, *rgba);
+    free_sums(&ls);
+    *W = v.width;
+    *H = v.height;
+    return *rgba ? 0 : sp_cmd_fail("relight", ret ? ret : -ENOMEM, "--panel");
+}
+
+/* --albedo-paint-image: keyframe N's view at its frame's size, its depth, the paint projected; an exit code. */
+static int paint_from_image(relight_ctx *c)
+{
+    relight_args *keep = c->a, k = *keep;
+    k.keyframe = k.paint_keyframe, k.have_view = 1, k.have_orbit = 0, k.fov_deg = 0.0, k.width = k.height = 0;
+    k.scale = 0, k.camera_in = k.camera_out = NULL, k.supersample = 1, k.sky_turn = 0.0;
+    c->a = &k;
+    sp_face_view v;
+    int ret = set_view(c, &v);
+    float *depth = ret ? NULL : malloc(sizeof(float) * (size_t)v.width * (size_t)v.height);
+    v.supersample = 1;
+    sp_face_passes p = { .depth = depth };
+    if (!ret && (!depth || (ret = sp_face_asset_render_passes(&c->fa, &v, &p))))
+        ret = sp_cmd_fail("relight", depth ? ret : -ENOMEM, "--albedo-paint-image");
+    if (!ret)
+        ret = relight_paint_image(c, &v, depth, k.paint_image);
+    free(depth);
+    c->a = keep;
+    return ret;
+}
+
+static int run_relight(relight_ctx *c, sp_partial *pd)
+{
+    const relight_args *a = c->a;
+    if (relight_ends_with(a->out, ".exr") && !HAVE_OPENIMAGEIO) {
+        fprintf(stderr, "sunprobe relight: -o %s: OpenEXR needs OpenImageIO (-Dopenimageio=enabled); .pfm is linear "
+                        "too\n", a->out);
+        return SP_EXIT_DISABLED;
+    }
+    if (a->passes_dir && !passes_dir_usable(a->passes_dir)) {
+        fprintf(stderr, "sunprobe relight: --passes %s exists and is not an empty or passes directory (no "
+                        "passes.json): not replaced\n", a->passes_dir);
+        return SP_EXIT_USAGE;
+    }
+    int ret = a->passes_dir ? sp_partial_dir_open(pd, a->passes_dir) : 0;
+    if (ret)
+        return sp_cmd_failf("relight", ret, "--passes %s", a->passes_dir);
+    if ((ret = read_inputs(c)))
+        return ret;
+    if (a->paint_image && (ret = paint_from_image(c)))
+        return ret;
+    if (a->panel)
+        return relight_panel(c);
+    sp_face_view v;
+    if ((ret = make_view(c, &v)))
+        return ret;
+    if ((ret = render_and_write(c, &v, pd)))
         return sp_cmd_fail("relight", ret, a->out);
-    printf("relight: wrote %s (%dx%d)\n", a->out, v.width, v.height);
+    if (a->passes_dir && (ret = commit_passes(pd)))
+        return ret;
+    printf("relight: wrote %s (%dx%d)%s%s\n", a->out, v.width, v.height, a->passes_dir ? " and passes in " : "",
+           a->passes_dir ? a->passes_dir : "");
     return SP_EXIT_OK;
 }
 
@@ -962,11 +975,15 @@ int sp_cmd_relight(int argc, char **argv)
     if (p)
         return p > 0 ? SP_EXIT_OK : SP_EXIT_USAGE;
     relight_ctx c = { .a = &a };
-    int ret = run_relight(&c);
+    sp_partial pd = { 0 };
+    int ret = run_relight(&c, &pd);
+    sp_partial_dir_abort(&pd); /* nothing once committed */
     sp_face_asset_free(&c.fa);
     sp_json_free(c.cams);
     sp_json_free(c.manifest);
     free(c.bg);
+    free(c.bg_raw);
+    free(c.fit_mask);
     if (c.have_model)
         sp_face_model_free(&c.model);
     return ret;

@@ -132,6 +132,21 @@ typedef struct sp_render_scene {
     double sun_intensity;    /* white irradiance at normal incidence, >= 0 */
     double sun_angular_radius; /* radians; > 0 with sun_samples > 1 makes an area sun (forward only) */
     int sun_samples;         /* directions sampled over the sun disk (default 1) */
+    /*
+     * Radians, 0..pi/2 (default 0); > 0 makes the sun a disk of this angular radius in one pass (forward
+     * only; sun_samples > 1 takes precedence): soft shadows from one map (percentage-closer, the penumbra
+     * from the blocker's distance), diffuse wrapped over the terminator as the disk sets, and the
+     * Blinn-Phong lobe widened by the disk (1 / s' = 1 / s + r^2 / 16). RENDERER.md, "Soft sun".
+     */
+    double sun_soft_radius;
+    /*
+     * 1: the sun is a point light at sun_position (world, metres) instead (forward only): direction and
+     * sun_intensity / d^2 per surface point (sun_intensity = irradiance at 1 m), shadowed through the
+     * orthographic map along the light's direction to the centre of the shadow frame (RENDERER.md,
+     * "Point sun"). Default 0.
+     */
+    int sun_is_point;
+    double sun_position[3];
     double exposure;         /* linear scale before the tone map, >= 0 (default 1) */
     double background[3];    /* linear radiance of pixels no triangle covers (default 0) */
     /* Soft shadow test V = 1 - sigmoid(k (d_hit - b d_map)); depth units in RENDERER.md. */

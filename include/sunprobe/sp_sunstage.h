@@ -233,6 +233,9 @@ typedef struct sp_face_view {
                                   possibly times a uniform scale) */
     double sun_dir[3];         /* world, towards the sun */
     double sun_intensity;      /* 0: no sun, no cast shadows */
+    double sun_angular_radius; /* radians, 0..pi/2: > 0 a sun disk, soft shadows and highlights (sun_soft_radius) */
+    int sun_is_point;          /* 1: the sun is a point light at sun_position (world, metres), sun_intensity at 1 m */
+    double sun_position[3];
     const float *env;          /* SP_RENDER_ENV_FLOATS radiance in its own frame; NULL: the asset's (borrowed) */
     double env_to_world[9];    /* rotation (row-major) of the environment into the world */
     double exposure;           /* default 1 */
@@ -257,6 +260,25 @@ SP_API int sp_face_asset_render(const sp_face_asset *asset, const sp_face_view *
  */
 SP_API int sp_face_asset_render_radiance(const sp_face_asset *asset, const sp_face_view *v, float *radiance,
                                          float *mask);
+/*
+ * One render's decomposition, linear light before exposure, each per pixel and premultiplied by the
+ * head's coverage (0 off the head); every buffer caller-owned, NULL to skip it.
+ * radiance = diffuse + specular + ambient.
+ */
+typedef struct sp_face_passes {
+    float *radiance;   /* RGB, width * height * 3 */
+    float *diffuse;    /* RGB sun diffuse, shadowed */
+    float *specular;   /* RGB sun specular, shadowed */
+    float *ambient;    /* RGB sky (environment) diffuse */
+    float *visibility; /* sun visibility in [0, 1], width * height */
+    float *normal;     /* world shading normal xyz, width * height * 3 */
+    float *albedo;     /* RGB albedo as sampled */
+    float *mask;       /* face coverage as sp_face_asset_render's mask, width * height */
+    float *coverage;   /* the whole head's coverage, width * height */
+    float *depth;      /* camera-space z (metres) of each pixel's central sample, 0 where it misses the head */
+} sp_face_passes;
+/* Renders view v into the buffers p names; -EINVAL when p names none, else as sp_face_asset_render. */
+SP_API int sp_face_asset_render_passes(const sp_face_asset *asset, const sp_face_view *v, const sp_face_passes *p);
 /* The fit's tone map (the display encoding sp_face_asset_render returns) of linear light x >= 0. */
 SP_API double sp_sunstage_linear_to_display(double x);
 

@@ -207,6 +207,10 @@ static int validate_lighting(const sp_render_scene *sc)
         return bad("sun_intensity (finite, >= 0)");
     if (!(sc->sun_angular_radius >= 0.0 && sc->sun_angular_radius <= 0.5) || sc->sun_samples < 1)
         return bad("area sun (angular radius 0..0.5 rad, samples >= 1)");
+    if (!(sc->sun_soft_radius >= 0.0 && sc->sun_soft_radius <= 0.5 * M_PI))
+        return bad("soft sun (angular radius 0..pi/2 rad)");
+    if (sc->sun_is_point && !finite_n(sc->sun_position, 3))
+        return bad("sun_position (finite)");
     if (!isfinite(sc->exposure) || sc->exposure < 0.0 || !finite_n(sc->background, 3))
         return bad("exposure (finite, >= 0) or background");
     if (!isfinite(sc->shadow_k) || sc->shadow_k < 0.0 || !isfinite(sc->shadow_bias) || !(sc->shadow_bias > 0.0))
@@ -314,6 +318,13 @@ static void setup_frame(sp_renderer *r, const sp_render_scene *sc, int n_sun)
         x->s[k] = s < SP_RENDER_SHININESS_MIN ? SP_RENDER_SHININESS_MIN
                                               : (s > SP_RENDER_SHININESS_MAX ? SP_RENDER_SHININESS_MAX : s);
     }
+    if (n_sun == 1 && sc->sun_soft_radius > 0.0) { /* the soft sun (forward only) */
+        double rr = sc->sun_soft_radius;
+        x->soft_tan = tan(rr < 1.4 ? rr : 1.4); /* the penumbra is capped anyway; no tan(pi/2) */
+        x->soft_sin = sin(rr);
+        for (int k = 0; k < SP_RENDER_CLUSTERS; k++) /* the lobe seen through the disk: variances add */
+            x->s[k] = fmax(SP_RENDER_SHININESS_MIN, 1.0 / (1.0 / x->s[k] + rr * rr / 16.0));
+    }
 }
 
 /* The shadow map for direction l: NULL when off; the previous one for REUSE (unless force). */
@@ -329,6 +340,12 @@ const shadow_map *render_prepare_shadow(sp_renderer *r, const sp_render_scene *s
         rad = sc->shadow_radius;
     } else {
         shadow_bounds(r->geo.pd, sc->mesh->n_vertices, c, &rad);
+    }
+    double lp[3];
+    if (sc->sun_is_point) { /* towards the point light from the frame's centre (or along l if it is there) */
+        v3_sub(sc->sun_position, c, lp);
+        if (v3_normalize(lp, lp) > 1e-9)
+            l = lp;
     }
     shadow_frame_init(&r->sm.f, l, c, rad, sc->shadow_depth_offset, r->sm.n);
     shadow_map_render(&r->sm, r->geo.pd, sc->mesh);
@@ -420,7 +437,13 @@ static void shade_pass(sp_renderer *r, int flags, const double l[3], double I, c
                 accumulate_base(r, p, &rec, w);
             }
             if (flags & PASS_SUN) {
-                shade_sun(ctx, &rec, l, I, sm, r->sun_cache + s);
+                double lp[3], Ip = I;
+                if (ctx->sc->sun_is_point) { /* this point's own direction and falloff */
+                    v3_sub(ctx->sc->sun_position, rec.p, lp);
+                    double d = v3_normalize(lp, lp);
+                    Ip = d > 1e-6 ? I / (d * d) : 0.0;
+                }
+                shade_sun(ctx, &rec, ctx->sc->sun_is_point ? lp : l, Ip, sm, r->sun_cache + s);
                 accumulate_sun(r, p, &rec, w, w * wsun);
                 r->shadow_texel[s] = rec.shadow.texel;
             }
@@ -493,7 +516,7 @@ int render_begin(sp_renderer *r, const sp_render_scene *sc, int need_backward, i
     if (err)
         return err;
     *n_sun = sun_sample_count(r, sc);
-    if (need_backward && (*n_sun != 1 || sc->n_lights != 0)) {
+    if (need_backward && (*n_sun != 1 || sc->n_lights != 0 || sc->sun_soft_radius > 0.0 || sc->sun_is_point)) {
         sp_log(SP_LOG_ERROR, MODULE, "no gradients for an area sun or fill lights (forward only)");
         return SP_EUNSUPPORTED;
     }
@@ -511,7 +534,7 @@ void render_end(sp_renderer *r, const sp_render_scene *sc, int n_sun)
     r->last_nv = sc->mesh->n_vertices;
     r->last_nt = sc->mesh->n_triangles;
     r->have_render = 1;
-    r->backward_ok = n_sun == 1 && sc->n_lights == 0;
+    r->backward_ok = n_sun == 1 && sc->n_lights == 0 && !(sc->sun_soft_radius > 0.0) && !sc->sun_is_point;
 }
 
 int sp_render(sp_renderer *r, const sp_render_scene *sc, sp_render_outputs *out)

@@ -128,7 +128,12 @@ void shade_sun(const shade_ctx *ctx, shade_rec *rec, const double l[3], double I
     rec->shadow.texel = -1;
     rec->bl.P = 0.0;
     rec->bl.log_nh = 0.0;
-    if (sm) {
+    if (ctx->soft_sin > 0.0) { /* a soft sun: its disk sets gradually (C1 quadratic across |n.l| < sin r) */
+        double sr = ctx->soft_sin, c = rec->nl;
+        rec->nl = c >= sr ? c : (c > -sr ? (c + sr) * (c + sr) / (4.0 * sr) : 0.0);
+        if (sm)
+            rec->V = shadow_soft_eval(sm, ctx->shadow_k, ctx->shadow_b, rec->p, rec->n, ctx->soft_tan);
+    } else if (sm) {
         shadow_eval(sm, ctx->shadow_k, ctx->shadow_b, rec->p, &rec->shadow);
         rec->V = rec->shadow.V;
     }

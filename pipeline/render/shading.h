@@ -35,6 +35,7 @@ typedef struct shade_ctx {
     env_sh sh;
     const shadow_map *sm;   /* NULL: no shadows */
     double shadow_k, shadow_b;
+    double soft_tan, soft_sin; /* a soft sun's tan and sin of its angular radius; 0: a point sun */
     double ks[SP_RENDER_CLUSTERS], s[SP_RENDER_CLUSTERS];
     int s_clamped[SP_RENDER_CLUSTERS];
 } shade_ctx;

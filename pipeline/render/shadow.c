@@ -322,3 +322,74 @@ void shadow_eval_z_lanes(const shadow_map *m, double k, double b, int n, const d
         texel[i] = t;
     }
 }
+
+/* Map depth at map coordinates (x, y), bilinear, empty beyond the map. */
+static double depth_at(const shadow_map *m, double x, double y, double empty)
+{
+    int ix = ifloor(x), iy = ifloor(y);
+    double fx = x - (double)ix, fy = y - (double)iy;
+    double d00 = tap(m, ix, iy, empty), d10 = tap(m, ix + 1, iy, empty);
+    double d01 = tap(m, ix, iy + 1, empty), d11 = tap(m, ix + 1, iy + 1, empty);
+    return (1.0 - fy) * ((1.0 - fx) * d00 + fx * d10) + fy * ((1.0 - fx) * d01 + fx * d11);
+}
+
+/* SOFT_TAPS points of a Vogel spiral over the unit disk: radius sqrt((i + 0.5) / 16), i golden angles. */
+static const double soft_taps[SOFT_TAPS][2] = {
+    { 0.17677669529663689, 0 },
+    { -0.22577218793754808, 0.20682581839289904 },
+    { 0.034558052024559444, -0.3937711785291908 },
+    { 0.28457121982273492, 0.37117276415249095 },
+    { -0.52222318724428429, -0.092373928705133418 },
+    { 0.49469539152781705, -0.31468471459722952 },
+    { -0.16546592706317484, 0.61552500110159947 },
+    { -0.31556146793512924, -0.60759440415019161 },
+    { 0.68464216158370672, 0.25003021933756281 },
+    { -0.71225608622975578, 0.29400895841567593 },
+    { 0.34335449874552404, -0.73372862026174901 },
+    { 0.25373024091125462, 0.80893199024832541 },
+    { -0.7647458919689033, -0.44318587603474729 },
+    { 0.8971339835726424, -0.19723238962980169 },
+    { -0.54750690485416109, 0.77877223187336142 },
+    { -0.12648677292148833, -0.97608969683933655 },
+};
+
+double shadow_soft_eval(const shadow_map *m, double k, double b, const double p[3], const double nrm[3], double tan_r)
+{
+    double z, dz[3];
+    int32_t texel;
+    eval_z(m, k, b, p, &z, dz, &texel);
+    if (texel < 0)
+        return 1.0;
+    const shadow_frame *f = &m->f;
+    double q[3], empty = f->offset + SHADOW_EMPTY_DEPTH, half = 0.5 * (double)m->n, cap = (double)m->n / 8.0;
+    to_map(f, p, q);
+    /* the receiver's plane: depth (radii) per texel along x and y, so wide kernels do not shadow their own
+       surface; grazing planes clamped at 4x a 45-degree slope */
+    double nl = fmax(fabs(v3_dot(nrm, f->l)), 0.25), lim = 4.0 / half;
+    double gx = fmax(-lim, fmin(lim, v3_dot(nrm, f->e1) / (half * nl)));
+    double gy = fmax(-lim, fmin(lim, v3_dot(nrm, f->e2) / (half * nl)));
+    /* a per-texel turn of the pattern: noise, which supersampling averages, rather than bands */
+    uint32_t hsh = (uint32_t)ifloor(q[0]) * 73856093u ^ (uint32_t)ifloor(q[1]) * 19349663u;
+    double rot = (double)(hsh % 1024u) * (2.0 * 3.14159265358979323846 / 1024.0), cr = cos(rot), sr = sin(rot);
+    /* blockers: nearer than the receiver within the widest penumbra this depth allows (nearest depth offset - 1) */
+    double search = fmin((q[2] - (f->offset - 1.0)) * tan_r * half, cap), dsum = 0.0, nb = 0.0;
+    for (int i = 0; i < SOFT_TAPS; i++) { /* nearest texels: the mean depth need not be smooth */
+        double ox = (cr * soft_taps[i][0] - sr * soft_taps[i][1]) * search;
+        double oy = (sr * soft_taps[i][0] + cr * soft_taps[i][1]) * search;
+        double d = tap(m, ifloor(q[0] + ox + 0.5), ifloor(q[1] + oy + 0.5), empty);
+        if (b * d < q[2] + gx * ox + gy * oy) {
+            dsum += d;
+            nb += 1.0;
+        }
+    }
+    double w = nb > 0.0 ? fmin((q[2] - dsum / nb) * tan_r * half, cap) : 0.0;
+    if (!(w >= 0.5)) /* a penumbra under a texel (or none): the point sun's test */
+        return shadow_sigmoid(-z, NULL);
+    double v = 0.0;
+    for (int i = 0; i < SOFT_TAPS; i++) {
+        double ox = (cr * soft_taps[i][0] - sr * soft_taps[i][1]) * w;
+        double oy = (sr * soft_taps[i][0] + cr * soft_taps[i][1]) * w;
+        v += shadow_sigmoid(-k * (q[2] + gx * ox + gy * oy - b * depth_at(m, q[0] + ox, q[1] + oy, empty)), NULL);
+    }
+    return v / SOFT_TAPS;
+}

@@ -66,6 +66,15 @@ void shadow_eval_z(const shadow_map *m, double k, double b, const double p[3], d
  */
 void shadow_eval_z_lanes(const shadow_map *m, double k, double b, int n, const double *const p[3], const float *lit,
                          float *z, float *const dz[3], int32_t *texel);
+/*
+ * Visibility of a sun disk of angular radius atan(tan_r) at world point p with normal nrm (forward only):
+ * percentage-closer soft shadows. The mean depth of the blockers found over the widest penumbra gives the
+ * penumbra's width, (d_receiver - d_blocker) tan_r N / 2 texels (at most N / 8), and V is the mean of the
+ * soft test over SOFT_TAPS points of that disk against the receiver's own plane. A penumbra under half a
+ * texel, or no blocker, gives shadow_eval's V exactly.
+ */
+#define SOFT_TAPS 16
+double shadow_soft_eval(const shadow_map *m, double k, double b, const double p[3], const double nrm[3], double tan_r);
 /* sigmoid(x) = 1 / (1 + exp(-x)) via exp(-|x|), and its derivative; finite for any finite x. */
 double shadow_sigmoid(double x, double *deriv);
 

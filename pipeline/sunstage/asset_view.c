@@ -95,12 +95,23 @@ static void face_coverage(const sp_render_outputs *o, const sp_mesh *m, const ui
         }
 }
 
-static int render_view(const sp_face_asset *a, const sp_face_view *v, float *rgb, float *radiance, float *mask)
+/* out[i] = in[i] for n values when both are there. */
+static void copy_out(float *out, const float *in, size_t n)
 {
-    if (!a || !v || !(rgb || radiance) || !a->mesh.n_vertices || v->width < 1 || v->height < 1 || v->width > 8192 ||
+    if (out && in)
+        memcpy(out, in, sizeof(float) * n);
+}
+
+static int render_view(const sp_face_asset *a, const sp_face_view *v, float *rgb, const sp_face_passes *ps)
+{
+    const sp_face_passes none = { 0 };
+    const sp_face_passes *p = ps ? ps : &none;
+    int decomposed = p->diffuse || p->specular || p->ambient || p->visibility || p->normal || p->albedo;
+    if (!a || !v || !(rgb || p->radiance || p->mask || p->coverage || p->depth || decomposed) || !a->mesh.n_vertices || v->width < 1 || v->height < 1 || v->width > 8192 ||
         v->height > 8192 || v->supersample < 1 || v->supersample > 4 || !(v->camera.fx > 0.0) ||
         !(v->camera.fy > 0.0) || !finite_n(v->asset_to_world, 12) || !finite_n(v->env_to_world, 9) ||
-        !finite_n(v->camera.R, 9) || !finite_n(v->camera.t, 3) || !(v->sun_intensity >= 0.0))
+        !finite_n(v->camera.R, 9) || !finite_n(v->camera.t, 3) || !(v->sun_intensity >= 0.0) ||
+        !(v->sun_angular_radius >= 0.0 && v->sun_angular_radius <= 0.5 * M_PI) || !finite_n(v->sun_position, 3))
         return -EINVAL;
     size_t nv = a->mesh.n_vertices;
     float *pos = malloc(sizeof(float) * 3 * nv);
@@ -112,14 +123,15 @@ static int render_view(const sp_face_asset *a, const sp_face_view *v, float *rgb
     rs.width = v->width;
     rs.height = v->height;
     rs.supersample = v->supersample;
+    rs.skip_outputs = decomposed ? 0u : SP_RENDER_SKIP_DECOMPOSITION;
     if (!ret)
         ret = sp_renderer_open(&r, &rs);
     if (ret)
         goto done;
     const double *M = v->asset_to_world;
     for (size_t i = 0; i < nv; i++) {
-        const float *p = a->mesh.positions + i * 3;
-        double x[3] = { p[0], p[1], p[2] };
+        const float *q = a->mesh.positions + i * 3;
+        double x[3] = { q[0], q[1], q[2] };
         for (int k = 0; k < 3; k++)
             pos[i * 3 + (size_t)k] = (float)(M[k * 4] * x[0] + M[k * 4 + 1] * x[1] + M[k * 4 + 2] * x[2] + M[k * 4 + 3]);
     }
@@ -141,18 +153,31 @@ static int render_view(const sp_face_asset *a, const sp_face_view *v, float *rgb
     sc.env = env;
     memcpy(sc.sun_dir, v->sun_dir, sizeof(sc.sun_dir));
     sc.sun_intensity = v->sun_intensity;
+    sc.sun_soft_radius = v->sun_intensity > 0.0 ? v->sun_angular_radius : 0.0;
+    sc.sun_is_point = v->sun_is_point != 0;
+    memcpy(sc.sun_position, v->sun_position, sizeof(sc.sun_position));
     sc.shadow_mode = v->sun_intensity > 0.0 ? SP_RENDER_SHADOW_RENDER : SP_RENDER_SHADOW_OFF;
     sc.exposure = v->exposure > 0.0 ? v->exposure : 1.0;
     sp_render_outputs o;
     if ((ret = sp_render(r, &sc, &o)))
         goto done;
     size_t npx = (size_t)v->width * (size_t)v->height;
-    if (rgb)
-        memcpy(rgb, o.image, sizeof(float) * 3 * npx);
-    if (radiance)
-        memcpy(radiance, o.radiance, sizeof(float) * 3 * npx);
-    if (mask)
-        face_coverage(&o, &a->mesh, v->vertex_mask, mask);
+    copy_out(rgb, o.image, 3 * npx);
+    copy_out(p->radiance, o.radiance, 3 * npx);
+    copy_out(p->diffuse, o.diffuse, 3 * npx);
+    copy_out(p->specular, o.specular, 3 * npx);
+    copy_out(p->ambient, o.ambient, 3 * npx);
+    copy_out(p->visibility, o.visibility, npx);
+    copy_out(p->normal, o.normal, 3 * npx);
+    copy_out(p->albedo, o.albedo, 3 * npx);
+    copy_out(p->coverage, o.coverage, npx);
+    int ss = o.sample_width / o.width;
+    for (int y = 0; p->depth && y < o.height; y++) /* the sample nearest the pixel's centre */
+        for (int x = 0; x < o.width; x++)
+            p->depth[(size_t)y * (size_t)o.width + (size_t)x] =
+                o.depth[(size_t)(y * ss + ss / 2) * (size_t)o.sample_width + (size_t)(x * ss + ss / 2)];
+    if (p->mask)
+        face_coverage(&o, &a->mesh, v->vertex_mask, p->mask);
 done:
     sp_renderer_close(&r);
     free(pos);
@@ -162,10 +187,17 @@ done:
 
 int sp_face_asset_render(const sp_face_asset *a, const sp_face_view *v, float *rgb, float *mask)
 {
-    return rgb ? render_view(a, v, rgb, NULL, mask) : -EINVAL;
+    sp_face_passes p = { .mask = mask };
+    return rgb ? render_view(a, v, rgb, &p) : -EINVAL;
 }
 
 int sp_face_asset_render_radiance(const sp_face_asset *a, const sp_face_view *v, float *radiance, float *mask)
 {
-    return radiance ? render_view(a, v, NULL, radiance, mask) : -EINVAL;
+    sp_face_passes p = { .radiance = radiance, .mask = mask };
+    return radiance ? render_view(a, v, NULL, &p) : -EINVAL;
+}
+
+int sp_face_asset_render_passes(const sp_face_asset *a, const sp_face_view *v, const sp_face_passes *p)
+{
+    return p ? render_view(a, v, NULL, p) : -EINVAL;
 }

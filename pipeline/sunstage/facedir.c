@@ -116,6 +116,9 @@ static int write_cameras(const sp_sunstage *ss, const char *dir)
         sp_strbuf_json_numbers(&b, f.t, 3);
         sp_strbuf_printf(&b, ",\"expression\":");
         sp_strbuf_json_numbers(&b, f.exp, (int)ss->model->n_exp);
+        const ss_frame *sf = ss_nth_frame(ss, i); /* what the fit scaled this frame's light by */
+        sp_strbuf_printf(&b, ",\"exposure\":");
+        sp_strbuf_json_number(&b, sf ? sf->expo : 1.0);
         sp_strbuf_printf(&b, "}");
     }
     sp_strbuf_printf(&b, "\n]}\n");

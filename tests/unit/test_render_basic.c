@@ -80,6 +80,49 @@ static sp_mesh facing_quad(double half, int n)
     return m;
 }
 
+/* The scene of a quad m seen head-on from 1 m (40 deg field), one albedo alb (borrowed). */
+static void quad_scene(sp_render_scene *sc, const sp_mesh *m, const float *alb, int W, int H)
+{
+    sp_render_scene_defaults(sc);
+    front_camera(&sc->camera, 1.0, 40.0, W, H);
+    sc->mesh = m;
+    sc->albedo = (sp_render_texture){1, 1, alb};
+}
+
+/*
+ * A point sun h = 0.5 m in front of the quad with intensity I h^2 lights the point straight below it as the
+ * directional sun of I does (1/d^2 at normal incidence) and the rest less (cos / d^2); no gradients.
+ */
+static void test_point_sun(void)
+{
+    const int W = 33, H = 33;
+    sp_renderer *r = open_renderer(W, H, 1);
+    sp_mesh m = facing_quad(0.5, 2);
+    float alb[3] = { 0.5f, 0.4f, 0.3f };
+    sp_render_scene sc;
+    quad_scene(&sc, &m, alb, W, H);
+    sc.sun_dir[1] = -1.0, sc.sun_dir[2] = 0.0;
+    sc.sun_intensity = 2.0;
+    sp_render_outputs o;
+    CHECK_EQ_INT(sp_render(r, &sc, &o), 0);
+    double centre = (double)o.diffuse[(16 * W + 16) * 3], corner = (double)o.diffuse[0];
+    sc.sun_is_point = 1;
+    sc.sun_position[1] = -0.5;
+    sc.sun_intensity = 2.0 * 0.25;
+    CHECK_EQ_INT(sp_render(r, &sc, &o), 0);
+    CHECK_NEAR(o.diffuse[(16 * W + 16) * 3], centre, 1e-5 * centre);
+    CHECK_MSG((double)o.diffuse[0] < 0.9 * corner && o.diffuse[0] > 0.0f, "corner %g, directional %g",
+              (double)o.diffuse[0], corner);
+    static float dl[33 * 33 * 3];
+    sp_render_grads g;
+    memset(&g, 0, sizeof(g));
+    CHECK_EQ_INT(sp_render_backward(r, &sc, dl, &g), SP_EUNSUPPORTED);
+    sc.sun_position[0] = NAN;
+    CHECK(sp_render(r, &sc, &o) != 0);
+    sp_mesh_free(&m);
+    sp_renderer_close(&r);
+}
+
 static void test_flat_quad(void)
 {
     const int W = 33, H = 33;
@@ -90,10 +133,7 @@ static void test_flat_quad(void)
     for (int i = 0; i < SP_RENDER_ENV_FLOATS; i++)
         env[i] = 0.2f;
     sp_render_scene sc;
-    sp_render_scene_defaults(&sc);
-    front_camera(&sc.camera, 1.0, 40.0, W, H);
-    sc.mesh = &m;
-    sc.albedo = (sp_render_texture){1, 1, alb};
+    quad_scene(&sc, &m, alb, W, H);
     sc.env = env;
     sc.sun_dir[0] = 0, sc.sun_dir[1] = -3.0, sc.sun_dir[2] = 0; /* any length */
     sc.sun_intensity = 2.0;
@@ -255,6 +295,49 @@ static void count_shadow(const sp_render_scene *sc, const sp_render_outputs *o, 
         }
 }
 
+/*
+ * The soft sun (one shadow map, percentage-closer): a radius of 1e-9 is the point sun bit for bit; 0.08 rad
+ * softens the edge about as the 16-sample area sun does; pi/2 has no dark umbra left and, at 1e5 times the
+ * light, stays finite; only forward. sc renders the point sun, partial0 its partly lit pixels.
+ */
+static void test_soft_sun(sp_renderer *r, sp_render_scene *sc, sp_render_outputs *o, uint32_t n_plane, int partial0,
+                          sp_render_grads *g)
+{
+    const int W = o->width, H = o->height;
+    size_t n = (size_t)W * (size_t)H * 3;
+    float *point = malloc(sizeof(float) * n);
+    CHECK_EQ_INT(sp_render(r, sc, o), 0);
+    if (point)
+        memcpy(point, o->radiance, sizeof(float) * n);
+    sc->sun_soft_radius = 1e-9;
+    CHECK_EQ_INT(sp_render(r, sc, o), 0);
+    CHECK_MSG(point && !memcmp(point, o->radiance, sizeof(float) * n), "a soft sun of 1e-9 rad is not the point sun");
+    int in, out, partial, bad;
+    sc->sun_soft_radius = 0.08;
+    CHECK_EQ_INT(sp_render(r, sc, o), 0);
+    count_shadow(sc, o, n_plane, W, H, &in, &out, &partial, &bad);
+    printf("soft sun: partial %d (point sun %d)\n", partial, partial0);
+    CHECK(partial > partial0 + 20);
+    static float dl[64 * 64 * 3];
+    CHECK_EQ_INT(sp_render_backward(r, sc, dl, g), SP_EUNSUPPORTED);
+    sc->sun_soft_radius = 0.5 * PI;
+    sc->sun_intensity = 1e5;
+    CHECK_EQ_INT(sp_render(r, sc, o), 0);
+    float vmin = 1.0f;
+    int finite = 1;
+    for (size_t i = 0; i < n; i++)
+        finite &= isfinite(o->radiance[i]) && o->radiance[i] >= 0.0f;
+    for (int i = 0; i < W * H; i++)
+        if (o->coverage[i] > 0.999f && o->visibility)
+            vmin = o->visibility[i] < vmin ? o->visibility[i] : vmin;
+    CHECK_MSG(finite && vmin > 0.05f, "a 90-deg soft sun at 1e5: finite %d, darkest visibility %g", finite, (double)vmin);
+    sc->sun_soft_radius = 2.0;
+    CHECK(sp_render(r, sc, o) != 0); /* beyond pi/2 */
+    sc->sun_soft_radius = 0.0;
+    sc->sun_intensity = 2.0;
+    free(point);
+}
+
 static void test_cast_shadow(void)
 {
     const int W = 64, H = 64;
@@ -290,6 +373,9 @@ static void test_cast_shadow(void)
     sp_render_grads g;
     memset(&g, 0, sizeof(g));
     CHECK_EQ_INT(sp_render_backward(r, &sc, dl, &g), SP_EUNSUPPORTED);
+    sc.sun_angular_radius = 0.0;
+    sc.sun_samples = 1;
+    test_soft_sun(r, &sc, &o, n_plane, partial, &g);
     sp_mesh_free(&m);
     sp_renderer_close(&r);
 }
@@ -392,10 +478,7 @@ static void test_supersample_coverage(void)
     CHECK(testmesh_grid(&m, p0, eu, ev, 1, 1) == 0);
     float alb[3] = {0.5f, 0.5f, 0.5f};
     sp_render_scene sc;
-    sp_render_scene_defaults(&sc);
-    front_camera(&sc.camera, 1.0, 40.0, W, H);
-    sc.mesh = &m;
-    sc.albedo = (sp_render_texture){1, 1, alb};
+    quad_scene(&sc, &m, alb, W, H);
     sc.background[0] = sc.background[1] = sc.background[2] = 0.25;
     sc.exposure = 2.0;
     sp_render_outputs o;
@@ -420,10 +503,7 @@ static void test_fill_lights(void)
     sp_mesh m = facing_quad(0.5, 2);
     float alb[3] = {0.5f, 0.4f, 0.3f};
     sp_render_scene sc;
-    sp_render_scene_defaults(&sc);
-    front_camera(&sc.camera, 1.0, 40.0, W, H);
-    sc.mesh = &m;
-    sc.albedo = (sp_render_texture){1, 1, alb};
+    quad_scene(&sc, &m, alb, W, H);
     sc.n_lights = 2;
     sc.lights[0] = (sp_render_light){SP_RENDER_LIGHT_DIRECTIONAL, {0, -1, 0}, {1.0, 0.5, 0.25}};
     sc.lights[1] = (sp_render_light){SP_RENDER_LIGHT_POINT, {0, -0.5, 0}, {1.0, 1.0, 1.0}};
@@ -554,6 +634,7 @@ static void test_mesh_edited_in_place(void)
 int main(void)
 {
     test_flat_quad();
+    test_point_sun();
     test_sphere_cosine();
     test_cast_shadow();
     test_perspective_uv();

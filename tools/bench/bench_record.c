@@ -15,6 +15,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "bench_util.h"
 #include "common/clock.h"
 #include "sunprobe/sp_recorder.h"
 
@@ -22,18 +23,6 @@
 #define FRAMES 240
 #define W 1280
 #define H 720
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof(double), cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 static sp_camera *open_camera(const char *device, double fps, unsigned pool)
 {
@@ -131,7 +120,7 @@ static int throughput(const char *path)
         printf("  run %d: %llu frames in %.2f s = %.1f frames/s (%.0f MB/s); writer alone %.1f frames/s\n", i + 1,
                (unsigned long long)st.frames_written, secs, fps[i], fps[i] * W * H * 2 / 1e6, base[i]);
     }
-    double m = median(fps, RUNS), b = median(base, RUNS);
+    double m = bench_median(fps, RUNS), b = bench_median(base, RUNS);
     printf("record throughput 1280x720 yuyv: median %.1f frames/s (%.0f MB/s), %llu drops over %d runs; "
            "writer alone %.1f frames/s (ratio %.2f)\n", m, m * W * H * 2 / 1e6, (unsigned long long)dropped, RUNS,
            b, b > 0 ? m / b : 0.0);

@@ -31,6 +31,7 @@
 #include <unistd.h>
 #endif
 
+#include "bench_util.h"
 #include "common/clock.h"
 #include "pipeline/render/simd_kernels.h"
 #include "pipeline/render/testmesh.h"
@@ -39,14 +40,6 @@
 #define RUNS 10
 #define SIZE 224
 #define TEX 256
-
-/* Thread CPU time: the figure that matters when other jobs share the cores. */
-static int64_t cpu_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
-}
 
 /* User-space instruction counter of this thread, -1 where unavailable. */
 static int instr_open(void)
@@ -90,18 +83,6 @@ static int open_base_kernels(sp_renderer **r, const sp_renderer_settings *set)
         unsetenv("SP_RENDER_SIMD");
     free(saved);
     return err;
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof(double), cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 /* Smooth, deterministic textures: skin-like albedo, millimetre bumps, 10 cluster bands. */
@@ -180,18 +161,18 @@ int main(int argc, char **argv)
     int covered = 0, ifd = instr_open();
     for (int run = -1; run < RUNS; run++) { /* classic: render, then loss + adjoint */
         sp_render_outputs o;
-        int64_t t0 = sp_clock_monotonic_ns(), c0 = cpu_ns();
+        int64_t t0 = sp_clock_monotonic_ns(), c0 = bench_thread_cpu_ns();
         double i0 = instr_read(ifd);
         int err = mask ? sp_render(r, &sc, &o) : -1;
         double i1 = instr_read(ifd);
-        int64_t t1 = sp_clock_monotonic_ns(), c1 = cpu_ns();
+        int64_t t1 = sp_clock_monotonic_ns(), c1 = bench_thread_cpu_ns();
         if (!err)
             err = sp_render_l2_loss(o.image, target, o.coverage, SIZE, SIZE, &loss_classic, dl);
         double i2 = instr_read(ifd);
         if (!err)
             err = sp_render_backward(r, &sc, dl, &g);
         double i3 = instr_read(ifd);
-        int64_t t3 = sp_clock_monotonic_ns(), c3 = cpu_ns();
+        int64_t t3 = sp_clock_monotonic_ns(), c3 = bench_thread_cpu_ns();
         sp_render_grads_zero(&g, &sc);
         if (err) {
             fprintf(stderr, "bench_render: classic failed\n");
@@ -219,11 +200,11 @@ int main(int argc, char **argv)
     for (int run = -1; run < RUNS; run++)
         for (int k = 0; k < 2 + with_base; k++) {
             sp_render_outputs o;
-            int64_t t0 = sp_clock_monotonic_ns(), c0 = cpu_ns();
+            int64_t t0 = sp_clock_monotonic_ns(), c0 = bench_thread_cpu_ns();
             double i0 = instr_read(ifd);
             int err = sp_render_fit_l2(fits[k], &sc, target, mask, lf[k], &g, &o);
             double i1 = instr_read(ifd);
-            int64_t t1 = sp_clock_monotonic_ns(), c1 = cpu_ns();
+            int64_t t1 = sp_clock_monotonic_ns(), c1 = bench_thread_cpu_ns();
             sp_render_grads_zero(&g, &sc);
             if (err) {
                 fprintf(stderr, "bench_render: fit: %s\n", sp_strerror(err));
@@ -240,31 +221,31 @@ int main(int argc, char **argv)
     printf("classic = sp_render (all outputs) + sp_render_l2_loss + sp_render_backward; "
            "fit = fused sp_render_fit_l2\n");
     printf("classic median of %d (wall):       forward %.2f ms, backward %.2f ms, total %.2f ms\n", RUNS,
-           median(tf, RUNS), median(tb, RUNS), median(tt, RUNS));
-    double classic_cpu = median(ct, RUNS), fit_cpu = median(cfit, RUNS);
+           bench_median(tf, RUNS), bench_median(tb, RUNS), bench_median(tt, RUNS));
+    double classic_cpu = bench_median(ct, RUNS), fit_cpu = bench_median(cfit, RUNS);
     printf("classic median of %d (thread CPU): forward %.2f ms, backward %.2f ms, total %.2f ms\n", RUNS,
-           median(cf, RUNS), median(cb, RUNS), classic_cpu);
-    /* median() sorted the arrays: element 0 is the fastest run */
+           bench_median(cf, RUNS), bench_median(cb, RUNS), classic_cpu);
+    /* bench_median() sorted the arrays: element 0 is the fastest run */
     printf("classic fastest (thread CPU):      forward %.2f ms, backward %.2f ms, total %.2f ms\n", cf[0], cb[0],
            ct[0]);
-    printf("fit median of %d (wall):           total %.2f ms\n", RUNS, median(tfit, RUNS));
+    printf("fit median of %d (wall):           total %.2f ms\n", RUNS, bench_median(tfit, RUNS));
     printf("fit median of %d (thread CPU):     total %.2f ms (fastest %.2f ms)\n", RUNS, fit_cpu, cfit[0]);
     printf("ratio classic / fit (thread CPU median): %.2f\n", fit_cpu > 0.0 ? classic_cpu / fit_cpu : 0.0);
-    double ff_cpu = median(cfit_ff, RUNS);
-    printf("fit_float median of %d (wall):     total %.2f ms\n", RUNS, median(tfit_ff, RUNS));
+    double ff_cpu = bench_median(cfit_ff, RUNS);
+    printf("fit_float median of %d (wall):     total %.2f ms\n", RUNS, bench_median(tfit_ff, RUNS));
     printf("fit_float median of %d (thread CPU): total %.2f ms (fastest %.2f ms), ratio fit / fit_float %.2f "
            "(%s kernels)\n", RUNS, ff_cpu, cfit_ff[0], ff_cpu > 0.0 ? fit_cpu / ff_cpu : 0.0, kernels);
     if (with_base) {
-        double ffb_cpu = median(cfit_ffb, RUNS);
+        double ffb_cpu = bench_median(cfit_ffb, RUNS);
         printf("fit_float, base kernels (thread CPU): total %.2f ms (fastest %.2f ms), ratio base / %s %.2f\n",
                ffb_cpu, cfit_ffb[0], kernels, ff_cpu > 0.0 ? ffb_cpu / ff_cpu : 0.0);
     }
     if (ifd >= 0)
         printf("instructions (user, median): classic forward %.1f M, backward %.1f M, total %.1f M; fit %.1f M\n",
-               median(in_f, RUNS) * 1e-6, median(in_b, RUNS) * 1e-6,
-               (median(in_f, RUNS) + median(in_b, RUNS)) * 1e-6, median(in_fit, RUNS) * 1e-6);
+               bench_median(in_f, RUNS) * 1e-6, bench_median(in_b, RUNS) * 1e-6,
+               (bench_median(in_f, RUNS) + bench_median(in_b, RUNS)) * 1e-6, bench_median(in_fit, RUNS) * 1e-6);
     if (ifd >= 0)
-        printf("instructions (user, median): fit_float %.1f M\n", median(in_fit_ff, RUNS) * 1e-6);
+        printf("instructions (user, median): fit_float %.1f M\n", bench_median(in_fit_ff, RUNS) * 1e-6);
     else
         printf("instructions: perf counters unavailable here (try valgrind --tool=callgrind)\n");
     printf("loss classic %.17g, fit %.17g (%s)\n", loss_classic, loss_fit,
