@@ -4,6 +4,7 @@
 #define SUNPROBE_TOOLS_CMD_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "sunprobe/sp_common.h"
 
@@ -37,6 +38,10 @@ int sp_cmd_failf(const char *cmd, int err, const char *fmt, ...) SP_PRINTF(3, 4)
  */
 int sp_opt_int(const char *cmd, const char *opt, const char *s, int lo, int hi, int *out);
 int sp_opt_double(const char *cmd, const char *opt, const char *s, double lo, double hi, double *out);
+/* A count that may pass INT_MAX (frames, seeds): decimal digits only. */
+int sp_opt_u64(const char *cmd, const char *opt, const char *s, uint64_t lo, uint64_t hi, uint64_t *out);
+/* One of n names: *out is its index; else "expected a, b or c". */
+int sp_opt_choice(const char *cmd, const char *opt, const char *s, const char *const *names, int n, int *out);
 /*
  * s with its control characters (C0, DEL, C1) written as \xNN, into buf (n bytes; cut to fit): every
  * string a command prints from a file goes through it, so a crafted file cannot drive the terminal.
