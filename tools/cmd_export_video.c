@@ -401,6 +401,11 @@ static int run(exporter *e, sp_capture_reader *r, sp_progress *bar)
         if (ch.type == SP_CHUNK_FRAME && (rc = export_frame(e, &ch)) != 0)
             return sp_exit_for_error(rc);
         sp_progress_update(bar, ch.offset, NULL);
+        if (sp_cmd_stop_signal) {
+            fprintf(stderr, "sunprobe " CMD ": interrupted after %llu frames; nothing written\n",
+                    (unsigned long long)e->written);
+            return sp_cmd_stopped_code(SP_EXIT_OK);
+        }
         if (e->o->max_frames && e->written >= e->o->max_frames)
             return SP_EXIT_OK;
     }
@@ -432,6 +437,8 @@ int sp_cmd_export_video(int argc, char **argv)
     }
     sp_progress bar;
     sp_progress_start(&bar, CMD, sp_capture_reader_info(r)->file_size, o.quiet ? 0 : -1);
+    sp_cmd_signals sig; /* Ctrl-C ends the loop, and the failure path below removes what this run wrote */
+    sp_cmd_catch_signals(&sig);
     code = run(&e, r, &bar);
     sp_progress_finish(&bar);
     if (code == SP_EXIT_OK && e.written == 0) {
@@ -445,6 +452,7 @@ int sp_cmd_export_video(int argc, char **argv)
     }
     if (code != SP_EXIT_OK && !e.video) /* a failed export leaves no frames of its own, nor the directory it made */
         discard_frames(&e);
+    sp_cmd_restore_signals(&sig);
     if (code == SP_EXIT_OK && !o.quiet)
         printf("%s: %llu frames %ux%u\n", o.out, (unsigned long long)e.written, e.out_w, e.out_h);
     sp_capture_reader_close(&r);

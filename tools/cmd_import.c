@@ -13,13 +13,6 @@
 
 #define CMD "import"
 
-static volatile sig_atomic_t interrupted;
-
-static void on_signal(int sig)
-{
-    interrupted = sig; /* which one: the exit code is 128 + it, as for every command */
-}
-
 static void usage(FILE *out)
 {
     fprintf(out,
@@ -133,21 +126,18 @@ int sp_cmd_import(int argc, char **argv)
     sp_progress_start(&bar, "import", 0, quiet ? 0 : -1);
     s.progress = on_progress;
     s.progress_user = &bar;
-    s.cancel = &interrupted;
-    struct sigaction sa = { .sa_handler = on_signal }, old_int, old_term;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, &old_int);
-    sigaction(SIGTERM, &sa, &old_term);
+    s.cancel = &sp_cmd_stop_signal;
+    sp_cmd_signals sig;
+    sp_cmd_catch_signals(&sig);
 
     sp_import_report report;
     int rc = sp_import_run(&s, &report);
 
-    sigaction(SIGINT, &old_int, NULL);
-    sigaction(SIGTERM, &old_term, NULL);
+    sp_cmd_restore_signals(&sig);
     sp_progress_finish(&bar);
     if (rc) {
         fprintf(stderr, "sunprobe import: %s\n", report.message);
-        return rc == -ECANCELED && interrupted ? 128 + (int)interrupted : sp_exit_for_error(rc);
+        return rc == -ECANCELED ? sp_cmd_stopped_code(sp_exit_for_error(rc)) : sp_exit_for_error(rc);
     }
     if (!quiet)
         print_summary(&s, &report);

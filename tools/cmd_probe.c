@@ -287,14 +287,6 @@ static int check_output(const probe_args *a)
 
 /* ---- streaming ---- */
 
-/* The signal that asked us to stop (SIGINT, SIGTERM), 0 while none did: checked once per frame. */
-static volatile sig_atomic_t interrupted;
-
-static void on_signal(int sig)
-{
-    interrupted = sig;
-}
-
 typedef struct run_state {
     const probe_args *a;
     const char *dir;
@@ -391,7 +383,7 @@ static int run(probe_args *a, const capture_facts *facts, const char *dir)
     sp_run_settings run;
     sp_run_default_settings(&run);
     run.max_frames = a->max_frames;
-    run.stop = &interrupted;
+    run.stop = &sp_cmd_stop_signal;
     run.progress = a->quiet ? 0 : -1;
     run.progress_label = "probe";
     run.progress_total = a->max_frames && a->max_frames < facts->frames ? a->max_frames : facts->frames;
@@ -411,9 +403,9 @@ static int run(probe_args *a, const capture_facts *facts, const char *dir)
     if (rs.objects && fclose(rs.objects) && !rs.objects_err)
         rs.objects_err = sp_write_error();
     int code = SP_EXIT_OK;
-    if (interrupted) { /* a read cut short by the signal is no capture error */
+    if (sp_cmd_stop_signal) { /* a read cut short by the signal is no capture error */
         fprintf(stderr, "sunprobe probe: interrupted after %" PRIu64 " frames; nothing written\n", st.frames);
-        code = 128 + (int)interrupted;
+        code = sp_cmd_stopped_code(code);
     } else if (rs.objects_err) {
         code = sp_cmd_fail("probe", rs.objects_err, "writing objects.csv in the probe directory");
     } else if (ret == SP_ENODATA) {
@@ -466,15 +458,12 @@ int sp_cmd_probe(int argc, char **argv)
     if ((code = check_output(&a)))
         return code;
     /* from here on Ctrl-C ends the frame loop and the normal abort path removes the partial directory */
-    struct sigaction sa = { .sa_handler = on_signal }, old_int, old_term;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, &old_int);
-    sigaction(SIGTERM, &sa, &old_term);
+    sp_cmd_signals sig;
+    sp_cmd_catch_signals(&sig);
     sp_partial partial;
     int ret = sp_partial_dir_open(&partial, a.out);
     if (ret) {
-        sigaction(SIGINT, &old_int, NULL);
-        sigaction(SIGTERM, &old_term, NULL);
+        sp_cmd_restore_signals(&sig);
         return sp_cmd_fail("probe", ret, a.out);
     }
     char *report = sp_path_join_alloc(partial.path, "convergence");
@@ -485,13 +474,12 @@ int sp_cmd_probe(int argc, char **argv)
     code = report ? run(&a, &facts, partial.path) : sp_cmd_fail("probe", -ENOMEM, "report path");
     free(truth);
     free(report);
-    if (code == SP_EXIT_OK && interrupted) /* after the last frame: the final directory is left as it was */
-        code = 128 + (int)interrupted;
+    if (code == SP_EXIT_OK) /* a signal after the last frame: the final directory is left as it was */
+        code = sp_cmd_stopped_code(code);
     ret = code == SP_EXIT_OK ? sp_partial_dir_commit(&partial, a.force ? SP_PARTIAL_REPLACE : 0) : 0;
     if (ret)
         code = sp_cmd_fail("probe", ret, a.out);
     sp_partial_dir_abort(&partial); /* after a commit there is nothing left to remove */
-    sigaction(SIGINT, &old_int, NULL);
-    sigaction(SIGTERM, &old_term, NULL);
+    sp_cmd_restore_signals(&sig);
     return code;
 }

@@ -142,7 +142,10 @@ static int opt_camera(int c, const char *o, const char *v, sp_synth_selfie_setti
     case O_HEIGHT: return u32num(o, v, 16, 4096, &s->height);
     case O_FPS: return num(o, v, 0.1, 1000, &s->fps);
     case O_FOCAL: return num(o, v, 0.05, 20, &s->focal_ratio);
-    case O_FORMAT: bad = sp_opt_choice(CMD, o, v, formats, 3, &i); s->format = (enum sp_synth_frame_format)i; return bad;
+    case O_FORMAT:
+        bad = sp_opt_choice(CMD, o, v, formats, 3, &i);
+        s->format = (enum sp_synth_frame_format)i;
+        return bad;
     case O_JPEGQ: return inum(o, v, 1, 100, &s->jpeg_quality);
     case O_SHUTTER: return num(o, v, 0, 10, &s->shutter_s);
     case O_BLUR: return inum(o, v, 1, 64, &s->motion_blur_samples);
@@ -297,11 +300,23 @@ static int run(selfie_args *a)
         free(truth);
         return sp_cmd_fail("synth selfie", ret, "setting up the generator");
     }
+    sp_cmd_signals sig; /* Ctrl-C: the generator stops between frames and removes what it wrote */
+    sp_cmd_catch_signals(&sig);
     ret = sp_synth_selfie_write(g, a->out, truth, &rep);
+    sp_cmd_restore_signals(&sig);
     if (ret) {
         sp_synth_selfie_close(&g);
+        int code;
+        if (ret == -ECANCELED && sp_cmd_stop_signal) {
+            fprintf(stderr, "sunprobe " CMD ": interrupted; nothing written\n");
+            code = sp_cmd_stopped_code(SP_EXIT_INTERNAL);
+        } else if (ret == -EEXIST && truth)
+            code = sp_cmd_failf(CMD, ret, "%s is not empty and holds no truth.json: choose another --truth DIR",
+                                truth);
+        else
+            code = sp_cmd_fail(CMD, ret, a->out);
         free(truth);
-        return sp_cmd_fail("synth selfie", ret, a->out);
+        return code;
     }
     const sp_synth_selfie_truth *t = sp_synth_selfie_get_truth(g);
     printf("%s: synthetic selfie, %llu frames %ux%u at %.0f fps, %llu IMU samples, %llu bytes, face %s, %.2f s\n",
@@ -326,5 +341,6 @@ int sp_cmd_synth_selfie(int argc, char **argv)
     if (code)
         return code < 0 ? SP_EXIT_OK : code;
     a.s.imu.seed = a.s.seed; /* one seed for appearance, noise, sway and IMU noise */
+    a.s.cancel = &sp_cmd_stop_signal;
     return run(&a);
 }
