@@ -55,6 +55,7 @@ typedef struct sp_sunstage_counts {
     uint64_t accepted;  /* passed every check (then competed for a reservoir slot) */
     int keyframes, heldout; /* slots filled */
     uint64_t thinned_early; /* dropped by the orientation tagger while its filter initialised (sp_frame_tags) */
+    uint64_t skipped_undecodable; /* damaged image data (a warning names each frame) */
 } sp_sunstage_counts;
 
 /* Progress of the fit, passed to the callback (borrowed for the call). */
