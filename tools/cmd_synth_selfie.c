@@ -288,6 +288,20 @@ static int contact_sheet(sp_synth_selfie *g, const selfie_args *a)
     return ret;
 }
 
+/*
+ * The generator's memory follows its options alone (frame size times supersampling, shadow map, albedo),
+ * so running out means they asked for more than this machine has: the usage code, naming them.
+ */
+static int out_of_memory(const selfie_args *a, const char *when)
+{
+    fprintf(stderr,
+            "sunprobe " CMD ": out of memory %s: --width %u --height %u --supersample %d (renders %ux%u), "
+            "--shadow-size %d, --albedo-size %u ask for more than this machine has; lower them\n",
+            when, a->s.width, a->s.height, a->s.supersample, a->s.width * (unsigned)a->s.supersample,
+            a->s.height * (unsigned)a->s.supersample, a->s.shadow_size, a->s.albedo_height);
+    return SP_EXIT_USAGE;
+}
+
 static int run(selfie_args *a)
 {
     char *truth = NULL;
@@ -298,7 +312,8 @@ static int run(selfie_args *a)
     int ret = sp_synth_selfie_open(&g, &a->s);
     if (ret) {
         free(truth);
-        return sp_cmd_fail("synth selfie", ret, "setting up the generator");
+        return ret == -ENOMEM ? out_of_memory(a, "setting up the generator")
+                              : sp_cmd_fail("synth selfie", ret, "setting up the generator");
     }
     sp_cmd_signals sig; /* Ctrl-C: the generator stops between frames and removes what it wrote */
     sp_cmd_catch_signals(&sig);
@@ -310,6 +325,8 @@ static int run(selfie_args *a)
         if (ret == -ECANCELED && sp_cmd_stop_signal) {
             fprintf(stderr, "sunprobe " CMD ": interrupted; nothing written\n");
             code = sp_cmd_stopped_code(SP_EXIT_INTERNAL);
+        } else if (ret == -ENOMEM) {
+            code = out_of_memory(a, "rendering");
         } else if (ret == -EEXIST && truth)
             code = sp_cmd_failf(CMD, ret, "%s is not empty and holds no truth.json: choose another --truth DIR",
                                 truth);

@@ -130,6 +130,7 @@ SP_API int sp_sunstage_end_stream(sp_sunstage *ss);
  * Adds one keyframe directly (tests, other front ends): rgb is width * height * 3
  * display values in [0, 1] (borrowed, copied), landmarks 136 pixel coordinates
  * (borrowed), fx..cy intrinsics of that image. Bypasses the quality checks.
+ * -EINVAL for bad arguments, or when the settings' keyframes (heldout) slots are all used.
  */
 SP_API int sp_sunstage_add_keyframe(sp_sunstage *ss, const float *rgb, int width, int height,
                                     const double landmarks[136], double fx, double fy, double cx, double cy,

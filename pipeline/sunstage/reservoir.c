@@ -66,8 +66,8 @@ int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const double lm[136], 
                 slot = i;
                 break;
             }
-        if (slot < 0)
-            return -ENOSPC;
+        if (slot < 0) /* more than the settings asked for: the caller's error, not a full disk */
+            return -EINVAL;
     } else {
         held = Hn > 0 && seq % 7 == 3;
         slot = held ? K + (int)(u * Hn) : (int)(u * K);

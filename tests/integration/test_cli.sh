@@ -131,6 +131,16 @@ contains "$dir/err.txt" "--face 'nope': expected auto, generic or ict" "synth se
 [ -e "$dir/x.spcap" ] || [ -e "$dir/x" ] && { echo "FAIL: a refused option left an output"; fails=$((fails + 1)); }
 expect 1 "replay --speed ''" "$SP" replay "$cap" --speed ""
 contains "$dir/err.txt" "--speed '': expected a number" "replay option message"
+# synth selfie's memory follows its options: out of memory is the usage code naming them (it was 3, "I/O")
+if (ulimit -v 1000000 && "$SP" --version) >/dev/null 2>&1; then
+    expect 1 "synth selfie out of memory" bash -c 'ulimit -v 1000000; exec "$0" synth selfie -o "$1" --width 4096 \
+        --height 4096 --supersample 8' "$SP" "$dir/big.spcap"
+    contains "$dir/err.txt" "out of memory setting up the generator: --width 4096 --height 4096 --supersample 8" \
+        "synth selfie out-of-memory message"
+    ls "$dir" | grep -q "^big" && { echo "FAIL: synth selfie out of memory left an output"; fails=$((fails + 1)); }
+else
+    echo "note: SKIP the out-of-memory check: this build does not start under a 1 GB address-space limit (sanitizers)"
+fi
 # fit checks where it will write before it reads anything: the path in the message, nothing left behind
 expect 3 "fit into a missing directory" "$SP" fit "$cap" -o "$dir/no/such/face"
 contains "$dir/err.txt" "cannot create the face directory $dir/no/such/face" "fit output message"

@@ -291,6 +291,15 @@ static void test_bad_args(const sp_face_model *m)
     CHECK(sp_sunstage_open(&ss, &set, m) == 0);
     CHECK(sp_sunstage_fit(ss, NULL, NULL) == SP_ENODATA); /* nothing pushed */
     sp_sunstage_close(&ss);
+    /* one held-out keyframe too many: a bad argument (it said -ENOSPC, which commands report as a full disk) */
+    set.heldout = 1;
+    CHECK(sp_sunstage_open(&ss, &set, m) == 0);
+    static float rgb[32 * 32 * 3];
+    double lm[136] = { 0 };
+    const sp_quat q = { 1, 0, 0, 0 };
+    CHECK_EQ_INT(sp_sunstage_add_keyframe(ss, rgb, 32, 32, lm, 30, 30, 15.5, 15.5, q, 1), 0);
+    CHECK_EQ_INT(sp_sunstage_add_keyframe(ss, rgb, 32, 32, lm, 30, 30, 15.5, 15.5, q, 1), -EINVAL);
+    sp_sunstage_close(&ss);
     sp_sunstage_close(&ss); /* twice is fine */
     sp_sunstage_close(NULL);
 }
