@@ -187,6 +187,13 @@ static double video_fps(const exporter *e)
 
 static int open_video(exporter *e)
 {
+    /* OpenCV reports no errno: create the file first, so a read-only or full file system is named as such */
+    int fd = open(e->video_tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+    if (fd < 0 || close(fd) != 0) {
+        int rc = -errno;
+        fprintf(stderr, "sunprobe " CMD ": %s: cannot create the video: %s\n", e->o->out, sp_strerror(rc));
+        return rc;
+    }
     int rc = sp_cv_video_writer_open(&e->writer, e->video_tmp, e->out_w, e->out_h, video_fps(e));
     if (rc)
         fprintf(stderr, "sunprobe " CMD ": %s: OpenCV cannot create this video: %s\n", e->o->out, sp_strerror(rc));
