@@ -5,7 +5,7 @@
 # outputs stay byte for byte and nothing of the run is left (no .partial, .new.PID, .tmp.PID, no
 # half-written truth directory, no frames directory). Each run is far longer than the test waits.
 set -u
-SP=$1
+SP=$(cd "$(dirname "$1")" && pwd)/$(basename "$1") # the runs below start in another directory
 dir=$(mktemp -d "${TMPDIR:-/tmp}/sp-int-out.XXXXXX")
 trap 'kill "$pid" 2>/dev/null; rm -rf "$dir"' EXIT
 pid=
