@@ -108,7 +108,11 @@ expect 1 "synth street --sun-elevation 90" "$SP" synth street -o "$dir/x.spcap" 
 contains "$dir/err.txt" "--sun-elevation '90': expected a number from 5 to 85" "synth street option message"
 expect 1 "synth street --linger -1" "$SP" synth street -o "$dir/x.spcap" --linger -1
 expect 1 "probe --settle -1" "$SP" probe "$cap" -o "$dir/p" --settle -1
-contains "$dir/err.txt" "bad value for --settle \(0\.\.36000 s\): '-1'" "probe --settle message"
+contains "$dir/err.txt" "--settle '-1': expected a number from 0 to 36000" "probe --settle message"
+expect 1 "probe --samples 4" "$SP" probe "$cap" -o "$dir/p" --samples 4
+contains "$dir/err.txt" "--samples '4': expected an odd number" "probe --samples message"
+expect 1 "probe --detector cnn" "$SP" probe "$cap" -o "$dir/p" --detector cnn
+contains "$dir/err.txt" "--detector 'cnn': expected shape or hog" "probe --detector message"
 # import, export-video, record and synth selfie use the same parser (they said "bad value" or only the usage)
 expect 1 "import --quality 0" "$SP" import "$dir" -o "$dir/x.spcap" --quality 0
 contains "$dir/err.txt" "--quality '0': expected an integer from 1 to 100" "import option message"
