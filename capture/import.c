@@ -154,6 +154,39 @@ static int frame_from_rgb(import_ctx *c, const char *what, uint32_t w, uint32_t 
     return 0;
 }
 
+/*
+ * 1 when the file ends in EOI (some writers pad after it: the last KiB is searched). Entropy-coded data
+ * never holds FF D9 (0xFF is stuffed there); only the tail is searched, as an EXIF thumbnail has its own.
+ */
+static int has_eoi(const uint8_t *d, size_t n)
+{
+    for (size_t i = n; i >= 2 && n - i < 1024; i--)
+        if (d[i - 2] == 0xFF && d[i - 1] == 0xD9)
+            return 1;
+    return 0;
+}
+
+/*
+ * A JPEG stored as it is must decode later (export-video, fit): decoded once here, with libjpeg; without
+ * it, at least not cut short.
+ */
+static int check_stored_jpeg(import_ctx *c, const char *path, const sp_jpeg_header *hdr)
+{
+    if (c->index > 0 && (hdr->width != c->rep->width || hdr->height != c->rep->height))
+        return 0; /* refused by check_size, with a better message */
+    if (!sp_jpeg_available())
+        return has_eoi(c->file_buf, c->file_size) ? 0
+                                                  : FAIL(c, SP_ETRUNCATED, "%s: truncated JPEG (no end marker)", path);
+    int rc = ensure_rgb(c, hdr->width, hdr->height);
+    if (!rc)
+        rc = sp_jpeg_decode(c->file_buf, c->file_size, SP_PIXFMT_RGB24, hdr->width, hdr->height, c->rgb, c->rgb_cap,
+                            hdr->width * 3);
+    if (rc == -ENOMEM)
+        return FAIL(c, rc, "%s: %s", path, sp_strerror(rc));
+    return rc ? FAIL(c, SP_ECORRUPT, "%s: damaged or truncated JPEG: it does not decode (%s)", path, sp_strerror(rc))
+              : 0;
+}
+
 static int frame_from_jpeg_file(import_ctx *c, const char *path, sp_frame *f)
 {
     sp_jpeg_header hdr;
@@ -163,6 +196,8 @@ static int frame_from_jpeg_file(import_ctx *c, const char *path, sp_frame *f)
     if (hdr.components == 4)
         return FAIL(c, SP_EUNSUPPORTED, "%s: CMYK JPEG is not supported", path);
     if (c->s->store == SP_IMPORT_STORE_JPEG) { /* byte-for-byte: no generation loss */
+        if ((rc = check_stored_jpeg(c, path, &hdr)))
+            return rc;
         *f = (sp_frame){ .format = SP_PIXFMT_MJPEG, .width = hdr.width, .height = hdr.height,
                          .data = c->file_buf, .bytes_used = c->file_size };
         c->rep->frames_copied++;

@@ -3,7 +3,9 @@
 #ifndef SUNPROBE_TOOLS_CMD_H
 #define SUNPROBE_TOOLS_CMD_H
 
+#include <signal.h>
 #include <stddef.h>
+#include <stdint.h>
 
 #include "sunprobe/sp_common.h"
 
@@ -37,11 +39,28 @@ int sp_cmd_failf(const char *cmd, int err, const char *fmt, ...) SP_PRINTF(3, 4)
  */
 int sp_opt_int(const char *cmd, const char *opt, const char *s, int lo, int hi, int *out);
 int sp_opt_double(const char *cmd, const char *opt, const char *s, double lo, double hi, double *out);
+/* A count that may pass INT_MAX (frames, seeds): decimal digits only. */
+int sp_opt_u64(const char *cmd, const char *opt, const char *s, uint64_t lo, uint64_t hi, uint64_t *out);
+/* One of n names: *out is its index; else "expected a, b or c". */
+int sp_opt_choice(const char *cmd, const char *opt, const char *s, const char *const *names, int n, int *out);
 /*
  * s with its control characters (C0, DEL, C1) written as \xNN, into buf (n bytes; cut to fit): every
  * string a command prints from a file goes through it, so a crafted file cannot drive the terminal.
  */
 const char *sp_cmd_printable(const char *s, char *buf, size_t n);
+
+/*
+ * Ctrl-C and SIGTERM (cmd_signal.c): while caught, sp_cmd_stop_signal holds the signal that asked the
+ * command to stop (0 while none did); loops poll it and end through their usual failure path.
+ */
+extern volatile sig_atomic_t sp_cmd_stop_signal;
+typedef struct sp_cmd_signals {
+    struct sigaction old_int, old_term;
+} sp_cmd_signals;
+void sp_cmd_catch_signals(sp_cmd_signals *saved);
+void sp_cmd_restore_signals(const sp_cmd_signals *saved);
+/* 128 + the stop signal when one came, else code. */
+int sp_cmd_stopped_code(int code);
 
 int sp_cmd_info(int argc, char **argv);
 int sp_cmd_verify(int argc, char **argv);

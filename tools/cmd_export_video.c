@@ -70,23 +70,6 @@ static int has_ext(const char *name, const char *ext)
     return n > e && strcasecmp(name + n - e, ext) == 0;
 }
 
-static int bad_value(const char *opt, const char *value)
-{
-    fprintf(stderr, "sunprobe " CMD ": bad value for %s: '%s'\n", opt, value);
-    return SP_EXIT_USAGE;
-}
-
-static int parse_number(const char *s, double lo, double hi, double *out)
-{
-    char *end = NULL;
-    errno = 0;
-    double v = strtod(s, &end);
-    if (end == s || *end || errno || !(v >= lo && v <= hi))
-        return -EINVAL;
-    *out = v;
-    return 0;
-}
-
 enum { OPT_EVERY = 256, OPT_MAX, OPT_SCALE, OPT_FPS, OPT_STREAM };
 
 static int parse_args(int argc, char **argv, export_opts *o)
@@ -99,32 +82,17 @@ static int parse_args(int argc, char **argv, export_opts *o)
         { "help", no_argument, NULL, 'h' },         { 0 },
     };
     optind = 0;
-    int c;
-    double v;
-    while ((c = getopt_long(argc, argv, "o:fqh", opts, NULL)) != -1) {
+    int c, bad = 0;
+    uint64_t v = 0;
+    while (!bad && (c = getopt_long(argc, argv, "o:fqh", opts, NULL)) != -1) {
         switch (c) {
         case 'o': o->out = optarg; break;
-        case OPT_EVERY:
-            if (parse_number(optarg, 1, 1e9, &v) || v != floor(v))
-                return bad_value("--every", optarg);
-            o->every = (uint64_t)v;
-            break;
-        case OPT_MAX:
-            if (parse_number(optarg, 1, 1e15, &v) || v != floor(v))
-                return bad_value("--max-frames", optarg);
-            o->max_frames = (uint64_t)v;
-            break;
-        case OPT_SCALE:
-            if (parse_number(optarg, 1e-6, 8, &o->scale) || o->scale <= 0)
-                return bad_value("--scale (0, 8]", optarg);
-            break;
-        case OPT_FPS:
-            if (parse_number(optarg, 1e-3, 1e4, &o->fps))
-                return bad_value("--fps", optarg);
-            break;
+        case OPT_EVERY: bad = sp_opt_u64(CMD, "every", optarg, 1, 1000000000, &o->every); break;
+        case OPT_MAX: bad = sp_opt_u64(CMD, "max-frames", optarg, 1, UINT64_MAX, &o->max_frames); break;
+        case OPT_SCALE: bad = sp_opt_double(CMD, "scale", optarg, 1e-6, 8, &o->scale); break;
+        case OPT_FPS: bad = sp_opt_double(CMD, "fps", optarg, 1e-3, 1e4, &o->fps); break;
         case OPT_STREAM:
-            if (parse_number(optarg, 0, 65535, &v) || v != floor(v))
-                return bad_value("--stream", optarg);
+            bad = sp_opt_u64(CMD, "stream", optarg, 0, 65535, &v);
             o->stream = (uint32_t)v;
             break;
         case 'f': o->force = 1; break;
@@ -132,6 +100,10 @@ static int parse_args(int argc, char **argv, export_opts *o)
         case 'h': usage(stdout); return SP_EXIT_OK;
         default: usage(stderr); return SP_EXIT_USAGE;
         }
+    }
+    if (bad) {
+        fprintf(stderr, "sunprobe " CMD ": see --help\n");
+        return SP_EXIT_USAGE;
     }
     if (optind != argc - 1 || !o->out) {
         fprintf(stderr, "sunprobe " CMD ": %s\n", optind != argc - 1 ? "expected one CAPTURE" : "-o OUT is required");
@@ -215,6 +187,13 @@ static double video_fps(const exporter *e)
 
 static int open_video(exporter *e)
 {
+    /* OpenCV reports no errno: create the file first, so a read-only or full file system is named as such */
+    int fd = open(e->video_tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+    if (fd < 0 || close(fd) != 0) {
+        int rc = -errno;
+        fprintf(stderr, "sunprobe " CMD ": %s: cannot create the video: %s\n", e->o->out, sp_strerror(rc));
+        return rc;
+    }
     int rc = sp_cv_video_writer_open(&e->writer, e->video_tmp, e->out_w, e->out_h, video_fps(e));
     if (rc)
         fprintf(stderr, "sunprobe " CMD ": %s: OpenCV cannot create this video: %s\n", e->o->out, sp_strerror(rc));
@@ -429,6 +408,11 @@ static int run(exporter *e, sp_capture_reader *r, sp_progress *bar)
         if (ch.type == SP_CHUNK_FRAME && (rc = export_frame(e, &ch)) != 0)
             return sp_exit_for_error(rc);
         sp_progress_update(bar, ch.offset, NULL);
+        if (sp_cmd_stop_signal) {
+            fprintf(stderr, "sunprobe " CMD ": interrupted after %llu frames; nothing written\n",
+                    (unsigned long long)e->written);
+            return sp_cmd_stopped_code(SP_EXIT_OK);
+        }
         if (e->o->max_frames && e->written >= e->o->max_frames)
             return SP_EXIT_OK;
     }
@@ -460,6 +444,8 @@ int sp_cmd_export_video(int argc, char **argv)
     }
     sp_progress bar;
     sp_progress_start(&bar, CMD, sp_capture_reader_info(r)->file_size, o.quiet ? 0 : -1);
+    sp_cmd_signals sig; /* Ctrl-C ends the loop, and the failure path below removes what this run wrote */
+    sp_cmd_catch_signals(&sig);
     code = run(&e, r, &bar);
     sp_progress_finish(&bar);
     if (code == SP_EXIT_OK && e.written == 0) {
@@ -473,6 +459,7 @@ int sp_cmd_export_video(int argc, char **argv)
     }
     if (code != SP_EXIT_OK && !e.video) /* a failed export leaves no frames of its own, nor the directory it made */
         discard_frames(&e);
+    sp_cmd_restore_signals(&sig);
     if (code == SP_EXIT_OK && !o.quiet)
         printf("%s: %llu frames %ux%u\n", o.out, (unsigned long long)e.written, e.out_w, e.out_h);
     sp_capture_reader_close(&r);

@@ -228,12 +228,13 @@ static void print_summary(const sp_sunstage *ss)
     sp_sunstage_counts c;
     sp_sunstage_get_result(ss, &r);
     sp_sunstage_get_counts(ss, &c);
-    printf("fit: %llu frames (%llu dark, %llu saturated, %llu blurred, %llu no face, %llu no orientation "
-           "skipped; %llu thinned while the IMU filter initialised); %d keyframes + %d held out over %.0f deg of yaw\n",
+    printf("fit: %llu frames (%llu dark, %llu saturated, %llu blurred, %llu no face, %llu no orientation, "
+           "%llu undecodable skipped; %llu thinned while the IMU filter initialised); %d keyframes + %d held out over "
+           "%.0f deg of yaw\n",
            (unsigned long long)c.frames, (unsigned long long)c.skipped_dark, (unsigned long long)c.skipped_saturated,
            (unsigned long long)c.skipped_blurred, (unsigned long long)c.skipped_no_face,
-           (unsigned long long)c.skipped_no_orientation, (unsigned long long)c.thinned_early, c.keyframes, c.heldout,
-           r.yaw_range_deg);
+           (unsigned long long)c.skipped_no_orientation, (unsigned long long)c.skipped_undecodable,
+           (unsigned long long)c.thinned_early, c.keyframes, c.heldout, r.yaw_range_deg);
     printf("fit: sun (%.3f, %.3f, %.3f) intensity %.3f%s%s; train PSNR %.2f dB, held-out %.2f dB; %.1f s\n",
            r.sun_dir[0], r.sun_dir[1], r.sun_dir[2], r.sun_intensity, r.sun_dropped ? " [dropped: overcast]" : "",
            r.lighting_unobservable ? " [lighting unobservable]" : "", r.train_psnr, r.heldout_psnr, r.seconds);

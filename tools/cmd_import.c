@@ -2,7 +2,6 @@
 /* `sunprobe import`: image sequence or video (+ IMU CSV + frame times + metadata JSON) to a capture. */
 #include <errno.h>
 #include <getopt.h>
-#include <math.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -12,12 +11,7 @@
 #include "common/progress.h"
 #include "sunprobe/sp_import.h"
 
-static volatile sig_atomic_t interrupted;
-
-static void on_signal(int sig)
-{
-    interrupted = sig; /* which one: the exit code is 128 + it, as for every command */
-}
+#define CMD "import"
 
 static void usage(FILE *out)
 {
@@ -33,7 +27,7 @@ static void usage(FILE *out)
             "      --frame-times CSV   per-frame times: column t (seconds) or t_ns, one row per frame\n"
             "      --imu CSV           IMU samples: t or t_ns, then gx,gy,gz (rad/s) ax,ay,az (m/s^2)\n"
             "                          mx,my,mz (uT); times on the frame clock, 0 = first frame\n"
-            "      --imu-offset S      seconds added to every IMU time (default 0)\n"
+            "      --imu-offset S      seconds added to every IMU time, -1e6..1e6 (default 0)\n"
             "      --meta JSON         metadata (capture/FORMAT.md), merged with what the import knows\n"
             "      --kind K            selfie or static (overrides the metadata's)\n"
             "      --store M           jpeg (default) or rgb: how non-JPEG frames are stored\n"
@@ -43,30 +37,6 @@ static void usage(FILE *out)
             "  -q, --quiet             no progress bar or summary\n"
             "  -h, --help              this text\n\n"
             "Layouts and examples: capture/IMPORT.md.\n");
-}
-
-static int parse_double(const char *s, double *out)
-{
-    char *end = NULL;
-    errno = 0;
-    double v = strtod(s, &end);
-    if (end == s || *end || errno || !isfinite(v))
-        return -EINVAL;
-    *out = v;
-    return 0;
-}
-
-static int parse_u64(const char *s, uint64_t *out)
-{
-    char *end = NULL;
-    errno = 0;
-    if (*s == '-')
-        return -EINVAL;
-    unsigned long long v = strtoull(s, &end, 10);
-    if (end == s || *end || errno)
-        return -EINVAL;
-    *out = v;
-    return 0;
 }
 
 static void on_progress(void *user, uint64_t done, uint64_t total)
@@ -79,12 +49,6 @@ static void on_progress(void *user, uint64_t done, uint64_t total)
 
 enum { OPT_FPS = 256, OPT_FRAME_TIMES, OPT_IMU, OPT_IMU_OFFSET, OPT_META, OPT_KIND, OPT_STORE, OPT_QUALITY,
        OPT_MAX_FRAMES };
-
-static int bad_value(const char *opt, const char *value)
-{
-    fprintf(stderr, "sunprobe import: bad value for %s: '%s'\n", opt, value);
-    return SP_EXIT_USAGE;
-}
 
 /* Fills s from the command line; returns -1 to go on, else an exit code. */
 static int parse_args(int argc, char **argv, sp_import_settings *s, int *quiet)
@@ -99,42 +63,32 @@ static int parse_args(int argc, char **argv, sp_import_settings *s, int *quiet)
         { "help", no_argument, NULL, 'h' },               { 0 },
     };
     optind = 0; /* full getopt reset: commands may run more than once in a process (tests) */
-    int c;
-    double q;
-    while ((c = getopt_long(argc, argv, "o:fqh", opts, NULL)) != -1) {
+    static const char *const stores[] = { "jpeg", "rgb" };
+    int c, bad = 0, v = 0;
+    while (!bad && (c = getopt_long(argc, argv, "o:fqh", opts, NULL)) != -1) {
         switch (c) {
         case 'o': s->output = optarg; break;
-        case OPT_FPS:
-            if (parse_double(optarg, &s->fps) || !(s->fps >= SP_IMPORT_MIN_FPS && s->fps <= SP_IMPORT_MAX_FPS))
-                return bad_value("--fps (0.001..10000 frames per second)", optarg);
-            break;
+        case OPT_FPS: bad = sp_opt_double(CMD, "fps", optarg, SP_IMPORT_MIN_FPS, SP_IMPORT_MAX_FPS, &s->fps); break;
         case OPT_FRAME_TIMES: s->frame_times_csv = optarg; break;
         case OPT_IMU: s->imu_csv = optarg; break;
-        case OPT_IMU_OFFSET:
-            if (parse_double(optarg, &s->imu_offset_s))
-                return bad_value("--imu-offset", optarg);
-            break;
+        case OPT_IMU_OFFSET: bad = sp_opt_double(CMD, "imu-offset", optarg, -1e6, 1e6, &s->imu_offset_s); break;
         case OPT_META: s->meta_json = optarg; break;
         case OPT_KIND: s->kind = optarg; break;
         case OPT_STORE:
-            if (strcmp(optarg, "jpeg") && strcmp(optarg, "rgb"))
-                return bad_value("--store (jpeg or rgb)", optarg);
-            s->store = strcmp(optarg, "rgb") == 0 ? SP_IMPORT_STORE_RGB : SP_IMPORT_STORE_JPEG;
+            bad = sp_opt_choice(CMD, "store", optarg, stores, 2, &v);
+            s->store = v == 1 ? SP_IMPORT_STORE_RGB : SP_IMPORT_STORE_JPEG;
             break;
-        case OPT_QUALITY:
-            if (parse_double(optarg, &q) || q < 1 || q > 100 || q != floor(q))
-                return bad_value("--quality (1..100)", optarg);
-            s->quality = (int)q;
-            break;
-        case OPT_MAX_FRAMES:
-            if (parse_u64(optarg, &s->max_frames) || s->max_frames == 0)
-                return bad_value("--max-frames", optarg);
-            break;
+        case OPT_QUALITY: bad = sp_opt_int(CMD, "quality", optarg, 1, 100, &s->quality); break;
+        case OPT_MAX_FRAMES: bad = sp_opt_u64(CMD, "max-frames", optarg, 1, UINT64_MAX, &s->max_frames); break;
         case 'f': s->overwrite = 1; break;
         case 'q': *quiet = 1; break;
         case 'h': usage(stdout); return SP_EXIT_OK;
         default: usage(stderr); return SP_EXIT_USAGE;
         }
+    }
+    if (bad) {
+        fprintf(stderr, "sunprobe " CMD ": see --help\n");
+        return SP_EXIT_USAGE;
     }
     if (optind != argc - 1 || !s->output) {
         fprintf(stderr, "sunprobe import: %s\n", optind != argc - 1 ? "expected one INPUT" : "-o OUT is required");
@@ -172,21 +126,18 @@ int sp_cmd_import(int argc, char **argv)
     sp_progress_start(&bar, "import", 0, quiet ? 0 : -1);
     s.progress = on_progress;
     s.progress_user = &bar;
-    s.cancel = &interrupted;
-    struct sigaction sa = { .sa_handler = on_signal }, old_int, old_term;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, &old_int);
-    sigaction(SIGTERM, &sa, &old_term);
+    s.cancel = &sp_cmd_stop_signal;
+    sp_cmd_signals sig;
+    sp_cmd_catch_signals(&sig);
 
     sp_import_report report;
     int rc = sp_import_run(&s, &report);
 
-    sigaction(SIGINT, &old_int, NULL);
-    sigaction(SIGTERM, &old_term, NULL);
+    sp_cmd_restore_signals(&sig);
     sp_progress_finish(&bar);
     if (rc) {
         fprintf(stderr, "sunprobe import: %s\n", report.message);
-        return rc == -ECANCELED && interrupted ? 128 + (int)interrupted : sp_exit_for_error(rc);
+        return rc == -ECANCELED ? sp_cmd_stopped_code(sp_exit_for_error(rc)) : sp_exit_for_error(rc);
     }
     if (!quiet)
         print_summary(&s, &report);

@@ -3,6 +3,7 @@
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "tools/cmd.h"
 
@@ -35,6 +36,34 @@ int sp_opt_double(const char *cmd, const char *opt, const char *s, double lo, do
     }
     *out = v;
     return 0;
+}
+
+int sp_opt_u64(const char *cmd, const char *opt, const char *s, uint64_t lo, uint64_t hi, uint64_t *out)
+{
+    char *end = NULL;
+    errno = 0;
+    /* strtoull takes "-1" as a huge number: only digits are a count */
+    unsigned long long v = blank_start(s) || *s < '0' || *s > '9' ? 0 : strtoull(s, &end, 10);
+    if (!end || *end || errno == ERANGE || v < lo || v > hi) {
+        fprintf(stderr, "sunprobe %s: --%s '%s': expected an integer from %llu to %llu\n", cmd, opt, s ? s : "",
+                (unsigned long long)lo, (unsigned long long)hi);
+        return -1;
+    }
+    *out = v;
+    return 0;
+}
+
+int sp_opt_choice(const char *cmd, const char *opt, const char *s, const char *const *names, int n, int *out)
+{
+    for (int i = 0; s && i < n; i++)
+        if (!strcmp(s, names[i])) {
+            *out = i;
+            return 0;
+        }
+    fprintf(stderr, "sunprobe %s: --%s '%s': expected ", cmd, opt, s ? s : "");
+    for (int i = 0; i < n; i++)
+        fprintf(stderr, "%s%s", names[i], i + 2 < n ? ", " : i + 2 == n ? " or " : "\n");
+    return -1;
 }
 
 const char *sp_cmd_printable(const char *s, char *buf, size_t n)

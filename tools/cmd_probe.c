@@ -10,7 +10,6 @@
 #include <errno.h>
 #include <getopt.h>
 #include <inttypes.h>
-#include <math.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -55,7 +54,7 @@ static void usage(FILE *out)
             "      --samples K       frames in that window, odd 3..31 (default 15)\n"
             "      --settle S        a person who walks in and stops stays out of the plate this long,\n"
             "                        then becomes background (e.g. 120; default 0: the median alone)\n"
-            "      --threshold T     refined-mask colour distance |dR|+|dG|+|dB| (default 50)\n"
+            "      --threshold T     refined-mask colour distance |dR|+|dG|+|dB|, 1..765 (default 50)\n"
             "      --min-object PX   smallest object in pixels (default: width * height / 4000)\n"
             "      --detector D      shape (default) or hog (OpenCV's HOG people detector confirms)\n"
             "      --holdout-from N  frames from N on test the scale model instead of fitting it\n"
@@ -71,31 +70,14 @@ static void usage(FILE *out)
             "convergence.csv/.svg (error against run time).\n");
 }
 
-static int parse_u64(const char *s, uint64_t *out)
-{
-    char *end = NULL;
-    errno = 0;
-    unsigned long long v = strtoull(s, &end, 10);
-    if (*s == '-' || end == s || *end || errno)
-        return -1;
-    *out = v;
-    return 0;
-}
+#define CMD "probe"
 
-static int parse_real(const char *s, double lo, double hi, double *out)
+/* After an option value's own message (tools/cmd_options.c): the usage code. */
+static int checked(int bad)
 {
-    char *end = NULL;
-    double v = strtod(s, &end);
-    if (end == s || *end || !(v >= lo && v <= hi))
-        return -1;
-    *out = v;
-    return 0;
-}
-
-static int bad_value(const char *opt, const char *v)
-{
-    fprintf(stderr, "sunprobe probe: bad value for %s: '%s'\n", opt, v);
-    return SP_EXIT_USAGE;
+    if (bad)
+        fprintf(stderr, "sunprobe " CMD ": see --help\n");
+    return bad ? SP_EXIT_USAGE : 0;
 }
 
 enum { OPT_WINDOW = 256, OPT_SAMPLES, OPT_THRESHOLD, OPT_MIN_OBJECT, OPT_DETECTOR, OPT_HOLDOUT, OPT_HOLDOUT_HALF,
@@ -103,46 +85,49 @@ enum { OPT_WINDOW = 256, OPT_SAMPLES, OPT_THRESHOLD, OPT_MIN_OBJECT, OPT_DETECTO
 
 static int parse_option(int c, probe_args *a)
 {
-    double v;
-    uint64_t u;
+    static const char *const detectors[] = { "shape", "hog" };
+    int i = 0, bad;
+    uint64_t u = 0;
     switch (c) {
     case 'o': a->out = optarg; return 0;
-    case OPT_WINDOW: return parse_real(optarg, 0.05, 3600, &a->s.window_s) ? bad_value("--window", optarg) : 0;
+    case OPT_WINDOW: return checked(sp_opt_double(CMD, "window", optarg, 0.05, 3600, &a->s.window_s));
     case OPT_SAMPLES:
-        if (parse_real(optarg, 3, 31, &v) || v != floor(v) || fmod(v, 2) == 0)
-            return bad_value("--samples (odd, 3..31)", optarg);
-        a->s.window_samples = (unsigned)v;
-        return 0;
+        bad = sp_opt_int(CMD, "samples", optarg, 3, 31, &i);
+        if (!bad && i % 2 == 0) { /* a median needs a middle sample */
+            fprintf(stderr, "sunprobe " CMD ": --samples '%s': expected an odd number\n", optarg);
+            bad = -1;
+        }
+        a->s.window_samples = bad ? a->s.window_samples : (unsigned)i;
+        return checked(bad);
     case OPT_THRESHOLD:
-        if (parse_real(optarg, 1, 765, &v))
-            return bad_value("--threshold (1..765)", optarg);
-        a->s.fg_threshold = (unsigned)v;
-        return 0;
+        bad = sp_opt_int(CMD, "threshold", optarg, 1, 765, &i);
+        a->s.fg_threshold = bad ? a->s.fg_threshold : (unsigned)i;
+        return checked(bad);
     case OPT_MIN_OBJECT:
-        if (parse_real(optarg, 1, 1e7, &v))
-            return bad_value("--min-object", optarg);
-        a->s.min_object_px = (unsigned)v;
-        return 0;
+        bad = sp_opt_int(CMD, "min-object", optarg, 1, 10000000, &i);
+        a->s.min_object_px = bad ? a->s.min_object_px : (unsigned)i;
+        return checked(bad);
     case OPT_DETECTOR:
-        if (strcmp(optarg, "shape") && strcmp(optarg, "hog"))
-            return bad_value("--detector (shape or hog)", optarg);
-        a->s.detector = strcmp(optarg, "hog") ? SP_PROBE_DETECT_SHAPE : SP_PROBE_DETECT_HOG;
-        return 0;
+        bad = sp_opt_choice(CMD, "detector", optarg, detectors, 2, &i);
+        a->s.detector = i ? SP_PROBE_DETECT_HOG : SP_PROBE_DETECT_SHAPE;
+        return checked(bad);
     case OPT_HOLDOUT:
-        if (parse_u64(optarg, &u) || u > INT64_MAX)
-            return bad_value("--holdout-from", optarg);
+        bad = sp_opt_u64(CMD, "holdout-from", optarg, 0, INT64_MAX, &u);
         a->s.holdout_from = (int64_t)u;
-        return 0;
+        return checked(bad);
     case OPT_HOLDOUT_HALF: a->holdout_half = 1; return 0;
     case OPT_EMPTY:
-        if (parse_u64(optarg, &u) || a->n_empty == MAX_EMPTY)
-            return bad_value("--empty-frame (at most 16)", optarg);
-        a->empty[a->n_empty++] = u;
-        return 0;
-    case OPT_MAX_FRAMES:
-        return parse_u64(optarg, &a->max_frames) || !a->max_frames ? bad_value("--max-frames", optarg) : 0;
+        if (a->n_empty == MAX_EMPTY) {
+            fprintf(stderr, "sunprobe " CMD ": --empty-frame: at most %d\n", MAX_EMPTY);
+            return checked(1);
+        }
+        bad = sp_opt_u64(CMD, "empty-frame", optarg, 0, UINT64_MAX, &u);
+        a->empty[a->n_empty] = u;
+        a->n_empty += !bad;
+        return checked(bad);
+    case OPT_MAX_FRAMES: return checked(sp_opt_u64(CMD, "max-frames", optarg, 1, UINT64_MAX, &a->max_frames));
     case OPT_OBJECTS: a->objects = 1; return 0;
-    case OPT_SETTLE: return parse_real(optarg, 0, 36000, &a->s.settle_s) ? bad_value("--settle (0..36000 s)", optarg) : 0;
+    case OPT_SETTLE: return checked(sp_opt_double(CMD, "settle", optarg, 0, 36000, &a->s.settle_s));
     case 'f': a->force = 1; return 0;
     case 'q': a->quiet = 1; return 0;
     case 'h': usage(stdout); return -1;
@@ -287,14 +272,6 @@ static int check_output(const probe_args *a)
 
 /* ---- streaming ---- */
 
-/* The signal that asked us to stop (SIGINT, SIGTERM), 0 while none did: checked once per frame. */
-static volatile sig_atomic_t interrupted;
-
-static void on_signal(int sig)
-{
-    interrupted = sig;
-}
-
 typedef struct run_state {
     const probe_args *a;
     const char *dir;
@@ -391,7 +368,7 @@ static int run(probe_args *a, const capture_facts *facts, const char *dir)
     sp_run_settings run;
     sp_run_default_settings(&run);
     run.max_frames = a->max_frames;
-    run.stop = &interrupted;
+    run.stop = &sp_cmd_stop_signal;
     run.progress = a->quiet ? 0 : -1;
     run.progress_label = "probe";
     run.progress_total = a->max_frames && a->max_frames < facts->frames ? a->max_frames : facts->frames;
@@ -411,9 +388,9 @@ static int run(probe_args *a, const capture_facts *facts, const char *dir)
     if (rs.objects && fclose(rs.objects) && !rs.objects_err)
         rs.objects_err = sp_write_error();
     int code = SP_EXIT_OK;
-    if (interrupted) { /* a read cut short by the signal is no capture error */
+    if (sp_cmd_stop_signal) { /* a read cut short by the signal is no capture error */
         fprintf(stderr, "sunprobe probe: interrupted after %" PRIu64 " frames; nothing written\n", st.frames);
-        code = 128 + (int)interrupted;
+        code = sp_cmd_stopped_code(code);
     } else if (rs.objects_err) {
         code = sp_cmd_fail("probe", rs.objects_err, "writing objects.csv in the probe directory");
     } else if (ret == SP_ENODATA) {
@@ -466,15 +443,12 @@ int sp_cmd_probe(int argc, char **argv)
     if ((code = check_output(&a)))
         return code;
     /* from here on Ctrl-C ends the frame loop and the normal abort path removes the partial directory */
-    struct sigaction sa = { .sa_handler = on_signal }, old_int, old_term;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, &old_int);
-    sigaction(SIGTERM, &sa, &old_term);
+    sp_cmd_signals sig;
+    sp_cmd_catch_signals(&sig);
     sp_partial partial;
     int ret = sp_partial_dir_open(&partial, a.out);
     if (ret) {
-        sigaction(SIGINT, &old_int, NULL);
-        sigaction(SIGTERM, &old_term, NULL);
+        sp_cmd_restore_signals(&sig);
         return sp_cmd_fail("probe", ret, a.out);
     }
     char *report = sp_path_join_alloc(partial.path, "convergence");
@@ -485,13 +459,12 @@ int sp_cmd_probe(int argc, char **argv)
     code = report ? run(&a, &facts, partial.path) : sp_cmd_fail("probe", -ENOMEM, "report path");
     free(truth);
     free(report);
-    if (code == SP_EXIT_OK && interrupted) /* after the last frame: the final directory is left as it was */
-        code = 128 + (int)interrupted;
+    if (code == SP_EXIT_OK) /* a signal after the last frame: the final directory is left as it was */
+        code = sp_cmd_stopped_code(code);
     ret = code == SP_EXIT_OK ? sp_partial_dir_commit(&partial, a.force ? SP_PARTIAL_REPLACE : 0) : 0;
     if (ret)
         code = sp_cmd_fail("probe", ret, a.out);
     sp_partial_dir_abort(&partial); /* after a commit there is nothing left to remove */
-    sigaction(SIGINT, &old_int, NULL);
-    sigaction(SIGTERM, &old_term, NULL);
+    sp_cmd_restore_signals(&sig);
     return code;
 }

@@ -13,6 +13,8 @@
 #include "cmd.h"
 #include "sunprobe/sp_recorder.h"
 
+#define CMD "record"
+
 typedef struct record_args {
     sp_camera_settings cam;
     sp_imu_device_settings imu;
@@ -59,58 +61,47 @@ static int parse_size(const char *s, uint32_t *w, uint32_t *h)
 {
     unsigned a, b;
     char tail;
-    if (sscanf(s, "%ux%u%c", &a, &b, &tail) != 2 || a == 0 || b == 0 || a > 16384 || b > 16384)
-        return -EINVAL;
+    if (sscanf(s, "%ux%u%c", &a, &b, &tail) != 2 || a == 0 || b == 0 || a > 16384 || b > 16384) {
+        fprintf(stderr, "sunprobe " CMD ": --size '%s': expected WxH, each from 1 to 16384\n", s);
+        return -1;
+    }
     *w = a;
     *h = b;
     return 0;
 }
 
-static int parse_number(const char *s, double lo, double hi, double *out)
-{
-    char *end;
-    double v = strtod(s, &end);
-    if (end == s || *end || !(v >= lo && v <= hi))
-        return -EINVAL;
-    *out = v;
-    return 0;
-}
-
-static int parse_sync(const char *s, enum sp_sync_policy *out)
-{
-    if (!strcmp(s, "none"))
-        *out = SP_SYNC_NONE;
-    else if (!strcmp(s, "periodic"))
-        *out = SP_SYNC_PERIODIC;
-    else if (!strcmp(s, "every"))
-        *out = SP_SYNC_EVERY_CHUNK;
-    else
-        return -EINVAL;
-    return 0;
-}
-
-/* One option into args; -EINVAL names a bad value. */
+/* One option into args; -1 after a message that names a bad value. */
 static int apply_option(record_args *a, int c, const char *v)
 {
-    double d = 0;
+    static const char *const modes[] = { "selfie", "static" }, *const syncs[] = { "none", "periodic", "every" };
+    static const enum sp_sync_policy policy[] = { SP_SYNC_NONE, SP_SYNC_PERIODIC, SP_SYNC_EVERY_CHUNK };
+    int i = 0, bad;
+    uint64_t n = 0;
     switch (c) {
     case 'c': a->cam.device = v; return 0;
     case 'b': a->cam.backend = v; return 0;
     case 'i': a->imu_name = v; return 0;
-    case 'm': a->rec.kind = v; return strcmp(v, "selfie") && strcmp(v, "static") ? -EINVAL : 0;
-    case 'd': return parse_number(v, 0, 1e7, &a->rec.duration_s);
-    case 'f': a->cam.format = sp_pixfmt_from_name(v); return a->cam.format == SP_PIXFMT_NONE ? -EINVAL : 0;
+    case 'm': a->rec.kind = v; return sp_opt_choice(CMD, "mode", v, modes, 2, &i);
+    case 'd': return sp_opt_double(CMD, "duration", v, 0, 1e7, &a->rec.duration_s);
+    case 'f':
+        a->cam.format = sp_pixfmt_from_name(v);
+        if (a->cam.format == SP_PIXFMT_NONE)
+            fprintf(stderr, "sunprobe " CMD ": --format '%s': not a pixel format (see `sunprobe devices`)\n", v);
+        return a->cam.format == SP_PIXFMT_NONE ? -1 : 0;
     case 's': return parse_size(v, &a->cam.width, &a->cam.height);
-    case 'r': return parse_number(v, 0.001, 10000, &a->cam.fps);
+    case 'r': return sp_opt_double(CMD, "fps", v, 0.001, 10000, &a->cam.fps);
     case 'l': a->cam.lock_exposure = 1; return 0;
     case 'o': a->rec.path = v; return 0;
     case 'w': a->rec.writer.overwrite = 1; return 0;
     case 'q': a->quiet = 1; return 0;
-    case 'R': return parse_number(v, 0.001, 100000, &a->imu.rate_hz);
-    case 'Q': if (parse_number(v, 1, 4096, &d) < 0) return -EINVAL; a->rec.frame_queue = (unsigned)d; return 0;
-    case 'D': if (parse_number(v, 0, 10000000, &d) < 0) return -EINVAL; a->rec.writer_delay_us = (uint32_t)d; return 0;
-    case 'S': return parse_sync(v, &a->rec.writer.sync);
-    default: return -EINVAL;
+    case 'R': return sp_opt_double(CMD, "imu-rate", v, 0.001, 100000, &a->imu.rate_hz);
+    case 'Q': bad = sp_opt_u64(CMD, "queue", v, 1, 4096, &n); a->rec.frame_queue = (unsigned)n; return bad;
+    case 'D':
+        bad = sp_opt_u64(CMD, "writer-delay-us", v, 0, 10000000, &n);
+        a->rec.writer_delay_us = (uint32_t)n;
+        return bad;
+    case 'S': bad = sp_opt_choice(CMD, "sync", v, syncs, 3, &i); a->rec.writer.sync = policy[i]; return bad;
+    default: return -1;
     }
 }
 
@@ -134,9 +125,10 @@ static int parse_args(int argc, char **argv, record_args *a)
             return 1;
         }
         if (apply_option(a, c, optarg) < 0) {
-            if (optarg)
-                fprintf(stderr, "sunprobe record: bad value '%s'\n", optarg);
-            usage(stderr);
+            if (c == '?') /* getopt named the option */
+                usage(stderr);
+            else
+                fprintf(stderr, "sunprobe " CMD ": see --help\n");
             return -EINVAL;
         }
     }

@@ -13,13 +13,6 @@
 #include "pipeline/stages/stages.h"
 #include "sunprobe/sp_replay.h"
 
-static volatile sig_atomic_t interrupted;
-
-static void on_signal(int sig)
-{
-    interrupted = sig;
-}
-
 static void usage(FILE *out)
 {
     fprintf(out, "usage: sunprobe replay CAPTURE [--stage NAME] [--realtime] [--speed X] [--start S]\n"
@@ -122,18 +115,15 @@ static int run_stage(const replay_args *a, const sp_stage_ops *ops, const sp_run
         return sp_cmd_fail("replay", ret, "opening the stage");
     sp_run_stats st;
     /* Ctrl-C stops before the next event, without finish: a stage output is not committed */
-    struct sigaction sa = { .sa_handler = on_signal }, old_int, old_term;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, &old_int);
-    sigaction(SIGTERM, &sa, &old_term);
+    sp_cmd_signals sig;
+    sp_cmd_catch_signals(&sig);
     ret = sp_stage_run(a->path, &stage, rs, &st);
-    sigaction(SIGINT, &old_int, NULL);
-    sigaction(SIGTERM, &old_term, NULL);
+    sp_cmd_restore_signals(&sig);
     int code = SP_EXIT_OK;
-    if (interrupted) {
+    if (sp_cmd_stop_signal) {
         fprintf(stderr, "sunprobe replay: interrupted after %" PRIu64 " frames%s\n", st.frames,
                 a->output ? "; output not written" : "");
-        code = 128 + (int)interrupted;
+        code = sp_cmd_stopped_code(code);
     } else if (ret == -EAGAIN && st.failed_in == SP_RUN_FAILED_SOURCE)
         code = sp_cmd_fail("replay", ret, "stage holds every frame");
     else if (st.failed_in == SP_RUN_FAILED_FINISH && a->output) {
@@ -175,7 +165,7 @@ int sp_cmd_replay(int argc, char **argv)
     sp_run_settings run;
     sp_run_default_settings(&run);
     run.progress_label = "replay";
-    run.stop = &interrupted;
+    run.stop = &sp_cmd_stop_signal;
     sp_replay_settings *rs = &run.replay;
     rs->realtime = a.realtime;
     rs->speed = a.speed;

@@ -189,7 +189,7 @@ static int synth_turn(const turn_args *a, const char *partial)
     int have_held = 0;
     for (uint64_t i = 0; !ret && i < n_frames; i++) {
         int64_t t = a->imu.start_ns + (int64_t)llround((double)i * 1e9 / a->cam.fps);
-        ret = write_imu_until(w, imu, &held, &have_held, t);
+        ret = sp_cmd_stop_signal ? -ECANCELED : write_imu_until(w, imu, &held, &have_held, t);
         if (!ret)
             ret = write_frame(w, cam, a, i, t);
         sp_progress_update(&bar, i + 1, NULL);
@@ -217,13 +217,18 @@ static int cmd_turn(int argc, char **argv)
     if (!partial)
         return sp_cmd_fail("synth", -ENOMEM, "allocating");
     snprintf(partial, n, "%s.partial", a.out);
+    sp_cmd_signals sig; /* Ctrl-C ends the frame loop: the partial file is removed */
+    sp_cmd_catch_signals(&sig);
     int ret = synth_turn(&a, partial);
+    sp_cmd_restore_signals(&sig);
     if (!ret && rename(partial, a.out) != 0)
         ret = -errno;
     if (ret) {
         unlink(partial);
         free(partial);
-        return sp_cmd_fail("synth turn", ret, a.out);
+        if (ret == -ECANCELED)
+            fprintf(stderr, "sunprobe synth turn: interrupted; nothing written\n");
+        return ret == -ECANCELED ? sp_cmd_stopped_code(SP_EXIT_INTERNAL) : sp_cmd_fail("synth turn", ret, a.out);
     }
     free(partial);
     printf("%s: synthetic turn, %.1f s, %ux%u %s at %.0f fps, IMU at %.0f Hz\n", a.out,

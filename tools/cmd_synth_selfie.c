@@ -51,34 +51,37 @@ static void usage(FILE *out)
             "other:    --seed N (1)  --noiseless (no sensor noise, no IMU noise or bias)  --progress\n");
 }
 
-static int num(const char *s, double lo, double hi, double *out)
+#define CMD "synth selfie"
+
+static int num(const char *o, const char *s, double lo, double hi, double *out)
 {
-    char *end;
-    double v = strtod(s, &end);
-    if (end == s || *end || !(v >= lo && v <= hi))
-        return -1;
-    *out = v;
-    return 0;
+    return sp_opt_double(CMD, o, s, lo, hi, out);
 }
 
-static int inum(const char *s, double lo, double hi, int *out)
+static int inum(const char *o, const char *s, int lo, int hi, int *out)
 {
-    double v;
-    if (num(s, lo, hi, &v) || v != floor(v))
-        return -1;
-    *out = (int)v;
-    return 0;
+    return sp_opt_int(CMD, o, s, lo, hi, out);
 }
 
-static int vec3(const char *s, double scale, sp_vec3 *out)
+static int u32num(const char *o, const char *s, int lo, int hi, uint32_t *out)
+{
+    int v = 0, bad = sp_opt_int(CMD, o, s, lo, hi, &v);
+    *out = bad ? *out : (uint32_t)v;
+    return bad;
+}
+
+/* X,Y,Z: three finite numbers, scaled */
+static int vec3(const char *o, const char *s, double scale, sp_vec3 *out)
 {
     char *end;
     double v[3];
     const char *p = s;
     for (int i = 0; i < 3; i++) {
         v[i] = strtod(p, &end);
-        if (end == p || !isfinite(v[i]) || (i < 2 ? *end != ',' : *end != '\0'))
+        if (end == p || !isfinite(v[i]) || (i < 2 ? *end != ',' : *end != '\0')) {
+            fprintf(stderr, "sunprobe " CMD ": --%s '%s': expected X,Y,Z (three finite numbers)\n", o, s);
             return -1;
+        }
         p = end + 1;
     }
     *out = (sp_vec3){ v[0] * scale, v[1] * scale, v[2] * scale };
@@ -129,100 +132,91 @@ static void imu_quiet(sp_fake_imu_settings *imu)
     imu->gyro_bias = imu->accel_bias = (sp_vec3){ 0, 0, 0 };
 }
 
-static int parse_enum(const char *v, const char *const *names, int n, int *out)
-{
-    for (int i = 0; i < n; i++)
-        if (!strcmp(v, names[i])) {
-            *out = i;
-            return 0;
-        }
-    return -1;
-}
-
 /* Camera, exposure and image options; 1 when c is not one of them. */
-static int opt_camera(int c, const char *v, sp_synth_selfie_settings *s)
+static int opt_camera(int c, const char *o, const char *v, sp_synth_selfie_settings *s)
 {
     static const char *const formats[] = { "auto", "mjpeg", "rgb24" };
-    double d = 0;
     int i = 0, bad;
     switch (c) {
-    case O_WIDTH: bad = num(v, 16, 4096, &d); s->width = (uint32_t)d; return bad;
-    case O_HEIGHT: bad = num(v, 16, 4096, &d); s->height = (uint32_t)d; return bad;
-    case O_FPS: return num(v, 0.1, 1000, &s->fps);
-    case O_FOCAL: return num(v, 0.05, 20, &s->focal_ratio);
-    case O_FORMAT: bad = parse_enum(v, formats, 3, &i); s->format = (enum sp_synth_frame_format)i; return bad;
-    case O_JPEGQ: return inum(v, 1, 100, &s->jpeg_quality);
-    case O_SHUTTER: return num(v, 0, 10, &s->shutter_s);
-    case O_BLUR: return inum(v, 1, 64, &s->motion_blur_samples);
-    case O_NOISE: return num(v, 0, 100, &s->noise);
-    case O_EXPOSURE: return num(v, 0, 1e6, &s->exposure);
+    case O_WIDTH: return u32num(o, v, 16, 4096, &s->width);
+    case O_HEIGHT: return u32num(o, v, 16, 4096, &s->height);
+    case O_FPS: return num(o, v, 0.1, 1000, &s->fps);
+    case O_FOCAL: return num(o, v, 0.05, 20, &s->focal_ratio);
+    case O_FORMAT:
+        bad = sp_opt_choice(CMD, o, v, formats, 3, &i);
+        s->format = (enum sp_synth_frame_format)i;
+        return bad;
+    case O_JPEGQ: return inum(o, v, 1, 100, &s->jpeg_quality);
+    case O_SHUTTER: return num(o, v, 0, 10, &s->shutter_s);
+    case O_BLUR: return inum(o, v, 1, 64, &s->motion_blur_samples);
+    case O_NOISE: return num(o, v, 0, 100, &s->noise);
+    case O_EXPOSURE: return num(o, v, 0, 1e6, &s->exposure);
     case O_NOAE: s->auto_exposure = 0; return 0;
-    case O_AESPEED: return num(v, 0, 1, &s->ae_speed);
-    case O_AEDRIFT: return num(v, 0, 1, &s->ae_drift);
-    case O_SS: return inum(v, 1, 8, &s->supersample);
-    case O_SHADOW: return inum(v, 16, 8192, &s->shadow_size);
+    case O_AESPEED: return num(o, v, 0, 1, &s->ae_speed);
+    case O_AEDRIFT: return num(o, v, 0, 1, &s->ae_drift);
+    case O_SS: return inum(o, v, 1, 8, &s->supersample);
+    case O_SHADOW: return inum(o, v, 16, 8192, &s->shadow_size);
     default: return 1;
     }
 }
 
-static int opt_motion(int c, const char *v, sp_synth_selfie_settings *s)
+static int opt_motion(int c, const char *o, const char *v, sp_synth_selfie_settings *s)
 {
     sp_fake_imu_settings *m = &s->imu;
     int bad;
     switch (c) {
-    case O_STILL: bad = num(v, 0, 3600, &m->still_before_s); m->still_after_s = m->still_before_s; return bad;
-    case O_TURNS: return num(v, 0.1, 3600, &m->turn_duration_s);
-    case O_TURND: return num(v, -3600, 3600, &m->turn_deg);
-    case O_HEADING: return num(v, -3600, 3600, &m->heading_deg);
-    case O_PITCH: return num(v, -60, 60, &m->pitch_deg);
-    case O_ARM: return num(v, 0.2, 10, &m->arm_radius_m);
-    case O_WOBBLE: return num(v, 0, 45, &m->wobble_deg);
-    case O_CAMH: return num(v, -2, 2, &s->camera_height_m);
-    case O_HEADW: return num(v, 0, 30, &s->head_wobble_deg);
-    case O_IMURATE: return num(v, 10, 8000, &m->rate_hz);
-    case O_GNOISE: return num(v, 0, 10, &m->gyro_noise);
-    case O_ANOISE: return num(v, 0, 100, &m->accel_noise);
-    case O_GBIAS: return vec3(v, DEG, &m->gyro_bias);
-    case O_ABIAS: return vec3(v, 1.0, &m->accel_bias);
+    case O_STILL: bad = num(o, v, 0, 3600, &m->still_before_s); m->still_after_s = m->still_before_s; return bad;
+    case O_TURNS: return num(o, v, 0.1, 3600, &m->turn_duration_s);
+    case O_TURND: return num(o, v, -3600, 3600, &m->turn_deg);
+    case O_HEADING: return num(o, v, -3600, 3600, &m->heading_deg);
+    case O_PITCH: return num(o, v, -60, 60, &m->pitch_deg);
+    case O_ARM: return num(o, v, 0.2, 10, &m->arm_radius_m);
+    case O_WOBBLE: return num(o, v, 0, 45, &m->wobble_deg);
+    case O_CAMH: return num(o, v, -2, 2, &s->camera_height_m);
+    case O_HEADW: return num(o, v, 0, 30, &s->head_wobble_deg);
+    case O_IMURATE: return num(o, v, 10, 8000, &m->rate_hz);
+    case O_GNOISE: return num(o, v, 0, 10, &m->gyro_noise);
+    case O_ANOISE: return num(o, v, 0, 100, &m->accel_noise);
+    case O_GBIAS: return vec3(o, v, DEG, &m->gyro_bias);
+    case O_ABIAS: return vec3(o, v, 1.0, &m->accel_bias);
     case O_IMUQUIET: imu_quiet(m); return 0;
     default: return 1;
     }
 }
 
-static int opt_scene(int c, const char *v, sp_synth_selfie_settings *s)
+static int opt_scene(int c, const char *o, const char *v, sp_synth_selfie_settings *s)
 {
     static const char *const faces[] = { "auto", "generic", "ict" };
-    double d = 0;
     int i = 0, bad;
     switch (c) {
-    case O_FACE: bad = parse_enum(v, faces, 3, &i); s->face = (enum sp_synth_face_source)i; return bad;
-    case O_IDS: return num(v, 0, 10, &s->identity_sigma);
-    case O_EXPMAX: return num(v, 0, 1, &s->expression_max);
-    case O_ALBEDO: bad = num(v, 16, 4096, &d); s->albedo_height = (uint32_t)d; return bad;
-    case O_SUNEL: return num(v, -90, 90, &s->sun_elevation_deg);
-    case O_SUNAZ: return num(v, -3600, 3600, &s->sun_azimuth_deg);
-    case O_SUNI: return num(v, 0, 1e5, &s->sun_intensity);
-    case O_SKYI: return num(v, 0, 1e5, &s->sky_intensity);
+    case O_FACE: bad = sp_opt_choice(CMD, o, v, faces, 3, &i); s->face = (enum sp_synth_face_source)i; return bad;
+    case O_IDS: return num(o, v, 0, 10, &s->identity_sigma);
+    case O_EXPMAX: return num(o, v, 0, 1, &s->expression_max);
+    case O_ALBEDO: return u32num(o, v, 16, 4096, &s->albedo_height);
+    case O_SUNEL: return num(o, v, -90, 90, &s->sun_elevation_deg);
+    case O_SUNAZ: return num(o, v, -3600, 3600, &s->sun_azimuth_deg);
+    case O_SUNI: return num(o, v, 0, 1e5, &s->sun_intensity);
+    case O_SKYI: return num(o, v, 0, 1e5, &s->sky_intensity);
     case O_OVERCAST: s->overcast = 1; return 0;
-    case O_RELIT: return inum(v, 0, 64, &s->n_relit);
-    case O_NOVEL: return inum(v, 0, 64, &s->n_novel);
-    case O_SEED: bad = num(v, 0, 9e15, &d); s->seed = (uint64_t)d; return bad;
+    case O_RELIT: return inum(o, v, 0, 64, &s->n_relit);
+    case O_NOVEL: return inum(o, v, 0, 64, &s->n_novel);
+    case O_SEED: return sp_opt_u64(CMD, o, v, 0, UINT64_MAX, &s->seed);
     case O_NOISELESS: s->noise = 0; imu_quiet(&s->imu); return 0;
     case O_PROGRESS: s->progress = 1; return 0;
     default: return 1;
     }
 }
 
-static int opt_output(int c, const char *v, selfie_args *a)
+static int opt_output(int c, const char *o, const char *v, selfie_args *a)
 {
     switch (c) {
     case 'o': a->out = v; return 0;
     case O_TRUTH: a->truth = v; return 0;
     case O_NOTRUTH: a->no_truth = 1; return 0;
     case O_SHEET: a->sheet = v; return 0;
-    case O_SHEETN: return inum(v, 0, 256, &a->sheet_frames);
-    case O_SHEETC: return inum(v, 1, 64, &a->sheet_columns);
-    case O_SHEETAT: return num(v, 0, 1, &a->sheet_at);
+    case O_SHEETN: return inum(o, v, 0, 256, &a->sheet_frames);
+    case O_SHEETC: return inum(o, v, 1, 64, &a->sheet_columns);
+    case O_SHEETAT: return num(o, v, 0, 1, &a->sheet_at);
     default: return 1;
     }
 }
@@ -243,15 +237,18 @@ static int parse(int argc, char **argv, selfie_args *a)
             usage(stdout);
             return -1;
         }
-        bad = opt_camera(c, optarg, &a->s);
+        const char *o = opt_name(c);
+        bad = opt_camera(c, o, optarg, &a->s);
         if (bad == 1)
-            bad = opt_motion(c, optarg, &a->s);
+            bad = opt_motion(c, o, optarg, &a->s);
         if (bad == 1)
-            bad = opt_scene(c, optarg, &a->s);
+            bad = opt_scene(c, o, optarg, &a->s);
         if (bad == 1)
-            bad = opt_output(c, optarg, a);
-        if (bad && c != '?')
-            fprintf(stderr, "sunprobe synth selfie: bad value for --%s\n", opt_name(c));
+            bad = opt_output(c, o, optarg, a);
+    }
+    if (bad < 0) { /* the value's message is out */
+        fprintf(stderr, "sunprobe " CMD ": see --help\n");
+        return SP_EXIT_USAGE;
     }
     if (bad || !a->out || optind != argc) {
         usage(stderr);
@@ -291,6 +288,20 @@ static int contact_sheet(sp_synth_selfie *g, const selfie_args *a)
     return ret;
 }
 
+/*
+ * The generator's memory follows its options alone (frame size times supersampling, shadow map, albedo),
+ * so running out means they asked for more than this machine has: the usage code, naming them.
+ */
+static int out_of_memory(const selfie_args *a, const char *when)
+{
+    fprintf(stderr,
+            "sunprobe " CMD ": out of memory %s: --width %u --height %u --supersample %d (renders %ux%u), "
+            "--shadow-size %d, --albedo-size %u ask for more than this machine has; lower them\n",
+            when, a->s.width, a->s.height, a->s.supersample, a->s.width * (unsigned)a->s.supersample,
+            a->s.height * (unsigned)a->s.supersample, a->s.shadow_size, a->s.albedo_height);
+    return SP_EXIT_USAGE;
+}
+
 static int run(selfie_args *a)
 {
     char *truth = NULL;
@@ -301,13 +312,28 @@ static int run(selfie_args *a)
     int ret = sp_synth_selfie_open(&g, &a->s);
     if (ret) {
         free(truth);
-        return sp_cmd_fail("synth selfie", ret, "setting up the generator");
+        return ret == -ENOMEM ? out_of_memory(a, "setting up the generator")
+                              : sp_cmd_fail("synth selfie", ret, "setting up the generator");
     }
+    sp_cmd_signals sig; /* Ctrl-C: the generator stops between frames and removes what it wrote */
+    sp_cmd_catch_signals(&sig);
     ret = sp_synth_selfie_write(g, a->out, truth, &rep);
+    sp_cmd_restore_signals(&sig);
     if (ret) {
         sp_synth_selfie_close(&g);
+        int code;
+        if (ret == -ECANCELED && sp_cmd_stop_signal) {
+            fprintf(stderr, "sunprobe " CMD ": interrupted; nothing written\n");
+            code = sp_cmd_stopped_code(SP_EXIT_INTERNAL);
+        } else if (ret == -ENOMEM) {
+            code = out_of_memory(a, "rendering");
+        } else if (ret == -EEXIST && truth)
+            code = sp_cmd_failf(CMD, ret, "%s is not empty and holds no truth.json: choose another --truth DIR",
+                                truth);
+        else
+            code = sp_cmd_fail(CMD, ret, a->out);
         free(truth);
-        return sp_cmd_fail("synth selfie", ret, a->out);
+        return code;
     }
     const sp_synth_selfie_truth *t = sp_synth_selfie_get_truth(g);
     printf("%s: synthetic selfie, %llu frames %ux%u at %.0f fps, %llu IMU samples, %llu bytes, face %s, %.2f s\n",
@@ -332,5 +358,6 @@ int sp_cmd_synth_selfie(int argc, char **argv)
     if (code)
         return code < 0 ? SP_EXIT_OK : code;
     a.s.imu.seed = a.s.seed; /* one seed for appearance, noise, sway and IMU noise */
+    a.s.cancel = &sp_cmd_stop_signal;
     return run(&a);
 }

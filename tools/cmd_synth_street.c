@@ -28,6 +28,7 @@
 
 #include "cmd.h"
 #include "common/atomic_file.h"
+#include "common/file_set.h"
 #include "common/json.h"
 #include "common/progress.h"
 #include "export/png.h"
@@ -36,6 +37,7 @@
 
 #define MAX_FIGURES 64
 #define N_STATIC 3
+#define N_TRUTH 6 /* ground-truth files beside the capture */
 
 typedef struct street_args {
     const char *out;
@@ -559,15 +561,10 @@ static int write_text_file(const char *path, const char *text, size_t len)
     return sp_atomic_file_finish(&af, ret);
 }
 
-static int write_truth(const scene *s)
+/* The ground truth beside OUT, each file under its name in the set (p: the temporary names). */
+static int write_truth(const scene *s, const char *const p[N_TRUTH])
 {
-    static const char *const sfx[6] = { ".truth.json", ".background.png", ".hidden-far.pgm", ".hidden-near.pgm",
-                                        ".seen-far.pgm", ".hidden-count.pgm" };
-    char *p[6];
     int ret = 0;
-    for (int i = 0; i < 6; i++)
-        if (!(p[i] = path_with(s->a.out, sfx[i])))
-            ret = -ENOMEM;
     sp_strbuf b = { 0 };
     if (!ret) {
         truth_json(s, &b);
@@ -584,8 +581,6 @@ static int write_truth(const scene *s)
     if (!ret)
         ret = write_pgm16(p[5], s->hidden_count, s->cam.w, s->cam.h);
     sp_strbuf_free(&b);
-    for (int i = 0; i < 6; i++)
-        free(p[i]);
     return ret;
 }
 
@@ -659,6 +654,10 @@ static int write_capture(scene *s, const char *partial)
     sp_progress bar;
     sp_progress_start(&bar, "synth street", n, -1);
     for (uint64_t i = 0; !ret && i < n; i++) {
+        if (sp_cmd_stop_signal) {
+            ret = -ECANCELED;
+            break;
+        }
         double t = (double)i / s->a.fps;
         render_frame(s, i, t);
         if (s->a.noise > 0)
@@ -742,32 +741,37 @@ static int parse_args(int argc, char **argv, street_args *a)
     return 0;
 }
 
+/* The capture and its truth files, one set: all of them replace the previous ones, or none does. */
 static int run(scene *s)
 {
-    size_t n = strlen(s->a.out) + 16;
-    char *partial = malloc(n);
-    if (!partial)
-        return -ENOMEM;
-    snprintf(partial, n, "%s.partial", s->a.out);
+    static const char *const sfx[N_TRUTH] = { ".truth.json", ".background.png", ".hidden-far.pgm",
+                                              ".hidden-near.pgm", ".seen-far.pgm", ".hidden-count.pgm" };
+    sp_file_set fs = { 0 };
+    const char *cap = NULL, *truth[N_TRUTH];
+    int ret = sp_file_set_add(&fs, s->a.out, &cap);
+    for (int i = 0; !ret && i < N_TRUTH; i++) {
+        char *p = path_with(s->a.out, sfx[i]);
+        ret = p ? sp_file_set_add(&fs, p, &truth[i]) : -ENOMEM;
+        free(p);
+    }
     setup_scene(s);
     camera_setup(&s->cam, &s->a, 0);
-    int ret = scene_alloc(s);
+    if (!ret)
+        ret = scene_alloc(s);
     if (!ret) {
         render_static(s);
-        ret = write_capture(s, partial);
+        ret = write_capture(s, cap);
     }
     if (!ret) {
         if (s->a.pan_deg_s != 0) { /* the truth describes the first view */
             camera_setup(&s->cam, &s->a, 0);
             render_static(s);
         }
-        ret = write_truth(s);
+        ret = write_truth(s, truth);
     }
-    if (!ret && rename(partial, s->a.out) != 0)
-        ret = -errno;
-    if (ret)
-        unlink(partial);
-    free(partial);
+    if (!ret)
+        return sp_file_set_commit(&fs);
+    sp_file_set_abort(&fs);
     return ret;
 }
 
@@ -784,10 +788,16 @@ int sp_cmd_synth_street(int argc, char **argv)
         free(s);
         return code < 0 ? SP_EXIT_OK : code;
     }
+    sp_cmd_signals sig; /* Ctrl-C ends the frame loop: nothing of this run is left */
+    sp_cmd_catch_signals(&sig);
     int ret = run(s);
+    sp_cmd_restore_signals(&sig);
     scene_free(s);
     if (ret) {
-        code = sp_cmd_fail("synth street", ret, s->a.out);
+        if (ret == -ECANCELED)
+            fprintf(stderr, "sunprobe synth street: interrupted; nothing written\n");
+        code = ret == -ECANCELED ? sp_cmd_stopped_code(SP_EXIT_INTERNAL)
+                                 : sp_cmd_fail("synth street", ret, s->a.out);
         free(s);
         return code;
     }

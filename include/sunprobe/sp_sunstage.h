@@ -56,6 +56,7 @@ typedef struct sp_sunstage_counts {
     uint64_t accepted;  /* passed every check (then competed for a reservoir slot) */
     int keyframes, heldout; /* slots filled */
     uint64_t thinned_early; /* dropped by the orientation tagger while its filter initialised (sp_frame_tags) */
+    uint64_t skipped_undecodable; /* damaged image data (a warning names each frame) */
 } sp_sunstage_counts;
 
 /* Progress of the fit, passed to the callback (borrowed for the call). */
@@ -130,6 +131,7 @@ SP_API int sp_sunstage_end_stream(sp_sunstage *ss);
  * Adds one keyframe directly (tests, other front ends): rgb is width * height * 3
  * display values in [0, 1] (borrowed, copied), landmarks 136 pixel coordinates
  * (borrowed), fx..cy intrinsics of that image. Bypasses the quality checks.
+ * -EINVAL for bad arguments, or when the settings' keyframes (heldout) slots are all used.
  */
 SP_API int sp_sunstage_add_keyframe(sp_sunstage *ss, const float *rgb, int width, int height,
                                     const double landmarks[136], double fx, double fy, double cx, double cy,

@@ -16,6 +16,7 @@
 #ifndef SUNPROBE_SP_SYNTH_H
 #define SUNPROBE_SP_SYNTH_H
 
+#include <signal.h>
 #include <stdint.h>
 
 #include "sp_common.h"
@@ -84,6 +85,8 @@ typedef struct sp_synth_selfie_settings {
     uint64_t seed;            /* default 1 */
     sp_synth_image_writer write_image; /* PNG writer (tools pass sp_png_write); NULL: binary PPM/PGM files */
     int progress;             /* progress bar on stderr: 1 on, 0 off, -1 when a terminal (default 0) */
+    /* Polled between frames: non-zero stops sp_synth_selfie_write with -ECANCELED, nothing left (a signal flag). */
+    const volatile sig_atomic_t *cancel;
 } sp_synth_selfie_settings;
 
 typedef struct sp_synth_selfie sp_synth_selfie;

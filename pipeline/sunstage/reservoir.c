@@ -68,8 +68,8 @@ int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const float *clip, con
                 slot = i;
                 break;
             }
-        if (slot < 0)
-            return -ENOSPC;
+        if (slot < 0) /* more than the settings asked for: the caller's error, not a full disk */
+            return -EINVAL;
     } else {
         held = Hn > 0 && seq % 7 == 3;
         slot = held ? K + (int)(u * Hn) : (int)(u * K);

@@ -218,6 +218,12 @@ int sp_sunstage_push(sp_sunstage *ss, const sp_event *ev)
         int64_t t = sp_clock_monotonic_ns();
         int ret = ss_frontend_frame(ss, ev->frame, ev->timestamp_ns, ev->tags);
         ss->fit.frontend_s += (double)(sp_clock_monotonic_ns() - t) * 1e-9;
+        if (ret == SP_ECORRUPT || ret == SP_ETRUNCATED) { /* a damaged frame costs that frame, not the fit */
+            ss->counts.skipped_undecodable++;
+            sp_log(SP_LOG_WARN, MOD, "frame %llu at %.3f s does not decode (%s): skipped",
+                   (unsigned long long)ev->frame->sequence, (double)ev->timestamp_ns * 1e-9, sp_strerror(ret));
+            ret = 0;
+        }
         return ret;
     }
     return 0;
@@ -334,6 +340,9 @@ static int fittable(const sp_sunstage *ss, int n_keyframes)
     else if (c.skipped_no_orientation >= most)
         sp_log(SP_LOG_ERROR, MOD, "%llu of %llu frames have no camera orientation (IMU gaps or a filter that never "
                "settled): nothing to fit", (unsigned long long)c.skipped_no_orientation, frames);
+    else if (c.skipped_undecodable >= most)
+        sp_log(SP_LOG_ERROR, MOD, "%llu of %llu frames do not decode (damaged image data): nothing to fit",
+               (unsigned long long)c.skipped_undecodable, frames);
     else if (c.skipped_dark >= most)
         sp_log(SP_LOG_ERROR, MOD, "%llu of %llu frames are too dark to fit (mean below 3%% of white): backlit to "
                "black, the lens covered, or the exposure far too short", (unsigned long long)c.skipped_dark, frames);

@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include "common/jpeg.h"
 #include "pipeline/synth/synth_internal.h"
@@ -667,15 +668,27 @@ static char *relative_path(const char *from_file, const char *to)
     return out ? out : strdup(to);
 }
 
-static int make_dir(const char *dir)
+/*
+ * The truth directory exists afterwards (*made: this call created it). An existing one is replaced as a
+ * whole at the end, so it must be empty or hold an earlier truth.json: never someone else's directory.
+ */
+static int make_dir(const char *dir, int *made)
 {
-    if (mkdir(dir, 0777) == 0 || errno == EEXIST) {
-        struct stat st;
-        if (stat(dir, &st) == 0 && S_ISDIR(st.st_mode))
-            return 0;
+    *made = mkdir(dir, 0777) == 0;
+    if (*made)
+        return 0;
+    struct stat st;
+    if (errno != EEXIST)
+        return -errno;
+    if (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode))
         return -ENOTDIR;
-    }
-    return -errno;
+    char *manifest = sp_path_join_alloc(dir, "truth.json");
+    if (!manifest)
+        return -ENOMEM;
+    /* rmdir succeeds on an empty directory only: put it back as it was */
+    int ours = sp_is_regular_file(manifest) || (rmdir(dir) == 0 && mkdir(dir, 0777) == 0);
+    free(manifest);
+    return ours ? 0 : -EEXIST;
 }
 
 int sp_synth_selfie_write(sp_synth_selfie *g, const char *capture_path, const char *truth_dir,
@@ -684,20 +697,28 @@ int sp_synth_selfie_write(sp_synth_selfie *g, const char *capture_path, const ch
     if (!g || !capture_path || !*capture_path || (truth_dir && !*truth_dir))
         return -EINVAL;
     sp_synth_selfie_report rep = { 0 };
+    sp_partial cap = { 0 }, truth = { 0 };
     char *rel = NULL;
-    int ret = 0;
-    if (truth_dir) {
-        if ((ret = make_dir(truth_dir)))
-            return ret;
-        rel = relative_path(capture_path, truth_dir);
-        if (!rel)
-            return -ENOMEM;
-    }
-    ret = synth_write_capture(g, capture_path, rel, &rep);
+    int made = 0, ret = truth_dir ? make_dir(truth_dir, &made) : 0;
+    if (!ret && truth_dir && !(rel = relative_path(capture_path, truth_dir)))
+        ret = -ENOMEM;
+    if (!ret && truth_dir)
+        ret = sp_partial_dir_open(&truth, truth_dir);
+    if (!ret)
+        ret = synth_write_capture(g, capture_path, rel, &rep, &cap);
     if (!ret && truth_dir) {
         const char *slash = strrchr(capture_path, '/');
-        ret = synth_write_truth(g, truth_dir, slash ? slash + 1 : capture_path, &rep);
+        ret = synth_write_truth(g, truth.path, slash ? slash + 1 : capture_path, &rep);
     }
+    /* both complete: the truth first, so a capture never names a truth directory that is not there */
+    if (!ret && truth_dir)
+        ret = sp_partial_dir_commit(&truth, SP_PARTIAL_REPLACE);
+    if (!ret)
+        ret = sp_partial_file_commit(&cap, SP_PARTIAL_REPLACE);
+    sp_partial_file_abort(&cap); /* after a failure; no-ops after the commits */
+    sp_partial_dir_abort(&truth);
+    if (ret && made)
+        rmdir(truth_dir);
     free(rel);
     if (!ret && report)
         *report = rep;

@@ -252,7 +252,7 @@ static int run(cap_state *c, const char *partial, const char *truth_rel)
     sp_progress bar;
     sp_progress_start(&bar, "synth selfie", g->n_frames, g->s.progress);
     for (uint64_t i = 0; !ret && i < g->n_frames; i++) {
-        ret = one_frame(c, i);
+        ret = g->s.cancel && *g->s.cancel ? -ECANCELED : one_frame(c, i);
         sp_progress_update(&bar, i + 1, NULL);
     }
     if (!ret)
@@ -261,7 +261,8 @@ static int run(cap_state *c, const char *partial, const char *truth_rel)
     return ret;
 }
 
-int synth_write_capture(sp_synth_selfie *g, const char *path, const char *truth_rel, sp_synth_selfie_report *rep)
+int synth_write_capture(sp_synth_selfie *g, const char *path, const char *truth_rel, sp_synth_selfie_report *rep,
+                        sp_partial *partial)
 {
     cap_state c = { .g = g, .fmt = frame_format(&g->s), .exposure = g->initial_exposure };
     if (c.fmt == SP_PIXFMT_MJPEG && !sp_jpeg_available()) {
@@ -269,12 +270,11 @@ int synth_write_capture(sp_synth_selfie *g, const char *path, const char *truth_
         return SP_EDISABLED;
     }
     synth_rng_init(&c.ae, g->s.seed, SYNTH_STREAM_AE, 0);
-    sp_partial partial;
-    int ret = sp_partial_file_open(&partial, path);
+    int ret = sp_partial_file_open(partial, path);
     if (ret)
         return ret;
     int64_t t0 = sp_clock_monotonic_ns();
-    ret = run(&c, partial.path, truth_rel);
+    ret = run(&c, partial->path, truth_rel);
     if (c.w) {
         rep->capture_bytes = sp_capture_writer_bytes(c.w);
         int cr = sp_capture_writer_close(&c.w);
@@ -282,9 +282,6 @@ int synth_write_capture(sp_synth_selfie *g, const char *path, const char *truth_
     }
     sp_fake_imu_close(&c.imu);
     sp_jpeg_buffer_free(&c.jpg);
-    if (!ret)
-        ret = sp_partial_file_commit(&partial, SP_PARTIAL_REPLACE);
-    sp_partial_file_abort(&partial); /* after a failure; a no-op after the commit */
     rep->frames = g->n_frames;
     rep->imu_samples = c.imu_count;
     rep->seconds = (double)(sp_clock_monotonic_ns() - t0) * 1e-9;

@@ -6,6 +6,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "common/file_util.h"
 #include "sunprobe/sp_synth.h"
 
 #define SYNTH_MAX_CAPS 3
@@ -150,7 +151,8 @@ void synth_build_env(const sp_synth_selfie_settings *s, const double sun_dir[3],
 void synth_env_lookup(const float *env, const double dir[3], double rgb[3]);
 
 /* ---- synth_capture.c ---- */
-int synth_write_capture(sp_synth_selfie *g, const char *path, const char *truth_rel, sp_synth_selfie_report *rep);
+int synth_write_capture(sp_synth_selfie *g, const char *path, const char *truth_rel, sp_synth_selfie_report *rep,
+                        sp_partial *partial);
 
 /* ---- synth_truth.c ---- */
 int synth_write_truth(sp_synth_selfie *g, const char *dir, const char *capture_name, sp_synth_selfie_report *rep);

@@ -313,6 +313,8 @@ static int write_heldouts(sp_synth_selfie *g, const char *dir, sp_strbuf *list, 
     if (!h)
         ret = ret ? ret : -ENOMEM;
     sp_strbuf_printf(list, "[");
+    if (!ret && g->s.cancel && *g->s.cancel) /* renders take a while: one more chance to stop */
+        ret = -ECANCELED;
     for (int k = 0; !ret && k < g->s.n_relit; k++)
         if (!(ret = make_relit(g, k, h)) && !(ret = write_heldout(g, hdir, h, k, list)))
             (*count)++;

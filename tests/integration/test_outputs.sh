@@ -131,7 +131,7 @@ can_import=$?
 # ---- import --fps: 0.001..10000, else the usage code naming the option
 for fps in 1e-300 0 -1 0.0009 10001 inf nan; do
     expect 1 "import --fps $fps" "$SP" import "$dir/imgs" -o "$dir/fps.spcap" -f --fps "$fps" -q
-    contains "$dir/err.txt" "bad value for --fps" "import --fps $fps message"
+    contains "$dir/err.txt" "--fps '$fps': expected a number from 0.001 to 10000" "import --fps $fps message"
 done
 if [ $can_import != 4 ]; then
     for fps in 0.001 10000; do

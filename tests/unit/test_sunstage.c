@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "check.h"
+#include "common/jpeg.h"
 #include "pipeline/sunstage/sunstage_internal.h"
 #include "sunprobe/sp_face_model.h"
 #include "sunprobe/sp_render.h"
@@ -454,8 +455,42 @@ static void test_bad_args(const sp_face_model *m)
     CHECK(sp_sunstage_open(&ss, &set, m) == 0);
     CHECK(sp_sunstage_fit(ss, NULL, NULL) == SP_ENODATA); /* nothing pushed */
     sp_sunstage_close(&ss);
+    /* one held-out keyframe too many: a bad argument (it said -ENOSPC, which commands report as a full disk) */
+    set.heldout = 1;
+    CHECK(sp_sunstage_open(&ss, &set, m) == 0);
+    static float rgb[32 * 32 * 3];
+    double lm[136] = { 0 };
+    const sp_quat q = { 1, 0, 0, 0 };
+    CHECK_EQ_INT(sp_sunstage_add_keyframe(ss, rgb, 32, 32, lm, 30, 30, 15.5, 15.5, q, 1), 0);
+    CHECK_EQ_INT(sp_sunstage_add_keyframe(ss, rgb, 32, 32, lm, 30, 30, 15.5, 15.5, q, 1), -EINVAL);
+    sp_sunstage_close(&ss);
     sp_sunstage_close(&ss); /* twice is fine */
     sp_sunstage_close(NULL);
+}
+
+/* A frame whose image data does not decode is counted and skipped: one damaged frame must not end the fit. */
+static void test_undecodable_frame(const sp_face_model *m)
+{
+    if (!sp_jpeg_available()) {
+        printf("note: undecodable-frame check skipped: this build has no JPEG decoder\n");
+        return;
+    }
+    sp_sunstage_settings set;
+    sp_sunstage_default_settings(&set);
+    sp_sunstage *ss = NULL;
+    CHECK(sp_sunstage_open(&ss, &set, m) == 0);
+    if (!ss)
+        return;
+    uint8_t junk[64] = { 0xFF, 0xD8, 0xFF, 0xC0, 0x00, 0x11, 0x08, 0x00, 0x40, 0x00, 0x40, 0x03 }; /* SOI, SOF0 cut */
+    sp_frame f = { .format = SP_PIXFMT_MJPEG, .width = 64, .height = 64, .data = junk, .capacity = sizeof(junk),
+                   .bytes_used = sizeof(junk), .timestamp_ns = 1000000000, .sequence = 7 };
+    sp_frame_tags tags = { .orientation = SP_ORIENTATION_OK, .camera_to_world = { 1, 0, 0, 0 } };
+    sp_event ev = { .type = SP_EVENT_FRAME, .timestamp_ns = f.timestamp_ns, .frame = &f, .tags = &tags };
+    CHECK_EQ_INT(sp_sunstage_push(ss, &ev), 0);
+    sp_sunstage_counts c;
+    sp_sunstage_get_counts(ss, &c);
+    CHECK(c.frames == 1 && c.skipped_undecodable == 1 && c.accepted == 0);
+    sp_sunstage_close(&ss);
 }
 
 /* Face-crop windows: the crop camera projects a point where the window maps its capture projection. */
@@ -508,6 +543,7 @@ int main(int argc, char **argv)
     CHECK(sp_face_model_generic(&m) == 0);
     test_bad_args(&m);
     test_crop_window(&m);
+    test_undecodable_frame(&m);
     test_end_to_end(&m, SP_SUNSTAGE_SOLVER_FAST);
     if (argc < 2 || strcmp(argv[1], "--fast-only"))
         test_end_to_end(&m, SP_SUNSTAGE_SOLVER_ADAM);
