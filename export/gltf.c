@@ -388,8 +388,9 @@ static void add_cameras(const export_ctx *c, sp_strbuf *j)
     double w = c->asset.width, h = c->asset.height;
     /* pixel centres at integers: the image spans h pixels; aspect keeps the horizontal field for fx != fy */
     sp_strbuf_printf(j, ",\"cameras\":[{\"name\":\"keyframe 0\",\"type\":\"perspective\",\"perspective\":"
-                        "{\"yfov\":%.9g,\"aspectRatio\":%.9g,\"znear\":0.01}}]",
-                     2.0 * atan(0.5 * h / k->fy), w * k->fy / (h * k->fx));
+                        "{\"yfov\":%.9g,\"aspectRatio\":%.9g,\"znear\":0.01},\"extras\":{\"sunprobe\":"
+                        "{\"image_width\":%d,\"image_height\":%d}}}]",
+                     2.0 * atan(0.5 * h / k->fy), w * k->fy / (h * k->fx), c->asset.width, c->asset.height);
 }
 
 static void add_scene(const export_ctx *c, sp_strbuf *j, int draco)

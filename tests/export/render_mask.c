@@ -14,6 +14,10 @@
  *     channel is inside) and exits 1 when it is below MIN or a mask is empty.
  *   render_mask differ A.png B.png MIN
  *     prints the mean absolute RGB difference (0..255) and exits 1 below MIN.
+ *   render_mask lum FACE_DIR [sun|sky]
+ *     prints the mean linear Rec. 709 luminance of keyframe 0's view lit by the
+ *     fitted sun and sky (sp_face_asset_render_radiance, before the tone map)
+ *     over the pixels the face covers at least half (sun, sky: that light alone).
  *
  * The mesh is rendered undisplaced: the glTF carries displacement only as a
  * normal map, so its silhouette is the undisplaced mesh's.
@@ -186,8 +190,45 @@ static int cmd_differ(char **argv)
     return mean >= atof(argv[4]) ? 0 : 1;
 }
 
+static int cmd_lum(const char *dir, const char *part)
+{
+    static const float black[SP_RENDER_ENV_FLOATS];
+    sp_face_asset a;
+    if (sp_face_dir_read(&a, dir)) {
+        fprintf(stderr, "render_mask: cannot read %s\n", dir);
+        return 1;
+    }
+    sp_face_view v;
+    sp_face_view_init(&v, &a);
+    if (part && !strcmp(part, "sky"))
+        v.sun_intensity = 0.0;
+    else if (part && !strcmp(part, "sun"))
+        v.env = black;
+    size_t n = (size_t)v.width * (size_t)v.height, covered = 0;
+    float *rad = malloc(n * 3 * sizeof(float)), *cover = malloc(n * sizeof(float));
+    int ret = rad && cover ? sp_face_asset_render_radiance(&a, &v, rad, cover) : -1;
+    double sum = 0.0;
+    for (size_t i = 0; !ret && i < n; i++)
+        if (cover[i] >= 0.5f) {
+            sum += 0.2126 * (double)rad[i * 3] + 0.7152 * (double)rad[i * 3 + 1] + 0.0722 * (double)rad[i * 3 + 2];
+            covered++;
+        }
+    free(rad);
+    free(cover);
+    sp_face_asset_free(&a);
+    if (ret || !covered) {
+        fprintf(stderr, "render_mask: rendering %s failed or shows no face (%d)\n", dir, ret);
+        return 1;
+    }
+    printf("sunprobe: %dx%d, %zu face pixels\nsunprobe: mean_luminance %.6g\n", v.width, v.height, covered,
+           sum / (double)covered);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
+    if ((argc == 3 || argc == 4) && !strcmp(argv[1], "lum"))
+        return cmd_lum(argv[2], argc == 4 ? argv[3] : NULL);
     if (argc == 5 && !strcmp(argv[1], "iou"))
         return cmd_iou(argv);
     if (argc == 5 && !strcmp(argv[1], "differ"))
@@ -196,6 +237,7 @@ int main(int argc, char **argv)
         return cmd_render(argc, argv);
     fprintf(stderr, "usage: render_mask FACE_DIR OUT.png [W H DCX DCY YAW_DEG]\n"
                     "       render_mask iou REF.png SHOT.png MIN\n"
-                    "       render_mask differ A.png B.png MIN\n");
+                    "       render_mask differ A.png B.png MIN\n"
+                    "       render_mask lum FACE_DIR [sun|sky]\n");
     return 2;
 }

@@ -350,6 +350,9 @@ static void check_scene(const char *face, const char *tmp, const char *name)
     double yfov = sp_json_number(sp_json_get(persp, "yfov"), 0), aspect = sp_json_number(sp_json_get(persp, "aspectRatio"), 0);
     CHECK_NEAR(yfov, 2.0 * atan(0.5 * a.height / a.camera.fy), 1e-7); /* 9 digits in the JSON */
     CHECK_NEAR(aspect, (double)a.width * a.camera.fy / ((double)a.height * a.camera.fx), 1e-7);
+    const sp_json *size = sp_json_get(sp_json_get(sp_json_at(sp_json_get(j, "cameras"), 0), "extras"), "sunprobe");
+    CHECK(sp_json_number(sp_json_get(size, "image_width"), 0) == a.width &&
+          sp_json_number(sp_json_get(size, "image_height"), 0) == a.height);
     CHECK_MSG(acos(fmin(cosang, 1.0)) < 0.5 * yfov, "%s: the head is %.1f deg off the camera's axis (half fov %.1f)",
               name, acos(fmin(cosang, 1.0)) * 180 / PI, 0.5 * yfov * 180 / PI);
     double az = atan2(eye[0], eye[2]) * 180 / PI;
