@@ -18,6 +18,8 @@
  *     prints the mean linear Rec. 709 luminance of keyframe 0's view lit by the
  *     fitted sun and sky (sp_face_asset_render_radiance, before the tone map)
  *     over the pixels the face covers at least half (sun, sky: that light alone).
+ *   render_mask lum-shot SHOT.png MASK.png
+ *     prints the mean linear luminance of an sRGB screenshot over MASK's pixels.
  *
  * The mesh is rendered undisplaced: the glTF carries displacement only as a
  * normal map, so its silhouette is the undisplaced mesh's.
@@ -30,6 +32,7 @@
 #include "export/gltf_internal.h"
 #include "export/png.h"
 #include "export/png_read.h"
+#include "sunprobe/sp_math.h"
 #include "sunprobe/sp_render.h"
 #include "sunprobe/sp_sunstage.h"
 
@@ -225,8 +228,35 @@ static int cmd_lum(const char *dir, const char *part)
     return 0;
 }
 
+static int cmd_lum_shot(const char *shot, const char *mask)
+{
+    uint8_t *p[2] = { NULL, NULL };
+    uint32_t w[2] = { 0, 0 }, h[2] = { 0, 0 };
+    int ok = !sp_png_read_rgba(shot, &p[0], &w[0], &h[0]) && !sp_png_read_rgba(mask, &p[1], &w[1], &h[1]) &&
+             w[0] == w[1] && h[0] == h[1];
+    double sum = 0.0;
+    size_t n = 0;
+    for (size_t i = 0; ok && i < (size_t)w[0] * h[0]; i++)
+        if (p[1][i * 4] > 127) {
+            const uint8_t *c = p[0] + i * 4;
+            sum += 0.2126 * sp_srgb_decode(c[0] / 255.0) + 0.7152 * sp_srgb_decode(c[1] / 255.0) +
+                   0.0722 * sp_srgb_decode(c[2] / 255.0);
+            n++;
+        }
+    free(p[0]);
+    free(p[1]);
+    if (!ok || !n) {
+        fprintf(stderr, "render_mask: cannot measure %s over %s (sizes, or an empty mask)\n", shot, mask);
+        return 1;
+    }
+    printf("shot: %zu face pixels\nshot: mean_luminance %.6g\n", n, sum / (double)n);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
+    if (argc == 4 && !strcmp(argv[1], "lum-shot"))
+        return cmd_lum_shot(argv[2], argv[3]);
     if ((argc == 3 || argc == 4) && !strcmp(argv[1], "lum"))
         return cmd_lum(argv[2], argc == 4 ? argv[3] : NULL);
     if (argc == 5 && !strcmp(argv[1], "iou"))
@@ -238,6 +268,7 @@ int main(int argc, char **argv)
     fprintf(stderr, "usage: render_mask FACE_DIR OUT.png [W H DCX DCY YAW_DEG]\n"
                     "       render_mask iou REF.png SHOT.png MIN\n"
                     "       render_mask differ A.png B.png MIN\n"
-                    "       render_mask lum FACE_DIR [sun|sky]\n");
+                    "       render_mask lum FACE_DIR [sun|sky]\n"
+                    "       render_mask lum-shot SHOT.png MASK.png\n");
     return 2;
 }

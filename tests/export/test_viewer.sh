@@ -4,15 +4,17 @@
 # (Draco), renders its silhouette in headless Chromium (viewer_shot.cjs, playwright-core; the page's
 # mask mode, flat white on black) and with sp_render (render_mask, coverage >= 0.5) from the same
 # cameras, and requires IoU >= 0.95 for each: keyframe 0's camera, and an orbited camera on a
-# non-square image with the principal point off centre; and the lit page changes when the sun slider
-# turns the sun by 180 degrees. Exit 77 without node/npm/Chromium/Draco or
+# non-square image with the principal point off centre; the lit page changes when the sun slider
+# turns the sun by 180 degrees; and the page's linear mode (sun, image-based light from the .hdr,
+# shadows, exposure 1 / lux_per_fit_unit) gives a mean face luminance within a factor of 1.5 of the
+# project's renderer (render_mask lum) from keyframe 0. Exit 77 without node/npm/Chromium/Draco or
 # when npm cannot install the viewer's packages (tools/viewer/package-lock.json).
 # usage: test_viewer.sh SUNPROBE TEST_EXPORT RENDER_MASK VIEWER_DIR NODE_DIR
 set -u
 SUNPROBE=$1 FIXTURE=$2 MASK=$3 VIEWER=$4 NODE_DIR=$5
 HERE=$(cd "$(dirname "$0")" && pwd)
 CHROMIUM=${CHROMIUM:-/usr/bin/chromium}
-MIN_IOU=0.95
+MIN_IOU=0.95 MAX_RATIO=1.5
 skip() { echo "SKIP: $*"; exit 77; }
 command -v node >/dev/null 2>&1 || skip "node not installed (Debian: apt-get install nodejs npm)"
 command -v npm >/dev/null 2>&1 || skip "npm not installed (Debian: apt-get install npm)"
@@ -47,7 +49,7 @@ while [ $# -ge 2 ]; do
     q=$("$MASK" "$TMP/face" "$TMP/$1-ref.png" $2) || exit 1
     w=${q#w=}; w=${w%%&*}; h=${q#*&h=}; h=${h%%&*}
     jobs="$jobs $w $h $TMP/$1-viewer.png glb=face.glb&mode=mask&$q"
-    [ "$1" = key0 ] && lit="$w $h $TMP/lit0.png glb=face.glb&env=face.env.hdr&ui=0&$q $w $h $TMP/lit180.png glb=face.glb&env=face.env.hdr&ui=0&az=180&$q"
+    [ "$1" = key0 ] && lit="$w $h $TMP/lit0.png glb=face.glb&env=face.env.hdr&ui=0&$q $w $h $TMP/lit180.png glb=face.glb&env=face.env.hdr&ui=0&az=180&$q $w $h $TMP/linear.png glb=face.glb&env=face.env.hdr&mode=linear&$q"
     echo "$1: $q"
     shift 2
 done
@@ -61,5 +63,12 @@ done
 # the lit page: turning the sun half way round must change the picture
 printf 'lit, sun azimuth 0 vs 180: '
 "$MASK" differ "$TMP/lit0.png" "$TMP/lit180.png" 2 || fail=1
+# physical light and exposure: the same view's mean face luminance as the project's renderer
+ref=$("$MASK" lum "$TMP/face" | sed -n 's/^sunprobe: mean_luminance //p')
+got=$("$MASK" lum-shot "$TMP/linear.png" "$TMP/key0-viewer.png" | sed -n 's/^shot: mean_luminance //p')
+awk -v r="$ref" -v g="$got" -v m="$MAX_RATIO" 'BEGIN {
+    if (r <= 0 || g <= 0) { print "FAIL: no luminance"; exit 1 }
+    q = g / r; printf "mean face luminance: three.js / sunprobe = %.3f (%.4g / %.4g; allowed %.3f..%.3f)\n", q, g, r, 1 / m, m
+    exit (q <= m && q >= 1 / m) ? 0 : 1 }' || fail=1
 [ -n "${KEEP_VIEWER_SHOTS:-}" ] && cp "$TMP"/*.png "$KEEP_VIEWER_SHOTS"/
 exit $fail
