@@ -90,6 +90,7 @@ typedef struct export_ctx {
     sp_face_asset asset;
     sp_gltf_placement place; /* fit world -> exported scene */
     sp_gltf_geom geom;
+    sp_gltf_morphs morphs; /* expression morph targets (plain GLB only) */
     sp_export_textures tex;
     char *reasons[N_PARTS]; /* the manifest's reason per left-out part (owned), NULL if none */
     sp_strbuf left_out;     /* JSON array body of what was left out, why, and what the export omitted */
@@ -243,6 +244,68 @@ static int add_geometry(export_ctx *c, bin_buf *b, sp_strbuf *acc, sp_strbuf *dr
 }
 
 /* Images, textures and the one material. */
+/*
+ * Morph targets from accessor first on: one sparse POSITION accessor per expression (only the vertices it
+ * moves; the rest are zero), appended to acc; prim gets the primitive's "targets", mesh the mesh's weights
+ * and names.
+ */
+static int add_morphs(export_ctx *c, bin_buf *b, sp_strbuf *acc, int first, sp_strbuf *prim, sp_strbuf *mesh)
+{
+    const sp_gltf_morphs *mo = &c->morphs;
+    uint32_t nv = c->geom.n_vertices;
+    uint32_t *idx = malloc((size_t)nv * sizeof(uint32_t));
+    float *val = malloc((size_t)nv * 3 * sizeof(float));
+    int ret = idx && val ? 0 : -ENOMEM;
+    for (uint32_t k = 0; !ret && k < mo->n_targets; k++) {
+        const float *d = mo->deltas + (size_t)k * nv * 3;
+        float lo[3] = { 0, 0, 0 }, hi[3] = { 0, 0, 0 };
+        uint32_t n = 0;
+        for (uint32_t i = 0; i < nv; i++) {
+            if (d[i * 3] == 0.0f && d[i * 3 + 1] == 0.0f && d[i * 3 + 2] == 0.0f && !(n == 0 && i == nv - 1))
+                continue; /* sparse: unlisted vertices do not move (at least one entry is required) */
+            idx[n] = i;
+            for (int a = 0; a < 3; a++) {
+                val[n * 3 + a] = d[i * 3 + a];
+                lo[a] = fminf(lo[a], d[i * 3 + a]);
+                hi[a] = fmaxf(hi[a], d[i * 3 + a]);
+            }
+            n++;
+        }
+        int vi = bin_add(b, idx, (size_t)n * 4, 0), vv = vi < 0 ? vi : bin_add(b, val, (size_t)n * 12, 0);
+        if (vv < 0) {
+            ret = vv;
+            break;
+        }
+        sp_strbuf_printf(acc, ",{\"componentType\":5126,\"count\":%u,\"type\":\"VEC3\",\"min\":[%.9g,%.9g,%.9g],"
+                              "\"max\":[%.9g,%.9g,%.9g],\"sparse\":{\"count\":%u,\"indices\":{\"bufferView\":%d,"
+                              "\"componentType\":5125},\"values\":{\"bufferView\":%d}}}",
+                         nv, (double)lo[0], (double)lo[1], (double)lo[2], (double)hi[0], (double)hi[1], (double)hi[2],
+                         n, vi, vv);
+        sp_strbuf_printf(prim, "%s{\"POSITION\":%d}", k ? "," : ",\"targets\":[", first + (int)k);
+        c->st.morph_bytes += (size_t)n * 16;
+    }
+    free(idx);
+    free(val);
+    if (ret || !mo->n_targets)
+        return ret;
+    sp_strbuf_printf(prim, "]");
+    sp_strbuf_printf(mesh, ",\"weights\":[");
+    for (uint32_t k = 0; k < mo->n_targets; k++)
+        sp_strbuf_printf(mesh, "%s0", k ? "," : "");
+    sp_strbuf_printf(mesh, "],\"extras\":{\"targetNames\":[");
+    for (uint32_t k = 0; k < mo->n_targets; k++) {
+        sp_strbuf_printf(mesh, k ? "," : "");
+        sp_strbuf_json_string(mesh, mo->names[k]);
+    }
+    sp_strbuf_printf(mesh, "],\"sunprobe\":{\"fitted_expression\":[");
+    for (uint32_t k = 0; k < mo->n_targets; k++) {
+        sp_strbuf_printf(mesh, k ? "," : "");
+        sp_strbuf_json_number(mesh, mo->fitted[k]);
+    }
+    sp_strbuf_printf(mesh, "],\"note\":\"the mesh carries keyframe 0's fitted expression; weights add to it\"}}");
+    return 0;
+}
+
 static int add_material(export_ctx *c, bin_buf *b, sp_strbuf *mat, sp_strbuf *texs, sp_strbuf *images)
 {
     const sp_export_textures *t = &c->tex;
@@ -451,15 +514,19 @@ static int export_glb(export_ctx *c)
 {
     bin_buf b = { 0 };
     sp_strbuf acc = { 0 }, draco_ext = { 0 }, mat = { 0 }, texs = { 0 }, images = { 0 }, j = { 0 };
+    sp_strbuf prim = { 0 }, mesh = { 0 };
     int ret = add_geometry(c, &b, &acc, &draco_ext);
+    if (!ret)
+        ret = add_morphs(c, &b, &acc, c->tex.has_normal ? 5 : 4, &prim, &mesh);
     if (!ret)
         ret = add_material(c, &b, &mat, &texs, &images);
     if (!ret) {
         sp_strbuf_printf(&j, "{");
         add_scene(c, &j, c->set->draco);
         sp_strbuf_printf(&j, ",\"meshes\":[{\"name\":\"face\",\"primitives\":[{%s\"attributes\":{\"POSITION\":0,"
-                             "\"NORMAL\":1,\"TEXCOORD_0\":2%s},\"indices\":3,\"material\":0,\"mode\":4}]}]",
-                         draco_ext.data ? draco_ext.data : "", c->tex.has_normal ? ",\"TANGENT\":4" : "");
+                             "\"NORMAL\":1,\"TEXCOORD_0\":2%s},\"indices\":3,\"material\":0,\"mode\":4%s}]%s}]",
+                         draco_ext.data ? draco_ext.data : "", c->tex.has_normal ? ",\"TANGENT\":4" : "",
+                         prim.data ? prim.data : "", mesh.data ? mesh.data : "");
         sp_strbuf_printf(&j, ",\"materials\":[%s],\"textures\":[%s],\"images\":[%s]", mat.data, texs.data,
                          images.data);
         sp_strbuf_printf(&j, ",\"samplers\":[{\"magFilter\":9729,\"minFilter\":9729,\"wrapS\":33071,"
@@ -467,7 +534,7 @@ static int export_glb(export_ctx *c)
                              "\"buffers\":[{\"byteLength\":%zu}]}",
                          acc.data, b.views.data, (b.len + 3) & ~(size_t)3);
         ret = j.failed || acc.failed || mat.failed || texs.failed || images.failed || b.views.failed ||
-                      draco_ext.failed ? -ENOMEM : 0;
+                      draco_ext.failed || prim.failed || mesh.failed ? -ENOMEM : 0;
     }
     const char *tmp;
     if (!ret)
@@ -481,6 +548,8 @@ static int export_glb(export_ctx *c)
     sp_strbuf_free(&mat);
     sp_strbuf_free(&texs);
     sp_strbuf_free(&images);
+    sp_strbuf_free(&prim);
+    sp_strbuf_free(&mesh);
     sp_strbuf_free(&j);
     return ret;
 }
@@ -583,6 +652,24 @@ static void note_parts(export_ctx *c)
     c->st.has_sun = sun_direction(c, g);
 }
 
+/* Morph targets for a plain GLB; otherwise, or when the face cannot give them, a left_out entry says why. */
+static int add_expressions(export_ctx *c)
+{
+    int ret = sp_gltf_morphs_build(&c->morphs, c->face_dir, &c->asset, &c->geom, &c->place);
+    if (ret)
+        return ret;
+    const char *omitted = "morph targets (mesh.extras.targetNames)";
+    if (!c->morphs.n_targets)
+        note_left_out(c, "expressions", c->morphs.reason, omitted);
+    else if (c->set->draco) {
+        note_left_out(c, "expressions", "Draco's edgebreaker reorders the vertices, which morph targets index: "
+                                        "export with --no-draco to get them", omitted);
+        sp_gltf_morphs_free(&c->morphs);
+    }
+    c->st.morph_targets = c->morphs.n_targets;
+    return 0;
+}
+
 static int prepare(export_ctx *c)
 {
     int ret = sp_face_dir_read(&c->asset, c->face_dir);
@@ -603,6 +690,8 @@ static int prepare(export_ctx *c)
     if ((ret = sp_export_textures_build(&c->tex, &c->asset, c->set->texture_size, c->asset.left_out)))
         return ret;
     note_parts(c);
+    if (c->set->format == SP_EXPORT_GLB && (ret = add_expressions(c)))
+        return ret;
     if (c->left_out.failed)
         return -ENOMEM;
     c->st.has_specular_texture = c->tex.has_specular;
@@ -647,6 +736,7 @@ int sp_export_face(const char *face_dir, const char *out_path, const sp_export_s
     for (int k = 0; k < N_PARTS; k++)
         free(c->reasons[k]);
     sp_gltf_geom_free(&c->geom);
+    sp_gltf_morphs_free(&c->morphs);
     sp_face_asset_free(&c->asset);
     free(c);
     return ret;

@@ -14,7 +14,7 @@ static void export_usage(FILE *out)
                  "Writes the fitted face as a relightable asset (export/EXPORT.md) and the sky as OUT.env.hdr.\n"
                  "  --format F           glb (default: Draco-compressed binary glTF 2.0), obj (OBJ+MTL+PNGs),\n"
                  "                       drc (raw Draco mesh)\n"
-                 "  --no-draco           glb with plain accessors\n"
+                 "  --no-draco           glb with plain accessors, and the expressions as morph targets\n"
                  "  --jpeg[=Q]           embed the albedo as JPEG (quality Q, default 90)\n"
                  "  --texture-size N     longest texture edge, 16..8192 (default: as fitted)\n"
                  "  --position-bits N    Draco quantisation bits (default 14); --normal-bits (10), --uv-bits (12)\n"
@@ -91,8 +91,8 @@ int sp_cmd_export(int argc, char **argv)
         return sp_cmd_fail("export", ret, sp_exit_for_error(ret) == SP_EXIT_BAD_INPUT ? dir : out);
     if (stats)
         printf("vertices %u\ntriangles %u\nraw_geometry_bytes %zu\ngeometry_bytes %zu\ntotal_bytes %zu\n"
-               "specular_texture %d\nnormal_map %d\nsun %d\n",
+               "specular_texture %d\nnormal_map %d\nsun %d\nmorph_targets %u\nmorph_bytes %zu\n",
                st.vertices, st.triangles, st.raw_geometry_bytes, st.geometry_bytes, st.total_bytes,
-               st.has_specular_texture, st.has_normal_map, st.has_sun);
+               st.has_specular_texture, st.has_normal_map, st.has_sun, st.morph_targets, st.morph_bytes);
     return SP_EXIT_OK;
 }

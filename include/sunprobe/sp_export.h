@@ -41,6 +41,8 @@ typedef struct sp_export_stats {
     size_t geometry_bytes;           /* as stored (Draco buffer or raw) */
     size_t total_bytes;              /* the main output file */
     int has_specular_texture, has_normal_map, has_sun;
+    uint32_t morph_targets;          /* expression morph targets written (plain GLB only) */
+    size_t morph_bytes;              /* their sparse indices and offsets */
 } sp_export_stats;
 
 SP_API void sp_export_default_settings(sp_export_settings *settings);

@@ -53,6 +53,12 @@ for gm in gltf["materials"]:
 want_keys = gltf["meshes"][0].get("extras", {}).get("targetNames", [])
 keys = [k.name for k in me.shape_keys.key_blocks[1:]] if me.shape_keys else []
 check(keys == want_keys, f"shape keys {keys} == targetNames {want_keys}")
+for k, target in enumerate(prim.get("targets", [])[:len(keys)]):
+    acc = gltf["accessors"][target["POSITION"]]
+    want = max(abs(x) for x in acc["min"] + acc["max"])
+    basis, key = me.shape_keys.key_blocks[0].data, me.shape_keys.key_blocks[k + 1].data
+    got = max(abs(key[i].co[a] - basis[i].co[a]) for i in range(len(basis)) for a in range(3))
+    check(abs(got - want) <= 1e-6 + 1e-4 * want, f"shape key {keys[k]} moves up to {got:.5f} m (glTF {want:.5f})")
 suns = [ob for ob in scene.objects if ob.type == "LIGHT" and ob.data.type == "SUN"]
 lights = gltf.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
 if lights:

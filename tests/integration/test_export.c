@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "glb_read.h"
 #include "common/json.h"
 #include "export/gltf_internal.h"
 #include "sp_config.h"
@@ -99,6 +100,18 @@ typedef struct fixture {
     "{\"part\":\"displacement\",\"reason\":\"displacement map not fitted\"},"                                   \
     "{\"part\":\"environment\",\"reason\":\"lighting unobservable: the sky is a neutral constant\"}]"
 
+/* "0,0,...": n zeros as a JSON list body (n <= 64). */
+static const char *zeros(uint32_t n)
+{
+    static char buf[2][160];
+    static int which;
+    char *b = buf[which ^= 1];
+    b[0] = '\0';
+    for (uint32_t i = 0; i < n && i < 64; i++)
+        strcat(b, i ? ",0" : "0");
+    return b;
+}
+
 /* The manifest keys facedir.c writes (and facedir_read.c needs). */
 static int write_manifest(const char *dir, const sp_face_model *m, int tw, int th, const fixture *fx)
 {
@@ -115,16 +128,19 @@ static int write_manifest(const char *dir, const sp_face_model *m, int tw, int t
                      "90,100]},\n\"lighting\":{\"sun_direction\":[0.3,-0.8,0.5],\"sun_intensity\":%s,"
                      "\"sun_dropped\":false,\"lighting_unobservable\":%s,\"notes\":\"\",\"env\":\"env.f32\","
                      "\"env_height\":16,\"env_width\":32,\"yaw_range_deg\":300},\n"
-                     "%s\"cameras\":\"cameras.json\"}\n",
+                     "%s\"identity\":[%s],\"scale\":1,\"cameras\":\"cameras.json\"}\n",
                      m->source, m->mesh.n_vertices, m->mesh.n_triangles, tw, th, m->cluster_width,
                      m->cluster_height,
                      flat ? "0,0,0,0,0,0,0,0,0,0" : "0.01,0.02,0.03,0.04,0.05,0.02,0.02,0.02,0.02,0.02",
-                     flat ? "0" : "2.5", fx->unobservable ? "true" : "false", list);
-    const char *cams = "{\"frames\":[\n {\"sequence\":0,\"timestamp_ns\":0,\"heldout\":false,\"width\":128,"
-                       "\"height\":128,\"intrinsics\":[150,150,64,64],\"camera_to_world_wxyz\":[0.7071068,"
-                       "0.7071068,0,0]}\n]}\n";
+                     flat ? "0" : "2.5", fx->unobservable ? "true" : "false", list, zeros(m->n_id));
+    /* write_mesh's placement, world = C (R_f x + t_f) with C keyframe 0's camera turn (90 deg about x): R_f = I */
+    char cams[4096];
+    int nc = snprintf(cams, sizeof(cams), "{\"frames\":[\n {\"sequence\":0,\"timestamp_ns\":0,\"heldout\":false,"
+                      "\"width\":128,\"height\":128,\"intrinsics\":[150,150,64,64],\"camera_to_world_wxyz\":"
+                      "[0.70710678118654752,0.70710678118654752,0,0],\"face_rotvec\":[0,0,0],"
+                      "\"face_t\":[0,0,-0.5],\"expression\":[%s]}\n]}\n", zeros(m->n_exp));
     int ret = write_file(dir, "manifest.json", buf, (size_t)n);
-    return ret ? ret : write_file(dir, "cameras.json", cams, strlen(cams));
+    return ret ? ret : write_file(dir, "cameras.json", cams, (size_t)nc);
 }
 
 static int make_fixture_spec(const char *dir, const fixture *fx)
@@ -152,82 +168,6 @@ static int make_fixture(const char *dir, int flat)
 {
     fixture fx = { .flat = flat };
     return make_fixture_spec(dir, &fx);
-}
-
-typedef struct glb {
-    uint8_t *file;
-    size_t size;
-    sp_json *json;
-    const uint8_t *bin;
-    size_t bin_size;
-} glb;
-
-static uint8_t *slurp(const char *path, size_t *n)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    long len = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    uint8_t *b = len > 0 ? malloc((size_t)len + 1) : NULL;
-    if (b && fread(b, 1, (size_t)len, f) != (size_t)len) {
-        free(b);
-        b = NULL;
-    }
-    fclose(f);
-    *n = b ? (size_t)len : 0;
-    return b;
-}
-
-static int exists(const char *path)
-{
-    struct stat st;
-    return stat(path, &st) == 0;
-}
-
-static int glb_read(glb *g, const char *path)
-{
-    memset(g, 0, sizeof(*g));
-    g->file = slurp(path, &g->size);
-    if (!g->file || g->size < 28)
-        return -1;
-    uint32_t h[5], bh[2];
-    memcpy(h, g->file, 20);
-    CHECK(h[0] == 0x46546C67u && h[1] == 2 && h[2] == g->size && h[4] == 0x4E4F534Au);
-    CHECK(h[3] % 4 == 0 && 20 + (size_t)h[3] + 8 <= g->size);
-    if (20 + (size_t)h[3] + 8 > g->size)
-        return -1;
-    char err[128];
-    if (sp_json_parse((const char *)g->file + 20, h[3], &g->json, err, sizeof(err))) {
-        fprintf(stderr, "GLB JSON: %s\n", err);
-        return -1;
-    }
-    memcpy(bh, g->file + 20 + h[3], 8);
-    CHECK(bh[1] == 0x004E4942u && 28 + (size_t)h[3] + bh[0] == g->size);
-    g->bin = g->file + 28 + h[3];
-    g->bin_size = bh[0];
-    return 0;
-}
-
-static void glb_free(glb *g)
-{
-    sp_json_free(g->json);
-    free(g->file);
-}
-
-/* Pointer into BIN for accessor k (plain accessors only), checking its size. */
-static const uint8_t *accessor_data(const glb *g, int k, size_t elem, uint32_t *count)
-{
-    const sp_json *a = sp_json_at(sp_json_get(g->json, "accessors"), (size_t)k);
-    const sp_json *v = sp_json_at(sp_json_get(g->json, "bufferViews"),
-                                  (size_t)sp_json_number(sp_json_get(a, "bufferView"), 1e9));
-    *count = (uint32_t)sp_json_number(sp_json_get(a, "count"), 0);
-    size_t off = (size_t)sp_json_number(sp_json_get(v, "byteOffset"), 0);
-    size_t len = (size_t)sp_json_number(sp_json_get(v, "byteLength"), 0);
-    if (!v || len != elem * *count || off + len > g->bin_size)
-        return NULL;
-    return g->bin + off;
 }
 
 static int has_string(const sp_json *arr, const char *s)
@@ -289,7 +229,10 @@ static void check_material(const glb *g, int full)
     CHECK(spec != NULL && (sp_json_get(spec, "specularTexture") != NULL) == full);
     const sp_json *left = sp_json_get(sp_json_get(sp_json_get(sp_json_get(g->json, "asset"), "extras"), "sunprobe"),
                                       "left_out");
-    CHECK(left && left->count == (full ? 0u : 4u)); /* flat: sun, shadows, specular, displacement */
+    size_t parts = 0; /* the fit's parts; a Draco export also lists its morph targets ("expressions") */
+    for (size_t i = 0; left && i < left->count; i++)
+        parts += strcmp(sp_json_string(sp_json_get(sp_json_at(left, i), "part"), ""), "expressions") != 0;
+    CHECK(left && parts == (full ? 0u : 4u)); /* flat: sun, shadows, specular, displacement */
     const sp_json *lights = sp_json_get(sp_json_get(sp_json_get(g->json, "extensions"), "KHR_lights_punctual"),
                                         "lights");
     CHECK((lights != NULL) == full);

@@ -10,6 +10,7 @@
 //   mode=linear         linear tone mapping: the canvas is sRGB(exposure * radiance), clipped at 1
 //                       (for luminance tests against the project's renderer)
 //   ui=0                hide the panel (sliders)
+//   expr=NAME:W,...     initial morph target (expression) weights, 0..1
 //   w,h,fx,fy,cx,cy,R,t a fixed pinhole camera: W x H pixels, OpenCV intrinsics (pixel centres at
 //                       integers), R (9 numbers, row-major) and t (3) mapping glTF world points to
 //                       camera x right, y down, z forward. Without them: an orbit camera.
@@ -103,6 +104,25 @@ function flatWhite(root) {
   });
 }
 
+// One slider per morph target (the export's ARKit-named expressions, plain .glb only); weights add to
+// the expression the mesh was fitted with. The URL's expr=NAME:W,... sets initial weights.
+function expressionSliders(root, render) {
+  const initial = new Map((q.get('expr') || '').split(',').filter(Boolean).map((e) => e.split(':'))
+    .map(([n, w]) => [n, Number(w)]));
+  root.traverse((o) => {
+    if (!o.isMesh || !o.morphTargetDictionary) return;
+    for (const [name, k] of Object.entries(o.morphTargetDictionary)) {
+      const label = document.createElement('label'), input = document.createElement('input');
+      Object.assign(input, { type: 'range', min: 0, max: 1, step: 0.01, value: initial.get(name) || 0 });
+      label.append(`${name}: `, input);
+      $('expressions').append(label);
+      const set = () => { o.morphTargetInfluences[k] = Number(input.value); render(); };
+      input.addEventListener('input', set);
+      o.morphTargetInfluences[k] = Number(input.value);
+    }
+  });
+}
+
 async function main() {
   const fixed = q.has('fx') ? fixedCamera() : null;
   const renderer = new THREE.WebGLRenderer({ antialias: !mask, preserveDrawingBuffer: true });
@@ -175,6 +195,7 @@ async function main() {
     render();
   };
   for (const id of ['azimuth', 'ambient', 'exposure']) $(id).addEventListener('input', update);
+  expressionSliders(root, render);
   if (q.has('az')) $('azimuth').value = q.get('az');
   if (controls) controls.addEventListener('change', render);
   window.addEventListener('resize', () => {
