@@ -9,6 +9,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "common/file_util.h"
 #include "common/json.h"
 
 typedef struct glb {
@@ -19,22 +20,17 @@ typedef struct glb {
     size_t bin_size;
 } glb;
 
+/* The whole file (NUL-terminated past *n), NULL when missing or empty. */
 static inline uint8_t *slurp(const char *path, size_t *n)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f)
+    void *d = NULL;
+    *n = 0;
+    if (sp_read_whole_file(path, (size_t)1 << 30, &d, n) || !*n) {
+        free(d);
+        *n = 0;
         return NULL;
-    fseek(f, 0, SEEK_END);
-    long len = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    uint8_t *b = len > 0 ? malloc((size_t)len + 1) : NULL;
-    if (b && fread(b, 1, (size_t)len, f) != (size_t)len) {
-        free(b);
-        b = NULL;
     }
-    fclose(f);
-    *n = b ? (size_t)len : 0;
-    return b;
+    return d;
 }
 
 static inline int exists(const char *path)

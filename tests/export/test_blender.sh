@@ -16,12 +16,8 @@ skip() { echo "SKIP: $*"; exit 77; }
 command -v "$BLENDER" >/dev/null 2>&1 || skip "no blender (Debian: apt-get install blender; or set BLENDER)"
 TMP=$(mktemp -d) || exit 99
 trap 'rm -rf "$TMP"' EXIT
-"$FIXTURE" "$SUNPROBE" fixture "$TMP/face" || exit 99
 # keyframe 0 as the fit writes it: camera at the origin looking along world +y (z up) at the face
-cat >"$TMP/face/cameras.json" <<'JSON' || exit 99
-{"frames":[{"sequence":0,"timestamp_ns":0,"heldout":false,"width":160,"height":160,
- "intrinsics":[260,260,79.5,79.5],"camera_to_world_wxyz":[0.70710678,-0.70710678,0,0]}]}
-JSON
+"$FIXTURE" "$SUNPROBE" fixture "$TMP/face" facing || exit 99
 # one face: export, Blender, then silhouette and luminance against the project's renderer
 check_face() { # NAME FACE_DIR
     name=$1 face=$2 out=$TMP/$1

@@ -21,12 +21,8 @@ command -v npm >/dev/null 2>&1 || skip "npm not installed (Debian: apt-get insta
 [ -x "$CHROMIUM" ] || skip "no Chromium at $CHROMIUM (Debian: apt-get install chromium; or set CHROMIUM)"
 TMP=$(mktemp -d) || exit 99
 trap 'rm -rf "$TMP"' EXIT
-"$FIXTURE" "$SUNPROBE" fixture "$TMP/face" || exit 99
 # keyframe 0 as the fit writes it: camera at the origin looking along world +y (z up) at the face
-cat >"$TMP/face/cameras.json" <<'JSON' || exit 99
-{"frames":[{"sequence":0,"timestamp_ns":0,"heldout":false,"width":160,"height":160,
- "intrinsics":[260,260,79.5,79.5],"camera_to_world_wxyz":[0.70710678,-0.70710678,0,0]}]}
-JSON
+"$FIXTURE" "$SUNPROBE" fixture "$TMP/face" facing || exit 99
 "$SUNPROBE" export "$TMP/face" -o "$TMP/face.drc" --format drc >/dev/null 2>&1
 [ $? -eq 4 ] && skip "this build has no Draco (-Ddraco); the viewer test loads a Draco-compressed export"
 "$SUNPROBE" export "$TMP/face" -o "$TMP/face.glb" || exit 1

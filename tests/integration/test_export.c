@@ -3,7 +3,8 @@
  * sunprobe export: a face-directory fixture (the generic head in the manifest
  * format facedir.c writes), then GLB structure, --no-draco geometry, OBJ, DRC,
  * the documented mappings, and bad input. `test_export SUNPROBE fixture DIR
- * [flat|ict]` only writes the fixture (for tests/export/test_export_node.sh).
+ * [flat|ict|facing]` only writes the fixture (for tests/export/test_export_node.sh; facing: keyframe 0
+ * looks at the face, 160 x 160, for the viewer and Blender tests).
  */
 #include <errno.h>
 #include <math.h>
@@ -88,7 +89,7 @@ static int write_maps(const char *dir, int tw, int th, int flat)
  * NULL for an old manifest without it. unobservable: lighting_unobservable true.
  */
 typedef struct fixture {
-    int flat, ict, unobservable;
+    int flat, ict, unobservable, facing;
     const char *left_out;
 } fixture;
 
@@ -133,12 +134,22 @@ static int write_manifest(const char *dir, const sp_face_model *m, int tw, int t
                      m->cluster_height,
                      flat ? "0,0,0,0,0,0,0,0,0,0" : "0.01,0.02,0.03,0.04,0.05,0.02,0.02,0.02,0.02,0.02",
                      flat ? "0" : "2.5", fx->unobservable ? "true" : "false", list, zeros(m->n_id));
-    /* write_mesh's placement, world = C (R_f x + t_f) with C keyframe 0's camera turn (90 deg about x): R_f = I */
+    /*
+     * write_mesh's placement is world = C (R_f x + t_f) with C keyframe 0's camera-to-world rotation. As the
+     * export tests have it, C turns +90 deg about x (the camera faces away): R_f = I, t_f = (0, 0, -0.5).
+     * facing, as a fit writes it (camera at the origin looking along world +y at the face, -90 deg about
+     * x): R_f = 180 deg about x, t_f = (0, 0, 0.5).
+     */
     char cams[4096];
     int nc = snprintf(cams, sizeof(cams), "{\"frames\":[\n {\"sequence\":0,\"timestamp_ns\":0,\"heldout\":false,"
-                      "\"width\":128,\"height\":128,\"intrinsics\":[150,150,64,64],\"camera_to_world_wxyz\":"
-                      "[0.70710678118654752,0.70710678118654752,0,0],\"face_rotvec\":[0,0,0],"
-                      "\"face_t\":[0,0,-0.5],\"expression\":[%s]}\n]}\n", zeros(m->n_exp));
+                      "%s,\"expression\":[%s]}\n]}\n",
+                      fx->facing ? "\"width\":160,\"height\":160,\"intrinsics\":[260,260,79.5,79.5],"
+                                   "\"camera_to_world_wxyz\":[0.70710678118654752,-0.70710678118654752,0,0],"
+                                   "\"face_rotvec\":[3.14159265358979324,0,0],\"face_t\":[0,0,0.5]"
+                                 : "\"width\":128,\"height\":128,\"intrinsics\":[150,150,64,64],"
+                                   "\"camera_to_world_wxyz\":[0.70710678118654752,0.70710678118654752,0,0],"
+                                   "\"face_rotvec\":[0,0,0],\"face_t\":[0,0,-0.5]",
+                      zeros(m->n_exp));
     int ret = write_file(dir, "manifest.json", buf, (size_t)n);
     return ret ? ret : write_file(dir, "cameras.json", cams, (size_t)nc);
 }
@@ -735,12 +746,13 @@ static void check_draco_size(const char *exe, const char *tmp, const char *flat)
 int main(int argc, char **argv)
 {
     if (argc >= 4 && !strcmp(argv[2], "fixture")) { /* flat: a new manifest that left everything out */
-        fixture fx = { .flat = argc >= 5 && !strcmp(argv[4], "flat"), .ict = argc >= 5 && !strcmp(argv[4], "ict") };
+        const char *kind = argc >= 5 ? argv[4] : "";
+        fixture fx = { .flat = !strcmp(kind, "flat"), .ict = !strcmp(kind, "ict"), .facing = !strcmp(kind, "facing") };
         fx.left_out = fx.flat ? ALL_LEFT_OUT : NULL;
         return make_fixture_spec(argv[3], &fx) ? 1 : 0;
     }
     if (argc < 2) {
-        fprintf(stderr, "usage: test_export SUNPROBE [fixture DIR [flat]]\n");
+        fprintf(stderr, "usage: test_export SUNPROBE [fixture DIR [flat|ict|facing]]\n");
         return 99;
     }
     sp_log_set_level(SP_LOG_ERROR);
