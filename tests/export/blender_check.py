@@ -82,6 +82,7 @@ img = bpy.data.images.load(scene.render.filepath)
 w, h = img.size
 px = list(img.pixels)  # linear scene light, bottom row first; EXR gets no view transform
 gain = 2.0 ** scene.view_settings.exposure
+print(f"blender: exposure {scene.view_settings.exposure:.3f} EV")
 mask = [0.0] * (w * h * 4)
 total, n = 0.0, 0
 for y in range(h):
@@ -95,10 +96,12 @@ for y in range(h):
             mask[i + 3] = 1.0
 out = bpy.data.images.new("mask", w, h)
 out.pixels = mask
-out.filepath_raw = os.path.join(outdir, "mask.png")
-out.file_format = "PNG"
-out.save()
-print(f"blender: {w}x{h}, {n} face pixels, exposure {scene.view_settings.exposure:.3f} EV")
+scene.view_settings.exposure = 0.0  # save_render applies the view transform; the mask is 0 or 1
+settings = scene.render.image_settings  # stored (uncompressed) PNG: readable by a build without zlib
+settings.file_format, settings.color_mode, settings.color_depth, settings.compression = "PNG", "RGB", "8", 0
+out.save_render(os.path.join(outdir, "mask.png"), scene=scene)
+
+print(f"blender: {w}x{h}, {n} face pixels")
 print(f"blender: mean_luminance {total / max(n, 1):.6g}")
 check(n > 0, "the render shows the face")
 sys.exit(1 if failures else 0)
