@@ -20,6 +20,7 @@
 #include "common/json.h"
 #include "export/draco_shim.h"
 #include "export/gltf_internal.h"
+#include "export/oiio_shim.h"
 #include "export/png.h"
 #include "sp_config.h"
 
@@ -95,6 +96,7 @@ typedef struct export_ctx {
     char *reasons[N_PARTS]; /* the manifest's reason per left-out part (owned), NULL if none */
     sp_strbuf left_out;     /* JSON array body of what was left out, why, and what the export omitted */
     char env_name[256];     /* basename of the .hdr beside the output, "" if none */
+    int env_exr;            /* the map was also written as STEM.env.exr */
     sp_file_set files;      /* the asset's files, committed together at the end */
     sp_export_stats st;
 } export_ctx;
@@ -392,6 +394,12 @@ static void add_extras(const export_ctx *c, sp_strbuf *j)
     if (c->env_name[0]) {
         sp_strbuf_printf(j, ",\"environment_map\":{\"uri\":");
         sp_strbuf_json_string(j, c->env_name);
+        if (c->env_exr) { /* STEM.env.hdr -> STEM.env.exr */
+            char exr[sizeof(c->env_name)];
+            snprintf(exr, sizeof(exr), "%.*s.exr", (int)strlen(c->env_name) - 4, c->env_name);
+            sp_strbuf_printf(j, ",\"exr_uri\":");
+            sp_strbuf_json_string(j, exr);
+        }
         sp_strbuf_printf(j, ",\"projection\":\"equirectangular\",\"width\":%d,\"height\":%d,\"row0\":\"straight "
                             "up (+y)\",\"convention\":\"Blender and three.js: u = 0.5 + atan2(z, x) / 2pi\","
                             "\"units\":\"luminance, cd/m2 (the sun's lux per sr)\"}",
@@ -603,7 +611,27 @@ static int check_settings(const sp_export_settings *s)
     return 0;
 }
 
-/* out_path without its extension + ".env.hdr"; env_name gets the basename. */
+/* The same map as 32-bit float OpenEXR (path's ".hdr" replaced), where OpenImageIO is built. */
+static int write_env_exr(export_ctx *c, const char *hdr_path, const float *env)
+{
+#if HAVE_OPENIMAGEIO
+    char path[4096];
+    const char *tmp;
+    snprintf(path, sizeof(path), "%.*s.exr", (int)(strlen(hdr_path) - 4), hdr_path);
+    int ret = sp_file_set_add(&c->files, path, &tmp);
+    if (!ret)
+        ret = sp_exr_write(tmp, env, SP_RENDER_ENV_W, SP_RENDER_ENV_H, 3);
+    if (ret)
+        sp_log(SP_LOG_ERROR, MOD, "cannot write %s: %s", path, sp_strerror(ret));
+    c->env_exr = !ret;
+    return ret;
+#else
+    (void)c, (void)hdr_path, (void)env;
+    return 0;
+#endif
+}
+
+/* out_path without its extension + ".env.hdr" (and ".env.exr"); env_name gets the basename. */
 static int write_env(export_ctx *c)
 {
     char path[4096];
@@ -624,6 +652,8 @@ static int write_env(export_ctx *c)
         sp_log(SP_LOG_ERROR, MOD, "cannot write %s: %s", path, sp_strerror(ret));
         return ret;
     }
+    if ((ret = write_env_exr(c, path, env)))
+        return ret;
     const char *base = strrchr(path, '/');
     base = base ? base + 1 : path;
     size_t n = strlen(base);
