@@ -196,8 +196,8 @@ static int add_geometry(export_ctx *c, bin_buf *b, sp_strbuf *acc, sp_strbuf *dr
 #if HAVE_DRACO
         sp_draco_out d;
         int ret = sp_draco_encode_mesh(g->positions, g->normals, g->uvs, tangents ? g->tangents : NULL, nv,
-                                       g->indices, g->n_triangles,
-                                       c->set->position_bits, c->set->normal_bits, c->set->uv_bits, &d);
+                                       g->indices, g->n_triangles, c->set->position_bits, c->set->normal_bits,
+                                       c->set->uv_bits, c->morphs.n_targets > 0, &d);
         int view = ret ? ret : bin_add(b, d.data, d.size, 0);
         if (view < 0) {
             sp_draco_out_free(&d);
@@ -568,7 +568,7 @@ static int export_drc(export_ctx *c)
     const sp_gltf_geom *g = &c->geom;
     sp_draco_out d;
     int ret = sp_draco_encode_mesh(g->positions, g->normals, g->uvs, NULL, g->n_vertices, g->indices, g->n_triangles,
-                                   c->set->position_bits, c->set->normal_bits, c->set->uv_bits, &d);
+                                   c->set->position_bits, c->set->normal_bits, c->set->uv_bits, 0, &d);
     if (ret)
         return ret;
     sp_atomic_file af;
@@ -691,9 +691,9 @@ static int add_expressions(export_ctx *c)
     const char *omitted = "morph targets (mesh.extras.targetNames)";
     if (!c->morphs.n_targets)
         note_left_out(c, "expressions", c->morphs.reason, omitted);
-    else if (c->set->draco) {
+    else if (c->set->draco && !c->set->draco_expressions) {
         note_left_out(c, "expressions", "Draco's edgebreaker reorders the vertices, which morph targets index: "
-                                        "export with --no-draco to get them", omitted);
+                                        "export with --no-draco or --draco-expressions to get them", omitted);
         sp_gltf_morphs_free(&c->morphs);
     }
     c->st.morph_targets = c->morphs.n_targets;

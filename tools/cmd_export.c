@@ -15,6 +15,7 @@ static void export_usage(FILE *out)
                  "  --format F           glb (default: Draco-compressed binary glTF 2.0), obj (OBJ+MTL+PNGs),\n"
                  "                       drc (raw Draco mesh)\n"
                  "  --no-draco           glb with plain accessors, and the expressions as morph targets\n"
+                 "  --draco-expressions  Draco keeping the vertex order (larger), with the morph targets\n"
                  "  --jpeg[=Q]           embed the albedo as JPEG (quality Q, default 90)\n"
                  "  --texture-size N     longest texture edge, 16..8192 (default: as fitted)\n"
                  "  --position-bits N    Draco quantisation bits (default 14); --normal-bits (10), --uv-bits (12)\n"
@@ -32,7 +33,7 @@ static int parse_export(int argc, char **argv, sp_export_settings *s, const char
         { "jpeg", optional_argument, NULL, 'j' }, { "texture-size", required_argument, NULL, 't' },
         { "position-bits", required_argument, NULL, 'p' }, { "normal-bits", required_argument, NULL, 'n' },
         { "uv-bits", required_argument, NULL, 'u' }, { "no-env", no_argument, NULL, 'E' },
-        { "stats", no_argument, NULL, 's' }, { 0 },
+        { "stats", no_argument, NULL, 's' }, { "draco-expressions", no_argument, NULL, 'X' }, { 0 },
     };
     int c, bad = 0, li = -1;
     while (!bad && (c = getopt_long(argc, argv, "ho:", opts, &li)) != -1) {
@@ -60,6 +61,7 @@ static int parse_export(int argc, char **argv, sp_export_settings *s, const char
         case 'n': bad = sp_opt_int("export", on, optarg, 1, 30, &s->normal_bits); break;
         case 'u': bad = sp_opt_int("export", on, optarg, 1, 30, &s->uv_bits); break;
         case 'E': s->write_env = 0; break;
+        case 'X': s->draco_expressions = 1; break;
         case 's': *stats = 1; break;
         default: bad = 1; /* getopt has said which option */
         }

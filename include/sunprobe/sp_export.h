@@ -32,6 +32,8 @@ typedef struct sp_export_settings {
     int normal_bits;    /* 1..30 (default 10) */
     int uv_bits;        /* 1..30 (default 12) */
     int write_env;      /* write the environment map as FILE.env.hdr (default 1) */
+    int draco_expressions; /* GLB + Draco: keep the vertex order (sequential encoding, larger) and write the
+                              expressions' morph targets (default 0: Draco leaves them out) */
 } sp_export_settings;
 
 /* What was written; filled by sp_export_face when not NULL. */

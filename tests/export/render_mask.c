@@ -14,6 +14,8 @@
  *     channel is inside) and exits 1 when it is below MIN or a mask is empty.
  *   render_mask differ A.png B.png MIN
  *     prints the mean absolute RGB difference (0..255) and exits 1 below MIN.
+ *   render_mask near A.png B.png MAX
+ *     the same, exit 1 above MAX.
  *   render_mask lum FACE_DIR [sun|sky]
  *     prints the mean linear Rec. 709 luminance of keyframe 0's view lit by the
  *     fitted sun and sky (sp_face_asset_render_radiance, before the tone map)
@@ -167,8 +169,8 @@ static int cmd_iou(char **argv)
     return iou >= min ? 0 : 1;
 }
 
-/* Mean absolute difference of two same-sized screenshots (RGB, 0..255); exit 1 when below MIN. */
-static int cmd_differ(char **argv)
+/* Mean absolute difference of two same-sized screenshots (RGB, 0..255); exit 1 below MIN (near: above MAX). */
+static int cmd_differ(char **argv, int near)
 {
     uint8_t *p[2] = { NULL, NULL };
     uint32_t w[2] = { 0, 0 }, h[2] = { 0, 0 };
@@ -190,7 +192,7 @@ static int cmd_differ(char **argv)
     }
     double mean = sum / (3.0 * (double)n);
     printf("mean |difference| %.2f / 255 (first image mean %.2f)\n", mean, lit / (3.0 * (double)n));
-    return mean >= atof(argv[4]) ? 0 : 1;
+    return (near ? mean <= atof(argv[4]) : mean >= atof(argv[4])) ? 0 : 1;
 }
 
 static int cmd_lum(const char *dir, const char *part)
@@ -261,13 +263,14 @@ int main(int argc, char **argv)
         return cmd_lum(argv[2], argc == 4 ? argv[3] : NULL);
     if (argc == 5 && !strcmp(argv[1], "iou"))
         return cmd_iou(argv);
-    if (argc == 5 && !strcmp(argv[1], "differ"))
-        return cmd_differ(argv);
+    if (argc == 5 && (!strcmp(argv[1], "differ") || !strcmp(argv[1], "near")))
+        return cmd_differ(argv, !strcmp(argv[1], "near"));
     if (argc == 3 || argc == 8)
         return cmd_render(argc, argv);
     fprintf(stderr, "usage: render_mask FACE_DIR OUT.png [W H DCX DCY YAW_DEG]\n"
                     "       render_mask iou REF.png SHOT.png MIN\n"
                     "       render_mask differ A.png B.png MIN\n"
+                    "       render_mask near A.png B.png MAX\n"
                     "       render_mask lum FACE_DIR [sun|sky]\n"
                     "       render_mask lum-shot SHOT.png MASK.png\n");
     return 2;

@@ -7,7 +7,9 @@
 # non-square image with the principal point off centre; the lit page changes when the sun slider
 # turns the sun by 180 degrees; and the page's linear mode (sun, image-based light from the .hdr,
 # shadows, exposure 1 / lux_per_fit_unit) gives a mean face luminance within a factor of 1.5 of the
-# project's renderer (render_mask lum) from keyframe 0. Exit 77 without node/npm/Chromium/Draco or
+# project's renderer (render_mask lum) from keyframe 0; and an expression (jawOpen at 1) changes the lit
+# picture, and looks the same from a --draco-expressions file as from the plain one (morph targets
+# indexing Draco's decoded vertices). Exit 77 without node/npm/Chromium/Draco or
 # when npm cannot install the viewer's packages (tools/viewer/package-lock.json).
 # usage: test_viewer.sh SUNPROBE TEST_EXPORT RENDER_MASK VIEWER_DIR NODE_DIR
 set -u
@@ -26,6 +28,8 @@ trap 'rm -rf "$TMP"' EXIT
 "$SUNPROBE" export "$TMP/face" -o "$TMP/face.drc" --format drc >/dev/null 2>&1
 [ $? -eq 4 ] && skip "this build has no Draco (-Ddraco); the viewer test loads a Draco-compressed export"
 "$SUNPROBE" export "$TMP/face" -o "$TMP/face.glb" || exit 1
+"$SUNPROBE" export "$TMP/face" -o "$TMP/plain.glb" --no-draco --no-env || exit 1
+"$SUNPROBE" export "$TMP/face" -o "$TMP/morph.glb" --draco-expressions --no-env || exit 1
 grep -q KHR_draco_mesh_compression "$TMP/face.glb" || { echo "FAIL: the export is not Draco-compressed"; exit 1; }
 mkdir -p "$NODE_DIR" || exit 99
 if [ ! -f "$NODE_DIR/node_modules/three/package.json" ] ||
@@ -36,7 +40,8 @@ if [ ! -f "$NODE_DIR/node_modules/three/package.json" ] ||
         skip "npm ci failed (registry unreachable?); see $NODE_DIR/npm.log"
 fi
 mkdir "$TMP/www" || exit 99
-ln -s "$VIEWER/index.html" "$VIEWER/viewer.js" "$NODE_DIR/node_modules" "$TMP/face.glb" "$TMP/face.env.hdr" "$TMP/www/" || exit 99
+ln -s "$VIEWER/index.html" "$VIEWER/viewer.js" "$NODE_DIR/node_modules" "$TMP/face.glb" "$TMP/face.env.hdr" \
+    "$TMP/plain.glb" "$TMP/morph.glb" "$TMP/www/" || exit 99
 # name, then render_mask's camera options (none: keyframe 0's camera)
 set -- key0 "" orbit "160 120 9 -6 25"
 jobs="" lit=""
@@ -46,6 +51,9 @@ while [ $# -ge 2 ]; do
     w=${q#w=}; w=${w%%&*}; h=${q#*&h=}; h=${h%%&*}
     jobs="$jobs $w $h $TMP/$1-viewer.png glb=face.glb&mode=mask&$q"
     [ "$1" = key0 ] && lit="$w $h $TMP/lit0.png glb=face.glb&env=face.env.hdr&ui=0&$q $w $h $TMP/lit180.png glb=face.glb&env=face.env.hdr&ui=0&az=180&$q $w $h $TMP/linear.png glb=face.glb&env=face.env.hdr&mode=linear&$q"
+    [ "$1" = key0 ] && lit="$lit $w $h $TMP/jaw-plain.png glb=plain.glb&env=face.env.hdr&ui=0&expr=jawOpen:1&$q"
+    [ "$1" = key0 ] && lit="$lit $w $h $TMP/jaw-draco.png glb=morph.glb&env=face.env.hdr&ui=0&expr=jawOpen:1&$q"
+    [ "$1" = key0 ] && lit="$lit $w $h $TMP/rest-plain.png glb=plain.glb&env=face.env.hdr&ui=0&$q"
     echo "$1: $q"
     shift 2
 done
@@ -59,6 +67,11 @@ done
 # the lit page: turning the sun half way round must change the picture
 printf 'lit, sun azimuth 0 vs 180: '
 "$MASK" differ "$TMP/lit0.png" "$TMP/lit180.png" 2 || fail=1
+# expressions: jawOpen moves the face; the Draco file's morph targets move the same vertices
+printf 'jawOpen 1 vs 0: '
+"$MASK" differ "$TMP/jaw-plain.png" "$TMP/rest-plain.png" 0.5 || fail=1
+printf 'jawOpen 1, Draco vs plain: '
+"$MASK" near "$TMP/jaw-draco.png" "$TMP/jaw-plain.png" 0.2 || fail=1
 # physical light and exposure: the same view's mean face luminance as the project's renderer
 ref=$("$MASK" lum "$TMP/face" | sed -n 's/^sunprobe: mean_luminance //p')
 got=$("$MASK" lum-shot "$TMP/linear.png" "$TMP/key0-viewer.png" | sed -n 's/^shot: mean_luminance //p')
