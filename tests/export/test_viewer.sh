@@ -51,14 +51,14 @@ while [ $# -ge 2 ]; do
     w=${q#w=}; w=${w%%&*}; h=${q#*&h=}; h=${h%%&*}
     jobs="$jobs $w $h $TMP/$1-viewer.png glb=face.glb&mode=mask&$q"
     [ "$1" = key0 ] && lit="$w $h $TMP/lit0.png glb=face.glb&env=face.env.hdr&ui=0&$q $w $h $TMP/lit180.png glb=face.glb&env=face.env.hdr&ui=0&az=180&$q $w $h $TMP/linear.png glb=face.glb&env=face.env.hdr&mode=linear&$q"
-    [ "$1" = key0 ] && lit="$lit $w $h $TMP/jaw-plain.png glb=plain.glb&env=face.env.hdr&ui=0&expr=jawOpen:1&$q"
-    [ "$1" = key0 ] && lit="$lit $w $h $TMP/jaw-draco.png glb=morph.glb&env=face.env.hdr&ui=0&expr=jawOpen:1&$q"
-    [ "$1" = key0 ] && lit="$lit $w $h $TMP/rest-plain.png glb=plain.glb&env=face.env.hdr&ui=0&$q"
+    [ "$1" = key0 ] && lit="$lit $w $h $TMP/jaw-plain.png glb=plain.glb&ui=0&expr=jawOpen:1&$q"
+    [ "$1" = key0 ] && lit="$lit $w $h $TMP/jaw-draco.png glb=morph.glb&ui=0&expr=jawOpen:1&$q"
+    [ "$1" = key0 ] && lit="$lit $w $h $TMP/rest-plain.png glb=plain.glb&ui=0&$q"
     echo "$1: $q"
     shift 2
 done
 # shellcheck disable=SC2086 # no spaces inside the jobs' words
-NODE_PATH="$NODE_DIR/node_modules" timeout 120 node "$HERE/viewer_shot.cjs" "$CHROMIUM" "$TMP/www" $jobs $lit || exit 1
+NODE_PATH="$NODE_DIR/node_modules" timeout 400 node "$HERE/viewer_shot.cjs" "$CHROMIUM" "$TMP/www" $jobs $lit || exit 1
 fail=0
 for name in key0 orbit; do
     printf '%s: ' "$name"
