@@ -20,12 +20,14 @@ typedef struct sp_draco_out {
 /*
  * Encodes a triangle mesh (positions, normals, uvs, optional 4-float tangents per point; 3 indices per face;
  * all borrowed) with the given quantisation bits, then decodes the result to
- * count points and faces. Returns 0, -EINVAL, -ENOMEM or SP_ECORRUPT.
+ * count points and faces. keep_order: sequential encoding without merging points, so the decoded
+ * points are the given ones in their order (what morph targets, indexed by vertex, need; larger).
+ * Returns 0, -EINVAL, -ENOMEM or SP_ECORRUPT.
  */
 int sp_draco_encode_mesh(const float *positions, const float *normals, const float *uvs, const float *tangents,
                          uint32_t n_points,
                          const uint32_t *indices, uint32_t n_faces, int position_bits, int normal_bits,
-                         int uv_bits, sp_draco_out *out);
+                         int uv_bits, int keep_order, sp_draco_out *out);
 void sp_draco_out_free(sp_draco_out *out);
 
 #ifdef __cplusplus

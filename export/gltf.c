@@ -20,6 +20,7 @@
 #include "common/json.h"
 #include "export/draco_shim.h"
 #include "export/gltf_internal.h"
+#include "export/oiio_shim.h"
 #include "export/png.h"
 #include "sp_config.h"
 
@@ -90,10 +91,12 @@ typedef struct export_ctx {
     sp_face_asset asset;
     sp_gltf_placement place; /* fit world -> exported scene */
     sp_gltf_geom geom;
+    sp_gltf_morphs morphs; /* expression morph targets (plain GLB only) */
     sp_export_textures tex;
     char *reasons[N_PARTS]; /* the manifest's reason per left-out part (owned), NULL if none */
     sp_strbuf left_out;     /* JSON array body of what was left out, why, and what the export omitted */
     char env_name[256];     /* basename of the .hdr beside the output, "" if none */
+    int env_exr;            /* the map was also written as STEM.env.exr */
     sp_file_set files;      /* the asset's files, committed together at the end */
     sp_export_stats st;
 } export_ctx;
@@ -193,8 +196,8 @@ static int add_geometry(export_ctx *c, bin_buf *b, sp_strbuf *acc, sp_strbuf *dr
 #if HAVE_DRACO
         sp_draco_out d;
         int ret = sp_draco_encode_mesh(g->positions, g->normals, g->uvs, tangents ? g->tangents : NULL, nv,
-                                       g->indices, g->n_triangles,
-                                       c->set->position_bits, c->set->normal_bits, c->set->uv_bits, &d);
+                                       g->indices, g->n_triangles, c->set->position_bits, c->set->normal_bits,
+                                       c->set->uv_bits, c->morphs.n_targets > 0, &d);
         int view = ret ? ret : bin_add(b, d.data, d.size, 0);
         if (view < 0) {
             sp_draco_out_free(&d);
@@ -243,6 +246,68 @@ static int add_geometry(export_ctx *c, bin_buf *b, sp_strbuf *acc, sp_strbuf *dr
 }
 
 /* Images, textures and the one material. */
+/*
+ * Morph targets from accessor first on: one sparse POSITION accessor per expression (only the vertices it
+ * moves; the rest are zero), appended to acc; prim gets the primitive's "targets", mesh the mesh's weights
+ * and names.
+ */
+static int add_morphs(export_ctx *c, bin_buf *b, sp_strbuf *acc, int first, sp_strbuf *prim, sp_strbuf *mesh)
+{
+    const sp_gltf_morphs *mo = &c->morphs;
+    uint32_t nv = c->geom.n_vertices;
+    uint32_t *idx = malloc((size_t)nv * sizeof(uint32_t));
+    float *val = malloc((size_t)nv * 3 * sizeof(float));
+    int ret = idx && val ? 0 : -ENOMEM;
+    for (uint32_t k = 0; !ret && k < mo->n_targets; k++) {
+        const float *d = mo->deltas + (size_t)k * nv * 3;
+        float lo[3] = { 0, 0, 0 }, hi[3] = { 0, 0, 0 };
+        uint32_t n = 0;
+        for (uint32_t i = 0; i < nv; i++) {
+            if (d[i * 3] == 0.0f && d[i * 3 + 1] == 0.0f && d[i * 3 + 2] == 0.0f && !(n == 0 && i == nv - 1))
+                continue; /* sparse: unlisted vertices do not move (at least one entry is required) */
+            idx[n] = i;
+            for (int a = 0; a < 3; a++) {
+                val[n * 3 + a] = d[i * 3 + a];
+                lo[a] = fminf(lo[a], d[i * 3 + a]);
+                hi[a] = fmaxf(hi[a], d[i * 3 + a]);
+            }
+            n++;
+        }
+        int vi = bin_add(b, idx, (size_t)n * 4, 0), vv = vi < 0 ? vi : bin_add(b, val, (size_t)n * 12, 0);
+        if (vv < 0) {
+            ret = vv;
+            break;
+        }
+        sp_strbuf_printf(acc, ",{\"componentType\":5126,\"count\":%u,\"type\":\"VEC3\",\"min\":[%.9g,%.9g,%.9g],"
+                              "\"max\":[%.9g,%.9g,%.9g],\"sparse\":{\"count\":%u,\"indices\":{\"bufferView\":%d,"
+                              "\"componentType\":5125},\"values\":{\"bufferView\":%d}}}",
+                         nv, (double)lo[0], (double)lo[1], (double)lo[2], (double)hi[0], (double)hi[1], (double)hi[2],
+                         n, vi, vv);
+        sp_strbuf_printf(prim, "%s{\"POSITION\":%d}", k ? "," : ",\"targets\":[", first + (int)k);
+        c->st.morph_bytes += (size_t)n * 16;
+    }
+    free(idx);
+    free(val);
+    if (ret || !mo->n_targets)
+        return ret;
+    sp_strbuf_printf(prim, "]");
+    sp_strbuf_printf(mesh, ",\"weights\":[");
+    for (uint32_t k = 0; k < mo->n_targets; k++)
+        sp_strbuf_printf(mesh, "%s0", k ? "," : "");
+    sp_strbuf_printf(mesh, "],\"extras\":{\"targetNames\":[");
+    for (uint32_t k = 0; k < mo->n_targets; k++) {
+        sp_strbuf_printf(mesh, k ? "," : "");
+        sp_strbuf_json_string(mesh, mo->names[k]);
+    }
+    sp_strbuf_printf(mesh, "],\"sunprobe\":{\"fitted_expression\":[");
+    for (uint32_t k = 0; k < mo->n_targets; k++) {
+        sp_strbuf_printf(mesh, k ? "," : "");
+        sp_strbuf_json_number(mesh, mo->fitted[k]);
+    }
+    sp_strbuf_printf(mesh, "],\"note\":\"the mesh carries keyframe 0's fitted expression; weights add to it\"}}");
+    return 0;
+}
+
 static int add_material(export_ctx *c, bin_buf *b, sp_strbuf *mat, sp_strbuf *texs, sp_strbuf *images)
 {
     const sp_export_textures *t = &c->tex;
@@ -329,6 +394,12 @@ static void add_extras(const export_ctx *c, sp_strbuf *j)
     if (c->env_name[0]) {
         sp_strbuf_printf(j, ",\"environment_map\":{\"uri\":");
         sp_strbuf_json_string(j, c->env_name);
+        if (c->env_exr) { /* STEM.env.hdr -> STEM.env.exr */
+            char exr[sizeof(c->env_name)];
+            snprintf(exr, sizeof(exr), "%.*s.exr", (int)strlen(c->env_name) - 4, c->env_name);
+            sp_strbuf_printf(j, ",\"exr_uri\":");
+            sp_strbuf_json_string(j, exr);
+        }
         sp_strbuf_printf(j, ",\"projection\":\"equirectangular\",\"width\":%d,\"height\":%d,\"row0\":\"straight "
                             "up (+y)\",\"convention\":\"Blender and three.js: u = 0.5 + atan2(z, x) / 2pi\","
                             "\"units\":\"luminance, cd/m2 (the sun's lux per sr)\"}",
@@ -388,8 +459,9 @@ static void add_cameras(const export_ctx *c, sp_strbuf *j)
     double w = c->asset.width, h = c->asset.height;
     /* pixel centres at integers: the image spans h pixels; aspect keeps the horizontal field for fx != fy */
     sp_strbuf_printf(j, ",\"cameras\":[{\"name\":\"keyframe 0\",\"type\":\"perspective\",\"perspective\":"
-                        "{\"yfov\":%.9g,\"aspectRatio\":%.9g,\"znear\":0.01}}]",
-                     2.0 * atan(0.5 * h / k->fy), w * k->fy / (h * k->fx));
+                        "{\"yfov\":%.9g,\"aspectRatio\":%.9g,\"znear\":0.01},\"extras\":{\"sunprobe\":"
+                        "{\"image_width\":%d,\"image_height\":%d}}}]",
+                     2.0 * atan(0.5 * h / k->fy), w * k->fy / (h * k->fx), c->asset.width, c->asset.height);
 }
 
 static void add_scene(const export_ctx *c, sp_strbuf *j, int draco)
@@ -450,15 +522,19 @@ static int export_glb(export_ctx *c)
 {
     bin_buf b = { 0 };
     sp_strbuf acc = { 0 }, draco_ext = { 0 }, mat = { 0 }, texs = { 0 }, images = { 0 }, j = { 0 };
+    sp_strbuf prim = { 0 }, mesh = { 0 };
     int ret = add_geometry(c, &b, &acc, &draco_ext);
+    if (!ret)
+        ret = add_morphs(c, &b, &acc, c->tex.has_normal ? 5 : 4, &prim, &mesh);
     if (!ret)
         ret = add_material(c, &b, &mat, &texs, &images);
     if (!ret) {
         sp_strbuf_printf(&j, "{");
         add_scene(c, &j, c->set->draco);
         sp_strbuf_printf(&j, ",\"meshes\":[{\"name\":\"face\",\"primitives\":[{%s\"attributes\":{\"POSITION\":0,"
-                             "\"NORMAL\":1,\"TEXCOORD_0\":2%s},\"indices\":3,\"material\":0,\"mode\":4}]}]",
-                         draco_ext.data ? draco_ext.data : "", c->tex.has_normal ? ",\"TANGENT\":4" : "");
+                             "\"NORMAL\":1,\"TEXCOORD_0\":2%s},\"indices\":3,\"material\":0,\"mode\":4%s}]%s}]",
+                         draco_ext.data ? draco_ext.data : "", c->tex.has_normal ? ",\"TANGENT\":4" : "",
+                         prim.data ? prim.data : "", mesh.data ? mesh.data : "");
         sp_strbuf_printf(&j, ",\"materials\":[%s],\"textures\":[%s],\"images\":[%s]", mat.data, texs.data,
                          images.data);
         sp_strbuf_printf(&j, ",\"samplers\":[{\"magFilter\":9729,\"minFilter\":9729,\"wrapS\":33071,"
@@ -466,7 +542,7 @@ static int export_glb(export_ctx *c)
                              "\"buffers\":[{\"byteLength\":%zu}]}",
                          acc.data, b.views.data, (b.len + 3) & ~(size_t)3);
         ret = j.failed || acc.failed || mat.failed || texs.failed || images.failed || b.views.failed ||
-                      draco_ext.failed ? -ENOMEM : 0;
+                      draco_ext.failed || prim.failed || mesh.failed ? -ENOMEM : 0;
     }
     const char *tmp;
     if (!ret)
@@ -480,6 +556,8 @@ static int export_glb(export_ctx *c)
     sp_strbuf_free(&mat);
     sp_strbuf_free(&texs);
     sp_strbuf_free(&images);
+    sp_strbuf_free(&prim);
+    sp_strbuf_free(&mesh);
     sp_strbuf_free(&j);
     return ret;
 }
@@ -490,7 +568,7 @@ static int export_drc(export_ctx *c)
     const sp_gltf_geom *g = &c->geom;
     sp_draco_out d;
     int ret = sp_draco_encode_mesh(g->positions, g->normals, g->uvs, NULL, g->n_vertices, g->indices, g->n_triangles,
-                                   c->set->position_bits, c->set->normal_bits, c->set->uv_bits, &d);
+                                   c->set->position_bits, c->set->normal_bits, c->set->uv_bits, 0, &d);
     if (ret)
         return ret;
     sp_atomic_file af;
@@ -533,7 +611,27 @@ static int check_settings(const sp_export_settings *s)
     return 0;
 }
 
-/* out_path without its extension + ".env.hdr"; env_name gets the basename. */
+/* The same map as 32-bit float OpenEXR (path's ".hdr" replaced), where OpenImageIO is built. */
+static int write_env_exr(export_ctx *c, const char *hdr_path, const float *env)
+{
+#if HAVE_OPENIMAGEIO
+    char path[4096];
+    const char *tmp;
+    snprintf(path, sizeof(path), "%.*s.exr", (int)(strlen(hdr_path) - 4), hdr_path);
+    int ret = sp_file_set_add(&c->files, path, &tmp);
+    if (!ret)
+        ret = sp_exr_write(tmp, env, SP_RENDER_ENV_W, SP_RENDER_ENV_H, 3);
+    if (ret)
+        sp_log(SP_LOG_ERROR, MOD, "cannot write %s: %s", path, sp_strerror(ret));
+    c->env_exr = !ret;
+    return ret;
+#else
+    (void)c, (void)hdr_path, (void)env;
+    return 0;
+#endif
+}
+
+/* out_path without its extension + ".env.hdr" (and ".env.exr"); env_name gets the basename. */
 static int write_env(export_ctx *c)
 {
     char path[4096];
@@ -554,6 +652,8 @@ static int write_env(export_ctx *c)
         sp_log(SP_LOG_ERROR, MOD, "cannot write %s: %s", path, sp_strerror(ret));
         return ret;
     }
+    if ((ret = write_env_exr(c, path, env)))
+        return ret;
     const char *base = strrchr(path, '/');
     base = base ? base + 1 : path;
     size_t n = strlen(base);
@@ -582,6 +682,24 @@ static void note_parts(export_ctx *c)
     c->st.has_sun = sun_direction(c, g);
 }
 
+/* Morph targets for a plain GLB; otherwise, or when the face cannot give them, a left_out entry says why. */
+static int add_expressions(export_ctx *c)
+{
+    int ret = sp_gltf_morphs_build(&c->morphs, c->face_dir, &c->asset, &c->geom, &c->place);
+    if (ret)
+        return ret;
+    const char *omitted = "morph targets (mesh.extras.targetNames)";
+    if (!c->morphs.n_targets)
+        note_left_out(c, "expressions", c->morphs.reason, omitted);
+    else if (c->set->draco && !c->set->draco_expressions) {
+        note_left_out(c, "expressions", "Draco's edgebreaker reorders the vertices, which morph targets index: "
+                                        "export with --no-draco or --draco-expressions to get them", omitted);
+        sp_gltf_morphs_free(&c->morphs);
+    }
+    c->st.morph_targets = c->morphs.n_targets;
+    return 0;
+}
+
 static int prepare(export_ctx *c)
 {
     int ret = sp_face_dir_read(&c->asset, c->face_dir);
@@ -602,6 +720,8 @@ static int prepare(export_ctx *c)
     if ((ret = sp_export_textures_build(&c->tex, &c->asset, c->set->texture_size, c->asset.left_out)))
         return ret;
     note_parts(c);
+    if (c->set->format == SP_EXPORT_GLB && (ret = add_expressions(c)))
+        return ret;
     if (c->left_out.failed)
         return -ENOMEM;
     c->st.has_specular_texture = c->tex.has_specular;
@@ -646,6 +766,7 @@ int sp_export_face(const char *face_dir, const char *out_path, const sp_export_s
     for (int k = 0; k < N_PARTS; k++)
         free(c->reasons[k]);
     sp_gltf_geom_free(&c->geom);
+    sp_gltf_morphs_free(&c->morphs);
     sp_face_asset_free(&c->asset);
     free(c);
     return ret;

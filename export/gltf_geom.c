@@ -116,6 +116,7 @@ static void fill_vertex(sp_gltf_geom *g, uint32_t out, const sp_mesh *m, const s
         if (out == 0 || (float)gl[d] > g->max[d])
             g->max[d] = (float)gl[d];
     }
+    g->source[out] = pv;
     g->uvs[(size_t)out * 2] = m->uvs[(size_t)uv * 2];
     g->uvs[(size_t)out * 2 + 1] = 1.0f - m->uvs[(size_t)uv * 2 + 1]; /* glTF v runs down */
 }
@@ -129,7 +130,8 @@ static int alloc_geom(sp_gltf_geom *g, uint32_t nv, uint32_t nt)
     g->uvs = malloc((size_t)nv * 2 * sizeof(float));
     g->tangents = malloc((size_t)nv * 4 * sizeof(float));
     g->indices = malloc((size_t)nt * 3 * sizeof(uint32_t));
-    return g->positions && g->normals && g->uvs && g->tangents && g->indices ? 0 : -ENOMEM;
+    g->source = malloc((size_t)nv * sizeof(uint32_t));
+    return g->positions && g->normals && g->uvs && g->tangents && g->indices && g->source ? 0 : -ENOMEM;
 }
 
 /* Per-triangle dP/du and dP/dv (v up, as the normal map's green channel), summed per vertex into tb (6 each). */
@@ -247,5 +249,6 @@ void sp_gltf_geom_free(sp_gltf_geom *g)
     free(g->uvs);
     free(g->tangents);
     free(g->indices);
+    free(g->source);
     memset(g, 0, sizeof(*g));
 }

@@ -17,6 +17,7 @@ typedef struct sp_gltf_geom {
     float *positions, *normals, *uvs; /* 3, 3, 2 floats per vertex; owned */
     float *tangents;                  /* 4 per vertex (xyz along +u, w = handedness for +v up); owned */
     uint32_t *indices;                /* 3 per triangle; owned */
+    uint32_t *source;                 /* per vertex: the face mesh's position index; owned */
     float min[3], max[3];             /* position bounds */
 } sp_gltf_geom;
 
@@ -39,6 +40,23 @@ void sp_gltf_place(const sp_gltf_placement *p, const double w[3], double g[3], i
 /* SP_ECORRUPT for a mesh with NaN/Inf or bad indices, -ENOMEM. Vertices placed by p. */
 int sp_gltf_geom_build(sp_gltf_geom *g, const sp_mesh *m, const sp_gltf_placement *p);
 void sp_gltf_geom_free(sp_gltf_geom *g);
+/*
+ * Expressions of the fit's face model as morph targets (gltf_morph.c): per glTF vertex, the
+ * position offset of each expression mode at full strength, in the exported frame. n_targets 0
+ * with a reason when the face directory or the model on this machine cannot give them.
+ */
+#define SP_GLTF_MAX_TARGETS 64
+typedef struct sp_gltf_morphs {
+    uint32_t n_targets;
+    char names[SP_GLTF_MAX_TARGETS][32];
+    double fitted[SP_GLTF_MAX_TARGETS]; /* the expression the mesh was written with (keyframe 0's) */
+    float *deltas;                      /* n_targets * n_vertices * 3 (glTF vertices); owned */
+    char reason[400];                   /* why there are none */
+} sp_gltf_morphs;
+/* 0 (with or without targets) or -ENOMEM. */
+int sp_gltf_morphs_build(sp_gltf_morphs *mo, const char *face_dir, const sp_face_asset *a, const sp_gltf_geom *g,
+                         const sp_gltf_placement *p);
+void sp_gltf_morphs_free(sp_gltf_morphs *mo);
 
 typedef struct sp_export_image {
     int width, height, channels; /* packed rows, row 0 = top */

@@ -32,6 +32,8 @@ typedef struct sp_export_settings {
     int normal_bits;    /* 1..30 (default 10) */
     int uv_bits;        /* 1..30 (default 12) */
     int write_env;      /* write the environment map as FILE.env.hdr (default 1) */
+    int draco_expressions; /* GLB + Draco: keep the vertex order (sequential encoding, larger) and write the
+                              expressions' morph targets (default 0: Draco leaves them out) */
 } sp_export_settings;
 
 /* What was written; filled by sp_export_face when not NULL. */
@@ -41,6 +43,8 @@ typedef struct sp_export_stats {
     size_t geometry_bytes;           /* as stored (Draco buffer or raw) */
     size_t total_bytes;              /* the main output file */
     int has_specular_texture, has_normal_map, has_sun;
+    uint32_t morph_targets;          /* expression morph targets written (plain GLB only) */
+    size_t morph_bytes;              /* their sparse indices and offsets */
 } sp_export_stats;
 
 SP_API void sp_export_default_settings(sp_export_settings *settings);

@@ -160,6 +160,14 @@ async function main() {
   let same = a.size === b.size;
   for (const [k, n] of a) if (b.get(k) !== n) same = false;
   fail(same, 'decoded triangles (mapped to original vertices) differ from the original triangles');
+  // morph targets index the decoded vertices: a Draco file that carries them must decode in the original order
+  const targets = (d.json.meshes[0].primitives[0].targets || []).length;
+  if (targets) {
+    let moved = 0;
+    for (let i = 0; i < rep.length; i++) if (m.map[i] < 0 || rep[m.map[i]] !== rep[i]) moved++;
+    console.log(`draco: ${targets} morph targets, ${moved} decoded vertices out of the original order`);
+    fail(moved === 0 && targets === (prim.targets || []).length, 'morph targets with reordered Draco vertices');
+  }
   process.exit(ok ? 0 : 1);
 }
 

@@ -14,6 +14,14 @@
  *     channel is inside) and exits 1 when it is below MIN or a mask is empty.
  *   render_mask differ A.png B.png MIN
  *     prints the mean absolute RGB difference (0..255) and exits 1 below MIN.
+ *   render_mask near A.png B.png MAX
+ *     the same, exit 1 above MAX.
+ *   render_mask lum FACE_DIR [sun|sky]
+ *     prints the mean linear Rec. 709 luminance of keyframe 0's view lit by the
+ *     fitted sun and sky (sp_face_asset_render_radiance, before the tone map)
+ *     over the pixels the face covers at least half (sun, sky: that light alone).
+ *   render_mask lum-shot SHOT.png MASK.png
+ *     prints the mean linear luminance of an sRGB screenshot over MASK's pixels.
  *
  * The mesh is rendered undisplaced: the glTF carries displacement only as a
  * normal map, so its silhouette is the undisplaced mesh's.
@@ -26,6 +34,7 @@
 #include "export/gltf_internal.h"
 #include "export/png.h"
 #include "export/png_read.h"
+#include "sunprobe/sp_math.h"
 #include "sunprobe/sp_render.h"
 #include "sunprobe/sp_sunstage.h"
 
@@ -160,8 +169,8 @@ static int cmd_iou(char **argv)
     return iou >= min ? 0 : 1;
 }
 
-/* Mean absolute difference of two same-sized screenshots (RGB, 0..255); exit 1 when below MIN. */
-static int cmd_differ(char **argv)
+/* Mean absolute difference of two same-sized screenshots (RGB, 0..255); exit 1 below MIN (near: above MAX). */
+static int cmd_differ(char **argv, int near)
 {
     uint8_t *p[2] = { NULL, NULL };
     uint32_t w[2] = { 0, 0 }, h[2] = { 0, 0 };
@@ -183,19 +192,86 @@ static int cmd_differ(char **argv)
     }
     double mean = sum / (3.0 * (double)n);
     printf("mean |difference| %.2f / 255 (first image mean %.2f)\n", mean, lit / (3.0 * (double)n));
-    return mean >= atof(argv[4]) ? 0 : 1;
+    return (near ? mean <= atof(argv[4]) : mean >= atof(argv[4])) ? 0 : 1;
+}
+
+static int cmd_lum(const char *dir, const char *part)
+{
+    static const float black[SP_RENDER_ENV_FLOATS];
+    sp_face_asset a;
+    if (sp_face_dir_read(&a, dir)) {
+        fprintf(stderr, "render_mask: cannot read %s\n", dir);
+        return 1;
+    }
+    sp_face_view v;
+    sp_face_view_init(&v, &a);
+    if (part && !strcmp(part, "sky"))
+        v.sun_intensity = 0.0;
+    else if (part && !strcmp(part, "sun"))
+        v.env = black;
+    size_t n = (size_t)v.width * (size_t)v.height, covered = 0;
+    float *rad = malloc(n * 3 * sizeof(float)), *cover = malloc(n * sizeof(float));
+    int ret = rad && cover ? sp_face_asset_render_radiance(&a, &v, rad, cover) : -1;
+    double sum = 0.0;
+    for (size_t i = 0; !ret && i < n; i++)
+        if (cover[i] >= 0.5f) {
+            sum += 0.2126 * (double)rad[i * 3] + 0.7152 * (double)rad[i * 3 + 1] + 0.0722 * (double)rad[i * 3 + 2];
+            covered++;
+        }
+    free(rad);
+    free(cover);
+    sp_face_asset_free(&a);
+    if (ret || !covered) {
+        fprintf(stderr, "render_mask: rendering %s failed or shows no face (%d)\n", dir, ret);
+        return 1;
+    }
+    printf("sunprobe: %dx%d, %zu face pixels\nsunprobe: mean_luminance %.6g\n", v.width, v.height, covered,
+           sum / (double)covered);
+    return 0;
+}
+
+static int cmd_lum_shot(const char *shot, const char *mask)
+{
+    uint8_t *p[2] = { NULL, NULL };
+    uint32_t w[2] = { 0, 0 }, h[2] = { 0, 0 };
+    int ok = !sp_png_read_rgba(shot, &p[0], &w[0], &h[0]) && !sp_png_read_rgba(mask, &p[1], &w[1], &h[1]) &&
+             w[0] == w[1] && h[0] == h[1];
+    double sum = 0.0;
+    size_t n = 0;
+    for (size_t i = 0; ok && i < (size_t)w[0] * h[0]; i++)
+        if (p[1][i * 4] > 127) {
+            const uint8_t *c = p[0] + i * 4;
+            sum += 0.2126 * sp_srgb_decode(c[0] / 255.0) + 0.7152 * sp_srgb_decode(c[1] / 255.0) +
+                   0.0722 * sp_srgb_decode(c[2] / 255.0);
+            n++;
+        }
+    free(p[0]);
+    free(p[1]);
+    if (!ok || !n) {
+        fprintf(stderr, "render_mask: cannot measure %s over %s (sizes, or an empty mask)\n", shot, mask);
+        return 1;
+    }
+    printf("shot: %zu face pixels\nshot: mean_luminance %.6g\n", n, sum / (double)n);
+    return 0;
 }
 
 int main(int argc, char **argv)
 {
+    if (argc == 4 && !strcmp(argv[1], "lum-shot"))
+        return cmd_lum_shot(argv[2], argv[3]);
+    if ((argc == 3 || argc == 4) && !strcmp(argv[1], "lum"))
+        return cmd_lum(argv[2], argc == 4 ? argv[3] : NULL);
     if (argc == 5 && !strcmp(argv[1], "iou"))
         return cmd_iou(argv);
-    if (argc == 5 && !strcmp(argv[1], "differ"))
-        return cmd_differ(argv);
+    if (argc == 5 && (!strcmp(argv[1], "differ") || !strcmp(argv[1], "near")))
+        return cmd_differ(argv, !strcmp(argv[1], "near"));
     if (argc == 3 || argc == 8)
         return cmd_render(argc, argv);
     fprintf(stderr, "usage: render_mask FACE_DIR OUT.png [W H DCX DCY YAW_DEG]\n"
                     "       render_mask iou REF.png SHOT.png MIN\n"
-                    "       render_mask differ A.png B.png MIN\n");
+                    "       render_mask differ A.png B.png MIN\n"
+                    "       render_mask near A.png B.png MAX\n"
+                    "       render_mask lum FACE_DIR [sun|sky]\n"
+                    "       render_mask lum-shot SHOT.png MASK.png\n");
     return 2;
 }

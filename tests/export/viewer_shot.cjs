@@ -44,7 +44,7 @@ async function main() {
       page.on('pageerror', (e) => logs.push(String(e)));
       await page.goto(base + query);
       await page.waitForFunction(() => window.sunprobeViewer && window.sunprobeViewer.status !== 'loading',
-        null, { timeout: 30000 });
+        null, { timeout: 90000 });
       const st = await page.evaluate(() => window.sunprobeViewer);
       if (st.status !== 'ready') throw new Error(`viewer: ${st.message}\n${logs.join('\n')}`);
       await page.locator('canvas').screenshot({ path: out });

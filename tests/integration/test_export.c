@@ -3,7 +3,8 @@
  * sunprobe export: a face-directory fixture (the generic head in the manifest
  * format facedir.c writes), then GLB structure, --no-draco geometry, OBJ, DRC,
  * the documented mappings, and bad input. `test_export SUNPROBE fixture DIR
- * [flat|ict]` only writes the fixture (for tests/export/test_export_node.sh).
+ * [flat|ict|facing]` only writes the fixture (for tests/export/test_export_node.sh; facing: keyframe 0
+ * looks at the face, 160 x 160, for the viewer and Blender tests).
  */
 #include <errno.h>
 #include <math.h>
@@ -15,6 +16,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "glb_read.h"
 #include "common/json.h"
 #include "export/gltf_internal.h"
 #include "sp_config.h"
@@ -87,7 +89,7 @@ static int write_maps(const char *dir, int tw, int th, int flat)
  * NULL for an old manifest without it. unobservable: lighting_unobservable true.
  */
 typedef struct fixture {
-    int flat, ict, unobservable;
+    int flat, ict, unobservable, facing;
     const char *left_out;
 } fixture;
 
@@ -98,6 +100,18 @@ typedef struct fixture {
     "{\"part\":\"specular\",\"reason\":\"no sun to reflect\"},"                                                 \
     "{\"part\":\"displacement\",\"reason\":\"displacement map not fitted\"},"                                   \
     "{\"part\":\"environment\",\"reason\":\"lighting unobservable: the sky is a neutral constant\"}]"
+
+/* "0,0,...": n zeros as a JSON list body (n <= 64). */
+static const char *zeros(uint32_t n)
+{
+    static char buf[2][160];
+    static int which;
+    char *b = buf[which ^= 1];
+    b[0] = '\0';
+    for (uint32_t i = 0; i < n && i < 64; i++)
+        strcat(b, i ? ",0" : "0");
+    return b;
+}
 
 /* The manifest keys facedir.c writes (and facedir_read.c needs). */
 static int write_manifest(const char *dir, const sp_face_model *m, int tw, int th, const fixture *fx)
@@ -115,16 +129,29 @@ static int write_manifest(const char *dir, const sp_face_model *m, int tw, int t
                      "90,100]},\n\"lighting\":{\"sun_direction\":[0.3,-0.8,0.5],\"sun_intensity\":%s,"
                      "\"sun_dropped\":false,\"lighting_unobservable\":%s,\"notes\":\"\",\"env\":\"env.f32\","
                      "\"env_height\":16,\"env_width\":32,\"yaw_range_deg\":300},\n"
-                     "%s\"cameras\":\"cameras.json\"}\n",
+                     "%s\"identity\":[%s],\"scale\":1,\"cameras\":\"cameras.json\"}\n",
                      m->source, m->mesh.n_vertices, m->mesh.n_triangles, tw, th, m->cluster_width,
                      m->cluster_height,
                      flat ? "0,0,0,0,0,0,0,0,0,0" : "0.01,0.02,0.03,0.04,0.05,0.02,0.02,0.02,0.02,0.02",
-                     flat ? "0" : "2.5", fx->unobservable ? "true" : "false", list);
-    const char *cams = "{\"frames\":[\n {\"sequence\":0,\"timestamp_ns\":0,\"heldout\":false,\"width\":128,"
-                       "\"height\":128,\"intrinsics\":[150,150,64,64],\"camera_to_world_wxyz\":[0.7071068,"
-                       "0.7071068,0,0]}\n]}\n";
+                     flat ? "0" : "2.5", fx->unobservable ? "true" : "false", list, zeros(m->n_id));
+    /*
+     * write_mesh's placement is world = C (R_f x + t_f) with C keyframe 0's camera-to-world rotation. As the
+     * export tests have it, C turns +90 deg about x (the camera faces away): R_f = I, t_f = (0, 0, -0.5).
+     * facing, as a fit writes it (camera at the origin looking along world +y at the face, -90 deg about
+     * x): R_f = 180 deg about x, t_f = (0, 0, 0.5).
+     */
+    char cams[4096];
+    int nc = snprintf(cams, sizeof(cams), "{\"frames\":[\n {\"sequence\":0,\"timestamp_ns\":0,\"heldout\":false,"
+                      "%s,\"expression\":[%s]}\n]}\n",
+                      fx->facing ? "\"width\":160,\"height\":160,\"intrinsics\":[260,260,79.5,79.5],"
+                                   "\"camera_to_world_wxyz\":[0.70710678118654752,-0.70710678118654752,0,0],"
+                                   "\"face_rotvec\":[3.14159265358979324,0,0],\"face_t\":[0,0,0.5]"
+                                 : "\"width\":128,\"height\":128,\"intrinsics\":[150,150,64,64],"
+                                   "\"camera_to_world_wxyz\":[0.70710678118654752,0.70710678118654752,0,0],"
+                                   "\"face_rotvec\":[0,0,0],\"face_t\":[0,0,-0.5]",
+                      zeros(m->n_exp));
     int ret = write_file(dir, "manifest.json", buf, (size_t)n);
-    return ret ? ret : write_file(dir, "cameras.json", cams, strlen(cams));
+    return ret ? ret : write_file(dir, "cameras.json", cams, (size_t)nc);
 }
 
 static int make_fixture_spec(const char *dir, const fixture *fx)
@@ -152,82 +179,6 @@ static int make_fixture(const char *dir, int flat)
 {
     fixture fx = { .flat = flat };
     return make_fixture_spec(dir, &fx);
-}
-
-typedef struct glb {
-    uint8_t *file;
-    size_t size;
-    sp_json *json;
-    const uint8_t *bin;
-    size_t bin_size;
-} glb;
-
-static uint8_t *slurp(const char *path, size_t *n)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    long len = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    uint8_t *b = len > 0 ? malloc((size_t)len + 1) : NULL;
-    if (b && fread(b, 1, (size_t)len, f) != (size_t)len) {
-        free(b);
-        b = NULL;
-    }
-    fclose(f);
-    *n = b ? (size_t)len : 0;
-    return b;
-}
-
-static int exists(const char *path)
-{
-    struct stat st;
-    return stat(path, &st) == 0;
-}
-
-static int glb_read(glb *g, const char *path)
-{
-    memset(g, 0, sizeof(*g));
-    g->file = slurp(path, &g->size);
-    if (!g->file || g->size < 28)
-        return -1;
-    uint32_t h[5], bh[2];
-    memcpy(h, g->file, 20);
-    CHECK(h[0] == 0x46546C67u && h[1] == 2 && h[2] == g->size && h[4] == 0x4E4F534Au);
-    CHECK(h[3] % 4 == 0 && 20 + (size_t)h[3] + 8 <= g->size);
-    if (20 + (size_t)h[3] + 8 > g->size)
-        return -1;
-    char err[128];
-    if (sp_json_parse((const char *)g->file + 20, h[3], &g->json, err, sizeof(err))) {
-        fprintf(stderr, "GLB JSON: %s\n", err);
-        return -1;
-    }
-    memcpy(bh, g->file + 20 + h[3], 8);
-    CHECK(bh[1] == 0x004E4942u && 28 + (size_t)h[3] + bh[0] == g->size);
-    g->bin = g->file + 28 + h[3];
-    g->bin_size = bh[0];
-    return 0;
-}
-
-static void glb_free(glb *g)
-{
-    sp_json_free(g->json);
-    free(g->file);
-}
-
-/* Pointer into BIN for accessor k (plain accessors only), checking its size. */
-static const uint8_t *accessor_data(const glb *g, int k, size_t elem, uint32_t *count)
-{
-    const sp_json *a = sp_json_at(sp_json_get(g->json, "accessors"), (size_t)k);
-    const sp_json *v = sp_json_at(sp_json_get(g->json, "bufferViews"),
-                                  (size_t)sp_json_number(sp_json_get(a, "bufferView"), 1e9));
-    *count = (uint32_t)sp_json_number(sp_json_get(a, "count"), 0);
-    size_t off = (size_t)sp_json_number(sp_json_get(v, "byteOffset"), 0);
-    size_t len = (size_t)sp_json_number(sp_json_get(v, "byteLength"), 0);
-    if (!v || len != elem * *count || off + len > g->bin_size)
-        return NULL;
-    return g->bin + off;
 }
 
 static int has_string(const sp_json *arr, const char *s)
@@ -289,7 +240,10 @@ static void check_material(const glb *g, int full)
     CHECK(spec != NULL && (sp_json_get(spec, "specularTexture") != NULL) == full);
     const sp_json *left = sp_json_get(sp_json_get(sp_json_get(sp_json_get(g->json, "asset"), "extras"), "sunprobe"),
                                       "left_out");
-    CHECK(left && left->count == (full ? 0u : 4u)); /* flat: sun, shadows, specular, displacement */
+    size_t parts = 0; /* the fit's parts; a Draco export also lists its morph targets ("expressions") */
+    for (size_t i = 0; left && i < left->count; i++)
+        parts += strcmp(sp_json_string(sp_json_get(sp_json_at(left, i), "part"), ""), "expressions") != 0;
+    CHECK(left && parts == (full ? 0u : 4u)); /* flat: sun, shadows, specular, displacement */
     const sp_json *lights = sp_json_get(sp_json_get(sp_json_get(g->json, "extensions"), "KHR_lights_punctual"),
                                         "lights");
     CHECK((lights != NULL) == full);
@@ -746,12 +700,14 @@ static void check_asset_atomic(const char *exe, const char *tmp, const char *fac
 
 /*
  * The Draco geometry is no larger than Debian's draco_encoder -cl 7 makes from the same mesh and bits (the
- * OBJ export of a face without a normal map: the same positions, normals and UVs, no tangents).
+ * OBJ export of a face without a normal map: the same positions, normals and UVs, no tangents), at 11, 12
+ * and 14 position bits (UVs 12, normals 10).
  */
-static void check_draco_size(const char *exe, const char *tmp, const char *flat)
+static void check_draco_size_at(const char *exe, const char *tmp, const char *flat, int qp)
 {
     char cmd[4096], path[1024];
-    snprintf(cmd, sizeof(cmd), "'%s' export '%s' -o '%s/size.glb' --stats > '%s/size.txt' 2>&1", exe, flat, tmp, tmp);
+    snprintf(cmd, sizeof(cmd), "'%s' export '%s' -o '%s/size.glb' --position-bits %d --stats > '%s/size.txt' 2>&1",
+             exe, flat, tmp, qp, tmp);
     CHECK(system(cmd) == 0);
     snprintf(path, sizeof(path), "%s/size.txt", tmp);
     long raw = -1, ours = -1, normal_map = -1;
@@ -770,24 +726,33 @@ static void check_draco_size(const char *exe, const char *tmp, const char *flat)
         return;
     }
     snprintf(cmd, sizeof(cmd), "'%s' export '%s' -o '%s/size.obj' --format obj >/dev/null 2>&1 && draco_encoder -i "
-             "'%s/size.obj' -o '%s/size-ref.drc' -qp 14 -qt 12 -qn 10 -cl 7 >/dev/null 2>&1", exe, flat, tmp, tmp, tmp);
+             "'%s/size.obj' -o '%s/size-ref.drc' -qp %d -qt 12 -qn 10 -cl 7 >/dev/null 2>&1", exe, flat, tmp, tmp, tmp, qp);
     CHECK(system(cmd) == 0);
     snprintf(path, sizeof(path), "%s/size-ref.drc", tmp);
     struct stat st;
     long ref = stat(path, &st) == 0 ? (long)st.st_size : -1;
-    printf("draco: %ld bytes against draco_encoder -cl 7's %ld (%.3fx)\n", ours, ref, ref > 0 ? (double)ours / ref : 0.0);
-    CHECK_MSG(ref > 0 && ours <= ref, "Draco geometry %ld bytes, draco_encoder -cl 7 %ld", ours, ref);
+    printf("draco, %d position bits: %ld bytes against draco_encoder -cl 7's %ld (%.3fx)\n", qp, ours, ref,
+           ref > 0 ? (double)ours / ref : 0.0);
+    CHECK_MSG(ref > 0 && ours <= ref, "%d bits: Draco geometry %ld bytes, draco_encoder -cl 7 %ld", qp, ours, ref);
+}
+
+static void check_draco_size(const char *exe, const char *tmp, const char *flat)
+{
+    static const int bits[] = { 11, 12, 14 };
+    for (size_t i = 0; i < sizeof(bits) / sizeof(bits[0]); i++)
+        check_draco_size_at(exe, tmp, flat, bits[i]);
 }
 
 int main(int argc, char **argv)
 {
     if (argc >= 4 && !strcmp(argv[2], "fixture")) { /* flat: a new manifest that left everything out */
-        fixture fx = { .flat = argc >= 5 && !strcmp(argv[4], "flat"), .ict = argc >= 5 && !strcmp(argv[4], "ict") };
+        const char *kind = argc >= 5 ? argv[4] : "";
+        fixture fx = { .flat = !strcmp(kind, "flat"), .ict = !strcmp(kind, "ict"), .facing = !strcmp(kind, "facing") };
         fx.left_out = fx.flat ? ALL_LEFT_OUT : NULL;
         return make_fixture_spec(argv[3], &fx) ? 1 : 0;
     }
     if (argc < 2) {
-        fprintf(stderr, "usage: test_export SUNPROBE [fixture DIR [flat]]\n");
+        fprintf(stderr, "usage: test_export SUNPROBE [fixture DIR [flat|ict|facing]]\n");
         return 99;
     }
     sp_log_set_level(SP_LOG_ERROR);

@@ -18,6 +18,8 @@
 #include "check.h"
 #include "common/json.h"
 #include "export/gltf_internal.h"
+#include "export/oiio_shim.h"
+#include "sp_config.h"
 #include "sunprobe/sp_export.h"
 #include "sunprobe/sp_render.h"
 
@@ -206,6 +208,30 @@ static int placement(const sp_json *root, double R[9], double T[3])
  * turned: the head was turned about the vertical (R from the export's extras);
  * otherwise R must be the plain y-up mapping and the texel lands at row 5, column 7.
  */
+/* Where OpenImageIO is built, STEM.env.exr holds the .hdr's map (RGBE keeps 8 bits of mantissa: 1 %). */
+static void check_env_exr(const char *tmp, const float *hdr)
+{
+    char path[4096];
+    snprintf(path, sizeof(path), "%s/env.glb", tmp);
+    sp_json *j = glb_json(path);
+    const char *uri = sp_json_string(sp_json_get(sp_json_get(extras(j), "environment_map"), "exr_uri"), "");
+    snprintf(path, sizeof(path), "%s/env.env.exr", tmp);
+#if HAVE_OPENIMAGEIO
+    float *exr = NULL;
+    uint32_t w = 0, h = 0;
+    CHECK(!strcmp(uri, "env.env.exr"));
+    CHECK(sp_image_read_rgb(path, &exr, &w, &h) == 0 && w == ENV_W && h == ENV_H);
+    double worst = 0.0;
+    for (int t = 0; exr && w == ENV_W && h == ENV_H && t < SP_RENDER_ENV_FLOATS; t++)
+        worst = fmax(worst, fabs((double)exr[t] - (double)hdr[t]) / fmax((double)exr[t], 1e-30));
+    CHECK_MSG(exr && worst < 0.01, "the .exr differs from the .hdr by %.3g (relative)", worst);
+    free(exr);
+#else
+    CHECK(!uri[0] && access(path, F_OK) != 0);
+#endif
+    sp_json_free(j);
+}
+
 static void check_env_file(const char *face, const char *tmp, int turned)
 {
     static float env[SP_RENDER_ENV_FLOATS], hdr[SP_RENDER_ENV_FLOATS];
@@ -243,6 +269,7 @@ static void check_env_file(const char *face, const char *tmp, int turned)
     CHECK_MSG(at == row * ENV_W + col, "bright texel at %d (row %d col %d), want row %d col %d", at,
               at / ENV_W, at % ENV_W, row, col);
     check_photometry(face, tmp, hdr, at);
+    check_env_exr(tmp, hdr);
 }
 
 /* Turns the fixture about the fit world's vertical by theta: the mesh and keyframe 0's camera (which looks at it). */
@@ -350,6 +377,9 @@ static void check_scene(const char *face, const char *tmp, const char *name)
     double yfov = sp_json_number(sp_json_get(persp, "yfov"), 0), aspect = sp_json_number(sp_json_get(persp, "aspectRatio"), 0);
     CHECK_NEAR(yfov, 2.0 * atan(0.5 * a.height / a.camera.fy), 1e-7); /* 9 digits in the JSON */
     CHECK_NEAR(aspect, (double)a.width * a.camera.fy / ((double)a.height * a.camera.fx), 1e-7);
+    const sp_json *size = sp_json_get(sp_json_get(sp_json_at(sp_json_get(j, "cameras"), 0), "extras"), "sunprobe");
+    CHECK(sp_json_number(sp_json_get(size, "image_width"), 0) == a.width &&
+          sp_json_number(sp_json_get(size, "image_height"), 0) == a.height);
     CHECK_MSG(acos(fmin(cosang, 1.0)) < 0.5 * yfov, "%s: the head is %.1f deg off the camera's axis (half fov %.1f)",
               name, acos(fmin(cosang, 1.0)) * 180 / PI, 0.5 * yfov * 180 / PI);
     double az = atan2(eye[0], eye[2]) * 180 / PI;

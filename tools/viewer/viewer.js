@@ -1,13 +1,16 @@
 // SPDX-License-Identifier: MIT
 // Shows a face exported by `sunprobe export` (glTF 2.0, y up, metres) lit by its own sun: the glTF's
-// KHR_lights_punctual directional light, which a slider turns about the +y (up) axis, plus a dim
-// hemisphere ambient averaged from the environment map OUT.env.hdr when given, exposed by the asset's
+// KHR_lights_punctual directional light (casting shadows), which a slider turns about the +y (up) axis,
+// plus image-based light from the environment map OUT.env.hdr when given (PMREM), exposed by the asset's
 // lux_per_fit_unit as the project's renderer would show it. URL query:
 //   glb=PATH            the .glb (default face.glb)
 //   env=PATH            the environment map written beside it (optional)
 //   az=DEG              initial sun azimuth offset (default 0 = as fitted)
 //   mode=mask           flat unlit white on black, no panel (for silhouette tests)
+//   mode=linear         linear tone mapping: the canvas is sRGB(exposure * radiance), clipped at 1
+//                       (for luminance tests against the project's renderer)
 //   ui=0                hide the panel (sliders)
+//   expr=NAME:W,...     initial morph target (expression) weights, 0..1
 //   w,h,fx,fy,cx,cy,R,t a fixed pinhole camera: W x H pixels, OpenCV intrinsics (pixel centres at
 //                       integers), R (9 numbers, row-major) and t (3) mapping glTF world points to
 //                       camera x right, y down, z forward. Without them: an orbit camera.
@@ -21,7 +24,7 @@ import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 const state = { status: 'loading', message: '' };
 window.sunprobeViewer = state;
 const q = new URLSearchParams(location.search);
-const mask = q.get('mode') === 'mask';
+const mask = q.get('mode') === 'mask', linear = q.get('mode') === 'linear';
 const $ = (id) => document.getElementById(id);
 
 function numbers(name, n) {
@@ -64,20 +67,34 @@ function fixedCamera() {
   return { cam, w, h };
 }
 
-// Hemisphere ambient from the equirectangular map: solid-angle weighted mean radiance of the upper and
-// lower halves (row 0 looks straight up). Lambert under uniform radiance L receives pi * L.
-async function environmentLight(url) {
+// Image-based light from the equirectangular map (the Blender/three.js layout, luminance in cd/m^2):
+// prefiltered (PMREM) for the diffuse and specular terms of the physical material.
+async function environmentMap(renderer, url) {
   const tex = await new HDRLoader().setDataType(THREE.FloatType).loadAsync(url);
-  const { width, height, data } = tex.image;
-  const sum = [[0, 0, 0, 0], [0, 0, 0, 0]];
-  for (let i = 0; i < height; i++) {
-    const wgt = Math.sin(((i + 0.5) / height) * Math.PI), half = i < height / 2 ? 0 : 1;
-    for (let j = 0; j < width; j++)
-      for (let c = 0; c < 4; c++) sum[half][c] += c < 3 ? wgt * data[(i * width + j) * 4 + c] : wgt;
-  }
-  const col = (s) => new THREE.Color().setRGB(...s.slice(0, 3).map((x) => (s[3] > 0 ? x / s[3] : 0)));
+  tex.mapping = THREE.EquirectangularReflectionMapping;
+  const pmrem = new THREE.PMREMGenerator(renderer);
+  const env = pmrem.fromEquirectangular(tex).texture;
   tex.dispose();
-  return new THREE.HemisphereLight(col(sum[0]), col(sum[1]), Math.PI);
+  pmrem.dispose();
+  return env;
+}
+
+// The sun's shadow: the light's shadow camera spans the head's bounding box.
+function castShadows(root, sun, box) {
+  root.traverse((o) => { if (o.isMesh) { o.castShadow = true; o.receiveShadow = true; } });
+  const r = Math.max(box.getSize(new THREE.Vector3()).length() / 2, 1e-3);
+  const c = sun.shadow.camera;
+  [c.left, c.right, c.bottom, c.top, c.near, c.far] = [-r, r, -r, r, 0.01, 4 * r + 0.01];
+  sun.shadow.mapSize.set(1024, 1024);
+  sun.shadow.bias = -0.0005;
+  sun.shadow.normalBias = 0.002;
+  const centre = box.getCenter(new THREE.Vector3());
+  // The light sits 2r from the head towards the sun (its target, a child at local -z, keeps the direction).
+  return () => {
+    const d = new THREE.Vector3(0, 0, 1).applyQuaternion(sun.getWorldQuaternion(new THREE.Quaternion()));
+    sun.position.copy(sun.parent.worldToLocal(centre.clone().addScaledVector(d, 2 * r)));
+    sun.updateMatrixWorld(true);
+  };
 }
 
 function flatWhite(root) {
@@ -87,15 +104,36 @@ function flatWhite(root) {
   });
 }
 
+// One slider per morph target (the export's ARKit-named expressions, plain .glb only); weights add to
+// the expression the mesh was fitted with. The URL's expr=NAME:W,... sets initial weights.
+function expressionSliders(root, render) {
+  const initial = new Map((q.get('expr') || '').split(',').filter(Boolean).map((e) => e.split(':'))
+    .map(([n, w]) => [n, Number(w)]));
+  root.traverse((o) => {
+    if (!o.isMesh || !o.morphTargetDictionary) return;
+    for (const [name, k] of Object.entries(o.morphTargetDictionary)) {
+      const label = document.createElement('label'), input = document.createElement('input');
+      Object.assign(input, { type: 'range', min: 0, max: 1, step: 0.01, value: initial.get(name) || 0 });
+      label.append(`${name}: `, input);
+      $('expressions').append(label);
+      const set = () => { o.morphTargetInfluences[k] = Number(input.value); render(); };
+      input.addEventListener('input', set);
+      o.morphTargetInfluences[k] = Number(input.value);
+    }
+  });
+}
+
 async function main() {
   const fixed = q.has('fx') ? fixedCamera() : null;
   const renderer = new THREE.WebGLRenderer({ antialias: !mask, preserveDrawingBuffer: true });
   renderer.setPixelRatio(fixed ? 1 : window.devicePixelRatio);
   renderer.setSize(fixed ? fixed.w : window.innerWidth, fixed ? fixed.h : window.innerHeight);
   // The project's renderer shows gamma(reinhard(exposure * radiance)); three's Reinhard + sRGB is close.
-  renderer.toneMapping = mask ? THREE.NoToneMapping : THREE.ReinhardToneMapping;
+  renderer.toneMapping = mask ? THREE.NoToneMapping : linear ? THREE.LinearToneMapping : THREE.ReinhardToneMapping;
+  renderer.shadowMap.enabled = !mask;
+  renderer.shadowMap.type = THREE.PCFSoftShadowMap;
   document.body.appendChild(renderer.domElement);
-  if (mask || q.get('ui') === '0') $('panel').style.display = 'none';
+  if (mask || linear || q.get('ui') === '0') $('panel').style.display = 'none';
 
   const scene = new THREE.Scene();
   scene.background = new THREE.Color(0x000000);
@@ -115,14 +153,15 @@ async function main() {
   let sunNode = sun;
   while (sunNode && sunNode.parent && sunNode.parent !== root) sunNode = sunNode.parent;
   const sunRest = sunNode ? sunNode.quaternion.clone() : null;
-  let hemi = null;
   if (mask) flatWhite(root);
   else if (q.get('env')) {
-    try { hemi = await environmentLight(q.get('env')); scene.add(hemi); }
+    try { scene.environment = await environmentMap(renderer, q.get('env')); }
     catch (e) { console.warn('environment map not loaded:', e); }
   }
 
   const box = new THREE.Box3().setFromObject(root);
+  const placeSun = sun && !mask ? castShadows(root, sun, box) : null;
+  if (sun && !mask) sun.castShadow = true;
   const centre = box.getCenter(new THREE.Vector3());
   let camera, controls = null;
   if (fixed) camera = fixed.cam;
@@ -148,12 +187,15 @@ async function main() {
     if (sunNode) {
       const turn = new THREE.Quaternion().setFromAxisAngle(new THREE.Vector3(0, 1, 0), (az * Math.PI) / 180);
       sunNode.quaternion.copy(turn).multiply(sunRest);
+      sunNode.updateMatrixWorld(true);
+      if (placeSun) placeSun();
     }
-    if (hemi) hemi.intensity = Math.PI * amb;
+    scene.environmentIntensity = amb;
     renderer.toneMappingExposure = Math.pow(2, ev) / lux;
     render();
   };
   for (const id of ['azimuth', 'ambient', 'exposure']) $(id).addEventListener('input', update);
+  expressionSliders(root, render);
   if (q.has('az')) $('azimuth').value = q.get('az');
   if (controls) controls.addEventListener('change', render);
   window.addEventListener('resize', () => {

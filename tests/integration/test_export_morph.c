@@ -1,0 +1,157 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Expressions as morph targets (export/EXPORT.md, "Expressions"), on test_export's fixture (the generic
+ * head, whose three expression modes are named): a plain .glb has one sparse POSITION target per mode,
+ * named in mesh.extras.targetNames, default weights 0, and every corner's offset equal to the model's
+ * mode at that corner's vertex (the fixture's frame maps the model's axes onto glTF's); a Draco export
+ * and a face directory without the pose and expression (an older fit) or with a mesh that is not the
+ * model's evaluation export without targets and say why in left_out, never failing.
+ *
+ *   test_export_morph SUNPROBE TEST_EXPORT
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "check.h"
+#include "glb_read.h"
+#include "sp_config.h"
+#include "sunprobe/sp_face_model.h"
+#include "sunprobe/sp_sunstage.h"
+
+/* The dense offsets of a sparse accessor k (count * 3 floats, caller frees), NULL if malformed. */
+static float *sparse_offsets(const glb *g, int k, uint32_t *count)
+{
+    const sp_json *a = sp_json_at(sp_json_get(g->json, "accessors"), (size_t)k), *sp = sp_json_get(a, "sparse");
+    const sp_json *views = sp_json_get(g->json, "bufferViews");
+    uint32_t n = (uint32_t)sp_json_number(sp_json_get(sp, "count"), 0);
+    *count = (uint32_t)sp_json_number(sp_json_get(a, "count"), 0);
+    const sp_json *vi = sp_json_at(views, (size_t)sp_json_number(sp_json_get(sp_json_get(sp, "indices"), "bufferView"), 1e9));
+    const sp_json *vv = sp_json_at(views, (size_t)sp_json_number(sp_json_get(sp_json_get(sp, "values"), "bufferView"), 1e9));
+    size_t oi = (size_t)sp_json_number(sp_json_get(vi, "byteOffset"), 0);
+    size_t ov = (size_t)sp_json_number(sp_json_get(vv, "byteOffset"), 0);
+    if (sp_json_get(a, "bufferView") || !n || n > *count || !vi || !vv || oi + 4 * (size_t)n > g->bin_size ||
+        ov + 12 * (size_t)n > g->bin_size ||
+        sp_json_number(sp_json_get(sp_json_get(sp, "indices"), "componentType"), 0) != 5125)
+        return NULL;
+    float *d = calloc((size_t)*count * 3, sizeof(float));
+    uint32_t prev = 0;
+    for (uint32_t e = 0; d && e < n; e++) {
+        uint32_t i;
+        memcpy(&i, g->bin + oi + 4 * (size_t)e, 4);
+        if (i >= *count || (e && i <= prev)) { /* indices strictly increasing, in range */
+            free(d);
+            return NULL;
+        }
+        memcpy(d + (size_t)i * 3, g->bin + ov + 12 * (size_t)e, 12);
+        prev = i;
+    }
+    return d;
+}
+
+static void check_targets(const glb *g, const sp_face_model *m, const sp_mesh *mesh)
+{
+    const sp_json *me = sp_json_at(sp_json_get(g->json, "meshes"), 0);
+    const sp_json *names = sp_json_get(sp_json_get(me, "extras"), "targetNames"), *w = sp_json_get(me, "weights");
+    const sp_json *targets = sp_json_get(sp_json_at(sp_json_get(me, "primitives"), 0), "targets");
+    CHECK(names && w && targets && names->count == m->n_exp && w->count == m->n_exp && targets->count == m->n_exp);
+    uint32_t ni, nv;
+    const uint8_t *idx = accessor_data(g, 3, 4, &ni);
+    CHECK(idx && ni == mesh->n_triangles * 3);
+    for (uint32_t k = 0; idx && targets && names && k < m->n_exp && k < targets->count; k++) {
+        CHECK_MSG(!strcmp(sp_json_string(sp_json_at(names, k), ""), sp_face_model_exp_name(m, k)), "name %u", k);
+        CHECK(sp_json_number(sp_json_at(w, k), -1) == 0.0);
+        int acc = (int)sp_json_number(sp_json_get(sp_json_at(targets, k), "POSITION"), -1);
+        float *d = sparse_offsets(g, acc, &nv);
+        CHECK_MSG(d != NULL, "target %u: accessor %d is not a well-formed sparse accessor", k, acc);
+        double worst = 0.0, biggest = 0.0;
+        for (uint32_t c = 0; d && c < ni; c++) {
+            uint32_t v;
+            memcpy(&v, idx + 4 * (size_t)c, 4);
+            const float *b = m->exp_basis + ((size_t)k * m->mesh.n_vertices + mesh->tri_vertices[c]) * 3;
+            for (int a = 0; a < 3 && v < nv; a++) {
+                worst = fmax(worst, fabs((double)d[(size_t)v * 3 + a] - (double)b[a]));
+                biggest = fmax(biggest, fabs((double)b[a]));
+            }
+        }
+        printf("target %u %s: largest offset %.4f m, largest error %.2g m\n", k, sp_face_model_exp_name(m, k),
+               biggest, worst);
+        CHECK(d && biggest > 1e-3 && worst < 1e-6);
+        free(d);
+    }
+}
+
+/* left_out has an "expressions" entry whose reason contains `why`, and the mesh has no targets. */
+static void check_none(const char *sunprobe, const char *face, const char *out, const char *opts, const char *why)
+{
+    char cmd[8192];
+    snprintf(cmd, sizeof(cmd), "'%s' export '%s' -o '%s' %s >/dev/null 2>&1", sunprobe, face, out, opts);
+    CHECK_MSG(system(cmd) == 0, "%s", cmd);
+    glb g;
+    if (glb_read(&g, out)) {
+        CHECK(!"readable .glb");
+        return;
+    }
+    const sp_json *left = sp_json_get(sp_json_get(sp_json_get(sp_json_get(g.json, "asset"), "extras"), "sunprobe"),
+                                      "left_out");
+    const char *reason = "";
+    for (size_t i = 0; left && i < left->count; i++)
+        if (!strcmp(sp_json_string(sp_json_get(sp_json_at(left, i), "part"), ""), "expressions"))
+            reason = sp_json_string(sp_json_get(sp_json_at(left, i), "reason"), "");
+    const sp_json *prim = sp_json_at(sp_json_get(sp_json_at(sp_json_get(g.json, "meshes"), 0), "primitives"), 0);
+    CHECK_MSG(strstr(reason, why) != NULL, "%s: reason \"%s\", want \"%s\"", out, reason, why);
+    CHECK(prim && !sp_json_get(prim, "targets"));
+    glb_free(&g);
+}
+
+/* Rewrites FILE in DIR with every occurrence of `from` replaced by `to` (one line of JSON each). */
+static int edit(const char *dir, const char *file, const char *from, const char *to)
+{
+    char cmd[8192];
+    snprintf(cmd, sizeof(cmd), "sed -i 's/%s/%s/g' '%s/%s'", from, to, dir, file);
+    return system(cmd);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 3) {
+        fprintf(stderr, "usage: test_export_morph SUNPROBE TEST_EXPORT\n");
+        return 99;
+    }
+    sp_log_set_level(SP_LOG_ERROR);
+    char tmp[] = "/tmp/sp-morph-XXXXXX", face[64], out[128], cmd[8192];
+    CHECK(mkdtemp(tmp) != NULL);
+    snprintf(face, sizeof(face), "%s/face", tmp);
+    snprintf(cmd, sizeof(cmd), "'%s' '%s' fixture '%s'", argv[2], argv[1], face);
+    sp_face_model m;
+    sp_face_asset a;
+    if (system(cmd) != 0 || sp_face_model_generic(&m) || sp_face_dir_read(&a, face)) {
+        fprintf(stderr, "cannot make or read the fixture: %s\n", cmd);
+        return 99;
+    }
+    snprintf(out, sizeof(out), "%s/plain.glb", tmp);
+    snprintf(cmd, sizeof(cmd), "'%s' export '%s' -o '%s' --no-draco --stats | grep -q '^morph_targets %u$'", argv[1],
+             face, out, m.n_exp);
+    CHECK_MSG(system(cmd) == 0, "%s", cmd);
+    glb g;
+    if (glb_read(&g, out) == 0)
+        check_targets(&g, &m, &a.mesh);
+    glb_free(&g);
+    if (HAVE_DRACO) {
+        snprintf(out, sizeof(out), "%s/draco.glb", tmp);
+        check_none(argv[1], face, out, "", "export with --no-draco");
+    }
+    snprintf(out, sizeof(out), "%s/moved.glb", tmp); /* a face pose that does not place the mesh */
+    CHECK(edit(face, "cameras.json", "\"face_t\":\\[0,0,-0.5\\]", "\"face_t\":[0,0,-0.49]") == 0);
+    check_none(argv[1], face, out, "--no-draco", "is not the face model's evaluation (a vertex 10");
+    snprintf(out, sizeof(out), "%s/old.glb", tmp); /* an older fit: no identity in the manifest */
+    CHECK(edit(face, "manifest.json", "\"identity\"", "\"identity_was\"") == 0);
+    check_none(argv[1], face, out, "--no-draco", "(an older fit)");
+    sp_face_asset_free(&a);
+    sp_face_model_free(&m);
+    snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmp);
+    if (system(cmd) != 0)
+        fprintf(stderr, "could not remove %s\n", tmp);
+    return check_exit();
+}
