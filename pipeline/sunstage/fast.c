@@ -20,6 +20,7 @@
 
 #include "common/clock.h"
 #include "common/parallel.h"
+#include "pipeline/render/texture.h"
 
 #define MOD "sunstage"
 #define NK SS_ENV_BASIS
@@ -875,24 +876,17 @@ static int fit_sun(fast_ctx *c, sp_sunstage_callback cb, void *user)
     return 0;
 }
 
-/* The current map resampled (bilinear, texel centres) into a map of `rows`: the coarser map's start. */
+/* src sampled at dst's texel centres, as the renderer samples a map (bilinear, clamped): the coarser map's start. */
 static void resample_map(const float *src, int sw, int sh, float *dst, int dw, int dh)
 {
     for (int y = 0; y < dh; y++)
         for (int x = 0; x < dw; x++) {
-            double fx = ((double)x + 0.5) * sw / dw - 0.5, fy = ((double)y + 0.5) * sh / dh - 0.5;
-            int x0 = (int)floor(fx), y0 = (int)floor(fy);
-            double ax = fx - x0, ay = fy - y0;
-            for (int ch = 0; ch < 3; ch++) {
-                double v = 0.0;
-                for (int k = 0; k < 4; k++) {
-                    int xi = x0 + (k & 1), yi = y0 + (k >> 1);
-                    xi = xi < 0 ? 0 : (xi >= sw ? sw - 1 : xi);
-                    yi = yi < 0 ? 0 : (yi >= sh ? sh - 1 : yi);
-                    v += ((k & 1) ? ax : 1.0 - ax) * ((k >> 1) ? ay : 1.0 - ay) * (double)src[((size_t)yi * sw + xi) * 3 + ch];
-                }
-                dst[((size_t)y * dw + x) * 3 + ch] = (float)v;
-            }
+            tex_lookup t;
+            double rgb[3];
+            tex_lookup_init(&t, sw, sh, ((double)x + 0.5) / dw, 1.0 - ((double)y + 0.5) / dh);
+            tex_sample(&t, src, 3, rgb);
+            for (int ch = 0; ch < 3; ch++)
+                dst[((size_t)y * (size_t)dw + (size_t)x) * 3 + (size_t)ch] = (float)rgb[ch];
         }
 }
 
@@ -947,9 +941,10 @@ static int choose_texture(fast_ctx *c)
     }
     int keep_coarse = !ret && h_coarse > h_fine;
     if (!ret) {
+        int won = keep_coarse ? coarse : fine_h, lost = keep_coarse ? fine_h : coarse;
+        double h_won = keep_coarse ? h_coarse : h_fine, h_lost = keep_coarse ? h_fine : h_coarse;
         snprintf(ss->fit.texture_note, sizeof(ss->fit.texture_note),
-                 "%d texture rows: held-out PSNR %.2f dB against %.2f dB with %d rows", keep_coarse ? coarse : fine_h,
-                 keep_coarse ? h_coarse : h_fine, keep_coarse ? h_fine : h_coarse, keep_coarse ? fine_h : coarse);
+                 "%d texture rows: held-out PSNR %.2f dB against %.2f dB with %d rows", won, h_won, h_lost, lost);
         ss->fit.texture_coarse = keep_coarse;
         sp_log(SP_LOG_INFO, MOD, "texture: %s", ss->fit.texture_note);
     }

@@ -254,8 +254,8 @@ static int offer(sp_sunstage *ss, const sp_frame *frame, int64_t t, const sp_fra
 {
     ss->counts.accepted++;
     int slot = -1;
-    int ret = ss_reservoir_offer(ss, ss->fe.work_rgb, ss->fe.work_clip, lm, sharp, expo, frame->sequence, t, tags->camera_to_world, 0,
-                                 &slot);
+    int ret = ss_reservoir_offer(ss, ss->fe.work_rgb, ss->fe.work_clip, lm, sharp, expo, frame->sequence, t,
+                                 tags->camera_to_world, 0, &slot);
     if (!ret && slot >= 0) {
         ss->res.slots[slot].has_truth = tags->has_true_orientation;
         ss->res.slots[slot].truth_q = tags->true_camera_to_world;
