@@ -32,7 +32,7 @@ static double refraction_deg(double e)
 
 int sp_sun_position_at(double unix_s, double latitude_deg, double longitude_deg, sp_sun_position *out)
 {
-    if (!out || !isfinite(unix_s) || !(fabs(latitude_deg) <= 90.0) || !(fabs(longitude_deg) <= 180.0))
+    if (!out || !isfinite(unix_s) || !(fabs(latitude_deg) <= 90.0) || !(fabs(longitude_deg) <= 360.0))
         return -EINVAL;
     double jd = unix_s / 86400.0 + 2440587.5;
     double T = (jd - 2451545.0) / 36525.0; /* Julian centuries since J2000.0 */

@@ -23,7 +23,8 @@ typedef struct sp_sun_position {
 
 /*
  * The sun seen from latitude/longitude (degrees, north and east positive) at unix_s (seconds since
- * 1970-01-01 UTC, leap seconds ignored). -EINVAL for a non-finite input, |latitude| > 90 or |longitude| > 180.
+ * 1970-01-01 UTC, leap seconds ignored). -EINVAL for a non-finite input, |latitude| > 90 or |longitude| > 360 (0..360 east is accepted as
+ * metadata allows it).
  */
 SP_API int sp_sun_position_at(double unix_s, double latitude_deg, double longitude_deg, sp_sun_position *out);
 

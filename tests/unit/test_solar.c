@@ -79,7 +79,10 @@ static void test_extremes(void)
     CHECK(sp_sun_position_at(at("2100-12-31T23:59:59Z"), 10, 10, &p) == 0 && isfinite(p.elevation_deg));
     CHECK(sp_sun_position_at(NAN, 0, 0, &p) == -EINVAL);
     CHECK(sp_sun_position_at(0, 90.0001, 0, &p) == -EINVAL);
-    CHECK(sp_sun_position_at(0, 0, -180.5, &p) == -EINVAL);
+    CHECK(sp_sun_position_at(0, 0, -360.5, &p) == -EINVAL);
+    sp_sun_position q;
+    CHECK(sp_sun_position_at(1e9, 10, 350.0, &p) == 0 && sp_sun_position_at(1e9, 10, -10.0, &q) == 0);
+    CHECK_NEAR(p.azimuth_deg, q.azimuth_deg, 1e-9);
     CHECK(sp_sun_position_at(0, NAN, 0, &p) == -EINVAL);
 }
 
