@@ -202,6 +202,8 @@ static int gather(fast_ctx *c)
         size_t first = c->n;
         for (int p = 0; p < npx; p++) {
             const float *bound = f->clip + (size_t)p * SS_CLIP_FLOATS;
+            /* a clipped rim pixel stays a lower bound: blended with darker surroundings and still clipped,
+               the skin there is brighter still */
             int clipped = !(mask[p] > 0.0f) && bound[3] > 0.0f && ss_scene_covers(&c->sc, &o, p);
             if (!(mask[p] > 0.0f) && !clipped)
                 continue;

@@ -226,10 +226,13 @@ int ss_scene_open(ss_scene *sc, const sp_sunstage *ss);
 void ss_scene_close(ss_scene *sc);
 /* Evaluates frame f's geometry and fills scene (pointers into ss and sc). */
 int ss_scene_setup(ss_scene *sc, const sp_sunstage *ss, const ss_frame *f, sp_render_scene *scene);
-/* Pixel i is skin, fully covered and not saturated in the target: the one mask test of every solver. */
+/* Pixel i is skin, fully covered, not on the rim and not saturated in the target: the one mask test of every
+ * solver. */
 int ss_scene_is_observed(const ss_scene *sc, const sp_render_outputs *o, const float *target, int i);
 /* The geometric half of that test: pixel i is fully covered by skin (or an eyeball) the fit sees. */
 int ss_scene_covers(const ss_scene *sc, const sp_render_outputs *o, int i);
+/* Covered with its four neighbours: not on the rim of the seen region (scene.c says why). */
+int ss_scene_inside(const ss_scene *sc, const sp_render_outputs *o, int i);
 /* That test for every pixel (W * H floats, 1 or 0). */
 void ss_scene_mask(const ss_scene *sc, const sp_render_outputs *o, const float *target, float *mask);
 double ss_psnr(const float *img, const float *target, const float *mask, int n);

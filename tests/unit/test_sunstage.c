@@ -381,8 +381,9 @@ static void test_clip_bounds(const sp_face_model *m)
 }
 
 /*
- * texture_size 0 chooses the rows on the held-out frames; when it keeps the finer map, the fit is exactly
- * the one asked for those rows (the coarser trial is undone without a trace).
+ * texture_size 0 chooses the rows on the held-out frames: the choice is no worse there than the finer map
+ * asked for outright, and when it keeps the finer map, the fit is exactly the one asked for those rows
+ * (the coarser trial is undone without a trace).
  */
 static void test_texture_choice(const sp_face_model *m)
 {
@@ -404,8 +405,9 @@ static void test_texture_choice(const sp_face_model *m)
     }
     fprintf(stderr, "texture choice: %s\n", ss[0]->fit.texture_note);
     CHECK_MSG(ss[0]->fit.texture_note[0] != 0, "no texture choice recorded");
-    CHECK_MSG(res[0].tex_height == SS_TEXTURE_ROWS, "these frames agree to the pixel: the %d-row map should win, "
-              "%d rows did (%s)", SS_TEXTURE_ROWS, res[0].tex_height, ss[0]->fit.texture_note);
+    /* whichever map won, it is no worse on the held-out frames than the finer one asked for outright */
+    CHECK_MSG(res[0].heldout_psnr >= res[1].heldout_psnr - 0.05, "chose %d rows: held-out %.2f dB against %.2f dB "
+              "with %d rows", res[0].tex_height, res[0].heldout_psnr, res[1].heldout_psnr, SS_TEXTURE_ROWS);
     if (res[0].tex_height == res[1].tex_height)
         CHECK(memcmp(res[0].albedo, res[1].albedo, sizeof(float) * 3 * (size_t)res[0].tex_width *
                      (size_t)res[0].tex_height) == 0);
