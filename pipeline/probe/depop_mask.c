@@ -159,32 +159,44 @@ static void mean_offset(const grow *g, size_t n, double fx, double fy, double *m
     *mx = n ? sx / n : 0, *my = n ? sy / n : 0;
 }
 
-static void cast_shadow(grow *g, sp_depop_object *o)
+static cone object_cone(const grow *g, const sp_depop_object *o)
 {
-    uint8_t ref[3];
-    if (ground_reference(g, o, ref))
-        return;
     int h = o->y1 - o->y0 + 1, w = o->x1 - o->x0 + 1;
-    cone c = { .fx = 0.5 * (o->x0 + o->x1), .fy = o->y1, .reach = g->s->max_length * h,
-               .cos_max = cos(g->s->cone_deg * M_PI / 180.0), .half_w = 0.75 * w + 2, .free_r = 0.15 * h };
-    double dl = hypot(g->s->sun_dx, g->s->sun_dy);
-    if (dl > 0) {
-        c.dx = g->s->sun_dx / dl, c.dy = g->s->sun_dy / dl;
-    } else {
-        /* no sun given: the direction the dark ground within one height of the foot leans to */
-        cone near = c;
-        near.reach = h;
-        size_t n = flood(g, o, ref, &near);
-        clear_seen(g, &near);
-        double mx, my;
-        mean_offset(g, n, c.fx, c.fy, &mx, &my);
-        double ml = hypot(mx, my);
-        if (n < (size_t)(w > 4 ? w : 4) || ml < 0.1 * h)
-            return; /* no dark ground leaning anywhere: no cast shadow to take */
-        c.dx = mx / ml, c.dy = my / ml;
-    }
+    return (cone){ .fx = 0.5 * (o->x0 + o->x1), .fy = o->y1, .reach = g->s->max_length * h,
+                   .cos_max = cos(g->s->cone_deg * M_PI / 180.0), .half_w = 0.75 * w + 2, .free_r = 0.15 * h };
+}
+
+/*
+ * Where the dark ground within one height of the foot leans (a unit vector): 0 when it does, -1 when
+ * there is too little of it, or so much (more than the box's area) that it is dark material, not a shadow.
+ */
+static int near_direction(grow *g, const sp_depop_object *o, const uint8_t ref[3], double *dx, double *dy)
+{
+    int h = o->y1 - o->y0 + 1, w = o->x1 - o->x0 + 1;
+    cone near = object_cone(g, o);
+    near.reach = h;
+    size_t n = flood(g, o, ref, &near);
+    clear_seen(g, &near);
+    double mx, my;
+    mean_offset(g, n, near.fx, near.fy, &mx, &my);
+    double ml = hypot(mx, my);
+    if (n < (size_t)(w > 4 ? w : 4) || n > (size_t)w * h || ml < 0.1 * h)
+        return -1;
+    *dx = mx / ml, *dy = my / ml;
+    return 0;
+}
+
+/* The cast shadow along (dx, dy); refused as a leak into dark material when larger than 1.5 boxes. */
+static void cast_along(grow *g, sp_depop_object *o, const uint8_t ref[3], double dx, double dy)
+{
+    cone c = object_cone(g, o);
+    c.dx = dx, c.dy = dy;
     size_t n = flood(g, o, ref, &c);
     clear_seen(g, &c);
+    if ((double)n > 1.5 * (o->x1 - o->x0 + 1) * (o->y1 - o->y0 + 1)) {
+        o->shadow_leak = 1;
+        return;
+    }
     double mx, my, len = 0;
     mean_offset(g, n, c.fx, c.fy, &mx, &my);
     for (size_t k = 0; k < n; k++) {
@@ -194,6 +206,35 @@ static void cast_shadow(grow *g, sp_depop_object *o)
         g->mask[i] = M_SHADOW;
     }
     o->shadow_px = (uint32_t)n, o->shadow_dx = mx, o->shadow_dy = my, o->shadow_len = len;
+}
+
+/*
+ * Every object's cast shadow. With the sun's image direction given, along it. Without, each object's
+ * own lean where it agrees with the others' (within 40 degrees of their mean direction), else the
+ * mean's: one sun casts every shadow, and a lone lean is more often dark ground than a shadow.
+ */
+static void cast_shadows(grow *g, sp_depop_object *objs, size_t n)
+{
+    double sl = hypot(g->s->sun_dx, g->s->sun_dy), sx = 0, sy = 0;
+    uint8_t (*ref)[3] = malloc(n * 3 + 1);
+    double (*dir)[2] = calloc(n + 1, sizeof(*dir));
+    int *have = calloc(n + 1, sizeof(int)), agree = 0;
+    for (size_t i = 0; i < n && ref && dir && have; i++) {
+        have[i] = ground_reference(g, &objs[i], ref[i]) ? -1 : sl > 0 ? 1 : 0;
+        if (have[i] == 0 && !near_direction(g, &objs[i], ref[i], &dir[i][0], &dir[i][1]))
+            have[i] = 2, sx += dir[i][0], sy += dir[i][1], agree++;
+    }
+    double ml = hypot(sx, sy);
+    int consensus = agree >= 2 && ml > 0.5 * agree; /* several leans, and they roughly agree */
+    for (size_t i = 0; i < n && ref && dir && have; i++) {
+        if (have[i] == 1)
+            cast_along(g, &objs[i], ref[i], g->s->sun_dx / sl, g->s->sun_dy / sl);
+        else if (have[i] == 2 && consensus && dir[i][0] * sx / ml + dir[i][1] * sy / ml < cos(40 * M_PI / 180))
+            cast_along(g, &objs[i], ref[i], sx / ml, sy / ml);
+        else if (have[i] == 2)
+            cast_along(g, &objs[i], ref[i], dir[i][0], dir[i][1]);
+    }
+    free(ref), free(dir), free(have);
 }
 
 /* Marks the object (its mask or box) and a pixel around it. */
@@ -266,14 +307,14 @@ int sp_depop_mask(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t 
     }
     memset(mask, M_NONE, np);
     for (size_t i = 0; i < n; i++) {
-        objs[i].shadow_px = objs[i].contact_px = 0;
+        objs[i].shadow_px = objs[i].contact_px = 0, objs[i].shadow_leak = 0;
         objs[i].shadow_dx = objs[i].shadow_dy = objs[i].shadow_len = 0;
         mark_object(&g, &objs[i]);
     }
-    for (size_t i = 0; i < n && s->shadows; i++) {
+    for (size_t i = 0; i < n && s->shadows; i++)
         contact_shadow(&g, &objs[i]);
-        cast_shadow(&g, &objs[i]);
-    }
+    if (s->shadows)
+        cast_shadows(&g, objs, n);
     free(g.queue), free(g.seen);
     return 0;
 }

@@ -48,6 +48,7 @@ typedef struct sp_depop_object {
     uint32_t shadow_px, contact_px;
     double shadow_dx, shadow_dy; /* mean offset of the cast shadow from the foot, pixels; 0,0: none */
     double shadow_len;           /* farthest shadow pixel from the foot along that direction, pixels */
+    int shadow_leak;             /* the dark ground along the sun was too large to be its shadow: left */
 } sp_depop_object;
 
 typedef struct sp_depop_settings {

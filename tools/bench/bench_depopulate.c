@@ -7,8 +7,10 @@
  * on the object masks alone (the baseline), with the two ablations between
  * them; then the time of one 1280x720 depopulation on one core.
  *
- * usage: bench_depopulate [--time FRAME.png] LABEL FRAME BACKGROUND [IDS] ...
- *   (IDS "-": objects are the pixels that differ from the background and are no shadow of it)
+ * usage: bench_depopulate [--time FRAME.png BACKGROUND.png] LABEL FRAME BACKGROUND IDS SHADOWS ...
+ *   IDS "-": objects are the pixels that differ from the background and are no shadow of it;
+ *   SHADOWS "-": the removed region is every pixel that differs from the background (noise-free
+ *   frames), else the IDS and SHADOWS images' nonzero pixels (grainy frames)
  */
 #include <errno.h>
 #include <math.h>
@@ -96,7 +98,21 @@ static void boxes(scene *s)
     free(lab), free(q);
 }
 
-static int load(scene *s, const char *frame, const char *bgpath, const char *ids)
+/* The truth's removed region from its object and shadow images (nonzero pixels). */
+static int load_region(scene *s, const char *shadows)
+{
+    uint8_t *rgba = NULL;
+    uint32_t w, h;
+    int ret = sp_png_read_rgba(shadows, &rgba, &w, &h);
+    if (!ret && (w != s->w || h != s->h))
+        ret = -EINVAL;
+    for (size_t i = 0; !ret && i < (size_t)w * h; i++)
+        s->changed[i] = s->objpx[i] || rgba[4 * i];
+    free(rgba);
+    return ret;
+}
+
+static int load(scene *s, const char *frame, const char *bgpath, const char *ids, const char *shadows)
 {
     uint32_t w, h;
     int ret = sp_image_read_rgb8(frame, &s->rgb, &s->w, &s->h);
@@ -111,12 +127,15 @@ static int load(scene *s, const char *frame, const char *bgpath, const char *ids
         ret = load_ids(s, ids);
     else if (!ret)
         objects_from_background(s);
+    if (!ret && shadows && strcmp(shadows, "-"))
+        ret = load_region(s, shadows);
+    else
+        for (size_t i = 0; !ret && i < n; i++) {
+            const uint8_t *p = s->rgb + 3 * i, *q = s->bg + 3 * i;
+            s->changed[i] = s->objpx[i] || abs(p[0] - q[0]) + abs(p[1] - q[1]) + abs(p[2] - q[2]) > 24;
+        }
     if (ret)
         return ret;
-    for (size_t i = 0; i < n; i++) {
-        const uint8_t *p = s->rgb + 3 * i, *q = s->bg + 3 * i;
-        s->changed[i] = s->objpx[i] || abs(p[0] - q[0]) + abs(p[1] - q[1]) + abs(p[2] - q[2]) > 24;
-    }
     boxes(s);
     return 0;
 }
@@ -202,7 +221,7 @@ static void scene_free(scene *s)
 static void time_one(const char *frame, const char *bgpath)
 {
     scene s = { 0 };
-    if (load(&s, frame, bgpath, "-")) {
+    if (load(&s, frame, bgpath, "-", "-")) {
         fprintf(stderr, "bench_depopulate: cannot read %s / %s\n", frame, bgpath);
         return;
     }
@@ -237,9 +256,9 @@ int main(int argc, char **argv)
         time_one(argv[i + 1], argv[i + 2]);
         i += 3;
     }
-    for (; i + 3 < argc + 1 && k < 256; i += 4) {
+    for (; i + 4 < argc && k < 256; i += 5) {
         scene s = { 0 };
-        if (load(&s, argv[i + 1], argv[i + 2], argv[i + 3]) || !s.n ||
+        if (load(&s, argv[i + 1], argv[i + 2], argv[i + 3], argv[i + 4]) || !s.n ||
             score(argv[i], &s, psnr[k], ssim[k]))
             fprintf(stderr, "bench_depopulate: %s: skipped (unreadable, no objects or no OpenCV)\n", argv[i]);
         else

@@ -17,7 +17,7 @@ scenes() { # KIND SEED -> the bench's LABEL FRAME BACKGROUND - arguments
         "$sp" export-video "$cap.spcap" -o "$cap.frames" >/dev/null
     fi
     for f in 50 100 150 200 250 300 350; do
-        printf '%s-%s-%d %s %s - ' "$kind" "$seed" $f "$(printf '%s.frames/frame_%06d.png' "$cap" $f)" "$cap.background.png"
+        printf '%s-%s-%d %s %s - - ' "$kind" "$seed" $f "$(printf '%s.frames/frame_%06d.png' "$cap" $f)" "$cap.background.png"
     done
 }
 for kind in sunny overcast; do
@@ -31,7 +31,7 @@ if [ -d "$shared" ]; then
     args=()
     for f in $(seq 5 15 295); do
         n=$(printf '%05d' "$f")
-        args+=("street-sunny-$n" "$shared/frames/$n.jpg" "$shared/gt/clean_plate.png" "$shared/gt/ids/$n.png")
+        args+=("street-sunny-$n" "$shared/frames/$n.jpg" "$shared/gt/clean_plate.png" "$shared/gt/ids/$n.png" "$shared/gt/shadows/$n.png")
     done
     echo "-- path-traced street (sunny; objects from gt/ids)"
     "$bench" "${args[@]}"
