@@ -41,7 +41,10 @@ typedef struct grow {
 
 static int clampi(int v, int lo, int hi) { return v < lo ? lo : v > hi ? hi : v; }
 
-/* The lit ground near the foot: mean colour of the band's pixels between its 50th and 90th luma percentiles. */
+/*
+ * The lit ground near the foot: mean colour of the band's pixels between its 70th and 95th luma percentiles
+ * (a shadow or a dark road may cover most of the band; a bright stray is rare).
+ */
 static int ground_reference(const grow *g, const sp_depop_object *o, uint8_t ref[3])
 {
     int h = o->y1 - o->y0 + 1, w = o->x1 - o->x0 + 1;
@@ -60,9 +63,9 @@ static int ground_reference(const grow *g, const sp_depop_object *o, uint8_t ref
     int lo = -1, hi = 255;
     for (int v = 0; v < 256; v++) {
         acc += hist[v];
-        if (lo < 0 && acc * 2 >= n)
+        if (lo < 0 && acc * 10 >= n * 7)
             lo = v;
-        if (acc * 10 >= n * 9) {
+        if (acc * 20 >= n * 19) {
             hi = v;
             break;
         }

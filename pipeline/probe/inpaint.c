@@ -303,6 +303,10 @@ static match search(const inpaint *ip, int tx, int ty, int R)
     for (int y = ty - R; y <= ty + R; y += s)
         for (int x = tx - R; x <= tx + R; x += s)
             try_source(ip, tx, ty, x, y, &m);
+    if (!m.n && s > 1) /* the grid missed the few sources there are: every cell */
+        for (int y = ty - R; y <= ty + R; y++)
+            for (int x = tx - R; x <= tx + R; x++)
+                try_source(ip, tx, ty, x, y, &m);
     if (m.n && s > 1) {
         int cx = m.x[0], cy = m.y[0];
         for (int y = cy - s + 1; y < cy + s; y++)
