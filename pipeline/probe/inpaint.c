@@ -135,10 +135,11 @@ static int front_push(inpaint *ip, int x, int y)
 }
 
 /*
- * Matching cost: squared differences over the target's known pixels, and over its unknown ones
- * against the smooth guide at a quarter of the weight, over the patch's weight `norm`; abandoned once
- * it must pass `bound`. The guide keeps the low frequencies (where a static shadow's band goes) so a
- * source with the right texture but the wrong light loses.
+ * Matching cost: mean squared difference over the target's `norm` pixels, its known ones as they are
+ * and its unknown ones as the smooth guide has them; abandoned once it must pass `bound`. The guide
+ * keeps the low frequencies (where a static shadow's band goes), so a source with the right texture
+ * but the wrong light loses. (Synth street seeds 1-3, 21 frames: the guide at a quarter of the known
+ * pixels' weight 21.96 dB, half 22.19, equal 22.36, double 21.98.)
  */
 static double patch_cost(const inpaint *ip, int tx, int ty, int sx, int sy, double bound, uint64_t norm)
 {
@@ -158,7 +159,7 @@ static double patch_cost(const inpaint *ip, int tx, int ty, int sx, int sy, doub
                 continue;
             const uint8_t *a = hrow[u] ? grow + 3 * (size_t)u : trow + 3 * (size_t)u, *b = srow + 3 * (size_t)(du + r);
             int d0 = a[0] - b[0], d1 = a[1] - b[1], d2 = a[2] - b[2];
-            sum += (uint64_t)(d0 * d0 + d1 * d1 + d2 * d2) << (hrow[u] ? 0 : 2);
+            sum += (uint64_t)(d0 * d0 + d1 * d1 + d2 * d2);
         }
         if ((double)sum > limit)
             return (double)INFINITY; /* over the best even if the rest matched exactly */
@@ -265,7 +266,7 @@ typedef struct match {
     int n, k;                  /* found, wanted */
     int x[MAX_BLEND], y[MAX_BLEND];
     double cost[MAX_BLEND];
-    uint64_t norm;             /* the target patch's weight: 4 per known pixel, 1 per unknown one */
+    uint64_t norm;             /* the target patch's pixels inside the image */
 } match;
 
 static double worst(const match *m)
@@ -298,7 +299,7 @@ static match search(const inpaint *ip, int tx, int ty, int R)
     for (int v = ty - ip->r; v <= ty + ip->r; v++)
         for (int u = tx - ip->r; u <= tx + ip->r; u++)
             if (u >= 0 && v >= 0 && u < ip->w && v < ip->h)
-                m.norm += known(ip, u, v) ? 4 : 1;
+                m.norm++;
     int s = ip->step;
     for (int y = ty - R; y <= ty + R; y += s)
         for (int x = tx - R; x <= tx + R; x += s)
