@@ -367,8 +367,12 @@ static int write_outputs(const depop_args *a, job *j)
         code = sp_cmd_fail("depopulate", ret, dp);
     if (!ret && (ret = write_report(a, j, rp)))
         code = sp_cmd_fail("depopulate", ret, rp);
-    if (!ret && (ret = sp_png_write(a->out, j->result, j->im.w, j->im.h, j->im.w * 3, 3)))
+    if (!ret && (ret = sp_png_write(a->out, j->result, j->im.w, j->im.h, j->im.w * 3, 3))) {
         code = sp_cmd_fail("depopulate", ret, a->out);
+        remove(dp), remove(rp); /* no report of an image that is not there */
+    } else if (ret && dp && rp && code) {
+        remove(dp);
+    }
     if (ret && !code)
         code = sp_cmd_fail("depopulate", ret, "output names");
     if (!ret && !a->quiet)
