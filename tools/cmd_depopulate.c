@@ -361,20 +361,22 @@ static int write_outputs(const depop_args *a, job *j)
 {
     char *rep = a->report ? NULL : derived(a->out, ".json"), *dbg = a->debug ? NULL : derived(a->out, ".debug.png");
     const char *rp = a->report ? a->report : rep, *dp = a->debug ? a->debug : dbg;
-    int ret = rp && dp ? 0 : -ENOMEM, code = 0;
+    int ret = rp && dp ? 0 : -ENOMEM, code = 0, written = 0;
     draw_debug(j);
-    if (!ret && (ret = sp_png_write(dp, j->debug, j->im.w, j->im.h, j->im.w * 3, 3)))
-        code = sp_cmd_fail("depopulate", ret, dp);
-    if (!ret && (ret = write_report(a, j, rp)))
-        code = sp_cmd_fail("depopulate", ret, rp);
-    if (!ret && (ret = sp_png_write(a->out, j->result, j->im.w, j->im.h, j->im.w * 3, 3))) {
-        code = sp_cmd_fail("depopulate", ret, a->out);
-        remove(dp), remove(rp); /* no report of an image that is not there */
-    } else if (ret && dp && rp && code) {
-        remove(dp);
+    if (!ret && !(ret = sp_png_write(dp, j->debug, j->im.w, j->im.h, j->im.w * 3, 3)))
+        written++;
+    if (!ret && !(ret = write_report(a, j, rp)))
+        written++;
+    if (!ret)
+        ret = sp_png_write(a->out, j->result, j->im.w, j->im.h, j->im.w * 3, 3);
+    if (ret) {
+        const char *what = !rp || !dp ? "output names" : written == 0 ? dp : written == 1 ? rp : a->out;
+        code = sp_cmd_fail("depopulate", ret, what);
+        if (written >= 1) /* no masks or report of an image that is not there */
+            remove(dp);
+        if (written >= 2)
+            remove(rp);
     }
-    if (ret && !code)
-        code = sp_cmd_fail("depopulate", ret, "output names");
     if (!ret && !a->quiet)
         printf("%s: %zu object(s) removed (from %s), %zu kept; filled from %s; report %s, masks %s\n", a->out, j->n,
                j->source, j->kept, j->fill, rp, dp);
