@@ -49,7 +49,7 @@ static const key_type imu_keys[] = {
 };
 static const key_type location_keys[] = {
     { "latitude", SP_JSON_NUMBER, 0 }, { "longitude", SP_JSON_NUMBER, 0 }, { "altitude_m", SP_JSON_NUMBER, 0 },
-    { NULL, SP_JSON_NULL, 0 },
+    { "magnetic_declination_deg", SP_JSON_NUMBER, 0 }, { "heading_deg", SP_JSON_NUMBER, 0 }, { NULL, SP_JSON_NULL, 0 },
 };
 
 static const char *type_name(sp_json_type t)

@@ -17,6 +17,7 @@ void sp_capture_meta_init(sp_capture_meta *meta)
     meta->imu_rate_hz = NAN;
     meta->imu_to_camera = sp_quat_identity();
     meta->latitude = meta->longitude = meta->altitude_m = NAN;
+    meta->magnetic_declination_deg = meta->start_heading_deg = NAN;
 }
 
 typedef struct {
@@ -129,6 +130,8 @@ static int merge_location(sp_capture_meta *m, const sp_json *loc)
         F("latitude", latitude, -90, 90),
         F("longitude", longitude, -180, 360),
         F("altitude_m", altitude_m, -1e4, 1e5),
+        F("magnetic_declination_deg", magnetic_declination_deg, -180, 180),
+        F("heading_deg", start_heading_deg, -360, 360),
     };
     return read_numbers(loc, fields, sizeof(fields) / sizeof(fields[0]), m);
 }

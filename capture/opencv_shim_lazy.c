@@ -7,8 +7,6 @@
 
 #include "common/module.h"
 
-static const sp_module cv_import = { "sunprobe-opencv-import", "capture", "OpenCV" };
-
 typedef int (*video_open_fn)(sp_cv_video_reader **, const char *, sp_cv_video_info *);
 typedef int (*video_read_fn)(sp_cv_video_reader *, uint8_t *, size_t, uint32_t);
 typedef void (*video_close_fn)(sp_cv_video_reader **);
@@ -19,7 +17,7 @@ typedef int (*video_write_fn)(sp_cv_video_writer *, const uint8_t *, uint32_t);
 typedef int (*writer_close_fn)(sp_cv_video_writer **);
 
 /* name's function from the module, looked up once (each forwarder has its slot, name##_slot) */
-#define SYMBOL(type, name) ((type)sp_module_symbol_cached(&cv_import, #name, &name##_slot))
+#define SYMBOL(type, name) ((type)sp_module_symbol_cached(&sp_module_opencv_import, #name, &name##_slot))
 
 static sp_module_slot sp_cv_video_open_slot;
 int sp_cv_video_open(sp_cv_video_reader **out, const char *path, sp_cv_video_info *info)

@@ -104,6 +104,8 @@ static int resolve(tagger *g, waiting *w, int force)
     if (ret == -EAGAIN && !force)
         return 1;
     w->tags.orientation = ret == 0 ? SP_ORIENTATION_OK : SP_ORIENTATION_NOT_COVERED;
+    sp_orientation_stats st;
+    w->tags.heading_magnetic = ret == 0 && !sp_orientation_get_stats(g->filter, &st) && st.using_magnetometer;
     return 0;
 }
 

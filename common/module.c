@@ -48,6 +48,16 @@ static void module_path(const sp_module *m, char *path, size_t size)
         snprintf(path, size, "%s/%s.so", SP_MODULE_INSTALL_DIR, m->name);
 }
 
+const sp_module sp_module_opencv_import = { "sunprobe-opencv-import", "capture", "OpenCV" };
+const sp_module sp_module_opencv_probe = { "sunprobe-opencv-probe", "pipeline", "OpenCV" };
+const sp_module sp_module_oiio = { "sunprobe-oiio", "export", "OpenImageIO" };
+
+int sp_module_locate(const sp_module *m, char *path, size_t size)
+{
+    module_path(m, path, size);
+    return access(path, R_OK) == 0;
+}
+
 static const sp_module_host host = { SP_MODULE_ABI, sp_logv, sp_log_get_level };
 
 /* dlopen + attach; NULL with the reason logged. */

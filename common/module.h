@@ -36,6 +36,12 @@ typedef struct sp_module {
     const char *library;      /* what it wraps, for messages: "OpenCV" */
 } sp_module;
 
+/* The modules this program can load (one per shim; `sunprobe --version --verbose` lists them). */
+extern const sp_module sp_module_opencv_import, sp_module_opencv_probe, sp_module_oiio;
+
+/* Where m is looked for (the order above) into path; 1 when a file is there. */
+int sp_module_locate(const sp_module *m, char *path, size_t size);
+
 /* Any function pointer; forwarders cast it back to the function's real type. */
 typedef void (*sp_module_fn)(void);
 

@@ -6,8 +6,6 @@
 
 #include "common/module.h"
 
-static const sp_module oiio = { "sunprobe-oiio", "export", "OpenImageIO" };
-
 typedef int (*exr_write_fn)(const char *, const float *, uint32_t, uint32_t, int);
 
 typedef int (*image_read_fn)(const char *, float **, uint32_t *, uint32_t *);
@@ -15,13 +13,13 @@ typedef int (*image_read_fn)(const char *, float **, uint32_t *, uint32_t *);
 static sp_module_slot sp_image_read_slot;
 int sp_image_read_rgb(const char *path, float **rgb, uint32_t *width, uint32_t *height)
 {
-    image_read_fn fn = (image_read_fn)sp_module_symbol_cached(&oiio, "sp_image_read_rgb", &sp_image_read_slot);
+    image_read_fn fn = (image_read_fn)sp_module_symbol_cached(&sp_module_oiio, "sp_image_read_rgb", &sp_image_read_slot);
     return fn ? fn(path, rgb, width, height) : SP_EMODULE;
 }
 
 static sp_module_slot sp_exr_write_slot;
 int sp_exr_write(const char *path, const float *pixels, uint32_t width, uint32_t height, int channels)
 {
-    exr_write_fn fn = (exr_write_fn)sp_module_symbol_cached(&oiio, "sp_exr_write", &sp_exr_write_slot);
+    exr_write_fn fn = (exr_write_fn)sp_module_symbol_cached(&sp_module_oiio, "sp_exr_write", &sp_exr_write_slot);
     return fn ? fn(path, pixels, width, height, channels) : SP_EMODULE;
 }

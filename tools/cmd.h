@@ -62,6 +62,7 @@ void sp_cmd_restore_signals(const sp_cmd_signals *saved);
 /* 128 + the stop signal when one came, else code. */
 int sp_cmd_stopped_code(int code);
 
+int sp_cmd_version(int argc, char **argv); /* --version [--verbose]: build features, modules, data files */
 int sp_cmd_info(int argc, char **argv);
 int sp_cmd_verify(int argc, char **argv);
 int sp_cmd_recover(int argc, char **argv);

@@ -243,6 +243,9 @@ static void print_summary(const sp_sunstage *ss)
            r.frontend_seconds, r.align_seconds, r.solve_seconds, r.refine_seconds, r.threads);
     if (r.notes[0])
         printf("fit: %s\n", r.notes);
+    if (r.have_clock_sun)
+        printf("fit: sun from the clock (%.3f, %.3f, %.3f): %.1f deg from the fitted sun\n", r.clock_sun_dir[0],
+               r.clock_sun_dir[1], r.clock_sun_dir[2], r.clock_sun_angle_deg);
 }
 
 static int run_fit(fit_args *a, const sp_face_model *model)

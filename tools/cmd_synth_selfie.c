@@ -13,6 +13,7 @@
 
 #include "cmd.h"
 #include "export/png.h"
+#include "sunprobe/sp_solar.h"
 #include "sunprobe/sp_synth.h"
 
 #define DEG (M_PI / 180.0)
@@ -21,6 +22,7 @@ typedef struct selfie_args {
     sp_synth_selfie_settings s;
     const char *out, *truth, *sheet;
     int no_truth, sheet_frames, sheet_columns;
+    int sun_angles; /* --sun-elevation or --sun-azimuth was given */
     double sheet_at; /* fraction of the capture for the decomposed frame */
 } selfie_args;
 
@@ -44,6 +46,8 @@ static void usage(FILE *out)
             "          --albedo-size ROWS (512)\n"
             "light:    --sun-elevation D (35)  --sun-azimuth D (150, from world +x towards +y)\n"
             "          --sun-intensity I (3)  --sky-intensity K (1)  --overcast\n"
+            "          --utc ISO8601 --location LAT,LON   the sun from the clock instead of the two angles:\n"
+            "                         world +x is magnetic north, the IMU gets a magnetometer\n"
             "render:   --supersample S (2)  --shadow-size N (512)\n"
             "truth:    --truth DIR  --no-truth  --relit N (6)  --novel N (6)\n"
             "sheet:    --contact-sheet FILE.png  --sheet-frames N (8)  --sheet-columns C (4)\n"
@@ -70,21 +74,57 @@ static int u32num(const char *o, const char *s, int lo, int hi, uint32_t *out)
     return bad;
 }
 
-/* X,Y,Z: three finite numbers, scaled */
-static int vec3(const char *o, const char *s, double scale, sp_vec3 *out)
+/* n comma-separated finite numbers; `form` names them in the message */
+static int numbers(const char *o, const char *s, int n, const char *form, double *v)
 {
     char *end;
-    double v[3];
     const char *p = s;
-    for (int i = 0; i < 3; i++) {
+    for (int i = 0; i < n; i++) {
         v[i] = strtod(p, &end);
-        if (end == p || !isfinite(v[i]) || (i < 2 ? *end != ',' : *end != '\0')) {
-            fprintf(stderr, "sunprobe " CMD ": --%s '%s': expected X,Y,Z (three finite numbers)\n", o, s);
+        if (end == p || !isfinite(v[i]) || (i < n - 1 ? *end != ',' : *end != '\0')) {
+            fprintf(stderr, "sunprobe " CMD ": --%s '%s': expected %s (%d finite numbers)\n", o, s, form, n);
             return -1;
         }
         p = end + 1;
     }
+    return 0;
+}
+
+/* X,Y,Z: three finite numbers, scaled */
+static int vec3(const char *o, const char *s, double scale, sp_vec3 *out)
+{
+    double v[3];
+    if (numbers(o, s, 3, "X,Y,Z", v))
+        return -1;
     *out = (sp_vec3){ v[0] * scale, v[1] * scale, v[2] * scale };
+    return 0;
+}
+
+/* LAT,LON in degrees */
+static int location(const char *o, const char *s, sp_synth_selfie_settings *out)
+{
+    double v[2];
+    if (numbers(o, s, 2, "LAT,LON", v))
+        return -1;
+    if (fabs(v[0]) > 90.0 || fabs(v[1]) > 360.0) {
+        fprintf(stderr, "sunprobe " CMD ": --%s '%s': latitude must be within -90..90 and longitude -360..360\n", o, s);
+        return -1;
+    }
+    out->latitude = v[0];
+    out->longitude = v[1];
+    return 0;
+}
+
+/* An ISO 8601 time with a zone, checked here so the message names the option */
+static int utc(const char *o, const char *s, sp_synth_selfie_settings *out)
+{
+    double t;
+    if (strlen(s) >= sizeof(out->utc_start) || sp_utc_parse(s, &t)) {
+        fprintf(stderr, "sunprobe " CMD ": --%s '%s': expected an ISO 8601 time with a zone, e.g. "
+                "2024-06-21T12:00:00Z\n", o, s);
+        return -1;
+    }
+    memcpy(out->utc_start, s, strlen(s) + 1);
     return 0;
 }
 
@@ -93,7 +133,7 @@ enum opt_code {
     O_AESPEED, O_AEDRIFT, O_STILL, O_TURNS, O_TURND, O_HEADING, O_PITCH, O_ARM, O_WOBBLE, O_CAMH, O_HEADW,
     O_IMURATE, O_GNOISE, O_ANOISE, O_GBIAS, O_ABIAS, O_IMUQUIET, O_FACE, O_IDS, O_EXPMAX, O_ALBEDO, O_SUNEL,
     O_SUNAZ, O_SUNI, O_SKYI, O_OVERCAST, O_SS, O_SHADOW, O_TRUTH, O_NOTRUTH, O_RELIT, O_NOVEL, O_SHEET,
-    O_SHEETN, O_SHEETC, O_SHEETAT, O_SEED, O_NOISELESS, O_PROGRESS,
+    O_SHEETN, O_SHEETC, O_SHEETAT, O_SEED, O_NOISELESS, O_PROGRESS, O_UTC, O_LOCATION,
 };
 
 static const struct option opts[] = {
@@ -114,6 +154,7 @@ static const struct option opts[] = {
     { "accel-bias", required_argument, NULL, O_ABIAS }, { "imu-noiseless", no_argument, NULL, O_IMUQUIET },
     { "face", required_argument, NULL, O_FACE }, { "identity-sigma", required_argument, NULL, O_IDS },
     { "expression-max", required_argument, NULL, O_EXPMAX }, { "albedo-size", required_argument, NULL, O_ALBEDO },
+    { "utc", required_argument, NULL, O_UTC }, { "location", required_argument, NULL, O_LOCATION },
     { "sun-elevation", required_argument, NULL, O_SUNEL }, { "sun-azimuth", required_argument, NULL, O_SUNAZ },
     { "sun-intensity", required_argument, NULL, O_SUNI }, { "sky-intensity", required_argument, NULL, O_SKYI },
     { "overcast", no_argument, NULL, O_OVERCAST }, { "supersample", required_argument, NULL, O_SS },
@@ -198,6 +239,8 @@ static int opt_scene(int c, const char *o, const char *v, sp_synth_selfie_settin
     case O_SUNI: return num(o, v, 0, 1e5, &s->sun_intensity);
     case O_SKYI: return num(o, v, 0, 1e5, &s->sky_intensity);
     case O_OVERCAST: s->overcast = 1; return 0;
+    case O_UTC: return utc(o, v, s);
+    case O_LOCATION: return location(o, v, s);
     case O_RELIT: return inum(o, v, 0, 64, &s->n_relit);
     case O_NOVEL: return inum(o, v, 0, 64, &s->n_novel);
     case O_SEED: return sp_opt_u64(CMD, o, v, 0, UINT64_MAX, &s->seed);
@@ -238,6 +281,7 @@ static int parse(int argc, char **argv, selfie_args *a)
             return -1;
         }
         const char *o = opt_name(c);
+        a->sun_angles |= c == O_SUNEL || c == O_SUNAZ;
         bad = opt_camera(c, o, optarg, &a->s);
         if (bad == 1)
             bad = opt_motion(c, o, optarg, &a->s);
@@ -252,6 +296,11 @@ static int parse(int argc, char **argv, selfie_args *a)
     }
     if (bad || !a->out || optind != argc) {
         usage(stderr);
+        return SP_EXIT_USAGE;
+    }
+    if (!a->s.utc_start[0] != !isfinite(a->s.latitude) || (a->s.utc_start[0] && a->sun_angles)) {
+        fprintf(stderr, "sunprobe " CMD ": the sun from the clock needs both --utc and --location, and then no "
+                "--sun-elevation/--sun-azimuth\n");
         return SP_EXIT_USAGE;
     }
     return 0;

@@ -88,10 +88,8 @@ int main(int argc, char **argv)
         usage(stdout);
         return SP_EXIT_OK;
     }
-    if (!strcmp(argv[1], "--version")) {
-        printf("sunprobe %s\n", sp_version());
-        return SP_EXIT_OK;
-    }
+    if (!strcmp(argv[1], "--version"))
+        return sp_cmd_version(argc - 1, argv + 1);
     for (size_t i = 0; i < N_COMMANDS; i++)
         if (!strcmp(argv[1], commands[i].name))
             return commands[i].run(argc - 1, argv + 1);

@@ -113,8 +113,10 @@ typedef struct sp_face_ict_settings {
 
 SP_API void sp_face_ict_default_settings(sp_face_ict_settings *settings);
 /*
- * The ICT data folder: $SP_ICT_FACEKIT_DIR, else ../shared/face-models/ict-facekit
- * beside the source tree. Static or environment storage; never NULL.
+ * The ICT data folder: $SP_ICT_FACEKIT_DIR when set, else the first of $XDG_DATA_HOME/sunprobe/ict-facekit,
+ * each $XDG_DATA_DIRS entry's sunprobe/ict-facekit, the install prefix's share/sunprobe/ict-facekit that
+ * holds generic_neutral_mesh.obj, else ../shared/face-models/ict-facekit beside the source tree.
+ * Thread-local storage, valid until the thread's next call; never NULL.
  */
 SP_API const char *sp_face_ict_dir(void);
 /*

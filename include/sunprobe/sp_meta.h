@@ -31,6 +31,9 @@ typedef struct sp_capture_meta {
     double imu_time_offset_s;
     sp_vec3 gyro_bias, accel_bias;
     double latitude, longitude, altitude_m;
+    double magnetic_declination_deg; /* location.*: true bearing of magnetic north, east positive */
+    double start_heading_deg;        /* location.heading_deg: true bearing of the camera's forward axis at the
+                                        first frame, for captures whose IMU has no magnetometer */
     char utc_start[40];
     char ground_truth[256];
     unsigned chunks_merged; /* how many META chunks contributed */

@@ -210,6 +210,8 @@ typedef struct sp_render_grads {
     double fx, fy, cx, cy;
 } sp_render_grads;
 
+/* The float kernel set renderers opened now use: "avx2" or "base" (SP_RENDER_SIMD overrides; RENDERER.md). */
+SP_API const char *sp_render_kernel_set(void);
 /* Fills documented defaults (224 x 224, S = 1, shadow 256, near 0.01, far 1e4). */
 SP_API void sp_renderer_default_settings(sp_renderer_settings *s);
 /* Allocates every buffer; *out is owned by the caller, free with sp_renderer_close. */

@@ -43,6 +43,8 @@ enum sp_orientation_status {
 typedef struct sp_frame_tags {
     enum sp_orientation_status orientation;
     sp_quat camera_to_world;        /* world z up, camera x right, y down, z forward; valid when OK */
+    int heading_magnetic;           /* world +x is magnetic north (the filter used a magnetometer); else the
+                                       heading is relative (capture/ORIENTATION.md) */
     int has_landmarks;              /* 68 2-D landmarks came as side data (SP_SIDE_LANDMARKS_2D) */
     float landmarks[136];           /* x, y pairs in capture pixels, Multi-PIE order */
     int has_true_orientation;       /* ground truth of a synthetic capture (SP_SIDE_TRUE_ORIENTATION) */

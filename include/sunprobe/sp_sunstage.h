@@ -94,6 +94,10 @@ typedef struct sp_sunstage_result {
        solve, its refinement */
     double frontend_seconds, align_seconds, solve_seconds, refine_seconds;
     int threads;                 /* solver threads used */
+    /* the sun from the clock (utc_start, location and a known north; common/SOLAR.md): */
+    int have_clock_sun;
+    double clock_sun_dir[3];     /* unit, world frame */
+    double clock_sun_angle_deg;  /* to the fitted sun; NaN when there is none of either */
 } sp_sunstage_result;
 
 /* One fitted keyframe camera: the face in the camera frame and the camera in the world. */

@@ -73,6 +73,12 @@ typedef struct sp_synth_selfie_settings {
     /* lighting */
     double sun_elevation_deg; /* default 35 */
     double sun_azimuth_deg;   /* from world +x towards +y; default 150 */
+    /* the sun from the clock: with utc_start (ISO 8601 with a zone) and latitude/longitude (degrees), the sun
+       stands where the ephemeris puts it in the middle of the capture (common/SOLAR.md; the two angles above
+       are replaced), world +x is magnetic north, the fake IMU has a magnetometer, and META says all three
+       (magnetic_declination_deg 0); default "" and NaN: off */
+    char utc_start[40];
+    double latitude, longitude;
     double sun_intensity;     /* white irradiance at normal incidence; default 3 */
     double sky_intensity;     /* scale of the analytic sky radiance; default 1 */
     int overcast;             /* 1: sun 0, bright grey overcast sky; default 0 */

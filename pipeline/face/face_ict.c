@@ -16,6 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/data_path.h"
 #include "common/file_util.h"
 #include "face_internal.h"
 #include "mesh_decimate.h"
@@ -65,12 +66,16 @@ void sp_face_ict_default_settings(sp_face_ict_settings *settings)
     settings->cluster_height = 256;
 }
 
+void sp_face_ict_locate(sp_data_location *out)
+{
+    sp_data_locate("SP_ICT_FACEKIT_DIR", "ict-facekit", "generic_neutral_mesh.obj", SP_ICT_FACEKIT_DEFAULT_DIR, out);
+}
+
 const char *sp_face_ict_dir(void)
 {
-    const char *env = getenv("SP_ICT_FACEKIT_DIR");
-    if (env && env[0])
-        return env;
-    return SP_ICT_FACEKIT_DEFAULT_DIR;
+    static _Thread_local sp_data_location loc; /* a path per thread: callers keep the pointer */
+    sp_face_ict_locate(&loc);
+    return loc.path;
 }
 
 /* ---- the neutral mesh: crop, triangulate, scale ---- */
@@ -397,7 +402,8 @@ static int load_neutral(const char *dir, obj_data *o)
     if (err == -ENOENT || err == -ENOTDIR)
         sp_log(SP_LOG_ERROR, FACE_LOG,
                "ICT Face Model not found: no %s. Download it with `" FETCH_HINT " DIR` and point "
-               "SP_ICT_FACEKIT_DIR (or the settings' dir) at DIR.", path);
+               "SP_ICT_FACEKIT_DIR (or the settings' dir) at DIR, or put it in ~/.local/share/sunprobe/ict-facekit "
+               "(`sunprobe --version --verbose` lists where it looks).", path);
     else if (err == SP_ECORRUPT)
         sp_log(SP_LOG_ERROR, FACE_LOG, "%s: %s", path, err_text);
     else if (err)

@@ -6,8 +6,6 @@
 
 #include "common/module.h"
 
-static const sp_module cv_probe = { "sunprobe-opencv-probe", "pipeline", "OpenCV" };
-
 typedef int (*hog_open_fn)(sp_cv_hog **);
 typedef int (*hog_score_fn)(sp_cv_hog *, const uint8_t *, uint32_t, uint32_t, uint32_t, int, int, int, int, double *);
 typedef void (*hog_close_fn)(sp_cv_hog **);
@@ -20,7 +18,7 @@ typedef void (*mog2_close_fn)(sp_cv_mog2 **);
 typedef void (*set_threads_fn)(int);
 
 /* name's function from the module, looked up once (each forwarder has its slot, name##_slot) */
-#define SYMBOL(type, name) ((type)sp_module_symbol_cached(&cv_probe, #name, &name##_slot))
+#define SYMBOL(type, name) ((type)sp_module_symbol_cached(&sp_module_opencv_probe, #name, &name##_slot))
 
 static sp_module_slot sp_cv_hog_open_slot;
 int sp_cv_hog_open(sp_cv_hog **out)

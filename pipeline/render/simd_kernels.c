@@ -70,4 +70,9 @@ const simd_kernels *simd_kernels_select(void)
     const simd_kernels *best = simd_kernels_by_name("avx2");
     return best ? best : &simd_kernels_base;
 }
+
+const char *sp_render_kernel_set(void)
+{
+    return simd_kernels_select()->name;
+}
 #endif

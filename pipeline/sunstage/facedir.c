@@ -166,7 +166,24 @@ static void manifest_lighting(const sp_sunstage *ss, sp_strbuf *b)
     sp_strbuf_printf(b, ",\"env\":\"env.f32\",\"env_height\":%d,\"env_width\":%d,\"yaw_range_deg\":",
                      SP_RENDER_ENV_H, SP_RENDER_ENV_W);
     sp_strbuf_json_number(b, ss->fit.yaw_range);
-    sp_strbuf_printf(b, "},\n");
+    const ss_clock_sun *c = &ss->clock;
+    sp_strbuf_printf(b, ",\"sun_from_clock\":{");
+    if (c->have) { /* common/SOLAR.md */
+        sp_strbuf_printf(b, "\"direction_world\":");
+        sp_strbuf_json_numbers(b, c->dir, 3);
+        sp_strbuf_printf(b, ",\"azimuth_deg\":");
+        sp_strbuf_json_number(b, c->azimuth_deg);
+        sp_strbuf_printf(b, ",\"elevation_deg\":");
+        sp_strbuf_json_number(b, c->elevation_deg);
+        sp_strbuf_printf(b, ",\"north_from\":");
+        sp_strbuf_json_string(b, c->heading_from);
+        sp_strbuf_printf(b, ",\"angle_to_fitted_deg\":");
+        sp_strbuf_json_number(b, c->angle_deg); /* null when there is no fitted sun */
+    } else {
+        sp_strbuf_printf(b, "\"unavailable\":");
+        sp_strbuf_json_string(b, c->note);
+    }
+    sp_strbuf_printf(b, "}},\n");
 }
 
 /* "left_out": [{"part":..., "reason":...}] so readers need not infer it from zeros. */

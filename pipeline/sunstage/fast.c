@@ -788,7 +788,8 @@ static void clear_visibility(fast_ctx *c)
  * SUN_STARTS best mutually distinct directions each refined by pattern search with the renderer's
  * shadows; the lowest shadowed cost wins and is refined further. One start alone settled in a wrong
  * minimum (25-60 deg off) on frame-subsampled variants of the path-traced sunny selfie: without
- * shadows the cost cannot tell a sun from its mirror across the face.
+ * shadows the cost cannot tell a sun from its mirror across the face. The sun from the clock, when the
+ * capture gives it, is one more start (clock_sun.c).
  */
 static int fit_sun(fast_ctx *c, sp_sunstage_callback cb, void *user)
 {
@@ -796,7 +797,7 @@ static int fit_sun(fast_ctx *c, sp_sunstage_callback cb, void *user)
     double e_nosun, best = INFINITY;
     c->use_sun = 1;
     c->stride = 3;
-    double start[SUN_STARTS][3], start_e[SUN_STARTS];
+    double start[SUN_STARTS + 1][3], start_e[SUN_STARTS + 1]; /* + the sun from the clock */
     int n_start = 0;
     for (int i = 0; i < 160; i++) { /* the scan keeps the best few directions at least 25 deg apart */
         double d[3];
@@ -825,6 +826,8 @@ static int fit_sun(fast_ctx *c, sp_sunstage_callback cb, void *user)
         start_e[at] = e;
         n_start++;
     }
+    if (ss->clock.have && ss->clock.dir[2] > 0.0) /* the ephemeris sun competes as one more start */
+        memcpy(start[n_start++], ss->clock.dir, sizeof(start[0]));
     checkpoint(c, cb, user, 1);
     double best_sun[3] = { 0, 0, 1 };
     for (int k = 0; k < n_start; k++) {

@@ -23,16 +23,22 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/data_path.h"
 #include "pipeline/sunstage/dlib_shim.h"
 #include "pipeline/sunstage/landmark_offsets.h"
 #include "sunprobe/sp_common.h"
 
 #define MOD "landmarks"
-#define DEFAULT_MODEL "/usr/share/dlib/shape_predictor_68_face_landmarks.dat"
+#define DEFAULT_MODEL "/usr/share/dlib/shape_predictor_68_face_landmarks.dat" /* where install-deps.sh puts it */
 #define CROP_FACE 100.0  /* detector-box side in crop pixels: above the HOG detector's 80 px window */
 #define CROP_SIDE 256    /* crop size in pixels: 2.56 face widths, room for a face that moved */
 #define SEARCH_MAX_W 960 /* whole-frame detection at most this wide (larger frames are reduced first) */
 #define MAX_FACES 8
+
+void sp_dlib_model_locate(sp_data_location *out)
+{
+    sp_data_locate("SP_DLIB_MODEL", "shape_predictor_68_face_landmarks.dat", NULL, DEFAULT_MODEL, out);
+}
 
 struct ss_lm_tracker {
     ss_lm_settings set;
@@ -402,7 +408,9 @@ int ss_lm_tracker_open(ss_lm_tracker **out, const ss_lm_settings *s)
         t->set = *s;
     else
         ss_lm_default_settings(&t->set);
-    const char *path = t->set.model_path ? t->set.model_path : DEFAULT_MODEL;
+    sp_data_location loc;
+    sp_dlib_model_locate(&loc);
+    const char *path = t->set.model_path ? t->set.model_path : loc.path;
     int ret = sp_dlib_open(&t->dlib, path);
     if (ret == SP_EDISABLED) {
         sp_log(SP_LOG_ERROR, MOD, "this build has no dlib to place landmarks (meson option -Ddlib=enabled)");

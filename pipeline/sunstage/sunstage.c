@@ -161,6 +161,7 @@ int sp_sunstage_open(sp_sunstage **out, const sp_sunstage_settings *s, const sp_
         return -ENOMEM;
     }
     init_lighting(ss);
+    ss_clock_sun_init(&ss->clock);
     ss->fit.train_psnr = ss->fit.heldout_psnr = NAN;
     *out = ss;
     return 0;
@@ -215,6 +216,7 @@ int sp_sunstage_push(sp_sunstage *ss, const sp_event *ev)
             ss->fe.frame_t[0] = ev->timestamp_ns;
         ss->fe.frame_t[1] = ev->timestamp_ns;
         ss->counts.thinned_early = ev->tags->thinned;
+        ss_clock_sun_note(&ss->clock, ev->tags);
         int64_t t = sp_clock_monotonic_ns();
         int ret = ss_frontend_frame(ss, ev->frame, ev->timestamp_ns, ev->tags);
         ss->fit.frontend_s += (double)(sp_clock_monotonic_ns() - t) * 1e-9;
@@ -409,6 +411,7 @@ int sp_sunstage_fit(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
             return ret;
     }
     ss->fit.align_s = (double)(sp_clock_monotonic_ns() - ss->fit.t0) * 1e-9;
+    ss_clock_sun_prepare(ss);
     if (cb) {
         sp_sunstage_progress p = { "align", 1, 1, (double)(sp_clock_monotonic_ns() - ss->fit.t0) * 1e-9, rms, NAN };
         cb(user, &p);
@@ -416,6 +419,7 @@ int sp_sunstage_fit(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
     int ret = ss->set.solver == SP_SUNSTAGE_SOLVER_ADAM ? solve_adam(ss, cb, user) : solve_fast(ss, cb, user);
     ss->fit.seconds = (double)(sp_clock_monotonic_ns() - ss->fit.t0) * 1e-9;
     ss->fit.fitted = ret == 0;
+    ss_clock_sun_compare(ss);
     return ret;
 }
 
@@ -450,6 +454,9 @@ int sp_sunstage_get_result(const sp_sunstage *ss, sp_sunstage_result *out)
     out->solve_seconds = ss->fit.solve_s;
     out->refine_seconds = ss->fit.refine_s;
     out->threads = ss->set.threads > 0 ? ss->set.threads : sp_cpu_count();
+    out->have_clock_sun = ss->clock.have;
+    memcpy(out->clock_sun_dir, ss->clock.dir, sizeof(out->clock_sun_dir));
+    out->clock_sun_angle_deg = ss->clock.angle_deg;
     return 0;
 }
 

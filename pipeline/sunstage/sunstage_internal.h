@@ -105,6 +105,17 @@ typedef struct ss_fit_state {
     int64_t t0;                 /* start of the fit, for progress times */
 } ss_fit_state;
 
+/* The sun from the clock (clock_sun.c): what the frames say about north, and the ephemeris sun. */
+typedef struct ss_clock_sun {
+    uint64_t oriented, magnetic; /* oriented frames, and those whose heading a magnetometer anchored */
+    double first_forward_deg;   /* world angle of the first oriented frame's forward axis, NaN before */
+    int have;                   /* dir, azimuth_deg and elevation_deg hold the ephemeris sun */
+    double dir[3], azimuth_deg, elevation_deg;
+    double angle_deg;           /* between it and the fitted sun; NaN when either is missing */
+    char heading_from[32];      /* where north came from */
+    char note[160];             /* why there is none */
+} ss_clock_sun;
+
 struct sp_sunstage {
     sp_sunstage_settings set;
     const sp_face_model *model;
@@ -118,6 +129,7 @@ struct sp_sunstage {
     ss_reservoir res;
     sp_sunstage_counts counts;
     ss_fit_state fit;
+    ss_clock_sun clock;
 };
 
 /* ---- sunstage.c ---- */
@@ -126,6 +138,15 @@ void ss_rotvec_to_matrix(const double r[3], double R[9]);
 /* The face parameters of frame f under the shared fit (views into ss and f). */
 void ss_frame_params(const sp_sunstage *ss, const ss_frame *f, sp_face_params *p);
 
+
+/* ---- clock_sun.c ---- */
+void ss_clock_sun_init(ss_clock_sun *c);
+/* Per tagged frame: north's evidence. */
+void ss_clock_sun_note(ss_clock_sun *c, const sp_frame_tags *tags);
+/* Before the solve: the ephemeris sun in the fit's world, or the logged reason it is left out. */
+void ss_clock_sun_prepare(sp_sunstage *ss);
+/* After the solve: the angle between it and the fitted sun. */
+void ss_clock_sun_compare(sp_sunstage *ss);
 
 /* ---- reservoir.c ---- */
 /* Allocates the slots (fit resolution known); -ENOMEM. */

@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include "common/jpeg.h"
+#include "sunprobe/sp_solar.h"
 #include "pipeline/synth/synth_internal.h"
 
 #define DEG (M_PI / 180.0)
@@ -46,6 +47,8 @@ void sp_synth_selfie_default_settings(sp_synth_selfie_settings *s)
     s->albedo_height = 512;
     s->sun_elevation_deg = 35.0;
     s->sun_azimuth_deg = 150.0;
+    s->utc_start[0] = '\0';
+    s->latitude = s->longitude = NAN;
     s->sun_intensity = 3.0;
     s->sky_intensity = 1.0;
     s->supersample = 2;
@@ -98,6 +101,31 @@ static const char *bad_field(const sp_synth_selfie_settings *s)
     if (s->n_relit < 0 || s->n_relit > 64 || s->n_novel < 0 || s->n_novel > 64)
         return "n_relit / n_novel (0..64)";
     return NULL;
+}
+
+/* The sun from the clock in the middle of the capture, as the synthetic world's angles (+x magnetic north,
+ * here true north too). SP_ENODATA when the sun is below the horizon then, -EINVAL for a bad time/place. */
+static int clock_sun(const sp_synth_selfie_settings *s, double *elevation_deg, double *azimuth_deg)
+{
+    double t;
+    sp_sun_position p;
+    if (sp_utc_parse(s->utc_start, &t)) {
+        sp_log(SP_LOG_ERROR, SYNTH_LOG, "bad setting: utc_start '%s' is not an ISO 8601 time with a zone",
+               s->utc_start);
+        return -EINVAL;
+    }
+    if (sp_sun_position_at(t + 0.5 * sp_fake_imu_duration_s(&s->imu), s->latitude, s->longitude, &p)) {
+        sp_log(SP_LOG_ERROR, SYNTH_LOG, "bad setting: latitude (-90..90) / longitude (-360..360)");
+        return -EINVAL;
+    }
+    if (p.elevation_deg <= 0.0) {
+        sp_log(SP_LOG_ERROR, SYNTH_LOG, "the sun is %.1f deg below the horizon at %s, %.4f, %.4f: a sunlit selfie "
+               "needs daylight", -p.elevation_deg, s->utc_start, s->latitude, s->longitude);
+        return SP_ENODATA;
+    }
+    *elevation_deg = p.elevation_deg;
+    *azimuth_deg = -p.azimuth_deg;
+    return 0;
 }
 
 static int check_settings(const sp_synth_selfie_settings *s)
@@ -308,7 +336,13 @@ int sp_synth_selfie_open(sp_synth_selfie **out, const sp_synth_selfie_settings *
     if (!g)
         return -ENOMEM;
     g->s = *s;
-    ret = open_steps(g);
+    if (s->utc_start[0]) {
+        g->s.imu.magnetometer = 1;
+        g->s.imu.mag_field_ut.y = 0.0; /* the field's horizontal part along +x: magnetic north = world +x */
+        ret = clock_sun(s, &g->s.sun_elevation_deg, &g->s.sun_azimuth_deg);
+    }
+    if (!ret)
+        ret = open_steps(g);
     if (ret) {
         sp_synth_selfie_close(&g);
         return ret;

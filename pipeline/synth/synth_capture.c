@@ -61,6 +61,12 @@ static int write_meta(cap_state *c, const char *truth_rel)
                          "\"time_offset_s\":0}",
                      imu->rate_hz, imu->imu_to_camera.w, imu->imu_to_camera.x, imu->imu_to_camera.y,
                      imu->imu_to_camera.z);
+    if (g->s.utc_start[0]) { /* the sun from the clock: magnetic north is the synthetic world's +x */
+        sp_strbuf_printf(&b, ",\"utc_start\":");
+        sp_strbuf_json_string(&b, g->s.utc_start);
+        sp_strbuf_printf(&b, ",\"location\":{\"latitude\":%.17g,\"longitude\":%.17g,\"magnetic_declination_deg\":0}",
+                         g->s.latitude, g->s.longitude);
+    }
     if (truth_rel) {
         sp_strbuf_printf(&b, ",\"ground_truth\":");
         sp_strbuf_json_string(&b, truth_rel);

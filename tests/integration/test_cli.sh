@@ -39,6 +39,11 @@ for cmd in info verify recover replay import export-video synth; do
 done
 expect 1 "no command" "$SP"
 expect 1 "unknown command" "$SP" frobnicate
+expect 0 "version verbose" env SP_ICT_FACEKIT_DIR=/nonexistent/ict "$SP" --version --verbose
+contains "$dir/out.txt" "renderer kernel set on this CPU: " "version verbose names the kernel set"
+contains "$dir/out.txt" "/nonexistent/ict" "version verbose shows the ICT folder from the environment"
+contains "$dir/out.txt" "[(]SP_ICT_FACEKIT_DIR; missing" "version verbose says the given ICT folder is missing"
+expect 1 "version with a bad option" "$SP" --version --bogus
 expect 1 "evaluate without capture dir" "$SP" evaluate "$dir"
 expect 2 "evaluate a non-face directory" "$SP" evaluate "$dir" "$dir"
 expect 1 "info without file" "$SP" info

@@ -4,8 +4,9 @@
  * frame, all-black frames, frames without a face) must end with exit code 2
  * and a message, and leave neither FACE_DIR nor FACE_DIR.partial.<pid> behind.
  * With "synth" as second argument, a small synthetic selfie is fitted and the
- * sun direction must come out within a few degrees of the truth.
- * Usage: test_fit SUNPROBE [synth]
+ * sun direction must come out within a few degrees of the truth; with "clock", the same for a capture
+ * that carries its time and place (the sun from the clock).
+ * Usage: test_fit SUNPROBE [synth|clock]
  */
 #include <errno.h>
 #include <math.h>
@@ -17,6 +18,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "common/json.h"
 #include "export/png_read.h"
 #include "sunprobe/sp_capture.h"
 #include "sunprobe/sp_frame.h"
@@ -593,6 +595,8 @@ static void synth_fit(void)
     buf[n] = 0;
     /* left_out lists the displacement map exactly when it stayed zero (refinement reverted or off) */
     CHECK_MSG(strstr(buf, "\"left_out\":[") != NULL, "manifest without left_out");
+    CHECK_MSG(strstr(buf, "\"sun_from_clock\":{\"unavailable\":\"the capture carries no utc_start") != NULL,
+              "manifest does not say why there is no sun from the clock");
     int listed = strstr(buf, "\"part\":\"displacement\"") != NULL;
     int flat = displacement_flat(face);
     CHECK_MSG(flat >= 0 && listed == flat, "displacement listed %d, all zero %d", listed, flat);
@@ -610,6 +614,73 @@ static void synth_fit(void)
     CHECK(run(args) == 1);
 }
 
+/* A file's first JSON object, parsed; NULL (with a failed check) when unreadable. */
+static sp_json *read_json(const char *path)
+{
+    char buf[65536];
+    FILE *f = fopen(path, "r");
+    size_t n = f ? fread(buf, 1, sizeof(buf) - 1, f) : 0;
+    if (f)
+        fclose(f);
+    sp_json *root = NULL;
+    char err[160];
+    CHECK_MSG(n > 0 && sp_json_parse(buf, n, &root, err, sizeof(err)) == 0, "%s unreadable", path);
+    return root;
+}
+
+/*
+ * The sun from the clock: a synthetic capture placed in Paris at 10:00 UTC on 21 June (sun from the
+ * ephemeris, magnetometer on) must give the fit the truth's sun as its clock sun, and the photometric sun
+ * must agree with it; options that cannot work are refused.
+ */
+static void clock_fit(void)
+{
+    char args[2048], path[700];
+    const char *synth = "synth selfie --face generic --width 160 --height 160 --turn-seconds 4 --still 1 "
+                        "--supersample 1 --relit 0 --novel 0 --fps 20";
+    snprintf(args, sizeof(args), "%s -o %s/bad.spcap --utc 2024-06-21T10:00:00Z", synth, dir); /* no place */
+    CHECK(run(args) == 1 && output_contains("--location"));
+    snprintf(args, sizeof(args), "%s -o %s/bad.spcap --utc 2024-06-21T10:00:00 --location 48.85,2.35", synth, dir);
+    CHECK(run(args) == 1 && output_contains("--utc"));
+    snprintf(args, sizeof(args), "%s -o %s/bad.spcap --utc 2024-06-21T23:00:00Z --location 48.85,2.35", synth, dir);
+    CHECK(run(args) == 2 && output_contains("below the horizon")); /* night in Paris */
+    snprintf(path, sizeof(path), "%s/bad.spcap", dir);
+    CHECK(!exists(path));
+    snprintf(args, sizeof(args), "%s -o %s/c.spcap --utc 2024-06-21T10:00:00Z --location 48.85,2.35", synth, dir);
+    int code = run(args);
+    CHECK_MSG(code == 0, "synth selfie: exit %d", code);
+    if (code) {
+        show_output();
+        return;
+    }
+    snprintf(args, sizeof(args), "fit %s/c.spcap -o %s/c.face --face generic --keyframes 8 --heldout 2 --no-progress",
+             dir, dir);
+    code = run(args);
+    CHECK_MSG(code == 0, "fit: exit %d", code);
+    if (code) {
+        show_output();
+        return;
+    }
+    snprintf(path, sizeof(path), "%s/c.truth/truth.json", dir);
+    sp_json *truth = read_json(path);
+    snprintf(path, sizeof(path), "%s/c.face/manifest.json", dir);
+    sp_json *man = read_json(path);
+    const sp_json *clock = sp_json_get(sp_json_get(man, "lighting"), "sun_from_clock");
+    double want[3], got[3] = { NAN, NAN, NAN }, angle = NAN;
+    int ok = sp_json_numbers(sp_json_get(sp_json_get(sp_json_get(truth, "lighting"), "sun"), "direction_world"),
+                             want, 3) == 3;
+    ok = ok && sp_json_numbers(sp_json_get(clock, "direction_world"), got, 3) == 3;
+    angle = sp_json_number(sp_json_get(clock, "angle_to_fitted_deg"), NAN);
+    CHECK_MSG(ok, "truth sun or manifest lighting.sun_from_clock missing");
+    double dot = want[0] * got[0] + want[1] * got[1] + want[2] * got[2];
+    /* the synthesiser takes the sun at the middle of its IMU span, the fit at the middle of its frames: 0.01 deg */
+    CHECK_MSG(dot > cos(0.05 * M_PI / 180.0), "clock sun (%g %g %g) against the truth (%g %g %g)", got[0], got[1],
+              got[2], want[0], want[1], want[2]);
+    CHECK_MSG(angle < 8.0, "photometric sun %.2f deg from the clock's", angle); /* same bound as synth_fit's */
+    sp_json_free(truth);
+    sp_json_free(man);
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 2)
@@ -620,6 +691,8 @@ int main(int argc, char **argv)
         SKIP("cannot create a temporary directory");
     if (argc > 2 && !strcmp(argv[2], "synth")) {
         synth_fit();
+    } else if (argc > 2 && !strcmp(argv[2], "clock")) {
+        clock_fit();
     } else {
         bad_input("noimu", 12, CONTENT_NOISE, 0, "no IMU");
         bad_input("oneframe", 1, CONTENT_NOISE, 1, "no camera orientation");

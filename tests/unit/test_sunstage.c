@@ -536,11 +536,53 @@ static void test_crop_window(const sp_face_model *m)
     sp_sunstage_close(&ss);
 }
 
+/* North for the sun from the clock: from the magnetometer only when every oriented frame had it, else from
+ * location.heading_deg and the first frame's forward axis, else none. */
+static void test_clock_north(void)
+{
+    sp_sunstage ss;
+    memset(&ss, 0, sizeof(ss));
+    sp_capture_meta_init(&ss.meta);
+    ss_clock_sun_init(&ss.clock);
+    snprintf(ss.meta.utc_start, sizeof(ss.meta.utc_start), "2024-06-21T10:00:00Z");
+    ss.meta.latitude = 48.85;
+    ss.meta.longitude = 2.35;
+    sp_frame_tags t;
+    memset(&t, 0, sizeof(t));
+    t.orientation = SP_ORIENTATION_OK; /* camera forward (z) along world +y: yaw 90 deg about z, then pitched */
+    double h = sqrt(0.5);
+    t.camera_to_world = sp_quat_mul((sp_quat){ h, 0, 0, h }, (sp_quat){ h, 0, h, 0 }); /* z_cam -> +x -> +y */
+    ss_clock_sun_note(&ss.clock, &t);
+    ss_clock_sun_prepare(&ss); /* neither compass nor heading */
+    CHECK(!ss.clock.have && strstr(ss.clock.note, "relative"));
+    ss.meta.start_heading_deg = 30.0; /* the camera looked 30 deg east of north: north at 90 + 30 deg */
+    ss_clock_sun_prepare(&ss);
+    CHECK(ss.clock.have && !strcmp(ss.clock.heading_from, "heading_deg"));
+    double phi = (120.0 - ss.clock.azimuth_deg) * M_PI / 180.0, e = ss.clock.elevation_deg * M_PI / 180.0;
+    CHECK_NEAR(ss.clock.dir[0], cos(e) * cos(phi), 1e-9);
+    CHECK_NEAR(ss.clock.dir[1], cos(e) * sin(phi), 1e-9);
+    t.heading_magnetic = 1; /* one frame with, one without the magnetometer: still the heading */
+    ss_clock_sun_note(&ss.clock, &t);
+    ss_clock_sun_prepare(&ss);
+    CHECK(!strcmp(ss.clock.heading_from, "heading_deg"));
+    ss_clock_sun_init(&ss.clock); /* every frame magnetic, declination 2 deg east: north at +2 deg */
+    ss_clock_sun_note(&ss.clock, &t);
+    ss.meta.magnetic_declination_deg = 2.0;
+    ss_clock_sun_prepare(&ss);
+    CHECK(ss.clock.have && !strcmp(ss.clock.heading_from, "magnetometer"));
+    phi = (2.0 - ss.clock.azimuth_deg) * M_PI / 180.0;
+    CHECK_NEAR(ss.clock.dir[1], cos(e) * sin(phi), 1e-9);
+    snprintf(ss.meta.utc_start, sizeof(ss.meta.utc_start), "2024-06-21 10:00"); /* no zone */
+    ss_clock_sun_prepare(&ss);
+    CHECK(!ss.clock.have && strstr(ss.clock.note, "ISO 8601"));
+}
+
 int main(int argc, char **argv)
 {
     sp_log_set_level(getenv("SP_LOG") ? SP_LOG_INFO : SP_LOG_WARN);
     test_cholesky_nnls();
     test_tonemap_inverse();
+    test_clock_north();
     sp_face_model m;
     CHECK(sp_face_model_generic(&m) == 0);
     test_bad_args(&m);
