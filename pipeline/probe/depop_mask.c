@@ -202,10 +202,12 @@ static void cast_along(grow *g, sp_depop_object *o, const uint8_t ref[3], double
     }
     double mx, my, len = 0;
     mean_offset(g, n, c.fx, c.fy, &mx, &my);
+    o->tip_x = c.fx, o->tip_y = c.fy;
     for (size_t k = 0; k < n; k++) {
         int32_t i = g->queue[k];
         double along = (i % g->w - c.fx) * c.dx + (i / g->w - c.fy) * c.dy;
-        len = along > len ? along : len;
+        if (along > len)
+            len = along, o->tip_x = i % g->w, o->tip_y = i / g->w;
         g->mask[i] = M_SHADOW;
     }
     o->shadow_px = (uint32_t)n, o->shadow_dx = mx, o->shadow_dy = my, o->shadow_len = len;

@@ -49,6 +49,7 @@ typedef struct sp_depop_object {
     double shadow_dx, shadow_dy; /* mean offset of the cast shadow from the foot, pixels; 0,0: none */
     double shadow_len;           /* farthest shadow pixel from the foot along that direction, pixels */
     int shadow_leak;             /* the dark ground along the sun was too large to be its shadow: left */
+    double tip_x, tip_y;         /* the shadow pixel farthest from the foot along the direction */
 } sp_depop_object;
 
 typedef struct sp_depop_settings {
@@ -87,4 +88,28 @@ int sp_depop_from_plate(const uint8_t *rgb, const uint8_t *plate, uint32_t width
 /* 1 when one of the n_keep points (x, y pairs) lies in the box x0..x1, y0..y1. */
 int sp_depop_keeps(const double *keep, size_t n_keep, int x0, int y0, int x1, int y1);
 
+/* ---- the sun from one image (depop_sun.c) ---- */
+
+/* A pinhole camera without roll looking pitch_deg below the horizon; the ground plane below it. */
+typedef struct sp_depop_camera {
+    double f, cx, cy;  /* focal length and principal point, pixels */
+    double pitch_deg;  /* 0..89 */
+} sp_depop_camera;
+
+typedef struct sp_depop_sun {
+    int found;              /* 0: no object cast a usable shadow ("no sun shadows") */
+    double azimuth_deg;     /* from the camera's horizontal view direction towards its right, -180..180 */
+    double elevation_deg;
+    unsigned used;          /* objects whose shadow gave a direction */
+    double azimuth_spread_deg, elevation_spread_deg; /* median absolute deviations over them */
+} sp_depop_sun;
+
+/*
+ * The sun from the objects' cast shadows as sp_depop_mask found them: each
+ * shadow's foot and tip back-projected onto the ground, the object's height
+ * from its box top on the vertical through the foot; azimuth from the
+ * shadow's direction, elevation from height over length; medians over the
+ * objects. -EINVAL for a bad camera.
+ */
+int sp_depop_sun_estimate(const sp_depop_object *objs, size_t n, const sp_depop_camera *cam, sp_depop_sun *out);
 #endif

@@ -7,7 +7,11 @@
  * on the object masks alone (the baseline), with the two ablations between
  * them; then the time of one 1280x720 depopulation on one core.
  *
- * usage: bench_depopulate [--time FRAME.png BACKGROUND.png] LABEL FRAME BACKGROUND IDS SHADOWS ...
+ * With --camera (and --sun, the truth's sun as azimuth from the view direction to the right and
+ * elevation), also the sun from each frame's shadows (depop_sun.c) and its error.
+ *
+ * usage: bench_depopulate [--time FRAME.png BACKGROUND.png] [--camera F,CX,CY,PITCH [--sun AZ,EL]]
+ *                         LABEL FRAME BACKGROUND IDS SHADOWS ...
  *   IDS "-": objects are the pixels that differ from the background and are no shadow of it;
  *   SHADOWS "-": the removed region is every pixel that differs from the background (noise-free
  *   frames), else the IDS and SHADOWS images' nonzero pixels (grainy frames)
@@ -33,6 +37,16 @@
 static const char *const method_names[N_METHODS] = {
     "Telea, object boxes alone (baseline)", "Telea, grown masks", "exemplar, object boxes alone",
     "exemplar, grown masks (ours)" };
+
+typedef struct sun_eval {
+    int on, truth;
+    sp_depop_camera cam;
+    double az, el;            /* the truth */
+    double err_az[256], err_el[256];
+    int frames, found;
+} sun_eval;
+
+static sun_eval sun;
 
 typedef struct scene {
     uint8_t *rgb, *bg, *objpx; /* objpx: the truth's object pixels */
@@ -146,6 +160,27 @@ static void to_float(const uint8_t *rgb, float *f, size_t n)
         f[i] = rgb[i] / 255.0f;
 }
 
+/* The sun from the frame's grown masks, against the truth's. */
+static void sun_frame(const sp_depop_object *obj, size_t n)
+{
+    sp_depop_sun e;
+    if (sp_depop_sun_estimate(obj, n, &sun.cam, &e) || sun.frames >= 256)
+        return;
+    sun.frames++;
+    if (!e.found) {
+        printf("  sun: no sun shadows\n");
+        return;
+    }
+    double da = fabs(e.azimuth_deg - sun.az);
+    da = da > 180 ? 360 - da : da;
+    sun.err_az[sun.found] = da, sun.err_el[sun.found] = fabs(e.elevation_deg - sun.el);
+    sun.found++;
+    printf("  sun: azimuth %7.1f elevation %5.1f from %u shadows (spread %.1f, %.1f)%s", e.azimuth_deg,
+           e.elevation_deg, e.used, e.azimuth_spread_deg, e.elevation_spread_deg, sun.truth ? "" : "\n");
+    if (sun.truth)
+        printf("; error %.1f, %.1f deg\n", da, sun.err_el[sun.found - 1]);
+}
+
 /* Runs one method into out; mask_out gets the pixels it replaced. */
 static int run_method(const scene *s, int m, uint8_t *out, uint8_t *mask)
 {
@@ -157,6 +192,8 @@ static int run_method(const scene *s, int m, uint8_t *out, uint8_t *mask)
     memcpy(obj, s->obj, sizeof(obj));
     int ret = sp_depop_mask(s->rgb, s->w, s->h, s->w * 3, obj, s->n, &ds, mask);
     memcpy(out, s->rgb, 3 * n);
+    if (!ret && m == 3 && sun.on)
+        sun_frame(obj, s->n);
     if (ret)
         return ret;
     if (m >= 2)
@@ -252,9 +289,19 @@ int main(int argc, char **argv)
 #endif
     double psnr[256][N_METHODS], ssim[256][N_METHODS];
     int k = 0, i = 1;
-    if (i + 2 < argc + 1 && i < argc && !strcmp(argv[i], "--time") && i + 2 < argc) {
+    if (i + 2 < argc && !strcmp(argv[i], "--time")) {
         time_one(argv[i + 1], argv[i + 2]);
         i += 3;
+    }
+    double v[4];
+    if (i + 1 < argc && !strcmp(argv[i], "--camera") &&
+        sscanf(argv[i + 1], "%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2], &v[3]) == 4) {
+        sun.on = 1, sun.cam = (sp_depop_camera){ v[0], v[1], v[2], v[3] };
+        i += 2;
+    }
+    if (i + 1 < argc && !strcmp(argv[i], "--sun") && sscanf(argv[i + 1], "%lf,%lf", &sun.az, &sun.el) == 2) {
+        sun.truth = 1;
+        i += 2;
     }
     for (; i + 4 < argc && k < 256; i += 5) {
         scene s = { 0 };
@@ -272,5 +319,10 @@ int main(int argc, char **argv)
         printf("median over %d frames: %-38s PSNR %6.2f dB  SSIM %.3f\n", k, method_names[m], bench_median(p, k),
                bench_median(q, k));
     }
+    if (sun.on && sun.truth && sun.found)
+        printf("sun over %d frames: %d with shadows; median error azimuth %.1f deg, elevation %.1f deg\n", sun.frames,
+               sun.found, bench_median(sun.err_az, sun.found), bench_median(sun.err_el, sun.found));
+    else if (sun.on)
+        printf("sun over %d frames: %d with shadows\n", sun.frames, sun.found);
     return 0;
 }
