@@ -24,6 +24,7 @@
 #include "pipeline/probe/depopulate.h"
 #include "pipeline/probe/opencv_probe_shim.h"
 #include "sp_config.h"
+#include "sunprobe/sp_solar.h"
 
 #define MAX_BOXES 64
 #define MAX_OBJECTS 128
@@ -36,6 +37,11 @@ typedef struct depop_args {
     double keep[2 * MAX_KEEP];
     unsigned n_keep;
     int detector; /* 0 none, 1 hog */
+    sp_depop_camera cam;
+    int have_cam;
+    const char *utc;
+    double lat, lon, heading;
+    int have_location, have_heading;
     sp_depop_settings ds;
     int quiet;
 } depop_args;
@@ -59,6 +65,11 @@ static void usage(FILE *out)
                  "                        else none)\n"
                  "      --sun-dir DX,DY   image direction shadows fall in from the feet (default: found per object)\n"
                  "      --no-shadows      remove the objects only, not their shadows\n"
+                 "      --camera F,CX,CY,PITCH  focal length and principal point (pixels) and the downward pitch\n"
+                 "                        (degrees) for the sun from the shadows (default: assumed, 60 deg wide,\n"
+                 "                        centred, 15 deg down)\n"
+                 "      --utc ISO --location LAT,LON --heading DEG  the sun from the clock as well (heading: the\n"
+                 "                        view's compass bearing), and how far the two disagree\n"
                  "      --report FILE     the JSON report (default OUT without .png + .json)\n"
                  "      --debug FILE      the input with the masks drawn (default OUT without .png + .debug.png)\n"
                  "  -o, --output PNG      the emptied image\n"
@@ -85,7 +96,8 @@ static int parse_numbers(const char *s, double *v, int n)
     return 0;
 }
 
-enum { OPT_PROBE = 256, OPT_BOX, OPT_KEEP, OPT_DETECTOR, OPT_SUN, OPT_NO_SHADOWS, OPT_REPORT, OPT_DEBUG };
+enum { OPT_PROBE = 256, OPT_BOX, OPT_KEEP, OPT_DETECTOR, OPT_SUN, OPT_NO_SHADOWS, OPT_REPORT, OPT_DEBUG, OPT_CAMERA,
+       OPT_UTC, OPT_LOCATION, OPT_HEADING };
 
 static int parse_option(int c, depop_args *a)
 {
@@ -115,6 +127,28 @@ static int parse_option(int c, depop_args *a)
         a->ds.sun_dx = v[0], a->ds.sun_dy = v[1];
         return 0;
     case OPT_NO_SHADOWS: a->ds.shadows = 0; return 0;
+    case OPT_CAMERA:
+        if (parse_numbers(optarg, v, 4) || !(v[0] > 0 && v[0] < 1e6) || !(v[3] >= 0 && v[3] < 89))
+            return bad("--camera (F,CX,CY,PITCH: F > 0, pitch 0..89 degrees)", optarg);
+        a->cam = (sp_depop_camera){ v[0], v[1], v[2], v[3] }, a->have_cam = 1;
+        return 0;
+    case OPT_UTC: {
+        double t;
+        if (sp_utc_parse(optarg, &t))
+            return bad("--utc (ISO 8601 with a zone, e.g. 2026-06-21T12:00:00Z)", optarg);
+        a->utc = optarg;
+        return 0;
+    }
+    case OPT_LOCATION:
+        if (parse_numbers(optarg, v, 2) || fabs(v[0]) > 90 || fabs(v[1]) > 360)
+            return bad("--location (LAT,LON in degrees)", optarg);
+        a->lat = v[0], a->lon = v[1], a->have_location = 1;
+        return 0;
+    case OPT_HEADING:
+        if (parse_numbers(optarg, v, 1) || fabs(v[0]) > 360)
+            return bad("--heading (degrees clockwise from true north)", optarg);
+        a->heading = v[0], a->have_heading = 1;
+        return 0;
     case OPT_REPORT: a->report = optarg; return 0;
     case OPT_DEBUG: a->debug = optarg; return 0;
     case 'o': a->out = optarg; return 0;
@@ -131,6 +165,8 @@ static int parse_args(int argc, char **argv, depop_args *a)
         { "keep", required_argument, NULL, OPT_KEEP },         { "detector", required_argument, NULL, OPT_DETECTOR },
         { "sun-dir", required_argument, NULL, OPT_SUN },       { "no-shadows", no_argument, NULL, OPT_NO_SHADOWS },
         { "report", required_argument, NULL, OPT_REPORT },     { "debug", required_argument, NULL, OPT_DEBUG },
+        { "camera", required_argument, NULL, OPT_CAMERA },     { "utc", required_argument, NULL, OPT_UTC },
+        { "location", required_argument, NULL, OPT_LOCATION }, { "heading", required_argument, NULL, OPT_HEADING },
         { "output", required_argument, NULL, 'o' },            { "quiet", no_argument, NULL, 'q' },
         { "help", no_argument, NULL, 'h' },                    { 0 },
     };
@@ -144,6 +180,10 @@ static int parse_args(int argc, char **argv, depop_args *a)
         return SP_EXIT_USAGE;
     }
     a->in = argv[optind];
+    if ((a->utc || a->have_location || a->have_heading) && !(a->utc && a->have_location && a->have_heading)) {
+        fprintf(stderr, "sunprobe depopulate: the sun from the clock needs --utc, --location and --heading together\n");
+        return SP_EXIT_USAGE;
+    }
     return 0;
 }
 
@@ -308,6 +348,38 @@ static void draw_debug(job *j)
     }
 }
 
+/* The sun from the shadows (with the given or the assumed camera) and from the clock, as "sun": {...}. */
+static void sun_json(const depop_args *a, const job *j, sp_strbuf *b)
+{
+    sp_depop_camera cam = a->cam;
+    if (!a->have_cam) /* assumed: a 60-degree-wide view, centred, 15 degrees down */
+        cam = (sp_depop_camera){ 0.5 * j->im.w / tan(30 * M_PI / 180), 0.5 * j->im.w, 0.5 * j->im.h, 15 };
+    sp_depop_sun e = { 0 };
+    int shadows = !j->have_probe && !sp_depop_sun_estimate(j->obj, j->n, &cam, &e) && e.found;
+    sp_strbuf_printf(b, "\"sun\":{\"camera\":\"%s\",\"from_shadows\":", a->have_cam ? "given" : "assumed");
+    if (shadows)
+        sp_strbuf_printf(b, "{\"azimuth_deg\":%.2f,\"elevation_deg\":%.2f,\"shadows\":%u,\"azimuth_spread_deg\":%.2f,"
+                            "\"elevation_spread_deg\":%.2f}", e.azimuth_deg, e.elevation_deg, e.used,
+                         e.azimuth_spread_deg, e.elevation_spread_deg);
+    else
+        sp_strbuf_printf(b, "\"%s\"", j->have_probe ? "not estimated with --probe" : "no sun shadows");
+    sp_strbuf_printf(b, ",\"from_clock\":");
+    double t;
+    sp_sun_position p;
+    if (a->utc && !sp_utc_parse(a->utc, &t) && !sp_sun_position_at(t, a->lat, a->lon, &p)) {
+        double az = fmod(p.azimuth_deg - a->heading + 540.0, 360.0) - 180.0;
+        sp_strbuf_printf(b, "{\"azimuth_deg\":%.2f,\"elevation_deg\":%.2f}", az, p.elevation_deg);
+        if (shadows) { /* the angle between the two directions */
+            double r = M_PI / 180, c = sin(e.elevation_deg * r) * sin(p.elevation_deg * r) +
+                                       cos(e.elevation_deg * r) * cos(p.elevation_deg * r) * cos((az - e.azimuth_deg) * r);
+            sp_strbuf_printf(b, ",\"disagreement_deg\":%.2f", acos(c > 1 ? 1 : c < -1 ? -1 : c) / r);
+        }
+    } else {
+        sp_strbuf_printf(b, "null");
+    }
+    sp_strbuf_printf(b, "}");
+}
+
 static int write_report(const depop_args *a, const job *j, const char *path)
 {
     size_t np = (size_t)j->im.w * j->im.h, nobj = 0, nsh = 0;
@@ -327,7 +399,9 @@ static int write_report(const depop_args *a, const job *j, const char *path)
         sp_strbuf_json_numbers(&b, sd, 2);
     else
         sp_strbuf_printf(&b, "null");
-    sp_strbuf_printf(&b, ",\"inpainted_patches\":%llu,\"objects\":[", (unsigned long long)j->ir.patches);
+    sp_strbuf_printf(&b, ",\"inpainted_patches\":%llu,", (unsigned long long)j->ir.patches);
+    sun_json(a, j, &b);
+    sp_strbuf_printf(&b, ",\"objects\":[");
     for (size_t k = 0; k < j->n; k++) {
         const sp_depop_object *o = &j->obj[k];
         double sh[3] = { o->shadow_dx, o->shadow_dy, o->shadow_len };

@@ -6,7 +6,9 @@
  * border, tiny images, bad settings); the masks take a cast shadow attached
  * to the foot and leave dark ground that is not attached, follow a given sun
  * direction, refuse a leak into dark material, and the plate-based path finds
- * an object and keeps the one the user keeps.
+ * an object and keeps the one the user keeps; the sun from shadows projected
+ * through a known camera, over azimuths all round and elevations 10-60
+ * degrees, with an outlier, and nothing from no shadows or a bad camera.
  */
 #include <errno.h>
 #include <math.h>
@@ -234,11 +236,71 @@ static void test_from_plate(void)
     CHECK_EQ_INT(sp_depop_from_plate(rgb, NULL, W, H, NULL, NULL, 0, objs, 4, &n, &kept, mask), -EINVAL);
 }
 
+/* Projects world point (x, y, z) (camera at height 1 over the origin, view along +y, pitched down). */
+static void project(const sp_depop_camera *c, double x, double y, double z, double *u, double *v)
+{
+    double p = c->pitch_deg * M_PI / 180, cs = cos(p), sn = sin(p);
+    double X = x, Y = -sn * y - cs * (z - 1), Z = cs * y - sn * (z - 1);
+    *u = c->cx + c->f * X / Z, *v = c->cy + c->f * Y / Z;
+}
+
+/* A person `h` camera heights tall at ground point (gx, gy) under the sun (az, el): its box and shadow tip. */
+static sp_depop_object person(const sp_depop_camera *c, double gx, double gy, double h, double az, double el)
+{
+    double r = M_PI / 180, L = h / tan(el * r), sx = -sin(az * r) * L, sy = -cos(az * r) * L, fu, fv, hu, hv, tu, tv;
+    project(c, gx, gy, 0, &fu, &fv);
+    project(c, gx, gy, h, &hu, &hv);
+    project(c, gx + sx, gy + sy, 0, &tu, &tv);
+    int x0 = (int)lround(fu) - 3;
+    return (sp_depop_object){ .x0 = x0, .x1 = x0 + 6, .y0 = (int)lround(hv + 0.5), .y1 = (int)lround(fv - 0.5),
+                              .shadow_px = 500, .tip_x = tu - 0.5, .tip_y = tv - 0.5 };
+}
+
+static void test_sun(void)
+{
+    sp_depop_camera cam = { 800, 640, 360, 20 };
+    static const double suns[][2] = { { -30, 40 }, { 60, 25 }, { -132.5, 33 }, { 170, 60 }, { 95, 10 } };
+    for (size_t k = 0; k < sizeof(suns) / sizeof(suns[0]); k++) {
+        sp_depop_object o[3] = { person(&cam, -1.0, 5, 0.4, suns[k][0], suns[k][1]),
+                                 person(&cam, 1.5, 8, 0.42, suns[k][0], suns[k][1]),
+                                 person(&cam, 0.3, 3.5, 0.38, suns[k][0], suns[k][1]) };
+        sp_depop_sun e;
+        CHECK_EQ_INT(sp_depop_sun_estimate(o, 3, &cam, &e), 0);
+        double da = fabs(remainder(e.azimuth_deg - suns[k][0], 360.0));
+        CHECK_MSG(e.found && e.used == 3 && da < 1.5 && fabs(e.elevation_deg - suns[k][1]) < 1.5,
+                  "sun %.1f/%.1f: found %d from %u, %.2f/%.2f", suns[k][0], suns[k][1], e.found, e.used,
+                  e.azimuth_deg, e.elevation_deg);
+    }
+    /* one shadow in the wrong direction among three: the medians keep the sun */
+    sp_depop_object o[3] = { person(&cam, -1.0, 5, 0.4, -30, 40), person(&cam, 1.5, 8, 0.42, -30, 40),
+                             person(&cam, 0.3, 3.5, 0.38, 120, 15) };
+    sp_depop_sun e;
+    CHECK_EQ_INT(sp_depop_sun_estimate(o, 3, &cam, &e), 0);
+    CHECK_MSG(fabs(e.azimuth_deg + 30) < 5 && fabs(e.elevation_deg - 40) < 5, "outlier: %.1f/%.1f", e.azimuth_deg,
+              e.elevation_deg);
+    /* no shadows (overcast), a leak, a speck: "no sun shadows" */
+    o[0].shadow_px = 0, o[1].shadow_leak = 1, o[2].shadow_px = 5;
+    CHECK_EQ_INT(sp_depop_sun_estimate(o, 3, &cam, &e), 0);
+    CHECK(!e.found && e.used == 0);
+    CHECK_EQ_INT(sp_depop_sun_estimate(NULL, 0, &cam, &e), 0);
+    CHECK(!e.found);
+    /* a shadow tip above the horizon gives nothing */
+    sp_depop_object sky = person(&cam, 0, 5, 0.4, -30, 40);
+    sky.tip_y = -500;
+    CHECK_EQ_INT(sp_depop_sun_estimate(&sky, 1, &cam, &e), 0);
+    CHECK(!e.found);
+    sp_depop_camera bad = { 0, 640, 360, 20 };
+    CHECK_EQ_INT(sp_depop_sun_estimate(o, 3, &bad, &e), -EINVAL);
+    bad.f = 800, bad.pitch_deg = 90;
+    CHECK_EQ_INT(sp_depop_sun_estimate(o, 3, &bad, &e), -EINVAL);
+}
+
 int main(void)
 {
     test_edge_continues();
     test_inpaint_extremes();
     test_shadow_masks();
     test_from_plate();
+    test_sun();
     return check_exit();
 }
