@@ -406,8 +406,9 @@ static int write_report(const depop_args *a, const job *j, const char *path)
         const sp_depop_object *o = &j->obj[k];
         double sh[3] = { o->shadow_dx, o->shadow_dy, o->shadow_len };
         sp_strbuf_printf(&b, "%s{\"from\":\"%s\",\"box\":[%d,%d,%d,%d],\"shadow_px\":%u,\"contact_px\":%u,"
-                             "\"shadow_offset_len\":", k ? "," : "", j->origin[k], o->x0, o->y0, o->x1 - o->x0 + 1,
-                         o->y1 - o->y0 + 1, o->shadow_px, o->contact_px);
+                             "\"shadow_leak\":%s,\"shadow_offset_len\":", k ? "," : "", j->origin[k], o->x0, o->y0,
+                         o->x1 - o->x0 + 1, o->y1 - o->y0 + 1, o->shadow_px, o->contact_px,
+                         o->shadow_leak ? "true" : "false");
         sp_strbuf_json_numbers(&b, sh, 3);
         sp_strbuf_printf(&b, "}");
     }

@@ -37,6 +37,15 @@ python3 -c "import json,sys; r=json.load(open(sys.argv[1])); assert r['kept']==1
     "$dir/k-report.json" || fail "keep: report"
 [ -s "$dir/k-masks.png" ] || fail "keep: no debug image"
 
+# the sun from the clock beside the shadows; the clock's options go together and need a zone
+"$SP" depopulate "$frame" -o "$dir/c.png" --detector none --box 100,60,30,80 --camera 386.27,160,120,15 \
+    --utc 2026-06-21T12:00:00Z --location 48.1,11.6 --heading 180 -q || fail "clock: exit $?"
+python3 - "$dir/c.json" <<'EOF' || fail "clock: report"
+import json, sys
+s = json.load(open(sys.argv[1]))["sun"]
+assert s["camera"] == "given" and abs(s["from_clock"]["elevation_deg"] - 63.8) < 1.0, s
+EOF
+
 # a probe of the same street: its segmentation, its clean plate
 "$SP" depopulate "$frame" -o "$dir/b.png" --probe "$dir/p" -q || fail "probe: exit $?"
 python3 - "$dir/b.json" <<'EOF' || fail "probe: report"
@@ -66,6 +75,9 @@ bad "damaged image" 2 "$dir/cut.png" --detector none --box 1,1,5,5
 bad "box outside" 1 "$frame" --detector none --box 300,200,40,80
 grep -q -- "--box" "$dir/e.txt" || fail "box outside: message does not name --box"
 bad "bad box" 1 "$frame" --box 1,2,3
+bad "utc without a zone" 1 "$frame" --box 1,1,5,5 --utc 2026-06-21T12:00:00 --location 1,2 --heading 0
+bad "utc alone" 1 "$frame" --box 1,1,5,5 --utc 2026-06-21T12:00:00Z
+bad "bad camera" 1 "$frame" --box 1,1,5,5 --camera 0,1,1,10
 "$SP" synth street --width 160 --height 120 --seconds 1 -o "$dir/small.spcap" >/dev/null 2>&1 &&
     "$SP" export-video "$dir/small.spcap" -o "$dir/sf" >/dev/null 2>&1 || fail "small synth"
 bad "probe of another size" 2 "$dir/sf/frame_000000.png" --probe "$dir/p"

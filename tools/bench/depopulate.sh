@@ -3,6 +3,8 @@
 # Removal from one image against the true empty street (bench_depopulate.c): synth street seeds 1-5,
 # sunny and overcast, 7 frames each; the path-traced street (../shared/captures/street-sunny-dev1,
 # its gt/ids as the objects) when present, 20 frames; then one 1280x720 frame timed on one core.
+# The sun from each frame's shadows against the truth's: the synth seeds above (sun 30 deg left of the
+# view, 40 up), seeds 6-8 under other suns, and the path-traced street with its camera from meta.json.
 # Usage: tools/bench/depopulate.sh BUILD_DIR SCRATCH_DIR
 set -euo pipefail
 build=$1
@@ -10,10 +12,12 @@ dir=$2/depopulate
 sp=$build/tools/sunprobe
 bench=$build/tools/bench/bench_depopulate
 mkdir -p "$dir"
-scenes() { # KIND SEED -> the bench's LABEL FRAME BACKGROUND - arguments
+synth_camera="--camera 386.2741699796952,160,120,15" # synth street's default: 320x240, 45 deg wide, 15 deg down
+scenes() { # KIND SEED [SYNTH OPTIONS] -> the bench's LABEL FRAME BACKGROUND - - arguments
     local kind=$1 seed=$2 cap=$dir/$1$2
+    shift 2
     if [ ! -f "$cap.spcap" ]; then
-        "$sp" synth street --seed "$seed" $([ "$kind" = overcast ] && echo --overcast) -o "$cap.spcap" >/dev/null
+        "$sp" synth street --seed "$seed" $([ "$kind" = overcast ] && echo --overcast) "$@" -o "$cap.spcap" >/dev/null
         "$sp" export-video "$cap.spcap" -o "$cap.frames" >/dev/null
     fi
     for f in 50 100 150 200 250 300 350; do
@@ -24,7 +28,13 @@ for kind in sunny overcast; do
     args=()
     for seed in 1 2 3 4 5; do read -ra more <<<"$(scenes $kind $seed)"; args+=("${more[@]}"); done
     echo "-- synth street, $kind"
-    "$bench" "${args[@]}"
+    if [ $kind = sunny ]; then "$bench" $synth_camera --sun -30,40 "${args[@]}"; else "$bench" $synth_camera "${args[@]}"; fi
+done
+for sun in "6 60 25" "7 -120 55" "8 150 30"; do
+    read -r seed az el <<<"$sun"
+    read -ra args <<<"$(scenes sun$az.$el "$seed" --sun-azimuth "$az" --sun-elevation "$el")"
+    echo "-- synth street, seed $seed, sun $az deg from the view, $el up"
+    "$bench" $synth_camera --sun "$az,$el" "${args[@]}" | grep '^sun over\|^median.*ours'
 done
 shared=${SP_SHARED_DIR:-$(dirname "$0")/../../../shared}/captures/street-sunny-dev1
 if [ -d "$shared" ]; then
@@ -33,8 +43,8 @@ if [ -d "$shared" ]; then
         n=$(printf '%05d' "$f")
         args+=("street-sunny-$n" "$shared/frames/$n.jpg" "$shared/gt/clean_plate.png" "$shared/gt/ids/$n.png" "$shared/gt/shadows/$n.png")
     done
-    echo "-- path-traced street (sunny; objects from gt/ids)"
-    "$bench" "${args[@]}"
+    echo "-- path-traced street (sunny; objects from gt/ids; sun -132.47 deg from the view, 33.21 up)"
+    "$bench" --camera 622.2222222222222,320,180,20 --sun -132.4747,33.2143 "${args[@]}"
 else
     echo "-- path-traced street: $shared absent, skipped"
 fi
