@@ -82,20 +82,6 @@ static int bad(const char *opt, const char *v)
     return SP_EXIT_USAGE;
 }
 
-/* n comma-separated finite numbers, nothing else. */
-static int parse_numbers(const char *s, double *v, int n)
-{
-    const char *p = s;
-    for (int i = 0; i < n; i++) {
-        char *end;
-        v[i] = strtod(p, &end);
-        if (end == p || !isfinite(v[i]) || (i + 1 < n ? *end != ',' : *end != 0))
-            return -1;
-        p = end + 1;
-    }
-    return 0;
-}
-
 enum { OPT_PROBE = 256, OPT_BOX, OPT_KEEP, OPT_DETECTOR, OPT_SUN, OPT_NO_SHADOWS, OPT_REPORT, OPT_DEBUG, OPT_CAMERA,
        OPT_UTC, OPT_LOCATION, OPT_HEADING };
 
@@ -105,7 +91,7 @@ static int parse_option(int c, depop_args *a)
     switch (c) {
     case OPT_PROBE: a->probe = optarg; return 0;
     case OPT_BOX:
-        if (a->n_boxes == MAX_BOXES || parse_numbers(optarg, v, 4) || v[2] < 1 || v[3] < 1 || v[0] < 0 || v[1] < 0 ||
+        if (a->n_boxes == MAX_BOXES || sp_opt_numbers(optarg, v, 4) || v[2] < 1 || v[3] < 1 || v[0] < 0 || v[1] < 0 ||
             v[0] + v[2] > 1e5 || v[1] + v[3] > 1e5)
             return bad("--box (X,Y,W,H, W and H at least 1, at most 64 boxes)", optarg);
         a->boxes[a->n_boxes][0] = (int)v[0], a->boxes[a->n_boxes][1] = (int)v[1];
@@ -113,7 +99,7 @@ static int parse_option(int c, depop_args *a)
         a->n_boxes++;
         return 0;
     case OPT_KEEP:
-        if (a->n_keep == MAX_KEEP || parse_numbers(optarg, a->keep + 2 * a->n_keep, 2))
+        if (a->n_keep == MAX_KEEP || sp_opt_numbers(optarg, a->keep + 2 * a->n_keep, 2))
             return bad("--keep (X,Y, at most 64)", optarg);
         a->n_keep++;
         return 0;
@@ -122,13 +108,13 @@ static int parse_option(int c, depop_args *a)
         return sp_opt_choice("depopulate", "--detector", optarg, names, 2, &a->detector) ? SP_EXIT_USAGE : 0;
     }
     case OPT_SUN:
-        if (parse_numbers(optarg, v, 2) || hypot(v[0], v[1]) < 1e-9)
+        if (sp_opt_numbers(optarg, v, 2) || hypot(v[0], v[1]) < 1e-9)
             return bad("--sun-dir (DX,DY, not both 0)", optarg);
         a->ds.sun_dx = v[0], a->ds.sun_dy = v[1];
         return 0;
     case OPT_NO_SHADOWS: a->ds.shadows = 0; return 0;
     case OPT_CAMERA:
-        if (parse_numbers(optarg, v, 4) || !(v[0] > 0 && v[0] < 1e6) || !(v[3] >= 0 && v[3] < 89))
+        if (sp_opt_numbers(optarg, v, 4) || !(v[0] > 0 && v[0] < 1e6) || !(v[3] >= 0 && v[3] < 89))
             return bad("--camera (F,CX,CY,PITCH: F > 0, pitch 0..89 degrees)", optarg);
         a->cam = (sp_depop_camera){ v[0], v[1], v[2], v[3] }, a->have_cam = 1;
         return 0;
@@ -140,12 +126,12 @@ static int parse_option(int c, depop_args *a)
         return 0;
     }
     case OPT_LOCATION:
-        if (parse_numbers(optarg, v, 2) || fabs(v[0]) > 90 || fabs(v[1]) > 360)
+        if (sp_opt_numbers(optarg, v, 2) || fabs(v[0]) > 90 || fabs(v[1]) > 360)
             return bad("--location (LAT,LON in degrees)", optarg);
         a->lat = v[0], a->lon = v[1], a->have_location = 1;
         return 0;
     case OPT_HEADING:
-        if (parse_numbers(optarg, v, 1) || fabs(v[0]) > 360)
+        if (sp_opt_numbers(optarg, v, 1) || fabs(v[0]) > 360)
             return bad("--heading (degrees clockwise from true north)", optarg);
         a->heading = v[0], a->have_heading = 1;
         return 0;
