@@ -31,7 +31,8 @@ void sp_inpaint_default_settings(sp_inpaint_settings *s)
 typedef struct inpaint {
     uint8_t *rgb;
     uint32_t stride;
-    int w, h, r, R, step, blend;
+    int w, h, r, R, blend;
+    unsigned budget;   /* coarse candidates per search */
     uint8_t *hole;     /* 1 while unknown */
     uint8_t *guide;    /* RGB24, the hole's smooth push-pull fill (make_guide) */
     uint8_t *onfront;  /* 1 while listed in front */
@@ -293,6 +294,13 @@ static void try_source(const inpaint *ip, int tx, int ty, int sx, int sy, match 
     m->x[j] = sx, m->y[j] = sy, m->cost[j] = c;
 }
 
+/* The coarse grid's stride that keeps a window of radius R within the candidate budget. */
+static int stride_for(int R, unsigned budget)
+{
+    double cells = (2.0 * R + 1) * (2.0 * R + 1) / (double)(budget ? budget : 1);
+    return cells > 1 ? (int)ceil(sqrt(cells)) : 1;
+}
+
 static match search(const inpaint *ip, int tx, int ty, int R)
 {
     match m = { .k = ip->blend };
@@ -300,7 +308,7 @@ static match search(const inpaint *ip, int tx, int ty, int R)
         for (int u = tx - ip->r; u <= tx + ip->r; u++)
             if (u >= 0 && v >= 0 && u < ip->w && v < ip->h)
                 m.norm++;
-    int s = ip->step;
+    int s = stride_for(R, ip->budget);
     for (int y = ty - R; y <= ty + R; y += s)
         for (int x = tx - R; x <= tx + R; x += s)
             try_source(ip, tx, ty, x, y, &m);
@@ -409,8 +417,7 @@ static int setup(inpaint *ip, const uint8_t *mask, const sp_inpaint_settings *s,
         return -ENOMEM;
     int side = ip->w < ip->h ? ip->w : ip->h;
     ip->R = s->search_radius > 0 ? s->search_radius : (side / 6 > 24 ? side / 6 : 24);
-    double cells = (2.0 * ip->R + 1) * (2.0 * ip->R + 1) / (double)(s->max_candidates ? s->max_candidates : 1);
-    ip->step = cells > 1 ? (int)ceil(sqrt(cells)) : 1;
+    ip->budget = s->max_candidates;
     return 0;
 }
 

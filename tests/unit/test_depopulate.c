@@ -113,6 +113,17 @@ static void test_inpaint_extremes(void)
             mask[y * W + x] = 1;
     CHECK_EQ_INT(sp_inpaint_exemplar(img, W, H, W * 3, mask, NULL, NULL), 0);
     CHECK_MSG(hole_mse(img, copy, mask) < 100, "border holes MSE %.1f", hole_mse(img, copy, mask));
+    /* a hole far wider than the search window: the patches deep inside look everywhere (a coarser grid) */
+    memcpy(img, copy, sizeof(img));
+    memset(mask, 0, sizeof(mask));
+    for (int y = 5; y < H - 5; y++)
+        for (int x = 70; x < W - 5; x++)
+            mask[y * W + x] = 1;
+    sp_inpaint_settings small;
+    sp_inpaint_default_settings(&small);
+    small.search_radius = 8;
+    CHECK_EQ_INT(sp_inpaint_exemplar(img, W, H, W * 3, mask, &small, NULL), 0);
+    CHECK_MSG(hole_mse(img, copy, mask) < 100, "wide hole MSE %.1f", hole_mse(img, copy, mask));
     /* tiny: one source patch exists in a 3x4 image with patch radius 1 */
     uint8_t tiny[12 * 3], tmask[12] = { 0 };
     for (int i = 0; i < 36; i++)
