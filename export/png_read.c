@@ -6,6 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/file_util.h"
+#include "common/jpeg.h"
 #include "sp_config.h"
 #include "sunprobe/sp_common.h"
 #if HAVE_ZLIB
@@ -343,4 +345,39 @@ int sp_png_has_alpha(const uint8_t *data, size_t size)
         p += 12 + (size_t)len;
     }
     return 0;
+}
+
+int sp_image_read_rgb8(const char *path, uint8_t **rgb, uint32_t *width, uint32_t *height)
+{
+    if (!path || !rgb || !width || !height)
+        return -EINVAL;
+    *rgb = NULL;
+    void *data = NULL;
+    size_t size = 0;
+    int ret = sp_read_whole_file(path, (size_t)1 << 28, &data, &size);
+    if (ret)
+        return ret;
+    sp_jpeg_header jh;
+    if (!sp_jpeg_parse_header(data, size, &jh)) {
+        size_t n = (size_t)jh.width * jh.height * 3;
+        *width = jh.width, *height = jh.height;
+        *rgb = malloc(n);
+        ret = *rgb ? sp_jpeg_decode(data, size, SP_PIXFMT_RGB24, jh.width, jh.height, *rgb, n, jh.width * 3)
+                   : -ENOMEM;
+    } else {
+        uint8_t *rgba = NULL;
+        ret = sp_png_decode_rgba(data, size, &rgba, width, height);
+        *rgb = ret ? NULL : malloc((size_t)*width * *height * 3);
+        if (!ret && !*rgb)
+            ret = -ENOMEM;
+        for (size_t i = 0; !ret && i < (size_t)*width * *height; i++)
+            memcpy(*rgb + 3 * i, rgba + 4 * i, 3);
+        free(rgba);
+    }
+    free(data);
+    if (ret) {
+        free(*rgb);
+        *rgb = NULL;
+    }
+    return ret;
 }

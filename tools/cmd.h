@@ -39,6 +39,8 @@ int sp_cmd_failf(const char *cmd, int err, const char *fmt, ...) SP_PRINTF(3, 4)
  */
 int sp_opt_int(const char *cmd, const char *opt, const char *s, int lo, int hi, int *out);
 int sp_opt_double(const char *cmd, const char *opt, const char *s, double lo, double hi, double *out);
+/* n comma-separated finite numbers ("X,Y", "X,Y,W,H") and nothing else into v: 0, or -1 (no message). */
+int sp_opt_numbers(const char *s, double *v, int n);
 /* A count that may pass INT_MAX (frames, seeds): decimal digits only. */
 int sp_opt_u64(const char *cmd, const char *opt, const char *s, uint64_t lo, uint64_t hi, uint64_t *out);
 /* One of n names: *out is its index; else "expected a, b or c". */
@@ -74,6 +76,7 @@ int sp_cmd_synth_street(int argc, char **argv); /* `synth street`, called by sp_
 int sp_cmd_synth_selfie(int argc, char **argv); /* `synth selfie`, called by sp_cmd_synth */
 int sp_cmd_probe(int argc, char **argv);
 int sp_cmd_composite(int argc, char **argv);
+int sp_cmd_depopulate(int argc, char **argv);
 int sp_cmd_devices(int argc, char **argv);
 int sp_cmd_record(int argc, char **argv);
 int sp_cmd_fit(int argc, char **argv);

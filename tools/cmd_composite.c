@@ -59,17 +59,6 @@ static int bad(const char *what, const char *v)
     return SP_EXIT_USAGE;
 }
 
-static int parse_xy(const char *s, double *x, double *y)
-{
-    char *end;
-    *x = strtod(s, &end);
-    if (end == s || *end != ',')
-        return -1;
-    const char *t = end + 1;
-    *y = strtod(t, &end);
-    return end == t || *end || !isfinite(*x) || !isfinite(*y) ? -1 : 0;
-}
-
 enum { OPT_OBJECT = 256, OPT_AT, OPT_HEIGHT, OPT_SCALE, OPT_BACKGROUND, OPT_NO_OCC, OPT_NO_LIGHT, OPT_NO_SHADOW };
 
 static int parse_option(int c, composite_args *a)
@@ -82,11 +71,14 @@ static int parse_option(int c, composite_args *a)
             return bad("--object (at most 32)", optarg);
         a->obj[a->n++] = (cut){ .path = optarg, .scale = 1.0 };
         return 0;
-    case OPT_AT:
-        if (!o || parse_xy(optarg, &o->x, &o->y))
+    case OPT_AT: {
+        double xy[2];
+        if (!o || sp_opt_numbers(optarg, xy, 2))
             return bad("--at (X,Y after an --object)", optarg);
+        o->x = xy[0], o->y = xy[1];
         o->placed = 1;
         return 0;
+    }
     case OPT_HEIGHT:
         if (!o || (o->height_px = strtod(optarg, &end), *end) || !(o->height_px > 0 && o->height_px < 1e5))
             return bad("--height-px (after an --object)", optarg);

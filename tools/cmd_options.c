@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* Option values shared by the commands: one parser, one message that names the option and its range. */
 #include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -82,4 +83,17 @@ const char *sp_cmd_printable(const char *s, char *buf, size_t n)
     }
     buf[o] = '\0';
     return buf;
+}
+
+int sp_opt_numbers(const char *s, double *v, int n)
+{
+    const char *p = s;
+    for (int i = 0; i < n; i++) {
+        char *end;
+        v[i] = strtod(p, &end);
+        if (end == p || !isfinite(v[i]) || (i + 1 < n ? *end != ',' : *end != 0))
+            return -1;
+        p = end + 1;
+    }
+    return 0;
 }

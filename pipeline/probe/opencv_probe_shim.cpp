@@ -3,6 +3,7 @@
 #include "opencv_probe_shim.h"
 
 #include <cerrno>
+#include <algorithm>
 #include <new>
 #include <vector>
 
@@ -10,6 +11,7 @@
 #include <opencv2/core/utils/logger.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/objdetect.hpp>
+#include <opencv2/photo.hpp>
 #include <opencv2/video/background_segm.hpp>
 
 #include "capture/opencv_guard.hpp"
@@ -72,6 +74,50 @@ extern "C" int sp_cv_hog_score(sp_cv_hog *h, const uint8_t *rgb, uint32_t width,
             s += (double)h->desc[i] * h->weights[i];
         *score = s;
         return 0;
+    });
+}
+
+extern "C" int sp_cv_hog_detect(sp_cv_hog *h, const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride,
+                                double upscale, int *boxes, unsigned cap, unsigned *n)
+{
+    if (!h || !rgb || !n || (!boxes && cap) || width == 0 || height == 0 || stride < width * 3 ||
+        !(upscale >= 1 && upscale <= 4))
+        return -EINVAL;
+    return guarded("HOG detect", [&]() -> int {
+        cv::Mat img((int)height, (int)width, CV_8UC3, const_cast<uint8_t *>(rgb), stride);
+        cv::Mat big;
+        if (upscale > 1)
+            cv::resize(img, big, cv::Size(), upscale, upscale, cv::INTER_LINEAR);
+        else
+            big = img;
+        cv::HOGDescriptor d;
+        d.setSVMDetector(h->weights);
+        std::vector<cv::Rect> found;
+        d.detectMultiScale(big, found, 0, cv::Size(8, 8), cv::Size(16, 16), 1.05, 2);
+        *n = (unsigned)found.size();
+        for (unsigned i = 0; i < *n && i < cap; i++) {
+            const cv::Rect &r = found[i];
+            int x0 = (int)(r.x / upscale), y0 = (int)(r.y / upscale);
+            int x1 = (int)((r.x + r.width) / upscale) - 1, y1 = (int)((r.y + r.height) / upscale) - 1;
+            boxes[4 * i] = std::max(0, x0), boxes[4 * i + 1] = std::max(0, y0);
+            boxes[4 * i + 2] = std::min((int)width - 1, x1), boxes[4 * i + 3] = std::min((int)height - 1, y1);
+        }
+        return 0;
+    });
+}
+
+extern "C" int sp_cv_inpaint_telea(uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride,
+                                   const uint8_t *mask, double radius)
+{
+    if (!rgb || !mask || width == 0 || height == 0 || stride < width * 3 || !(radius >= 1 && radius <= 64))
+        return -EINVAL;
+    return guarded("Telea inpainting", [&]() -> int {
+        cv::Mat img((int)height, (int)width, CV_8UC3, rgb, stride);
+        cv::Mat m((int)height, (int)width, CV_8UC1, const_cast<uint8_t *>(mask), width);
+        cv::Mat m8 = m != 0, out;
+        cv::inpaint(img, m8, out, radius, cv::INPAINT_TELEA);
+        out.copyTo(img);
+        return img.data == rgb ? 0 : -EIO;
     });
 }
 

@@ -28,6 +28,17 @@ int sp_cv_hog_open(sp_cv_hog **out);
 int sp_cv_hog_score(sp_cv_hog *hog, const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, int x0,
                     int y0, int x1, int y1, double *score);
 void sp_cv_hog_close(sp_cv_hog **hog);
+/*
+ * Whole-image detection with the same detector (detectMultiScale, grouped): up to `cap` boxes as
+ * x0, y0, x1, y1 (inclusive pixels) into boxes (4 ints each); *n is how many were found. The image is
+ * upscaled by `upscale` (1..4) first, so people shorter than the 128-px window are found.
+ */
+int sp_cv_hog_detect(sp_cv_hog *hog, const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride,
+                     double upscale, int *boxes, unsigned cap, unsigned *n);
+
+/* OpenCV's Telea inpainting (photo module) of the pixels where mask != 0, in place: a baseline. */
+int sp_cv_inpaint_telea(uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, const uint8_t *mask,
+                        double radius);
 
 typedef struct sp_cv_mog2 sp_cv_mog2;
 

@@ -9,6 +9,9 @@
 typedef int (*hog_open_fn)(sp_cv_hog **);
 typedef int (*hog_score_fn)(sp_cv_hog *, const uint8_t *, uint32_t, uint32_t, uint32_t, int, int, int, int, double *);
 typedef void (*hog_close_fn)(sp_cv_hog **);
+typedef int (*hog_detect_fn)(sp_cv_hog *, const uint8_t *, uint32_t, uint32_t, uint32_t, double, int *, unsigned,
+                             unsigned *);
+typedef int (*telea_fn)(uint8_t *, uint32_t, uint32_t, uint32_t, const uint8_t *, double);
 typedef int (*mog2_open_fn)(sp_cv_mog2 **, int, double, int);
 typedef int (*mog2_apply_fn)(sp_cv_mog2 *, const uint8_t *, uint32_t, uint32_t, uint32_t, uint8_t *, uint32_t);
 typedef void (*mog2_close_fn)(sp_cv_mog2 **);
@@ -38,6 +41,22 @@ void sp_cv_hog_close(sp_cv_hog **hog)
     hog_close_fn fn = hog && *hog ? SYMBOL(hog_close_fn, sp_cv_hog_close) : NULL; /* nothing open: no load */
     if (fn)
         fn(hog);
+}
+
+static sp_module_slot sp_cv_hog_detect_slot;
+int sp_cv_hog_detect(sp_cv_hog *hog, const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride,
+                     double upscale, int *boxes, unsigned cap, unsigned *n)
+{
+    hog_detect_fn fn = SYMBOL(hog_detect_fn, sp_cv_hog_detect);
+    return fn ? fn(hog, rgb, width, height, stride, upscale, boxes, cap, n) : SP_EMODULE;
+}
+
+static sp_module_slot sp_cv_inpaint_telea_slot;
+int sp_cv_inpaint_telea(uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, const uint8_t *mask,
+                        double radius)
+{
+    telea_fn fn = SYMBOL(telea_fn, sp_cv_inpaint_telea);
+    return fn ? fn(rgb, width, height, stride, mask, radius) : SP_EMODULE;
 }
 
 static sp_module_slot sp_cv_mog2_open_slot;

@@ -9,6 +9,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <stdlib.h>
 
 #include "sunprobe/sp_probe.h"
 
@@ -67,6 +68,41 @@ void motion_close(probe_motion *mo);
 void motion_frame(probe_motion *mo, const uint8_t *rgb, uint32_t width);
 
 /* ---- segmentation: refined mask, shadows, components, objects (segment.c) ---- */
+
+/*
+ * Under the open sky a cast shadow keeps the skylight and loses the sun, and skylight is bluer than
+ * sunlight: each channel keeps a different share, red the least and blue the most (on the path-traced
+ * street about 0.48, 0.57, 0.72), so the chromaticity shifts by 0.06-0.13, past the neutral test's
+ * tolerance. Accepted when the kept shares rise from red to blue (within sensor noise), blue keeps
+ * at most all of its light, and blue keeps at most PROBE_SKY_SPREAD times red's share: clothing that
+ * happens to be a darker blue than the ground differs by more.
+ */
+#define PROBE_SKY_SPREAD 2
+static inline int probe_sky_lit(const uint8_t *p, const uint8_t *q, int32_t n)
+{
+    int32_t r = p[0], g = p[1], b = p[2], R = q[0], G = q[1], B = q[2];
+    return (r - n) * G <= (g + n) * R && (g - n) * B <= (b + n) * G && b <= B + n &&
+           (b - n) * R <= PROBE_SKY_SPREAD * (r + n) * B;
+}
+
+/*
+ * Pixel p is a cast shadow on ground of colour q (the plate, or the lit ground near an object): darker
+ * by a ratio in [lo, hi] (1/1024), its normalised chromaticity kept within tol (1/1024) plus what sensor
+ * noise of `noise` levels per channel does to a dark pixel, or skylit. Shared by the probe's
+ * segmentation and single-image removal (depop_mask.c).
+ */
+static inline int probe_shadow_of(const uint8_t *p, const uint8_t *q, int32_t lo, int32_t hi, int32_t tol,
+                                  int32_t noise)
+{
+    int32_t r = p[0], g = p[1], b = p[2], R = q[0], G = q[1], B = q[2];
+    int32_t s = r + g + b, S = R + G + B;
+    if (s * 1024 < lo * S || s * 1024 > hi * S)
+        return 0;
+    /* sum |c/s - C/S| <= tol + 3 noise / s, multiplied through by s*S */
+    int32_t chroma = abs(r * S - R * s) + abs(g * S - G * s) + abs(b * S - B * s);
+    int64_t allowed = (int64_t)tol * s * S + 1024 * 3 * noise * (int64_t)S;
+    return (int64_t)chroma * 1024 <= allowed || probe_sky_lit(p, q, noise);
+}
 
 enum { PROBE_CLS_BG = 0, PROBE_CLS_OBJECT = 1, PROBE_CLS_SHADOW = 2 };
 enum { PROBE_TOUCH_TOP = 1, PROBE_TOUCH_BOTTOM = 2, PROBE_TOUCH_LEFT = 4, PROBE_TOUCH_RIGHT = 8 };

@@ -75,22 +75,6 @@ void segment_close(probe_segment *sg)
 }
 
 /*
- * Under the open sky a cast shadow keeps the skylight and loses the sun, and skylight is bluer than
- * sunlight: each channel keeps a different share, red the least and blue the most (on the path-traced
- * street about 0.48, 0.57, 0.72), so the chromaticity shifts by 0.06-0.13, past the neutral test's
- * tolerance. Accepted when the kept shares rise from red to blue (within sensor noise), blue keeps
- * at most all of its light, and blue keeps at most SKY_SPREAD times red's share: clothing that
- * happens to be a darker blue than the ground differs by more.
- */
-#define SKY_SPREAD 2
-static inline int sky_lit(const uint8_t *p, const uint8_t *q, int32_t n)
-{
-    int32_t r = p[0], g = p[1], b = p[2], R = q[0], G = q[1], B = q[2];
-    return (r - n) * G <= (g + n) * R && (g - n) * B <= (b + n) * G && b <= B + n &&
-           (b - n) * R <= SKY_SPREAD * (r + n) * B;
-}
-
-/*
  * One pixel against the plate: the refined-mask test, then the shadow test on what changed. p is the
  * frame's pixel, sp the same pixel of the denoised frame (NULL on clean footage, see classify). On
  * grainy footage a pixel has changed when both it and its 3x3 neighbourhood differ from the plate, one
@@ -109,20 +93,8 @@ static inline uint8_t classify_pixel(const probe_segment *sg, const uint8_t *p, 
     } else if (d <= t) {
         return PROBE_CLS_BG;
     }
-    int32_t r = p[0], g = p[1], b = p[2];
-    int32_t s = r + g + b, S = R + G + B;
-    /* darker by a bounded ratio: lo <= s/S <= hi, in 1/1024 */
-    if (s * 1024 < sg->shadow_lo * S || s * 1024 > sg->shadow_hi * S)
-        return PROBE_CLS_OBJECT;
-    /*
-     * chromaticity kept: sum |c/s - C/S| <= tol + 3 NOISE / s, multiplied through by s*S; the second
-     * term is what sensor noise of NOISE levels per channel does to the chromaticity of a dark pixel
-     */
-    int32_t chroma = abs(r * S - R * s) + abs(g * S - G * s) + abs(b * S - B * s);
-    int64_t allowed = (int64_t)sg->chroma_tol * s * S + 1024 * 3 * sg->noise_allow * (int64_t)S;
-    if ((int64_t)chroma * 1024 <= allowed)
-        return PROBE_CLS_SHADOW;
-    return sky_lit(p, q, sg->noise_allow) ? PROBE_CLS_SHADOW : PROBE_CLS_OBJECT;
+    return probe_shadow_of(p, q, sg->shadow_lo, sg->shadow_hi, sg->chroma_tol, sg->noise_allow) ? PROBE_CLS_SHADOW
+                                                                                                  : PROBE_CLS_OBJECT;
 }
 
 /*

@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: MIT
 # Builds a release tree and runs the benchmarks; each prints medians and the ratio against its
 # named baseline in the same run. Usage: tools/bench/run.sh [replay|record|render|relight|probe|fit ...]
-# (default: all). Scratch captures are cached in ${SP_BENCH_DIR:-/tmp/sp-bench}.
+# (default: all; depopulate is run only when named). Scratch captures are cached in ${SP_BENCH_DIR:-/tmp/sp-bench}.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 build=${SP_BENCH_BUILD:-build-bench}
@@ -21,6 +21,7 @@ for b in "${which[@]}"; do
     echo "== bench_$b"
     case $b in
         replay) "$exe" "$dir" ;;
+        depopulate) tools/bench/depopulate.sh "$build" "$dir" ;;
         *) "$exe" ;;
     esac
 done

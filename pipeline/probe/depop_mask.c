@@ -1,0 +1,396 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Removal masks from one image: an object's box or mask, a pixel more for
+ * its anti-aliased edge, the contact shadow at its foot and its cast shadow.
+ * With no clean plate the lit ground near the foot is the reference: the
+ * brighter half of a band around the foot, outside every object. The cast
+ * shadow is the ground connected to the foot that is a shadow of that
+ * reference (probe_shadow_of, the probe's own test), no farther than a few
+ * object heights, within a cone around the sun's image direction (when not
+ * given, the direction the dark ground near the foot leans to) and no wider
+ * than the object across it.
+ */
+#include "depopulate.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "probe_internal.h"
+
+enum { M_NONE = 0, M_OBJECT = 1, M_SHADOW = 2 };
+
+void sp_depop_default_settings(sp_depop_settings *s)
+{
+    if (!s)
+        return;
+    *s = (sp_depop_settings){ .cone_deg = 30, .max_length = 3, .ratio_lo = 0.2, .ratio_hi = 0.85,
+                              .chroma_tol = 0.05, .shadows = 1 };
+}
+
+typedef struct grow {
+    const uint8_t *rgb;
+    uint32_t stride;
+    int w, h;
+    uint8_t *mask;
+    int32_t *queue;
+    uint8_t *seen;
+    const sp_depop_settings *s;
+} grow;
+
+static int clampi(int v, int lo, int hi) { return v < lo ? lo : v > hi ? hi : v; }
+
+/*
+ * The lit ground near the foot: mean colour of the band's pixels between its 70th and 95th luma percentiles
+ * (a shadow or a dark road may cover most of the band; a bright stray is rare).
+ */
+static int ground_reference(const grow *g, const sp_depop_object *o, uint8_t ref[3])
+{
+    int h = o->y1 - o->y0 + 1, w = o->x1 - o->x0 + 1;
+    int ya = clampi(o->y1 - h / 8, 0, g->h - 1), yb = clampi(o->y1 + h / 2, 0, g->h - 1);
+    int xa = clampi(o->x0 - w, 0, g->w - 1), xb = clampi(o->x1 + w, 0, g->w - 1);
+    uint32_t hist[256] = { 0 }, n = 0;
+    for (int y = ya; y <= yb; y++)
+        for (int x = xa; x <= xb; x++) {
+            const uint8_t *p = g->rgb + (size_t)y * g->stride + 3 * (size_t)x;
+            if (g->mask[(size_t)y * g->w + x] == M_NONE)
+                hist[(299 * p[0] + 587 * p[1] + 114 * p[2]) / 1000]++, n++;
+        }
+    if (n < 16)
+        return -1;
+    uint32_t acc = 0;
+    int lo = -1, hi = 255;
+    for (int v = 0; v < 256; v++) {
+        acc += hist[v];
+        if (lo < 0 && acc * 10 >= n * 7)
+            lo = v;
+        if (acc * 20 >= n * 19) {
+            hi = v;
+            break;
+        }
+    }
+    double sum[3] = { 0, 0, 0 }, k = 0;
+    for (int y = ya; y <= yb; y++)
+        for (int x = xa; x <= xb; x++) {
+            const uint8_t *p = g->rgb + (size_t)y * g->stride + 3 * (size_t)x;
+            int l = (299 * p[0] + 587 * p[1] + 114 * p[2]) / 1000;
+            if (g->mask[(size_t)y * g->w + x] == M_NONE && l >= lo && l <= hi)
+                sum[0] += p[0], sum[1] += p[1], sum[2] += p[2], k++;
+        }
+    for (int c = 0; c < 3; c++)
+        ref[c] = (uint8_t)lrint(sum[c] / k);
+    return ref[0] + ref[1] + ref[2] > 12 ? 0 : -1; /* black ground: no shadow can be told */
+}
+
+typedef struct cone {
+    double fx, fy;   /* the foot */
+    double dx, dy;   /* unit direction; 0,0: any */
+    double cos_max;  /* of the cone's half angle */
+    double reach;    /* farthest distance from the foot */
+    double half_w;   /* farthest distance across the direction */
+    double free_r;   /* within this of the foot, any direction (the contact area) */
+} cone;
+
+static int in_cone(const cone *c, int x, int y)
+{
+    double ox = x - c->fx, oy = y - c->fy, d = hypot(ox, oy);
+    if (d > c->reach)
+        return 0;
+    if (d <= c->free_r || (c->dx == 0 && c->dy == 0))
+        return 1;
+    double along = ox * c->dx + oy * c->dy, across = fabs(ox * c->dy - oy * c->dx);
+    return along >= c->cos_max * d && across <= c->half_w;
+}
+
+/*
+ * Ground connected to the object's lower quarter that passes the shadow test inside the cone, as
+ * pixel indices in g->queue; returns how many. Nothing is marked: the caller decides.
+ */
+static size_t flood(grow *g, const sp_depop_object *o, const uint8_t ref[3], const cone *c)
+{
+    const sp_depop_settings *s = g->s;
+    int32_t lo = (int32_t)lround(s->ratio_lo * 1024), hi = (int32_t)lround(s->ratio_hi * 1024);
+    int32_t tol = (int32_t)lround(s->chroma_tol * 1024);
+    int h = o->y1 - o->y0 + 1, ys = o->y1 - h / 4, k = (int)ceil(0.04 * h) + 3;
+    size_t n = 0, head = 0;
+    /* seeds: the object's lower part and its contact shadow */
+    for (int y = clampi(ys, 0, g->h - 1); y <= clampi(o->y1 + k, 0, g->h - 1); y++)
+        for (int x = clampi(o->x0 - k, 0, g->w - 1); x <= clampi(o->x1 + k, 0, g->w - 1); x++) {
+            size_t i = (size_t)y * g->w + x;
+            if (g->mask[i] != M_NONE && !g->seen[i])
+                g->seen[i] = 1, g->queue[n++] = (int32_t)i;
+        }
+    size_t seeds = n;
+    while (head < n) {
+        int32_t i = g->queue[head++];
+        int x = i % g->w, y = i / g->w;
+        for (int dy = -1; dy <= 1; dy++)
+            for (int dx = -1; dx <= 1; dx++) {
+                int u = x + dx, v = y + dy;
+                if (u < 0 || v < 0 || u >= g->w || v >= g->h)
+                    continue;
+                size_t j = (size_t)v * g->w + u;
+                if (g->seen[j] || g->mask[j] != M_NONE || !in_cone(c, u, v))
+                    continue;
+                g->seen[j] = 1;
+                if (probe_shadow_of(g->rgb + (size_t)v * g->stride + 3 * (size_t)u, ref, lo, hi, tol, 3))
+                    g->queue[n++] = (int32_t)j;
+            }
+    }
+    for (size_t q = 0; q < n; q++)
+        g->seen[g->queue[q]] = 0;
+    /* the seen flags of rejected pixels are cleared by the caller's sweep over the cone's box */
+    memmove(g->queue, g->queue + seeds, (n - seeds) * sizeof(*g->queue));
+    return n - seeds;
+}
+
+static void clear_seen(grow *g, const cone *c)
+{
+    int x0 = clampi((int)floor(c->fx - c->reach) - 1, 0, g->w - 1), x1 = clampi((int)ceil(c->fx + c->reach) + 1, 0, g->w - 1);
+    int y0 = clampi((int)floor(c->fy - c->reach) - 1, 0, g->h - 1), y1 = clampi((int)ceil(c->fy + c->reach) + 1, 0, g->h - 1);
+    for (int y = y0; y <= y1; y++)
+        memset(g->seen + (size_t)y * g->w + x0, 0, (size_t)(x1 - x0 + 1));
+}
+
+/* Mean offset of the found pixels from the foot. */
+static void mean_offset(const grow *g, size_t n, double fx, double fy, double *mx, double *my)
+{
+    double sx = 0, sy = 0;
+    for (size_t k = 0; k < n; k++)
+        sx += g->queue[k] % g->w - fx, sy += g->queue[k] / g->w - fy;
+    *mx = n ? sx / n : 0, *my = n ? sy / n : 0;
+}
+
+static cone object_cone(const grow *g, const sp_depop_object *o)
+{
+    int h = o->y1 - o->y0 + 1, w = o->x1 - o->x0 + 1;
+    return (cone){ .fx = 0.5 * (o->x0 + o->x1), .fy = o->y1, .reach = g->s->max_length * h,
+                   .cos_max = cos(g->s->cone_deg * M_PI / 180.0), .half_w = 0.75 * w + 2, .free_r = 0.15 * h };
+}
+
+/*
+ * Where the dark ground within one height of the foot leans (a unit vector): 0 when it does, -1 when
+ * there is too little of it, or so much (more than the box's area) that it is dark material, not a shadow.
+ */
+static int near_direction(grow *g, const sp_depop_object *o, const uint8_t ref[3], double *dx, double *dy)
+{
+    int h = o->y1 - o->y0 + 1, w = o->x1 - o->x0 + 1;
+    cone near = object_cone(g, o);
+    near.reach = h;
+    size_t n = flood(g, o, ref, &near);
+    clear_seen(g, &near);
+    double mx, my;
+    mean_offset(g, n, near.fx, near.fy, &mx, &my);
+    double ml = hypot(mx, my);
+    if (n < (size_t)(w > 4 ? w : 4) || n > (size_t)w * h || ml < 0.1 * h)
+        return -1;
+    *dx = mx / ml, *dy = my / ml;
+    return 0;
+}
+
+/* The cast shadow along (dx, dy); refused as a leak into dark material when larger than 1.5 boxes. */
+static void cast_along(grow *g, sp_depop_object *o, const uint8_t ref[3], double dx, double dy)
+{
+    cone c = object_cone(g, o);
+    c.dx = dx, c.dy = dy;
+    size_t n = flood(g, o, ref, &c);
+    clear_seen(g, &c);
+    if ((double)n > 1.5 * (o->x1 - o->x0 + 1) * (o->y1 - o->y0 + 1)) {
+        o->shadow_leak = 1;
+        return;
+    }
+    double mx, my, len = 0;
+    mean_offset(g, n, c.fx, c.fy, &mx, &my);
+    o->tip_x = c.fx, o->tip_y = c.fy;
+    for (size_t k = 0; k < n; k++) {
+        int32_t i = g->queue[k];
+        double along = (i % g->w - c.fx) * c.dx + (i / g->w - c.fy) * c.dy;
+        if (along > len)
+            len = along, o->tip_x = i % g->w, o->tip_y = i / g->w;
+        g->mask[i] = M_SHADOW;
+    }
+    o->shadow_px = (uint32_t)n, o->shadow_dx = mx, o->shadow_dy = my, o->shadow_len = len;
+}
+
+/*
+ * Every object's cast shadow. With the sun's image direction given, along it. Without, each object's
+ * own lean where it agrees with the others' (within 40 degrees of their mean direction), else the
+ * mean's: one sun casts every shadow, and a lone lean is more often dark ground than a shadow.
+ */
+static void cast_shadows(grow *g, sp_depop_object *objs, size_t n)
+{
+    double sl = hypot(g->s->sun_dx, g->s->sun_dy), sx = 0, sy = 0;
+    uint8_t (*ref)[3] = malloc(n * 3 + 1);
+    double (*dir)[2] = calloc(n + 1, sizeof(*dir));
+    int *have = calloc(n + 1, sizeof(int)), agree = 0;
+    for (size_t i = 0; i < n && ref && dir && have; i++) {
+        have[i] = ground_reference(g, &objs[i], ref[i]) ? -1 : sl > 0 ? 1 : 0;
+        if (have[i] == 0 && !near_direction(g, &objs[i], ref[i], &dir[i][0], &dir[i][1]))
+            have[i] = 2, sx += dir[i][0], sy += dir[i][1], agree++;
+    }
+    double ml = hypot(sx, sy);
+    int consensus = agree >= 2 && ml > 0.5 * agree; /* several leans, and they roughly agree */
+    for (size_t i = 0; i < n && ref && dir && have; i++) {
+        if (have[i] == 1)
+            cast_along(g, &objs[i], ref[i], g->s->sun_dx / sl, g->s->sun_dy / sl);
+        else if (have[i] == 2 && consensus && dir[i][0] * sx / ml + dir[i][1] * sy / ml < cos(40 * M_PI / 180))
+            cast_along(g, &objs[i], ref[i], sx / ml, sy / ml);
+        else if (have[i] == 2)
+            cast_along(g, &objs[i], ref[i], dir[i][0], dir[i][1]);
+    }
+    free(ref), free(dir), free(have);
+}
+
+/* Marks the object (its mask or box) and a pixel around it. */
+static void mark_object(grow *g, const sp_depop_object *o)
+{
+    for (int y = clampi(o->y0 - 1, 0, g->h - 1); y <= clampi(o->y1 + 1, 0, g->h - 1); y++)
+        for (int x = clampi(o->x0 - 1, 0, g->w - 1); x <= clampi(o->x1 + 1, 0, g->w - 1); x++) {
+            int hit = 0;
+            for (int v = y - 1; v <= y + 1 && !hit; v++)
+                for (int u = x - 1; u <= x + 1 && !hit; u++)
+                    hit = u >= o->x0 && u <= o->x1 && v >= o->y0 && v <= o->y1 &&
+                          (!o->mask || o->mask[(size_t)v * g->w + u]);
+            if (hit)
+                g->mask[(size_t)y * g->w + x] = M_OBJECT;
+        }
+}
+
+/* The contact shadow: the ground within a few pixels of the object's lowest tenth. */
+static void contact_shadow(grow *g, sp_depop_object *o)
+{
+    int h = o->y1 - o->y0 + 1, k = (int)lround(0.04 * h);
+    k = k < 2 ? 2 : k;
+    int ya = o->y1 - h / 10;
+    uint32_t n = 0;
+    for (int y = clampi(ya - k, 0, g->h - 1); y <= clampi(o->y1 + k, 0, g->h - 1); y++)
+        for (int x = clampi(o->x0 - k, 0, g->w - 1); x <= clampi(o->x1 + k, 0, g->w - 1); x++) {
+            size_t i = (size_t)y * g->w + x;
+            if (g->mask[i] != M_NONE)
+                continue;
+            int near = 0;
+            for (int v = y - k; v <= y + k && !near; v++)
+                for (int u = x - k; u <= x + k && !near; u++)
+                    near = v >= ya && v >= 0 && u >= 0 && u < g->w && v < g->h && v <= o->y1 &&
+                           g->mask[(size_t)v * g->w + u] == M_OBJECT && u >= o->x0 - 1 && u <= o->x1 + 1;
+            if (near)
+                g->mask[i] = M_SHADOW, n++;
+        }
+    o->contact_px = n;
+}
+
+static int check(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, const sp_depop_object *objs,
+                 size_t n, const sp_depop_settings *s, const uint8_t *mask)
+{
+    if (!rgb || !mask || (!objs && n) || !s || width == 0 || height == 0 || width > 32768 || height > 32768 ||
+        stride < 3 * width || !(s->ratio_lo > 0 && s->ratio_lo < s->ratio_hi && s->ratio_hi < 1) ||
+        !(s->cone_deg > 0 && s->cone_deg <= 90) || !(s->max_length > 0 && s->max_length <= 20) ||
+        !(s->chroma_tol >= 0 && s->chroma_tol < 1) || !isfinite(s->sun_dx) || !isfinite(s->sun_dy))
+        return -EINVAL;
+    for (size_t i = 0; i < n; i++)
+        if (objs[i].x0 < 0 || objs[i].y0 < 0 || objs[i].x1 < objs[i].x0 || objs[i].y1 < objs[i].y0 ||
+            objs[i].x1 >= (int)width || objs[i].y1 >= (int)height)
+            return -EINVAL;
+    return 0;
+}
+
+int sp_depop_mask(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, sp_depop_object *objs,
+                  size_t n, const sp_depop_settings *s, uint8_t *mask)
+{
+    sp_depop_settings def;
+    sp_depop_default_settings(&def);
+    s = s ? s : &def;
+    int ret = check(rgb, width, height, stride, objs, n, s, mask);
+    if (ret)
+        return ret;
+    size_t np = (size_t)width * height;
+    grow g = { rgb, stride, (int)width, (int)height, mask, malloc(np * sizeof(int32_t)), calloc(np, 1), s };
+    if (!g.queue || !g.seen) {
+        free(g.queue), free(g.seen);
+        return -ENOMEM;
+    }
+    memset(mask, M_NONE, np);
+    for (size_t i = 0; i < n; i++) {
+        objs[i].shadow_px = objs[i].contact_px = 0, objs[i].shadow_leak = 0;
+        objs[i].shadow_dx = objs[i].shadow_dy = objs[i].shadow_len = 0;
+        mark_object(&g, &objs[i]);
+    }
+    for (size_t i = 0; i < n && s->shadows; i++)
+        contact_shadow(&g, &objs[i]);
+    if (s->shadows)
+        cast_shadows(&g, objs, n);
+    free(g.queue), free(g.seen);
+    return 0;
+}
+
+/* One pixel of dilation keeps each class (object over shadow) so anti-aliased edges go too. */
+static void dilate_classes(uint8_t *mask, uint8_t *tmp, int w, int h)
+{
+    memcpy(tmp, mask, (size_t)w * h);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            uint8_t best = tmp[(size_t)y * w + x];
+            for (int v = y - 1; v <= y + 1; v++)
+                for (int u = x - 1; u <= x + 1; u++)
+                    if (u >= 0 && v >= 0 && u < w && v < h && tmp[(size_t)v * w + u] &&
+                        (!best || tmp[(size_t)v * w + u] < best))
+                        best = tmp[(size_t)v * w + u];
+            mask[(size_t)y * w + x] = best;
+        }
+}
+
+int sp_depop_keeps(const double *keep, size_t n_keep, int x0, int y0, int x1, int y1)
+{
+    for (size_t k = 0; k < n_keep; k++)
+        if (keep[2 * k] >= x0 - 0.5 && keep[2 * k] <= x1 + 0.5 && keep[2 * k + 1] >= y0 - 0.5 &&
+            keep[2 * k + 1] <= y1 + 0.5)
+            return 1;
+    return 0;
+}
+
+int sp_depop_from_plate(const uint8_t *rgb, const uint8_t *plate, uint32_t width, uint32_t height,
+                        const sp_probe_plane *plane, const double *keep, size_t n_keep, sp_depop_object *objs,
+                        size_t cap, size_t *n, size_t *kept, uint8_t *mask)
+{
+    if (!rgb || !plate || !mask || !n || !kept || (!objs && cap) || (!keep && n_keep) || width < 8 || height < 8 ||
+        width > 32768 || height > 32768)
+        return -EINVAL;
+    sp_probe_settings ps;
+    sp_probe_default_settings(&ps);
+    probe_segment sg;
+    int ret = segment_open(&sg, width, height, &ps);
+    uint8_t *tmp = ret ? NULL : malloc((size_t)width * height);
+    if (!ret && !tmp)
+        ret = -ENOMEM;
+    if (ret) {
+        segment_close(&sg);
+        return ret;
+    }
+    segment_frame(&sg, rgb, plate, plane);
+    memset(mask, 0, (size_t)width * height);
+    *n = *kept = 0;
+    for (unsigned k = 0; k < sg.n_obj; k++) {
+        const probe_object *o = &sg.obj[k];
+        if (sp_depop_keeps(keep, n_keep, o->x0, o->y0, o->x1, o->y1)) {
+            (*kept)++;
+            continue;
+        }
+        if (*n < cap)
+            objs[*n] = (sp_depop_object){ .x0 = o->x0, .y0 = o->y0, .x1 = o->x1, .y1 = o->y1,
+                                          .shadow_px = o->shadow_area,
+                                          .shadow_dx = o->shadow_area ? o->shadow_cx - o->foot_x : 0,
+                                          .shadow_dy = o->shadow_area ? o->shadow_cy - o->foot_y : 0 };
+        (*n)++;
+        for (uint32_t y = 0; y < height; y++)
+            for (uint32_t x = 0; x < width; x++) {
+                size_t i = (size_t)y * width + x;
+                if (sg.cls[i] != PROBE_CLS_BG && sg.lab_obj[(y / sg.block) * sg.gw + x / sg.block] == o->label)
+                    mask[i] = sg.cls[i] == PROBE_CLS_OBJECT ? M_OBJECT : M_SHADOW;
+            }
+    }
+    dilate_classes(mask, tmp, (int)width, (int)height);
+    free(tmp);
+    segment_close(&sg);
+    return 0;
+}

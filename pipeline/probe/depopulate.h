@@ -1,0 +1,115 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Emptying a street from one image (pipeline/probe/DEPOPULATE.md): masks for
+ * the objects to remove grown to take their cast and contact shadows, and an
+ * exemplar-based inpainting that fills the holes from the rest of the image.
+ * Internal, not installed; `sunprobe depopulate` is its user.
+ */
+#ifndef SUNPROBE_PIPELINE_PROBE_DEPOPULATE_H
+#define SUNPROBE_PIPELINE_PROBE_DEPOPULATE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "sunprobe/sp_probe.h"
+
+/* ---- exemplar inpainting (inpaint.c) ---- */
+
+typedef struct sp_inpaint_settings {
+    int patch_radius;        /* patches are (2r+1)^2, 1..8, default 4 */
+    int search_radius;       /* source window around each target patch, 0 (default): a sixth of the
+                                shorter side, at least 24 */
+    unsigned max_candidates; /* coarse search budget per patch (a strided grid, then refined), default 1500 */
+    int blend;               /* the best this many sources (1..8) are averaged where nearly as good, default 4 */
+} sp_inpaint_settings;
+
+typedef struct sp_inpaint_report {
+    uint64_t hole_pixels, patches; /* pixels filled, patches copied */
+} sp_inpaint_report;
+
+void sp_inpaint_default_settings(sp_inpaint_settings *s);
+/*
+ * Fills the pixels where mask != 0 of the RGB24 image (rows `stride` bytes
+ * apart, modified in place; mask width x height, borrowed). Returns 0 (an
+ * empty mask changes nothing), -EINVAL for bad arguments, -ENOMEM, or
+ * SP_ENODATA when no whole patch outside the hole exists to copy from (the
+ * image is left as it was).
+ */
+int sp_inpaint_exemplar(uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, const uint8_t *mask,
+                        const sp_inpaint_settings *s, sp_inpaint_report *report);
+
+/* ---- removal masks (depop_mask.c) ---- */
+
+/* One object to remove: its box (inclusive pixels) and its own mask inside the box, if known. */
+typedef struct sp_depop_object {
+    int x0, y0, x1, y1;
+    const uint8_t *mask;     /* NULL: the whole box; else the image-sized object mask (nonzero: object) */
+    /* out: what the shadow search found */
+    uint32_t shadow_px, contact_px;
+    double shadow_dx, shadow_dy; /* mean offset of the cast shadow from the foot, pixels; 0,0: none */
+    double shadow_len;           /* farthest shadow pixel from the foot along that direction, pixels */
+    int shadow_leak;             /* the dark ground along the sun was too large to be its shadow: left */
+    double tip_x, tip_y;         /* the shadow pixel farthest from the foot along the direction */
+} sp_depop_object;
+
+typedef struct sp_depop_settings {
+    double sun_dx, sun_dy;   /* image direction shadows fall in from the foot (any length), 0,0: unknown */
+    double cone_deg;         /* with a direction: how far off it a shadow pixel may lie, default 30 */
+    double max_length;       /* shadow length bound in object heights, default 3 */
+    double ratio_lo, ratio_hi; /* a shadow keeps this share of the lit ground's brightness, default 0.2..0.85 */
+    double chroma_tol;       /* normalised chromaticity change allowed, default 0.05 */
+    int shadows;             /* grow masks by cast and contact shadows, default 1 */
+} sp_depop_settings;
+
+void sp_depop_default_settings(sp_depop_settings *s);
+/*
+ * The removal mask of n objects in an RGB24 image: each object's mask (or
+ * box), a pixel of dilation for its anti-aliased edge, its contact shadow
+ * (dark ground right at the foot) and its cast shadow (dark, chromaticity-
+ * keeping ground connected to the foot, in the sun's direction when known).
+ * Writes mask (width x height; 1 object, 2 shadow) and each object's shadow
+ * figures. -EINVAL for bad arguments, -ENOMEM.
+ */
+int sp_depop_mask(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, sp_depop_object *objs,
+                  size_t n, const sp_depop_settings *s, uint8_t *mask);
+
+/*
+ * Objects and their shadows from a clean plate (a probe directory's): the
+ * probe's own segmentation of the image against the plate (plane may be
+ * NULL). Objects whose box holds one of the n_keep points keep (x, y pairs)
+ * stay. Up to `cap` objects to remove go to objs (their boxes; mask NULL);
+ * mask gets 1 on their pixels and 2 on their shadows, a pixel of dilation
+ * included; *n is how many there are, *kept how many stayed. -EINVAL, -ENOMEM.
+ */
+int sp_depop_from_plate(const uint8_t *rgb, const uint8_t *plate, uint32_t width, uint32_t height,
+                        const sp_probe_plane *plane, const double *keep, size_t n_keep, sp_depop_object *objs,
+                        size_t cap, size_t *n, size_t *kept, uint8_t *mask);
+
+/* 1 when one of the n_keep points (x, y pairs) lies in the box x0..x1, y0..y1. */
+int sp_depop_keeps(const double *keep, size_t n_keep, int x0, int y0, int x1, int y1);
+
+/* ---- the sun from one image (depop_sun.c) ---- */
+
+/* A pinhole camera without roll looking pitch_deg below the horizon; the ground plane below it. */
+typedef struct sp_depop_camera {
+    double f, cx, cy;  /* focal length and principal point, pixels */
+    double pitch_deg;  /* 0..89 */
+} sp_depop_camera;
+
+typedef struct sp_depop_sun {
+    int found;              /* 0: no object cast a usable shadow ("no sun shadows") */
+    double azimuth_deg;     /* from the camera's horizontal view direction towards its right, -180..180 */
+    double elevation_deg;
+    unsigned used;          /* objects whose shadow gave a direction */
+    double azimuth_spread_deg, elevation_spread_deg; /* median absolute deviations over them */
+} sp_depop_sun;
+
+/*
+ * The sun from the objects' cast shadows as sp_depop_mask found them: each
+ * shadow's foot and tip back-projected onto the ground, the object's height
+ * from its box top on the vertical through the foot; azimuth from the
+ * shadow's direction, elevation from height over length; medians over the
+ * objects. -EINVAL for a bad camera.
+ */
+int sp_depop_sun_estimate(const sp_depop_object *objs, size_t n, const sp_depop_camera *cam, sp_depop_sun *out);
+#endif

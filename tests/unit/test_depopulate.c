@@ -1,0 +1,317 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Removal from one image (pipeline/probe/DEPOPULATE.md): the exemplar
+ * inpainting continues an edge through a hole and beats a flat fill on
+ * texture, and handles its extremes (empty hole, no source left, holes at the
+ * border, tiny images, bad settings); the masks take a cast shadow attached
+ * to the foot and leave dark ground that is not attached, follow a given sun
+ * direction, refuse a leak into dark material, and the plate-based path finds
+ * an object and keeps the one the user keeps; the sun from shadows projected
+ * through a known camera, over azimuths all round and elevations 10-60
+ * degrees, with an outlier, and nothing from no shadows or a bad camera.
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "check.h"
+#include "pipeline/probe/depopulate.h"
+#include "sunprobe/sp_common.h"
+
+enum { W = 120, H = 90 };
+
+static uint32_t rng = 12345;
+static int noise(int a)
+{
+    rng = rng * 1664525u + 1013904223u;
+    return (int)(rng >> 24) % (2 * a + 1) - a;
+}
+
+static uint8_t clamp8(int v) { return (uint8_t)(v < 0 ? 0 : v > 255 ? 255 : v); }
+
+/* A vertical edge at x = 60 (dark left, bright right) with a little texture. */
+static void edge_image(uint8_t *rgb)
+{
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            for (int c = 0; c < 3; c++)
+                rgb[3 * (y * W + x) + c] = clamp8((x < 60 ? 60 : 190) + noise(4));
+}
+
+static double hole_mse(const uint8_t *a, const uint8_t *b, const uint8_t *mask)
+{
+    double s = 0;
+    int n = 0;
+    for (int i = 0; i < W * H; i++)
+        if (mask[i])
+            for (int c = 0; c < 3; c++, n++)
+                s += (a[3 * i + c] - b[3 * i + c]) * (double)(a[3 * i + c] - b[3 * i + c]);
+    return s / n;
+}
+
+static void test_edge_continues(void)
+{
+    static uint8_t truth[W * H * 3], img[W * H * 3], flat[W * H * 3], mask[W * H];
+    edge_image(truth);
+    memcpy(img, truth, sizeof(img));
+    memset(mask, 0, sizeof(mask));
+    for (int y = 30; y < 60; y++)
+        for (int x = 45; x < 75; x++)
+            mask[y * W + x] = 1;
+    sp_inpaint_report rep;
+    CHECK_EQ_INT(sp_inpaint_exemplar(img, W, H, W * 3, mask, NULL, &rep), 0);
+    CHECK_EQ_INT((int)rep.hole_pixels, 900);
+    CHECK(rep.patches > 0);
+    /* every hole row changes from dark to bright within a pixel of the true edge */
+    int rows_ok = 0;
+    for (int y = 30; y < 60; y++) {
+        int cross = -1;
+        for (int x = 45; x < 75 && cross < 0; x++)
+            if (img[3 * (y * W + x)] > 125)
+                cross = x;
+        rows_ok += cross >= 59 && cross <= 61;
+    }
+    CHECK_MSG(rows_ok >= 28, "edge continued in %d of 30 rows", rows_ok);
+    /* against the hole's mean colour everywhere (what a smooth fill converges to at the edge) */
+    memcpy(flat, truth, sizeof(flat));
+    double mean = 0;
+    for (int i = 0; i < W * H; i++)
+        mean += mask[i] ? truth[3 * i] : 0;
+    mean /= 900;
+    for (int i = 0; i < W * H; i++)
+        if (mask[i])
+            memset(flat + 3 * i, (int)mean, 3);
+    double ours = hole_mse(img, truth, mask), base = hole_mse(flat, truth, mask);
+    CHECK_MSG(ours < 0.1 * base, "hole MSE %.1f against a flat fill's %.1f", ours, base);
+    /* nothing outside the hole moved */
+    int moved = 0;
+    for (int i = 0; i < W * H; i++)
+        moved += !mask[i] && memcmp(img + 3 * i, truth + 3 * i, 3);
+    CHECK_EQ_INT(moved, 0);
+}
+
+static void test_inpaint_extremes(void)
+{
+    static uint8_t img[W * H * 3], copy[W * H * 3], mask[W * H];
+    edge_image(img);
+    memcpy(copy, img, sizeof(img));
+    memset(mask, 0, sizeof(mask));
+    CHECK_EQ_INT(sp_inpaint_exemplar(img, W, H, W * 3, mask, NULL, NULL), 0); /* empty hole */
+    CHECK(!memcmp(img, copy, sizeof(img)));
+    memset(mask, 1, sizeof(mask)); /* everything: nothing to copy from, image untouched */
+    CHECK_EQ_INT(sp_inpaint_exemplar(img, W, H, W * 3, mask, NULL, NULL), SP_ENODATA);
+    CHECK(!memcmp(img, copy, sizeof(img)));
+    /* a hole in a corner and along a whole edge: filled, and the fill comes from the image */
+    memset(mask, 0, sizeof(mask));
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < 6; x++)
+            mask[y * W + x] = 1;
+    for (int y = 0; y < 10; y++)
+        for (int x = W - 10; x < W; x++)
+            mask[y * W + x] = 1;
+    CHECK_EQ_INT(sp_inpaint_exemplar(img, W, H, W * 3, mask, NULL, NULL), 0);
+    CHECK_MSG(hole_mse(img, copy, mask) < 100, "border holes MSE %.1f", hole_mse(img, copy, mask));
+    /* a hole far wider than the search window: the patches deep inside look everywhere (a coarser grid) */
+    memcpy(img, copy, sizeof(img));
+    memset(mask, 0, sizeof(mask));
+    for (int y = 5; y < H - 5; y++)
+        for (int x = 70; x < W - 5; x++)
+            mask[y * W + x] = 1;
+    sp_inpaint_settings small;
+    sp_inpaint_default_settings(&small);
+    small.search_radius = 8;
+    CHECK_EQ_INT(sp_inpaint_exemplar(img, W, H, W * 3, mask, &small, NULL), 0);
+    CHECK_MSG(hole_mse(img, copy, mask) < 100, "wide hole MSE %.1f", hole_mse(img, copy, mask));
+    /* tiny: one source patch exists in a 3x4 image with patch radius 1 */
+    uint8_t tiny[12 * 3], tmask[12] = { 0 };
+    for (int i = 0; i < 36; i++)
+        tiny[i] = (uint8_t)(50 + i);
+    tmask[11] = 1;
+    sp_inpaint_settings s;
+    sp_inpaint_default_settings(&s);
+    s.patch_radius = 1;
+    CHECK_EQ_INT(sp_inpaint_exemplar(tiny, 3, 4, 9, tmask, &s, NULL), 0);
+    uint8_t one[3] = { 9, 9, 9 }, m1 = 1;
+    CHECK_EQ_INT(sp_inpaint_exemplar(one, 1, 1, 3, &m1, NULL, NULL), SP_ENODATA);
+    s.patch_radius = 0;
+    CHECK_EQ_INT(sp_inpaint_exemplar(img, W, H, W * 3, mask, &s, NULL), -EINVAL);
+    sp_inpaint_default_settings(&s);
+    s.blend = 9;
+    CHECK_EQ_INT(sp_inpaint_exemplar(img, W, H, W * 3, mask, &s, NULL), -EINVAL);
+    CHECK_EQ_INT(sp_inpaint_exemplar(img, W, H, W * 2, mask, NULL, NULL), -EINVAL);
+    CHECK_EQ_INT(sp_inpaint_exemplar(NULL, W, H, W * 3, mask, NULL, NULL), -EINVAL);
+}
+
+/*
+ * Ground (150, 140, 130) with noise; a figure (box x 50..57, y 20..59, foot row 59); its shadow a
+ * 6-px wide strip at half the light from the foot to the right and down (to x 85); a detached dark
+ * patch of the same ratio at x 10..25, y 70..80.
+ */
+static void shadow_scene(uint8_t *rgb, uint8_t *truth_shadow, uint8_t *patch)
+{
+    memset(truth_shadow, 0, W * H), memset(patch, 0, W * H);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            int i = y * W + x;
+            double t = (x - 54) / 31.0, cy = 59 + 15 * t; /* the strip's centre line */
+            int sh = t >= 0 && t <= 1 && fabs(y - cy) <= 3;
+            int pa = x >= 10 && x <= 25 && y >= 70 && y <= 80;
+            truth_shadow[i] = (uint8_t)(sh && !(x >= 50 && x <= 57 && y <= 59));
+            patch[i] = (uint8_t)pa;
+            double k = sh || pa ? 0.5 : 1.0;
+            rgb[3 * i] = clamp8((int)(150 * k) + noise(2));
+            rgb[3 * i + 1] = clamp8((int)(140 * k) + noise(2));
+            rgb[3 * i + 2] = clamp8((int)(130 * k) + noise(2));
+            if (x >= 50 && x <= 57 && y >= 20 && y <= 59)
+                rgb[3 * i] = 200, rgb[3 * i + 1] = 40, rgb[3 * i + 2] = 40;
+        }
+}
+
+static void count(const uint8_t *mask, const uint8_t *where, int *hit, int *n)
+{
+    *hit = *n = 0;
+    for (int i = 0; i < W * H; i++)
+        if (where[i])
+            (*n)++, *hit += mask[i] != 0;
+}
+
+static void test_shadow_masks(void)
+{
+    static uint8_t rgb[W * H * 3], tsh[W * H], patch[W * H], mask[W * H];
+    shadow_scene(rgb, tsh, patch);
+    sp_depop_object o = { .x0 = 50, .y0 = 20, .x1 = 57, .y1 = 59 };
+    sp_depop_settings s;
+    sp_depop_default_settings(&s);
+    int hit, n;
+    CHECK_EQ_INT(sp_depop_mask(rgb, W, H, W * 3, &o, 1, &s, mask), 0);
+    count(mask, tsh, &hit, &n);
+    CHECK_MSG(hit >= 0.9 * n, "found %d of %d shadow pixels (sun unknown)", hit, n);
+    count(mask, patch, &hit, &n);
+    CHECK_MSG(hit == 0, "took %d pixels of the detached dark patch", hit);
+    CHECK(o.shadow_px > 0 && o.shadow_dx > 5 && o.shadow_dy > 2 && o.shadow_len > 20);
+    CHECK_EQ_INT(mask[30 * W + 53], 1); /* the figure is object, its shadow shadow */
+    CHECK_EQ_INT(mask[66 * W + 70], 2);
+    /* the sun given the other way: only the contact area near the foot is taken */
+    s.sun_dx = -1, s.sun_dy = -0.5;
+    CHECK_EQ_INT(sp_depop_mask(rgb, W, H, W * 3, &o, 1, &s, mask), 0);
+    count(mask, tsh, &hit, &n);
+    CHECK_MSG(hit < 0.4 * n, "took %d of %d shadow pixels against the sun", hit, n);
+    /* shadows off: the box and a pixel around it */
+    sp_depop_default_settings(&s);
+    s.shadows = 0;
+    CHECK_EQ_INT(sp_depop_mask(rgb, W, H, W * 3, &o, 1, &s, mask), 0);
+    count(mask, tsh, &hit, &n);
+    CHECK(hit < 0.1 * n);
+    CHECK_EQ_INT(mask[19 * W + 49], 1);
+    CHECK_EQ_INT(mask[18 * W + 49], 0);
+    /* dark material under the whole lower image (a road) attached to the foot: a leak, not a shadow */
+    for (int i = 62 * W; i < W * H; i++)
+        for (int c = 0; c < 3; c++)
+            rgb[3 * i + c] = (uint8_t)(rgb[3 * i + c] > 100 ? rgb[3 * i + c] / 2 : rgb[3 * i + c]);
+    sp_depop_default_settings(&s);
+    s.sun_dx = 1, s.sun_dy = 0.5;
+    CHECK_EQ_INT(sp_depop_mask(rgb, W, H, W * 3, &o, 1, &s, mask), 0);
+    CHECK_MSG(o.shadow_leak == 1, "road: %u shadow pixels, no leak", o.shadow_px);
+    CHECK_EQ_INT(mask[80 * W + 100], 0);
+    /* bad arguments */
+    sp_depop_object bad = { .x0 = 5, .y0 = 5, .x1 = W, .y1 = 10 };
+    CHECK_EQ_INT(sp_depop_mask(rgb, W, H, W * 3, &bad, 1, &s, mask), -EINVAL);
+    s.ratio_hi = 1.5;
+    CHECK_EQ_INT(sp_depop_mask(rgb, W, H, W * 3, &o, 1, &s, mask), -EINVAL);
+}
+
+static void test_from_plate(void)
+{
+    static uint8_t rgb[W * H * 3], plate[W * H * 3], tsh[W * H], patch[W * H], mask[W * H];
+    shadow_scene(rgb, tsh, patch);
+    for (int i = 0; i < W * H; i++) /* the plate: the ground without figure and shadow, keeping the patch */
+        for (int c = 0; c < 3; c++)
+            plate[3 * i + c] = patch[i] ? rgb[3 * i + c] : (uint8_t)(c == 0 ? 150 : c == 1 ? 140 : 130);
+    sp_depop_object objs[4];
+    size_t n = 0, kept = 0;
+    CHECK_EQ_INT(sp_depop_from_plate(rgb, plate, W, H, NULL, NULL, 0, objs, 4, &n, &kept, mask), 0);
+    CHECK_EQ_INT((int)n, 1);
+    CHECK_EQ_INT((int)kept, 0);
+    CHECK(n == 1 && objs[0].x0 <= 50 && objs[0].x1 >= 57 && objs[0].y1 >= 59);
+    int hit, cnt;
+    count(mask, tsh, &hit, &cnt);
+    CHECK_MSG(hit >= 0.9 * cnt, "plate path: %d of %d shadow pixels", hit, cnt);
+    double keep[2] = { 53, 40 };
+    CHECK_EQ_INT(sp_depop_from_plate(rgb, plate, W, H, NULL, keep, 1, objs, 4, &n, &kept, mask), 0);
+    CHECK_EQ_INT((int)n, 0);
+    CHECK_EQ_INT((int)kept, 1);
+    CHECK_EQ_INT(mask[40 * W + 53], 0);
+    CHECK(sp_depop_keeps(keep, 1, 50, 20, 57, 59) && !sp_depop_keeps(keep, 1, 0, 0, 10, 10));
+    CHECK_EQ_INT(sp_depop_from_plate(rgb, NULL, W, H, NULL, NULL, 0, objs, 4, &n, &kept, mask), -EINVAL);
+}
+
+/* Projects world point (x, y, z) (camera at height 1 over the origin, view along +y, pitched down). */
+static void project(const sp_depop_camera *c, double x, double y, double z, double *u, double *v)
+{
+    double p = c->pitch_deg * M_PI / 180, cs = cos(p), sn = sin(p);
+    double X = x, Y = -sn * y - cs * (z - 1), Z = cs * y - sn * (z - 1);
+    *u = c->cx + c->f * X / Z, *v = c->cy + c->f * Y / Z;
+}
+
+/* A person `h` camera heights tall at ground point (gx, gy) under the sun (az, el): its box and shadow tip. */
+static sp_depop_object person(const sp_depop_camera *c, double gx, double gy, double h, double az, double el)
+{
+    double r = M_PI / 180, L = h / tan(el * r), sx = -sin(az * r) * L, sy = -cos(az * r) * L, fu, fv, hu, hv, tu, tv;
+    project(c, gx, gy, 0, &fu, &fv);
+    project(c, gx, gy, h, &hu, &hv);
+    project(c, gx + sx, gy + sy, 0, &tu, &tv);
+    int x0 = (int)lround(fu) - 3;
+    return (sp_depop_object){ .x0 = x0, .x1 = x0 + 6, .y0 = (int)lround(hv + 0.5), .y1 = (int)lround(fv - 0.5),
+                              .shadow_px = 500, .tip_x = tu - 0.5, .tip_y = tv - 0.5 };
+}
+
+static void test_sun(void)
+{
+    sp_depop_camera cam = { 800, 640, 360, 20 };
+    static const double suns[][2] = { { -30, 40 }, { 60, 25 }, { -132.5, 33 }, { 170, 60 }, { 95, 10 } };
+    for (size_t k = 0; k < sizeof(suns) / sizeof(suns[0]); k++) {
+        sp_depop_object o[3] = { person(&cam, -1.0, 5, 0.4, suns[k][0], suns[k][1]),
+                                 person(&cam, 1.5, 8, 0.42, suns[k][0], suns[k][1]),
+                                 person(&cam, 0.3, 3.5, 0.38, suns[k][0], suns[k][1]) };
+        sp_depop_sun e;
+        CHECK_EQ_INT(sp_depop_sun_estimate(o, 3, &cam, &e), 0);
+        double da = fabs(remainder(e.azimuth_deg - suns[k][0], 360.0));
+        CHECK_MSG(e.found && e.used == 3 && da < 1.5 && fabs(e.elevation_deg - suns[k][1]) < 1.5,
+                  "sun %.1f/%.1f: found %d from %u, %.2f/%.2f", suns[k][0], suns[k][1], e.found, e.used,
+                  e.azimuth_deg, e.elevation_deg);
+    }
+    /* one shadow in the wrong direction among three: the medians keep the sun */
+    sp_depop_object o[3] = { person(&cam, -1.0, 5, 0.4, -30, 40), person(&cam, 1.5, 8, 0.42, -30, 40),
+                             person(&cam, 0.3, 3.5, 0.38, 120, 15) };
+    sp_depop_sun e;
+    CHECK_EQ_INT(sp_depop_sun_estimate(o, 3, &cam, &e), 0);
+    CHECK_MSG(fabs(e.azimuth_deg + 30) < 5 && fabs(e.elevation_deg - 40) < 5, "outlier: %.1f/%.1f", e.azimuth_deg,
+              e.elevation_deg);
+    /* no shadows (overcast), a leak, a speck: "no sun shadows" */
+    o[0].shadow_px = 0, o[1].shadow_leak = 1, o[2].shadow_px = 5;
+    CHECK_EQ_INT(sp_depop_sun_estimate(o, 3, &cam, &e), 0);
+    CHECK(!e.found && e.used == 0);
+    CHECK_EQ_INT(sp_depop_sun_estimate(NULL, 0, &cam, &e), 0);
+    CHECK(!e.found);
+    /* a shadow tip above the horizon gives nothing */
+    sp_depop_object sky = person(&cam, 0, 5, 0.4, -30, 40);
+    sky.tip_y = -500;
+    CHECK_EQ_INT(sp_depop_sun_estimate(&sky, 1, &cam, &e), 0);
+    CHECK(!e.found);
+    sp_depop_camera bad = { 0, 640, 360, 20 };
+    CHECK_EQ_INT(sp_depop_sun_estimate(o, 3, &bad, &e), -EINVAL);
+    bad.f = 800, bad.pitch_deg = 90;
+    CHECK_EQ_INT(sp_depop_sun_estimate(o, 3, &bad, &e), -EINVAL);
+}
+
+int main(void)
+{
+    test_edge_continues();
+    test_inpaint_extremes();
+    test_shadow_masks();
+    test_from_plate();
+    test_sun();
+    return check_exit();
+}

@@ -1,0 +1,328 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Removal from one image against the truth's empty street: PSNR and SSIM in
+ * the removed region (every pixel the truth says an object or its shadow
+ * changed, and every pixel either method changed) for exemplar inpainting on
+ * the grown masks (objects from boxes + their shadows) against OpenCV's Telea
+ * on the object masks alone (the baseline), with the two ablations between
+ * them; then the time of one 1280x720 depopulation on one core.
+ *
+ * With --camera (and --sun, the truth's sun as azimuth from the view direction to the right and
+ * elevation), also the sun from each frame's shadows (depop_sun.c) and its error.
+ *
+ * usage: bench_depopulate [--time FRAME.png BACKGROUND.png] [--camera F,CX,CY,PITCH [--sun AZ,EL]]
+ *                         LABEL FRAME BACKGROUND IDS SHADOWS ...
+ *   IDS "-": objects are the pixels that differ from the background and are no shadow of it;
+ *   SHADOWS "-": the removed region is every pixel that differs from the background (noise-free
+ *   frames), else the IDS and SHADOWS images' nonzero pixels (grainy frames)
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bench_util.h"
+#include "common/image_metrics.h"
+#include "export/png.h"
+#include "export/png_read.h"
+#include "pipeline/probe/depopulate.h"
+#include "pipeline/probe/opencv_probe_shim.h"
+#include "pipeline/probe/probe_internal.h"
+#include "sp_config.h"
+
+#define MAX_OBJ 64
+#define N_METHODS 4
+
+static const char *const method_names[N_METHODS] = {
+    "Telea, object boxes alone (baseline)", "Telea, grown masks", "exemplar, object boxes alone",
+    "exemplar, grown masks (ours)" };
+
+typedef struct sun_eval {
+    int on, truth;
+    sp_depop_camera cam;
+    double az, el;            /* the truth */
+    double err_az[256], err_el[256];
+    int frames, found;
+} sun_eval;
+
+static sun_eval sun;
+
+typedef struct scene {
+    uint8_t *rgb, *bg, *objpx; /* objpx: the truth's object pixels */
+    uint32_t w, h;
+    sp_depop_object obj[MAX_OBJ];
+    size_t n;
+    uint8_t *changed; /* the truth's removed region: objects and their shadows */
+} scene;
+
+static int load_ids(scene *s, const char *ids)
+{
+    uint8_t *rgba = NULL;
+    uint32_t w, h;
+    int ret = sp_png_read_rgba(ids, &rgba, &w, &h);
+    if (ret || w != s->w || h != s->h) {
+        free(rgba);
+        return ret ? ret : -EINVAL;
+    }
+    for (size_t i = 0; i < (size_t)w * h; i++)
+        s->objpx[i] = rgba[4 * i] ? rgba[4 * i] : 0;
+    free(rgba);
+    return 0;
+}
+
+/* Objects without an id image: changed pixels that are no shadow of the background. */
+static void objects_from_background(scene *s)
+{
+    for (size_t i = 0; i < (size_t)s->w * s->h; i++) {
+        const uint8_t *p = s->rgb + 3 * i, *q = s->bg + 3 * i;
+        int d = abs(p[0] - q[0]) + abs(p[1] - q[1]) + abs(p[2] - q[2]);
+        s->objpx[i] = d > 12 && !probe_shadow_of(p, q, 200, 1000, 40, 3) ? 1 : 0;
+    }
+}
+
+/* Boxes: 8-connected components of the object pixels (ids apart), closed over 2 pixels, 20 px or more. */
+static void boxes(scene *s)
+{
+    int w = (int)s->w, h = (int)s->h;
+    int32_t *lab = calloc((size_t)w * h, sizeof(int32_t)), *q = malloc((size_t)w * h * sizeof(int32_t));
+    int32_t next = 0;
+    for (int y = 0; y < h && lab && q; y++)
+        for (int x = 0; x < w; x++) {
+            size_t i = (size_t)y * w + x;
+            if (!s->objpx[i] || lab[i])
+                continue;
+            size_t head = 0, n = 0;
+            int x0 = x, y0 = y, x1 = x, y1 = y;
+            lab[i] = ++next, q[n++] = (int32_t)i;
+            while (head < n) {
+                int32_t k = q[head++];
+                int u0 = k % w, v0 = k / w;
+                x0 = u0 < x0 ? u0 : x0, x1 = u0 > x1 ? u0 : x1, y0 = v0 < y0 ? v0 : y0, y1 = v0 > y1 ? v0 : y1;
+                for (int v = v0 - 2; v <= v0 + 2; v++)
+                    for (int u = u0 - 2; u <= u0 + 2; u++) {
+                        size_t j = (size_t)v * w + u;
+                        if (u >= 0 && v >= 0 && u < w && v < h && !lab[j] && s->objpx[j] == s->objpx[i])
+                            lab[j] = next, q[n++] = (int32_t)j;
+                    }
+            }
+            if (n >= 20 && s->n < MAX_OBJ)
+                s->obj[s->n++] = (sp_depop_object){ .x0 = x0, .y0 = y0, .x1 = x1, .y1 = y1 };
+        }
+    free(lab), free(q);
+}
+
+/* The truth's removed region from its object and shadow images (nonzero pixels). */
+static int load_region(scene *s, const char *shadows)
+{
+    uint8_t *rgba = NULL;
+    uint32_t w, h;
+    int ret = sp_png_read_rgba(shadows, &rgba, &w, &h);
+    if (!ret && (w != s->w || h != s->h))
+        ret = -EINVAL;
+    for (size_t i = 0; !ret && i < (size_t)w * h; i++)
+        s->changed[i] = s->objpx[i] || rgba[4 * i];
+    free(rgba);
+    return ret;
+}
+
+static int load(scene *s, const char *frame, const char *bgpath, const char *ids, const char *shadows)
+{
+    uint32_t w, h;
+    int ret = sp_image_read_rgb8(frame, &s->rgb, &s->w, &s->h);
+    if (!ret)
+        ret = sp_image_read_rgb8(bgpath, &s->bg, &w, &h);
+    if (!ret && (w != s->w || h != s->h))
+        ret = -EINVAL;
+    size_t n = (size_t)s->w * s->h;
+    if (!ret && (!(s->objpx = calloc(n, 1)) || !(s->changed = calloc(n, 1))))
+        ret = -ENOMEM;
+    if (!ret && ids && strcmp(ids, "-"))
+        ret = load_ids(s, ids);
+    else if (!ret)
+        objects_from_background(s);
+    if (!ret && shadows && strcmp(shadows, "-"))
+        ret = load_region(s, shadows);
+    else
+        for (size_t i = 0; !ret && i < n; i++) {
+            const uint8_t *p = s->rgb + 3 * i, *q = s->bg + 3 * i;
+            s->changed[i] = s->objpx[i] || abs(p[0] - q[0]) + abs(p[1] - q[1]) + abs(p[2] - q[2]) > 24;
+        }
+    if (ret)
+        return ret;
+    boxes(s);
+    return 0;
+}
+
+static void to_float(const uint8_t *rgb, float *f, size_t n)
+{
+    for (size_t i = 0; i < 3 * n; i++)
+        f[i] = rgb[i] / 255.0f;
+}
+
+/* The sun from the frame's grown masks, against the truth's. */
+static void sun_frame(const sp_depop_object *obj, size_t n)
+{
+    sp_depop_sun e;
+    if (sp_depop_sun_estimate(obj, n, &sun.cam, &e) || sun.frames >= 256)
+        return;
+    sun.frames++;
+    if (!e.found) {
+        printf("  sun: no sun shadows\n");
+        return;
+    }
+    double da = fabs(e.azimuth_deg - sun.az);
+    da = da > 180 ? 360 - da : da;
+    sun.err_az[sun.found] = da, sun.err_el[sun.found] = fabs(e.elevation_deg - sun.el);
+    sun.found++;
+    printf("  sun: azimuth %7.1f elevation %5.1f from %u shadows (spread %.1f, %.1f)%s", e.azimuth_deg,
+           e.elevation_deg, e.used, e.azimuth_spread_deg, e.elevation_spread_deg, sun.truth ? "" : "\n");
+    if (sun.truth)
+        printf("; error %.1f, %.1f deg\n", da, sun.err_el[sun.found - 1]);
+}
+
+/* Runs one method into out; mask_out gets the pixels it replaced. */
+static int run_method(const scene *s, int m, uint8_t *out, uint8_t *mask)
+{
+    size_t n = (size_t)s->w * s->h;
+    sp_depop_settings ds;
+    sp_depop_default_settings(&ds);
+    ds.shadows = m == 1 || m == 3;
+    sp_depop_object obj[MAX_OBJ];
+    memcpy(obj, s->obj, sizeof(obj));
+    int ret = sp_depop_mask(s->rgb, s->w, s->h, s->w * 3, obj, s->n, &ds, mask);
+    memcpy(out, s->rgb, 3 * n);
+    if (!ret && m == 3 && sun.on)
+        sun_frame(obj, s->n);
+    if (ret)
+        return ret;
+    if (m >= 2)
+        return sp_inpaint_exemplar(out, s->w, s->h, s->w * 3, mask, NULL, NULL);
+#if HAVE_OPENCV
+    return sp_cv_inpaint_telea(out, s->w, s->h, s->w * 3, mask, 3);
+#else
+    return SP_EDISABLED;
+#endif
+}
+
+static int score(const char *label, const scene *s, double psnr[N_METHODS], double ssim[N_METHODS])
+{
+    size_t n = (size_t)s->w * s->h;
+    uint8_t *out[N_METHODS], *mask[N_METHODS], *region = malloc(n);
+    float *a = malloc(3 * n * sizeof(float)), *b = malloc(3 * n * sizeof(float));
+    int ret = region && a && b ? 0 : -ENOMEM;
+    for (int m = 0; m < N_METHODS; m++) {
+        out[m] = malloc(3 * n), mask[m] = malloc(n);
+        if (!ret && out[m] && mask[m])
+            ret = run_method(s, m, out[m], mask[m]);
+        else if (!ret)
+            ret = -ENOMEM;
+    }
+    for (size_t i = 0; !ret && i < n; i++) {
+        region[i] = s->changed[i];
+        for (int m = 0; m < N_METHODS; m++)
+            region[i] |= mask[m][i] != 0;
+    }
+    if (!ret)
+        to_float(s->bg, b, n);
+    for (int m = 0; m < N_METHODS && !ret; m++) {
+        to_float(out[m], a, n);
+        psnr[m] = sp_psnr_masked(a, b, region, (int)s->w, (int)s->h);
+        ssim[m] = sp_ssim_masked(a, b, region, (int)s->w, (int)s->h);
+    }
+    const char *dump = getenv("SP_BENCH_DUMP"); /* a folder: each method's result, to look at */
+    for (int m = 0; m < N_METHODS && !ret && dump; m++) {
+        char path[4096];
+        snprintf(path, sizeof(path), "%s/%s.%d.png", dump, label, m);
+        sp_png_write(path, out[m], s->w, s->h, s->w * 3, 3);
+    }
+    size_t truth = 0, hit = 0, extra = 0;
+    for (size_t i = 0; !ret && i < n; i++)
+        truth += s->changed[i], hit += s->changed[i] && mask[3][i], extra += !s->changed[i] && mask[3][i];
+    if (!ret)
+        printf("%-28s %2zu objects  Telea %6.2f dB %.3f  ours %6.2f dB %.3f  (grown mask holds %.1f%% of the truth's "
+               "region, %.1f%% more)\n", label, s->n, psnr[0], ssim[0], psnr[3], ssim[3], 100.0 * hit / truth,
+               100.0 * extra / truth);
+    for (int m = 0; m < N_METHODS; m++)
+        free(out[m]), free(mask[m]);
+    free(region), free(a), free(b);
+    return ret;
+}
+
+static void scene_free(scene *s)
+{
+    free(s->rgb), free(s->bg), free(s->objpx), free(s->changed);
+}
+
+/* CPU time of one depopulation (masks + inpainting) of the frame with the truth's boxes, median of 3. */
+static void time_one(const char *frame, const char *bgpath)
+{
+    scene s = { 0 };
+    if (load(&s, frame, bgpath, "-", "-")) {
+        fprintf(stderr, "bench_depopulate: cannot read %s / %s\n", frame, bgpath);
+        return;
+    }
+    size_t n = (size_t)s.w * s.h;
+    uint8_t *out = malloc(3 * n), *mask = malloc(n);
+    double t[3][2];
+    for (int r = 0; r < 3 && out && mask; r++)
+        for (int m = 0; m < 2; m++) {
+            int64_t t0 = bench_thread_cpu_ns();
+            run_method(&s, m ? 3 : 0, out, mask);
+            t[r][m] = (bench_thread_cpu_ns() - t0) * 1e-9;
+        }
+    double ours[3] = { t[0][1], t[1][1], t[2][1] }, telea[3] = { t[0][0], t[1][0], t[2][0] };
+    uint64_t holes = 0;
+    for (size_t i = 0; i < n && mask; i++)
+        holes += mask[i] != 0;
+    printf("time %ux%u, %zu objects, %llu hole pixels: ours %.3f s CPU (median of 3), Telea on the object boxes "
+           "%.3f s; ratio %.2f\n", s.w, s.h, s.n, (unsigned long long)holes, bench_median(ours, 3),
+           bench_median(telea, 3), bench_median(ours, 3) / bench_median(telea, 3));
+    free(out), free(mask);
+    scene_free(&s);
+}
+
+int main(int argc, char **argv)
+{
+#if HAVE_OPENCV
+    sp_cv_set_threads(1);
+#endif
+    double psnr[256][N_METHODS], ssim[256][N_METHODS];
+    int k = 0, i = 1;
+    if (i + 2 < argc && !strcmp(argv[i], "--time")) {
+        time_one(argv[i + 1], argv[i + 2]);
+        i += 3;
+    }
+    double v[4];
+    if (i + 1 < argc && !strcmp(argv[i], "--camera") &&
+        sscanf(argv[i + 1], "%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2], &v[3]) == 4) {
+        sun.on = 1, sun.cam = (sp_depop_camera){ v[0], v[1], v[2], v[3] };
+        i += 2;
+    }
+    if (i + 1 < argc && !strcmp(argv[i], "--sun") && sscanf(argv[i + 1], "%lf,%lf", &sun.az, &sun.el) == 2) {
+        sun.truth = 1;
+        i += 2;
+    }
+    for (; i + 4 < argc && k < 256; i += 5) {
+        scene s = { 0 };
+        if (load(&s, argv[i + 1], argv[i + 2], argv[i + 3], argv[i + 4]) || !s.n ||
+            score(argv[i], &s, psnr[k], ssim[k]))
+            fprintf(stderr, "bench_depopulate: %s: skipped (unreadable, no objects or no OpenCV)\n", argv[i]);
+        else
+            k++;
+        scene_free(&s);
+    }
+    for (int m = 0; m < N_METHODS && k; m++) {
+        double p[256], q[256];
+        for (int j = 0; j < k; j++)
+            p[j] = psnr[j][m], q[j] = ssim[j][m];
+        printf("median over %d frames: %-38s PSNR %6.2f dB  SSIM %.3f\n", k, method_names[m], bench_median(p, k),
+               bench_median(q, k));
+    }
+    if (sun.on && sun.truth && sun.found)
+        printf("sun over %d frames: %d with shadows; median error azimuth %.1f deg, elevation %.1f deg\n", sun.frames,
+               sun.found, bench_median(sun.err_az, sun.found), bench_median(sun.err_el, sun.found));
+    else if (sun.on)
+        printf("sun over %d frames: %d with shadows\n", sun.frames, sun.found);
+    return 0;
+}
