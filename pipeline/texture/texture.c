@@ -132,9 +132,9 @@ static void scatter(tiler *t, int i, int j, int x0, int y0, int w, int h)
             float *v = finished(t, i, j, x0 + x, y0 + y, &pending);
             if (!v) /* the core: finished() does not count it yet */
                 v = t->band + 3 * ((size_t)(y0 + y - (t->ys[j] - t->halo)) * t->W + (size_t)(x0 + x));
-            float a = d > 0 ? (float)(t->blend + 1 - d) / (float)(t->blend + 1) : 1.0f;
-            for (int c = 0; c < 3; c++)
-                v[c] += a * (t->win[3 * p + c] - v[c]);
+            float a = (float)(t->blend + 1 - d) / (float)(t->blend + 1);
+            for (int c = 0; c < 3; c++) /* the core is new: its old band values are not pixels yet */
+                v[c] = d > 0 ? v[c] + a * (t->win[3 * p + c] - v[c]) : t->win[3 * p + c];
         }
 }
 
