@@ -23,7 +23,7 @@ typedef struct texture_args {
     const char *in, *out;
     uint32_t width, height;
     sp_texture_settings s;
-    int quiet, force;
+    int quiet, force, sized;
 } texture_args;
 
 static void usage(FILE *out)
@@ -73,6 +73,7 @@ static int parse_option(int c, texture_args *a)
             fprintf(stderr, "sunprobe texture: --size '%s': expected WxH, such as 2304x2304\n", optarg);
             return SP_EXIT_USAGE;
         }
+        a->sized = 1;
         return 0;
     case OPT_SEED:
         if (sp_opt_u64("texture", "--seed", optarg, 0, UINT64_MAX, &u))
@@ -135,7 +136,7 @@ static int parse_args(int argc, char **argv, texture_args *a)
     while ((c = getopt_long(argc, argv, "o:fqh", opts, NULL)) != -1)
         if ((code = parse_option(c, a)))
             return code;
-    if (optind != argc - 1 || !a->out || !a->width) {
+    if (optind != argc - 1 || !a->out || !a->sized) {
         if (optind == argc - 1 && a->out)
             fprintf(stderr, "sunprobe texture: --size WxH is required\n");
         else
