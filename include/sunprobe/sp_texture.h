@@ -9,7 +9,7 @@
  * bands of rows as they finish. The result depends on the seed only, never on
  * the thread count.
  *
- * Images are linear float RGB, interleaved, rows top first, values in [0, 1].
+ * Images are float RGB in [0, 1] (any encoding: the synthesis compares values), interleaved, rows top first.
  */
 #ifndef SUNPROBE_SP_TEXTURE_H
 #define SUNPROBE_SP_TEXTURE_H
@@ -29,7 +29,7 @@ typedef struct sp_texture_settings {
     int patch;          /* patch side in pixels, 4..32, default 8 */
     int tile;           /* tile core side in pixels, >= 4 * patch (at least 64), default 256 */
     int levels;         /* pyramid levels, 0 (default): as many as the exemplar allows, at most 4 */
-    int iterations;     /* optimisation passes per level, 1..16, default 3 */
+    int iterations;     /* optimisation passes at the finest level (doubled per coarser one), 1..16, default 3 */
     int threads;        /* 0 (default): every online CPU */
     double reuse;       /* penalty on reusing an exemplar region, 0..10, default 0.5 */
     uint64_t seed;      /* default 1 */

@@ -167,15 +167,14 @@ static void run_vote(void *ctx, int task)
     for (int y = task * c->band; y < y1; y++)
         for (int x = 0; x < W->w; x++) {
             size_t p = (size_t)y * W->w + x;
-            float s[3] = { 0, 0, 0 }, best = FLT_MAX;
-            int n = 0;
+            float s[3] = { 0, 0, 0 }, best = FLT_MAX, n = 0;
             int32_t bsrc = W->src[p];
             for (int j = g->loy[y]; j < g->hiy[y]; j++)
                 for (int i = g->lox[x]; i < g->hix[x]; i++) {
                     int32_t q = g->nn[j * g->nx + i] + (y - g->py[j]) * ex->w + (x - g->px[i]);
                     const float *e = ex->px + 3 * (size_t)q;
                     s[0] += e[0], s[1] += e[1], s[2] += e[2];
-                    n++;
+                    n += 1;
                     if (g->d[j * g->nx + i] < best)
                         best = g->d[j * g->nx + i], bsrc = q;
                 }
@@ -183,7 +182,7 @@ static void run_vote(void *ctx, int task)
             float *o = W->next + 3 * p;
             const float *old = W->img + 3 * p;
             for (int ch = 0; ch < 3; ch++)
-                o[ch] = W->fixed[p] == TEX_FIXED || !n ? old[ch] : s[ch] / (float)n;
+                o[ch] = W->fixed[p] == TEX_FIXED || n <= 0 ? old[ch] : s[ch] / n;
         }
 }
 
@@ -295,7 +294,8 @@ static int run_level(const tex_job *job, level_win *W, int level)
         return -ENOMEM;
     }
     iter_ctx c = { job, ex, W, &g, cuts, cuts + W->w / s + 4, 0, 0, level, 0, 0, pen, bw };
-    for (c.iter = 0; c.iter < job->s->iterations; c.iter++) {
+    int iters = job->s->iterations << level; /* coarse passes are cheap and settle the layout */
+    for (c.iter = 0; c.iter < iters; c.iter++) {
         reuse_penalty(W, ex, P, job->s->reuse, pen, bw, bh);
         run_iteration(&c, s, side);
     }
