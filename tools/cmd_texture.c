@@ -15,8 +15,10 @@
 
 #include "cmd.h"
 #include "common/file_util.h"
+#include "export/oiio_shim.h"
 #include "export/png.h"
 #include "export/png_read.h"
+#include "sp_config.h"
 #include "sunprobe/sp_texture.h"
 
 typedef struct texture_args {
@@ -24,17 +26,19 @@ typedef struct texture_args {
     uint32_t width, height;
     sp_texture_settings s;
     int quiet, force, sized;
+    int tiled;          /* OUT is .tif/.tiff/.exr: a tiled image through OpenImageIO */
 } texture_args;
 
 static void usage(FILE *out)
 {
-    fprintf(out, "usage: sunprobe texture EXEMPLAR.png -o OUT.png --size WxH [options]\n\n"
+    fprintf(out, "usage: sunprobe texture EXEMPLAR.png -o OUT.png|.tif|.exr --size WxH [options]\n\n"
                  "Synthesises a texture of any size that looks like the exemplar: multi-scale patch\n"
                  "optimisation over random crops, each pixel the mean of the patch votes covering it, made\n"
                  "in tiles and written row band by row band (memory does not grow with the size).\n"
                  "The same seed gives the same image whatever the thread count.\n\n"
                  "options:\n"
-                 "  -o, --output PNG      the texture (written as OUT.partial, renamed when complete)\n"
+                 "  -o, --output FILE     the texture: .png (row by row), or .tif / .exr (tiled, 8-bit / float;\n"
+                 "                        needs -Dopenimageio); made under a .partial name, renamed when complete\n"
                  "      --size WxH        its size in pixels, each side %d..%u\n"
                  "      --seed N          random seed (default 1)\n"
                  "      --patch P         patch side, 4..32 (default 8)\n"
@@ -144,19 +148,37 @@ static int parse_args(int argc, char **argv, texture_args *a)
         return SP_EXIT_USAGE;
     }
     a->in = argv[optind];
-    size_t n = strlen(a->out);
-    if (n < 4 || strcmp(a->out + n - 4, ".png")) {
-        fprintf(stderr, "sunprobe texture: -o %s: the output must be a .png file\n", a->out);
+    const char *dot = strrchr(a->out, '.');
+    a->tiled = dot && (!strcmp(dot, ".tif") || !strcmp(dot, ".tiff") || !strcmp(dot, ".exr"));
+    if (!dot || (strcmp(dot, ".png") && !a->tiled)) {
+        fprintf(stderr, "sunprobe texture: -o %s: the output must be a .png, .tif, .tiff or .exr file\n", a->out);
         return SP_EXIT_USAGE;
+    }
+    if (a->tiled && !HAVE_OPENIMAGEIO) {
+        fprintf(stderr, "sunprobe texture: -o %s: tiled TIFF and EXR need OpenImageIO; build with "
+                        "-Dopenimageio=enabled, or write a .png\n", a->out);
+        return SP_EXIT_DISABLED;
     }
     return check_sizes(a);
 }
 
-/* The exemplar as float RGB in [0, 1]; alpha is ignored. */
+/* The exemplar as float RGB in [0, 1] (alpha is ignored): a PNG, or what OpenImageIO reads. */
 static int load_exemplar(const texture_args *a, float **rgb, uint32_t *w, uint32_t *h)
 {
     uint8_t *rgba = NULL;
     int ret = sp_png_read_rgba(a->in, &rgba, w, h);
+#if HAVE_OPENIMAGEIO
+    if (ret == SP_EFORMAT) { /* not a PNG: TIFF, EXR, JPEG... */
+        if ((ret = sp_image_read_rgb(a->in, rgb, w, h)))
+            return sp_cmd_fail("texture", ret, a->in);
+        if (*w >= (uint32_t)a->s.patch && *h >= (uint32_t)a->s.patch)
+            return 0;
+        free(*rgb);
+        fprintf(stderr, "sunprobe texture: %s: %ux%u is smaller than the %dx%d patch\n", a->in, *w, *h, a->s.patch,
+                a->s.patch);
+        return SP_EXIT_BAD_INPUT;
+    }
+#endif
     if (ret)
         return sp_cmd_fail("texture", ret, a->in);
     if (*w < (uint32_t)a->s.patch || *h < (uint32_t)a->s.patch) {
@@ -178,6 +200,7 @@ typedef struct png_sink {
     sp_png_stream *png;
     uint8_t *row;
     uint32_t width;
+    sp_tiled_image *tiled;
 } png_sink;
 
 static int write_band(void *ctx, uint32_t y0, uint32_t n, const float *rgb)
@@ -186,6 +209,8 @@ static int write_band(void *ctx, uint32_t y0, uint32_t n, const float *rgb)
     png_sink *k = ctx;
     if (sp_cmd_stop_signal)
         return -EINTR;
+    if (k->tiled)
+        return sp_tiled_rows(k->tiled, n, rgb);
     for (uint32_t y = 0; y < n; y++) {
         const float *r = rgb + (size_t)y * k->width * 3;
         for (size_t i = 0; i < (size_t)k->width * 3; i++) {
@@ -199,6 +224,20 @@ static int write_band(void *ctx, uint32_t y0, uint32_t n, const float *rgb)
     return 0;
 }
 
+#if HAVE_OPENIMAGEIO
+/* Synthesises into a tiled image at path (tiles of the synthesis' size when a multiple of 16, else 64). */
+static int synthesize_tiled(const texture_args *a, const char *path, const float *ex, uint32_t ew, uint32_t eh)
+{
+    png_sink k = { 0 };
+    uint32_t tile = a->s.tile % 16 ? 64 : (uint32_t)a->s.tile;
+    int ret = sp_tiled_open(&k.tiled, path, a->width, a->height, tile);
+    if (!ret)
+        ret = sp_texture_synthesize(ex, ew, eh, a->width, a->height, &a->s, write_band, &k);
+    int fin = sp_tiled_close(&k.tiled);
+    return ret ? ret : fin;
+}
+#endif
+
 /* Synthesises into the open file f; 0 or an error (the caller removes the file). */
 static int synthesize_to(const texture_args *a, FILE *f, const float *ex, uint32_t ew, uint32_t eh)
 {
@@ -211,6 +250,19 @@ static int synthesize_to(const texture_args *a, FILE *f, const float *ex, uint32
     return ret ? ret : fin;
 }
 
+/* "OUT.tif.partial" becomes "OUT.tif.partial.tif". */
+static int keep_extension(sp_partial *pf, const char *out)
+{
+    const char *dot = strrchr(out, '.');
+    size_t n = strlen(pf->path), e = strlen(dot);
+    char *p = realloc(pf->path, n + e + 1);
+    if (!p)
+        return -ENOMEM;
+    memcpy(p + n, dot, e + 1);
+    pf->path = p;
+    return 0;
+}
+
 static int run(const texture_args *a, const float *ex, uint32_t ew, uint32_t eh)
 {
     if (!a->force && access(a->out, F_OK) == 0) {
@@ -221,13 +273,19 @@ static int run(const texture_args *a, const float *ex, uint32_t ew, uint32_t eh)
     int ret = sp_partial_file_open(&pf, a->out);
     if (ret)
         return sp_cmd_fail("texture", ret, a->out);
-    FILE *f = fopen(pf.path, "wb");
+    if (a->tiled) /* OpenImageIO picks the format by the extension: the partial name keeps it */
+        ret = keep_extension(&pf, a->out);
+    FILE *f = ret ? NULL : fopen(pf.path, "wb");
     if (!f) {
-        ret = -errno;
+        ret = ret ? ret : -errno;
         sp_partial_forget(&pf);
         return sp_cmd_fail("texture", ret, a->out);
     }
+#if HAVE_OPENIMAGEIO
+    ret = a->tiled ? synthesize_tiled(a, pf.path, ex, ew, eh) : synthesize_to(a, f, ex, ew, eh);
+#else
     ret = synthesize_to(a, f, ex, ew, eh);
+#endif
     if (!ret && (fflush(f) || fsync(fileno(f))))
         ret = sp_write_error();
     if (fclose(f) && !ret)

@@ -30,6 +30,22 @@ expect 0 "texture, seed 2" "$SP" texture "$dir/ex.png" -o "$dir/t3.png" --size 3
 cmp -s "$T" "$dir/t3.png" && fail "--seed 2 gave the seed-1 texture"
 expect 0 "tileable" "$SP" texture "$dir/ex.png" -o "$dir/tt.png" --size 128x128 --tileable -q
 
+# tiled TIFF and EXR through OpenImageIO: the PNG's pixels, or exit 4 naming the option without it
+if "$SP" texture "$dir/ex.png" -o "$dir/t.tif" --size 300x200 --tile 128 -q 2>"$dir/err.txt"; then
+    "$MK" same "$T" "$dir/t.tif" || fail "the tiled TIFF differs from the PNG"
+    expect 0 "tiled EXR" "$SP" texture "$dir/ex.png" -o "$dir/t.exr" --size 300x200 --tile 128 -q
+    "$MK" same "$T" "$dir/t.exr" || fail "the tiled EXR differs from the PNG"
+    expect 0 "a TIFF exemplar" "$SP" texture "$dir/t.tif" -o "$dir/t4.png" --size 64x64 -q
+    cp "$dir/t.tif" "$dir/old.tif"
+    expect 3 "TIFF under a write limit" bash -c 'ulimit -f 32; trap "" XFSZ; exec "$0" texture "$1" -o "$2" --size 1500x1500 -f -q' \
+        "$SP" "$dir/ex.png" "$dir/t.tif"
+    contains "$dir/err.txt" "t.tif: writing the texture" "TIFF write limit message"
+    cmp -s "$dir/t.tif" "$dir/old.tif" || fail "TIFF write limit: the old texture was changed"
+    no_partial "TIFF write limit"
+else
+    contains "$dir/err.txt" "-Dopenimageio" "TIFF without OpenImageIO"
+fi
+
 expect 3 "existing output" "$SP" texture "$dir/ex.png" -o "$T" --size 64x64
 contains "$dir/err.txt" "exists.*--force" "existing output"
 expect 2 "exemplar smaller than the patch" "$SP" texture "$dir/thin.png" -o "$dir/x.png" --size 64x64
