@@ -17,6 +17,14 @@ expect() { # expected-exit-code description command...
     [ "$got" -eq "$want" ] || { fail "$what: exit $got, expected $want"; sed 's/^/  | /' "$dir/out.txt" "$dir/err.txt"; }
 }
 contains() { grep -qiE -- "$2" "$1" || { fail "$3: no /$2/ in output"; sed 's/^/  | /' "$1"; }; }
+write_limit() { # OUT KiB SIZE expected-message: exit 3 under ulimit -f, OUT kept byte for byte, nothing partial
+    cp "$1" "$dir/old"
+    expect 3 "$1 under a write limit" bash -c 'ulimit -f "$3"; trap "" XFSZ; exec "$0" texture "$1" -o "$2" --size "$4" -f -q' \
+        "$SP" "$dir/ex.png" "$1" "$2" "$3"
+    contains "$dir/err.txt" "$4" "$1 write limit message"
+    cmp -s "$1" "$dir/old" || fail "$1 under a write limit: the old texture was changed"
+    no_partial "$1 under a write limit"
+}
 no_partial() { local left; left=$(find "$dir" -name '*.partial*'); [ -z "$left" ] || fail "$1: left behind: $left"; }
 
 "$MK" stones 96 96 "$dir/ex.png" || exit 1
@@ -36,12 +44,7 @@ if "$SP" texture "$dir/ex.png" -o "$dir/t.tif" --size 300x200 --tile 128 -q 2>"$
     expect 0 "tiled EXR" "$SP" texture "$dir/ex.png" -o "$dir/t.exr" --size 300x200 --tile 128 -q
     "$MK" same "$T" "$dir/t.exr" || fail "the tiled EXR differs from the PNG"
     expect 0 "a TIFF exemplar" "$SP" texture "$dir/t.tif" -o "$dir/t4.png" --size 64x64 -q
-    cp "$dir/t.tif" "$dir/old.tif"
-    expect 3 "TIFF under a write limit" bash -c 'ulimit -f 32; trap "" XFSZ; exec "$0" texture "$1" -o "$2" --size 1500x1500 -f -q' \
-        "$SP" "$dir/ex.png" "$dir/t.tif"
-    contains "$dir/err.txt" "t.tif: writing the texture" "TIFF write limit message"
-    cmp -s "$dir/t.tif" "$dir/old.tif" || fail "TIFF write limit: the old texture was changed"
-    no_partial "TIFF write limit"
+    write_limit "$dir/t.tif" 32 1500x1500 "t.tif: writing the texture"
 else
     contains "$dir/err.txt" "-Dopenimageio" "TIFF without OpenImageIO"
 fi
@@ -65,12 +68,7 @@ contains "$dir/err.txt" "none.png" "missing exemplar"
 [ -e "$dir/x.png" ] && fail "a refused run left x.png"
 
 # a write limit: the texture does not fit in 64 KiB; the old T stays, nothing partial is left
-cp "$T" "$dir/old.png"
-expect 3 "write limit" bash -c 'ulimit -f 64; trap "" XFSZ; exec "$0" texture "$1" -o "$2" --size 1200x1200 --force' \
-    "$SP" "$dir/ex.png" "$T"
-contains "$dir/err.txt" "t.png: writing the texture: (file too large|no space)" "write limit message"
-cmp -s "$T" "$dir/old.png" || fail "write limit: the old texture was changed"
-no_partial "write limit"
+write_limit "$T" 64 1200x1200 "t.png: writing the texture: (file too large|no space)"
 
 # a really full file system, where mounting a tmpfs is permitted
 mkdir "$dir/mnt"
