@@ -70,6 +70,23 @@ contains "$dir/err.txt" "none.png" "missing exemplar"
 # a write limit: the texture does not fit in 64 KiB; the old T stays, nothing partial is left
 write_limit "$T" 64 1200x1200 "t.png: writing the texture: (file too large|no space)"
 
+# Ctrl-C mid-way: exit 130, the old texture kept, nothing partial left
+cp "$T" "$dir/old"
+"$SP" texture "$dir/ex.png" -o "$T" --size 4000x4000 -f -q 2>"$dir/err.txt" &
+pid=$!
+sleep 1
+kill -INT $pid
+wait $pid
+rc=$?
+if [ $rc = 0 ]; then
+    echo "note: the texture was finished before the signal came; the interrupt case did not run"
+    cp "$dir/old" "$T"
+else
+    [ $rc = 130 ] || fail "SIGINT: exit $rc, expected 130"
+    cmp -s "$T" "$dir/old" || fail "SIGINT: the old texture was changed"
+fi
+no_partial "SIGINT"
+
 # a really full file system, where mounting a tmpfs is permitted
 mkdir "$dir/mnt"
 if unshare -m true 2>/dev/null; then
