@@ -34,7 +34,7 @@ static void usage(FILE *out)
     fprintf(out, "usage: sunprobe texture EXEMPLAR.png -o OUT.png|.tif|.exr --size WxH [options]\n\n"
                  "Synthesises a texture of any size that looks like the exemplar: multi-scale patch\n"
                  "optimisation over random crops, each pixel the mean of the patch votes covering it, made\n"
-                 "in tiles and written row band by row band (memory does not grow with the size).\n"
+                 "in tiles and written as they finish (memory grows with the width, not the height).\n"
                  "The same seed gives the same image whatever the thread count.\n\n"
                  "options:\n"
                  "  -o, --output FILE     the texture: .png (row by row), or .tif / .exr (tiled, 8-bit / float;\n"
