@@ -209,8 +209,10 @@ static int write_band(void *ctx, uint32_t y0, uint32_t n, const float *rgb)
     png_sink *k = ctx;
     if (sp_cmd_stop_signal)
         return -EINTR;
+#if HAVE_OPENIMAGEIO
     if (k->tiled)
         return sp_tiled_rows(k->tiled, n, rgb);
+#endif
     for (uint32_t y = 0; y < n; y++) {
         const float *r = rgb + (size_t)y * k->width * 3;
         for (size_t i = 0; i < (size_t)k->width * 3; i++) {
