@@ -5,6 +5,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <memory>
 #include <string>
 
@@ -82,6 +83,96 @@ template <class F> int guarded(const char *path, F f)
 }
 
 } // namespace
+
+struct sp_tiled_image {
+    std::unique_ptr<OIIO::ImageOutput> out;
+    std::string path;
+    uint32_t width, height, tile, rows_in = 0, rows_out = 0;
+    std::unique_ptr<float[]> band; /* one row of tiles */
+};
+
+namespace {
+
+/* The buffered tile row (rows_out .. rows_in) to the file, every tile of it. */
+int flush_tiles(sp_tiled_image *t)
+{
+    uint32_t h = t->rows_in - t->rows_out;
+    bool ok = t->out->write_tiles(0, (int)t->width, (int)t->rows_out, (int)(t->rows_out + h), 0, 1,
+                                  OIIO::TypeDesc::FLOAT, t->band.get());
+    if (!ok) {
+        sp_log(SP_LOG_ERROR, "oiio", "%s: %s", t->path.c_str(), t->out->geterror().c_str());
+        return -EIO;
+    }
+    t->rows_out = t->rows_in;
+    return 0;
+}
+
+} // namespace
+
+extern "C" int sp_tiled_open(sp_tiled_image **out, const char *path, uint32_t width, uint32_t height, uint32_t tile)
+{
+    if (!out || !path || !width || !height || tile < 16 || tile % 16 || width > (1u << 30) || height > (1u << 30))
+        return -EINVAL;
+    *out = nullptr;
+    return guarded(path, [&] {
+        std::unique_ptr<sp_tiled_image> t(new sp_tiled_image());
+        t->path = path;
+        t->width = width, t->height = height, t->tile = tile;
+        t->out = OIIO::ImageOutput::create(path);
+        if (!t->out || !t->out->supports("tiles")) {
+            sp_log(SP_LOG_ERROR, "oiio", "%s: no tiled writer for this extension", path);
+            return -EINVAL;
+        }
+        bool exr = t->out->format_name() == std::string("openexr");
+        OIIO::ImageSpec spec((int)width, (int)height, 3, exr ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT8);
+        spec.tile_width = spec.tile_height = (int)tile;
+        spec.attribute("compression", "zip");
+        t->band.reset(new float[(size_t)width * tile * 3]);
+        if (!t->out->open(path, spec)) {
+            sp_log(SP_LOG_ERROR, "oiio", "%s: %s", path, t->out->geterror().c_str());
+            return -EIO;
+        }
+        *out = t.release();
+        return 0;
+    });
+}
+
+extern "C" int sp_tiled_rows(sp_tiled_image *t, uint32_t n, const float *rgb)
+{
+    if (!t || !rgb || n > t->height - t->rows_in)
+        return -EINVAL;
+    return guarded(t->path.c_str(), [&] {
+        for (uint32_t y = 0; y < n; y++) {
+            std::memcpy(t->band.get() + (size_t)(t->rows_in - t->rows_out) * t->width * 3,
+                        rgb + (size_t)y * t->width * 3, sizeof(float) * 3 * t->width);
+            t->rows_in++;
+            if (t->rows_in - t->rows_out == t->tile || t->rows_in == t->height) {
+                int ret = flush_tiles(t);
+                if (ret)
+                    return ret;
+            }
+        }
+        return 0;
+    });
+}
+
+extern "C" int sp_tiled_close(sp_tiled_image **tp)
+{
+    sp_tiled_image *t = tp ? *tp : nullptr;
+    if (!t)
+        return 0;
+    *tp = nullptr;
+    int ret = guarded(t->path.c_str(), [&] {
+        int r = t->rows_out == t->height ? 0 : -EINVAL;
+        if (!t->out->close() && !r) {
+            sp_log(SP_LOG_ERROR, "oiio", "%s: %s", t->path.c_str(), t->out->geterror().c_str());
+            r = -EIO;
+        }
+        return r;
+    });
+    delete t;
+    return ret;
+}
 
 extern "C" int sp_image_read_rgb(const char *path, float **rgb, uint32_t *width, uint32_t *height)
 {

@@ -28,6 +28,20 @@ int sp_exr_write(const char *path, const float *pixels, uint32_t width, uint32_t
  */
 int sp_image_read_rgb(const char *path, float **rgb, uint32_t *width, uint32_t *height);
 
+/*
+ * A tiled image (TIFF or OpenEXR, by the extension of `path`) written a row of
+ * tiles at a time, so it never has to be whole in memory: rows arrive in order
+ * (any count per call) and each complete row of tiles goes to the file. 8-bit for
+ * TIFF, 32-bit float for EXR; `path` is written in place (the caller names a
+ * temporary and renames it). Errors: -EINVAL, -ENOMEM, -EIO (the reason logged).
+ */
+typedef struct sp_tiled_image sp_tiled_image;
+int sp_tiled_open(sp_tiled_image **out, const char *path, uint32_t width, uint32_t height, uint32_t tile);
+/* n RGB float rows (width x 3 each, borrowed) continuing the image. */
+int sp_tiled_rows(sp_tiled_image *t, uint32_t n, const float *rgb);
+/* Writes what is left, closes and frees *t (accepts NULL); 0 only when every row came and the file closed well. */
+int sp_tiled_close(sp_tiled_image **t);
+
 #ifdef __cplusplus
 }
 #endif

@@ -177,3 +177,155 @@ int sp_png_encode(const uint8_t *pixels, uint32_t width, uint32_t height, uint32
     *out_size = n;
     return 0;
 }
+
+struct sp_png_stream {
+    FILE *f;
+    uint32_t width, height, rows_done, row_bytes;
+    int error;
+    uint8_t *buf;   /* IDAT payload being gathered */
+    size_t used;
+#if HAVE_ZLIB
+    z_stream z;
+#else
+    uint32_t adler_a, adler_b;
+#endif
+};
+
+#define STREAM_IDAT 65536
+
+static int stream_flush(sp_png_stream *s)
+{
+    int ret = s->used ? write_chunk(s->f, "IDAT", s->buf, s->used) : 0;
+    s->used = 0;
+    return ret;
+}
+
+#if HAVE_ZLIB
+/* Feeds n bytes through deflate, writing an IDAT whenever the buffer fills. */
+static int stream_put(sp_png_stream *s, const uint8_t *p, size_t n, int flush)
+{
+    s->z.next_in = (Bytef *)(uintptr_t)p;
+    s->z.avail_in = (uInt)n;
+    for (;;) {
+        s->z.next_out = s->buf + s->used;
+        s->z.avail_out = (uInt)(STREAM_IDAT - s->used);
+        int zr = deflate(&s->z, flush);
+        s->used = STREAM_IDAT - s->z.avail_out;
+        if (zr == Z_STREAM_ERROR)
+            return -EIO;
+        if (s->used == STREAM_IDAT) {
+            int ret = stream_flush(s);
+            if (ret)
+                return ret;
+            continue;
+        }
+        if (flush == Z_FINISH ? zr == Z_STREAM_END : s->z.avail_in == 0)
+            return 0;
+    }
+}
+#else
+/* A stored deflate block per row; the zlib header went first, the final empty block and Adler-32 go last. */
+static int stream_put(sp_png_stream *s, const uint8_t *p, size_t n, int last)
+{
+    uint8_t hdr[5] = { (uint8_t)(last ? 1 : 0), (uint8_t)n, (uint8_t)(n >> 8), (uint8_t)~n, (uint8_t)(~n >> 8) };
+    if (s->used + 5 + n + 4 > STREAM_IDAT) {
+        int ret = stream_flush(s);
+        if (ret)
+            return ret;
+    }
+    memcpy(s->buf + s->used, hdr, 5);
+    memcpy(s->buf + s->used + 5, p, n);
+    s->used += 5 + n;
+    for (size_t i = 0; i < n; i++) {
+        s->adler_a = (s->adler_a + p[i]) % 65521;
+        s->adler_b = (s->adler_b + s->adler_a) % 65521;
+    }
+    if (last) {
+        put_be32(s->buf + s->used, (s->adler_b << 16) | s->adler_a);
+        s->used += 4;
+    }
+    return 0;
+}
+#endif
+
+int sp_png_stream_open(sp_png_stream **out, FILE *f, uint32_t width, uint32_t height, int channels)
+{
+    static const uint8_t color_type[5] = { 0, 0, 0, 2, 6 };
+    /* stored blocks hold a row of at most 65535 bytes; zlib has no such limit */
+    if (!out || !f || !width || !height || (channels != 1 && channels != 3 && channels != 4) ||
+        width > 0x7fffffffu / 4 || (!HAVE_ZLIB && (size_t)width * channels + 1 > 65535))
+        return -EINVAL;
+    if (!crc_table[1])
+        crc_init();
+    sp_png_stream *s = calloc(1, sizeof(*s));
+    if (!s || !(s->buf = malloc(STREAM_IDAT))) {
+        free(s);
+        return -ENOMEM;
+    }
+    *s = (sp_png_stream){ .f = f, .width = width, .height = height, .row_bytes = width * (uint32_t)channels,
+                          .buf = s->buf };
+#if HAVE_ZLIB
+    if (deflateInit(&s->z, 6) != Z_OK) {
+        free(s->buf), free(s);
+        return -ENOMEM;
+    }
+#else
+    s->adler_a = 1;
+    s->buf[s->used++] = 0x78, s->buf[s->used++] = 0x01;
+#endif
+    static const uint8_t sig[8] = { 0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n' };
+    uint8_t ihdr[13] = { 0 };
+    put_be32(ihdr, width);
+    put_be32(ihdr + 4, height);
+    ihdr[8] = 8;
+    ihdr[9] = color_type[channels];
+    int ret = fwrite(sig, 1, 8, f) != 8 ? sp_write_error() : write_chunk(f, "IHDR", ihdr, 13);
+    *out = s;
+    if (ret)
+        sp_png_stream_finish(out);
+    return ret;
+}
+
+int sp_png_stream_rows(sp_png_stream *s, const uint8_t *rows, uint32_t n, uint32_t stride)
+{
+    if (!s || !rows || n > s->height - s->rows_done || stride < s->row_bytes)
+        return -EINVAL;
+    uint8_t filter = 0;
+    for (uint32_t y = 0; y < n && !s->error; y++) {
+#if HAVE_ZLIB
+        s->error = stream_put(s, &filter, 1, Z_NO_FLUSH);
+        if (!s->error)
+            s->error = stream_put(s, rows + (size_t)y * stride, s->row_bytes, Z_NO_FLUSH);
+#else
+        uint8_t line[65536];
+        line[0] = filter;
+        memcpy(line + 1, rows + (size_t)y * stride, s->row_bytes);
+        s->error = stream_put(s, line, s->row_bytes + 1, 0);
+#endif
+        s->rows_done++;
+    }
+    return s->error;
+}
+
+int sp_png_stream_finish(sp_png_stream **sp)
+{
+    sp_png_stream *s = sp ? *sp : NULL;
+    if (!s)
+        return 0;
+    int ret = s->error ? s->error : s->rows_done == s->height ? 0 : -EINVAL;
+#if HAVE_ZLIB
+    if (!ret)
+        ret = stream_put(s, NULL, 0, Z_FINISH);
+    deflateEnd(&s->z);
+#else
+    if (!ret)
+        ret = stream_put(s, NULL, 0, 1);
+#endif
+    if (!ret)
+        ret = stream_flush(s);
+    if (!ret)
+        ret = write_chunk(s->f, "IEND", NULL, 0);
+    free(s->buf), free(s);
+    *sp = NULL;
+    return ret;
+}

@@ -83,5 +83,6 @@ int sp_cmd_fit(int argc, char **argv);
 int sp_cmd_relight(int argc, char **argv);
 int sp_cmd_evaluate(int argc, char **argv); /* score a face directory against a capture with ground truth */
 int sp_cmd_export(int argc, char **argv); /* export a face directory (glTF / OBJ / Draco) */
+int sp_cmd_texture(int argc, char **argv); /* texture synthesis from an exemplar, any size */
 
 #endif

@@ -16,6 +16,7 @@ static const sp_command commands[] = {
     { "import", "image sequence or video (+ IMU CSV + metadata JSON) to a capture", sp_cmd_import },
     { "export-video", "capture frames to PNG files or a video file", sp_cmd_export_video },
     { "synth", "generate a synthetic capture with ground truth", sp_cmd_synth },
+    { "texture", "synthesise a texture of any size from an exemplar image", sp_cmd_texture },
     { "fit", "rotating selfie: fit face geometry, reflectance, sun and sky (SunStage)", sp_cmd_fit },
     { "relight", "render a fitted face directory under a new sun and sky", sp_cmd_relight },
     { "evaluate", "score a fitted face against a capture with ground truth (gt/relight, gt/nvs)", sp_cmd_evaluate },

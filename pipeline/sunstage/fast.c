@@ -433,7 +433,7 @@ static int fill_unseen(fast_ctx *c)
         return 0; /* nothing observed: the map stays at its prior */
     ss->fit.have_observed = 1;
     sp_log(SP_LOG_INFO, MOD, "albedo: %zu of %zu texels observed, the rest filled from them", seen, n);
-    return ss_albedo_fill_unobserved(ss->fit.albedo, ss->fit.tw, ss->fit.th, ss->fit.observed);
+    return ss_albedo_complete(ss);
 }
 
 #define NH (1 + NK)              /* one channel's albedo-scaled shading terms: sun diffuse, then the env lobes */

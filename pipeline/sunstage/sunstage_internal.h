@@ -90,7 +90,8 @@ typedef struct ss_fit_state {
     int tw, th;                 /* texture size */
     int matched_rows;           /* texture_size 0: rows of one texel per face pixel (after stage 1), else 0 */
     float *albedo, *disp;
-    uint8_t *observed;          /* per texel: 1 when a keyframe saw it, 0 when filled from its neighbours */
+    uint8_t *observed;          /* per texel: 1 when a keyframe saw it, 0 when filled from its neighbours,
+                                   SS_TEXEL_SYNTHESISED when filled with synthesised skin (skin_fill.c) */
     int have_observed;          /* the fast solver set `observed` (the Adam reference fills nothing) */
     double ks[SP_RENDER_CLUSTERS], shin[SP_RENDER_CLUSTERS];
     float env[SP_RENDER_ENV_FLOATS];
@@ -266,6 +267,19 @@ double ss_albedo_typical_weight(const double *den, const uint8_t *seen, size_t n
 void ss_albedo_neighbours(const float *albedo, int w, int h, size_t t3, double out[3]);
 /* Replaces the texels with observed == 0 by a push-pull interpolation of the others; -ENOMEM. */
 int ss_albedo_fill_unobserved(float *albedo, int w, int h, const uint8_t *observed);
+/* ---- skin_fill.c: the face's unseen skin ---- */
+#define SS_TEXEL_SYNTHESISED 2 /* `observed` value of a texel filled with synthesised skin */
+/*
+ * Push-pull for every unobserved texel, then synthesised skin for those of a skin cluster, from the
+ * observed texels of the same cluster (marked SS_TEXEL_SYNTHESISED); -ENOMEM.
+ */
+int ss_albedo_complete(sp_sunstage *ss);
+/*
+ * The synthesis part alone, on a w x h map (RGB) whose unobserved texels hold push-pull's colours;
+ * clusters: a cw x ch map of cluster ids (nearest sample per texel). Also for a face directory's maps.
+ */
+int ss_skin_synthesise(float *albedo, int w, int h, uint8_t *observed, const uint8_t *clusters, int cw, int ch,
+                       int threads);
 
 /* ---- lsq.c: small dense solves ---- */
 /* Solves (A + lambda diag) x = b in place of b for symmetric positive A (n x n, row-major); -EDOM if singular. */

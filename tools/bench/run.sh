@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: MIT
 # Builds a release tree and runs the benchmarks; each prints medians and the ratio against its
-# named baseline in the same run. Usage: tools/bench/run.sh [replay|record|render|relight|probe|fit ...]
+# named baseline in the same run. Usage: tools/bench/run.sh [replay|record|render|relight|probe|fit|texture ...]
 # (default: all; depopulate is run only when named). Scratch captures are cached in ${SP_BENCH_DIR:-/tmp/sp-bench}.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -11,7 +11,7 @@ ninja -C "$build" >/dev/null
 dir=${SP_BENCH_DIR:-/tmp/sp-bench}
 mkdir -p "$dir"
 which=("$@")
-[ ${#which[@]} -gt 0 ] || which=(replay record render relight probe fit)
+[ ${#which[@]} -gt 0 ] || which=(replay record render relight probe fit texture)
 for b in "${which[@]}"; do
     exe="$build/tools/bench/bench_$b"
     if [ ! -x "$exe" ]; then

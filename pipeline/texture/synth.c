@@ -1,0 +1,393 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * One window's multi-scale synthesis. Per level and iteration a lattice of
+ * patches (stride patch/2, random offset) is cut into crops at a random place;
+ * each crop (a pool task owning its patches' matches, so the result does not
+ * depend on the threads) matches them to the exemplar by PatchMatch from the
+ * previous source map, with a penalty on exemplar regions the window already
+ * uses more than their share. Then each free pixel becomes the mean of the
+ * votes of all patches covering it, across crop borders (pool tasks by rows).
+ */
+#include "texture_internal.h"
+
+#include <errno.h>
+#include <float.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define CROP_MIN 64 /* crop side (level pixels) when a patch is small */
+#define N_RANDOM 2  /* fresh draws from anywhere per patch and pass */
+
+typedef struct level_win {
+    float *img, *next;       /* w x h x 3 */
+    uint8_t *fixed;
+    int32_t *src, *src_next; /* exemplar pixel each window pixel comes from (y * ew + x) */
+    int w, h;
+} level_win;
+
+/* One iteration's patch lattice: positions, per pixel the patches covering it, and each patch's match. */
+typedef struct pgrid {
+    int *px, *py, nx, ny;
+    int *lox, *loy;          /* per column / row: first covering patch; the range ends at lo of +1 past P */
+    int *hix, *hiy;
+    int32_t *nn;             /* exemplar start per patch */
+    float *d;                /* its distance + penalty */
+} pgrid;
+
+typedef struct iter_ctx {
+    const tex_job *job;
+    const tex_level *ex;
+    level_win *win;
+    pgrid *g;
+    const int *cx, *cy;      /* crop boundaries in patch indices, ncx + 1 and ncy + 1 */
+    int ncx, ncy, level, iter, band;
+    const float *pen;        /* penalty per exemplar bin */
+    int bins_w;
+} iter_ctx;
+
+static uint64_t rng_next(uint64_t *s)
+{
+    *s += 0x9E3779B97F4A7C15ull;
+    return tex_hash(*s, 0);
+}
+
+static float patch_dist(const float *a, int astride, const float *b, int bstride, int P, float bound)
+{
+    float d = 0;
+    for (int y = 0; y < P; y++) {
+        const float *ra = a + (size_t)y * astride, *rb = b + (size_t)y * bstride;
+        float r0 = 0, r1 = 0, r2 = 0, r3 = 0;
+        int i = 0;
+        for (; i + 4 <= 3 * P; i += 4) {
+            float t0 = ra[i] - rb[i], t1 = ra[i + 1] - rb[i + 1], t2 = ra[i + 2] - rb[i + 2], t3 = ra[i + 3] - rb[i + 3];
+            r0 += t0 * t0, r1 += t1 * t1, r2 += t2 * t2, r3 += t3 * t3;
+        }
+        for (; i < 3 * P; i++)
+            r0 += (ra[i] - rb[i]) * (ra[i] - rb[i]);
+        d += (r0 + r1) + (r2 + r3);
+        if (d >= bound)
+            return d;
+    }
+    return d;
+}
+
+/* A candidate patch start (ex pixel index) made usable: clamped into the exemplar; -1 where the mask refuses it. */
+static int32_t usable(const tex_level *ex, int P, int x, int y)
+{
+    x = x < 0 ? 0 : x > ex->w - P ? ex->w - P : x;
+    y = y < 0 ? 0 : y > ex->h - P ? ex->h - P : y;
+    int32_t i = y * ex->w + x;
+    return ex->valid && !ex->valid[i] ? -1 : i;
+}
+
+static float cand_cost(const iter_ctx *c, int i, int j, int32_t n, float bound)
+{
+    const tex_level *ex = c->ex;
+    int P = c->job->ex->patch, ew = ex->w;
+    float pen = c->pen[(n / ew / P) * c->bins_w + (n % ew) / P];
+    if (pen >= bound)
+        return FLT_MAX;
+    const float *a = c->win->img + 3 * ((size_t)c->g->py[j] * c->win->w + c->g->px[i]);
+    return pen + patch_dist(a, 3 * c->win->w, ex->px + 3 * (size_t)n, 3 * ew, P, bound - pen);
+}
+
+static void try_cand(const iter_ctx *c, int i, int j, int32_t n)
+{
+    pgrid *g = c->g;
+    int idx = j * g->nx + i;
+    if (n < 0 || n == g->nn[idx])
+        return;
+    float d = cand_cost(c, i, j, n, g->d[idx]);
+    if (d < g->d[idx])
+        g->d[idx] = d, g->nn[idx] = n;
+}
+
+/* The neighbour's match shifted by the distance between the two patches (neighbours in the same crop only). */
+static void propagate(const iter_ctx *c, const int box[4], int i, int j, int ni, int nj)
+{
+    if (ni < box[0] || nj < box[1] || ni >= box[2] || nj >= box[3])
+        return;
+    const pgrid *g = c->g;
+    int32_t n = g->nn[nj * g->nx + ni];
+    int ew = c->ex->w;
+    try_cand(c, i, j, usable(c->ex, c->job->ex->patch, n % ew + g->px[i] - g->px[ni], n / ew + g->py[j] - g->py[nj]));
+}
+
+static void search(const iter_ctx *c, int i, int j, uint64_t *rng)
+{
+    const tex_level *ex = c->ex;
+    int P = c->job->ex->patch;
+    int32_t cur = c->g->nn[j * c->g->nx + i];
+    for (int r = ex->w > ex->h ? ex->w : ex->h; r >= 1; r /= 2) {
+        uint64_t u = rng_next(rng);
+        int dx = (int)(u % (uint64_t)(2 * r + 1)) - r, dy = (int)((u >> 32) % (uint64_t)(2 * r + 1)) - r;
+        try_cand(c, i, j, usable(ex, P, cur % ex->w + dx, cur / ex->w + dy));
+    }
+    for (int t = 0; t < N_RANDOM; t++)
+        try_cand(c, i, j, ex->list[rng_next(rng) % (uint64_t)ex->n_list]);
+}
+
+/* A crop's patches: start from the source map, then two PatchMatch sweeps (forward, backward). */
+static void run_crop(void *ctx, int task)
+{
+    const iter_ctx *c = ctx;
+    pgrid *g = c->g;
+    const tex_level *ex = c->ex;
+    int P = c->job->ex->patch;
+    int box[4] = { c->cx[task % c->ncx], c->cy[task / c->ncx], c->cx[task % c->ncx + 1], c->cy[task / c->ncx + 1] };
+    uint64_t rng = tex_hash(c->job->key, ((uint64_t)c->level << 48) ^ ((uint64_t)c->iter << 32) ^ (uint64_t)task);
+    for (int j = box[1]; j < box[3]; j++)
+        for (int i = box[0]; i < box[2]; i++) {
+            int32_t sp = c->win->src[(size_t)g->py[j] * c->win->w + g->px[i]];
+            int32_t n = usable(ex, P, sp % ex->w, sp / ex->w);
+            if (n < 0)
+                n = ex->list[rng_next(&rng) % (uint64_t)ex->n_list];
+            g->nn[j * g->nx + i] = n;
+            g->d[j * g->nx + i] = cand_cost(c, i, j, n, FLT_MAX);
+        }
+    for (int pass = 0; pass < 2; pass++)
+        for (int jj = box[1]; jj < box[3]; jj++)
+            for (int ii = box[0]; ii < box[2]; ii++) {
+                int i = pass ? box[2] - 1 - (ii - box[0]) : ii, j = pass ? box[3] - 1 - (jj - box[1]) : jj;
+                int d = pass ? 1 : -1;
+                propagate(c, box, i, j, i + d, j);
+                propagate(c, box, i, j, i, j + d);
+                search(c, i, j, &rng);
+            }
+}
+
+/* Each free pixel of a band of rows: the mean of the votes of every patch covering it; src_next from the best. */
+static void run_vote(void *ctx, int task)
+{
+    const iter_ctx *c = ctx;
+    const pgrid *g = c->g;
+    level_win *W = c->win;
+    const tex_level *ex = c->ex;
+    int y1 = (task + 1) * c->band < W->h ? (task + 1) * c->band : W->h;
+    for (int y = task * c->band; y < y1; y++)
+        for (int x = 0; x < W->w; x++) {
+            size_t p = (size_t)y * W->w + x;
+            float s[3] = { 0, 0, 0 }, best = FLT_MAX, n = 0;
+            int32_t bsrc = W->src[p];
+            for (int j = g->loy[y]; j < g->hiy[y]; j++)
+                for (int i = g->lox[x]; i < g->hix[x]; i++) {
+                    int32_t q = g->nn[j * g->nx + i] + (y - g->py[j]) * ex->w + (x - g->px[i]);
+                    const float *e = ex->px + 3 * (size_t)q;
+                    s[0] += e[0], s[1] += e[1], s[2] += e[2];
+                    n += 1;
+                    if (g->d[j * g->nx + i] < best)
+                        best = g->d[j * g->nx + i], bsrc = q;
+                }
+            W->src_next[p] = bsrc;
+            float *o = W->next + 3 * p;
+            const float *old = W->img + 3 * p;
+            for (int ch = 0; ch < 3; ch++)
+                o[ch] = W->fixed[p] == TEX_FIXED || n <= 0 ? old[ch] : s[ch] / n;
+        }
+}
+
+/* Patch positions over [0, n): 0, then off + k * s, then n - P; and per pixel the covering range. */
+static int lattice(int n, int P, int s, int off, int *pos, int *lo, int *hi)
+{
+    int k = 0;
+    pos[k++] = 0;
+    for (int x = off; x + P <= n; x += s)
+        if (x > pos[k - 1])
+            pos[k++] = x;
+    if (pos[k - 1] + P < n)
+        pos[k++] = n - P;
+    for (int x = 0, a = 0, b = 0; x < n; x++) {
+        while (pos[a] + P <= x)
+            a++;
+        while (b < k && pos[b] <= x)
+            b++;
+        lo[x] = a, hi[x] = b;
+    }
+    return k;
+}
+
+/* Crop boundaries over k patch indices: pieces of about side, the first cut at a random place. */
+static int crop_cuts(int k, int side, uint64_t r, int *cut)
+{
+    int m = 0, x = (int)(r % (uint64_t)side);
+    cut[m++] = 0;
+    for (; x < k; x += side)
+        if (x > 0)
+            cut[m++] = x;
+    cut[m] = k;
+    return m;
+}
+
+/* Penalty per exemplar bin (patch-sized): how far the window's patches overuse it, times the typical distance. */
+static void reuse_penalty(const level_win *W, const tex_level *ex, int P, double reuse, float *pen, int bw, int bh)
+{
+    int s = P / 2, n = 0;
+    memset(pen, 0, sizeof(float) * (size_t)bw * bh);
+    for (int y = 0; y + P <= W->h; y += s)
+        for (int x = 0; x + P <= W->w; x += s) {
+            int32_t q = W->src[(size_t)y * W->w + x];
+            pen[(q / ex->w / P) * bw + (q % ex->w) / P] += 1;
+            n++;
+        }
+    /* a bin's fair share: the window's patches spread evenly over the usable starts, P x P per bin */
+    double per = (double)n / (double)ex->n_list * (double)P * P;
+    for (int b = 0; b < bw * bh; b++) {
+        double over = (double)pen[b] / (per > 1e-9 ? per : 1e-9) - 1.0;
+        pen[b] = over > 0 ? (float)(reuse * ex->scale * over) : 0.0f;
+    }
+}
+
+static void pgrid_free(pgrid *g)
+{
+    free(g->px), free(g->lox), free(g->nn), free(g->d);
+}
+
+static int pgrid_alloc(pgrid *g, int w, int h, int s)
+{
+    size_t mx = (size_t)w / s + 3, my = (size_t)h / s + 3;
+    *g = (pgrid){ 0 };
+    g->px = malloc(sizeof(int) * (mx + my));
+    g->lox = malloc(sizeof(int) * 2 * ((size_t)w + h));
+    g->nn = malloc(sizeof(int32_t) * mx * my);
+    g->d = malloc(sizeof(float) * mx * my);
+    if (!g->px || !g->lox || !g->nn || !g->d) {
+        pgrid_free(g);
+        return -ENOMEM;
+    }
+    g->py = g->px + mx;
+    g->hix = g->lox + w, g->loy = g->hix + w, g->hiy = g->loy + h;
+    return 0;
+}
+
+static void run_iteration(iter_ctx *c, int s, int side)
+{
+    const tex_job *job = c->job;
+    level_win *W = c->win;
+    int P = job->ex->patch;
+    uint64_t r = tex_hash(job->key ^ 0xC0FFEEull, (uint64_t)c->level * 64 + (uint64_t)c->iter);
+    pgrid *g = c->g;
+    g->nx = lattice(W->w, P, s, (int)(r % (uint64_t)s), g->px, g->lox, g->hix);
+    g->ny = lattice(W->h, P, s, (int)((r >> 16) % (uint64_t)s), g->py, g->loy, g->hiy);
+    int *cx = (int *)c->cx, *cy = (int *)c->cy;
+    c->ncx = crop_cuts(g->nx, side, r >> 24, cx);
+    c->ncy = crop_cuts(g->ny, side, r >> 40, cy);
+    sp_pool_for(job->pool, c->ncx * c->ncy, run_crop, c);
+    c->band = 16;
+    sp_pool_for(job->pool, (W->h + c->band - 1) / c->band, run_vote, c);
+    float *t = W->img;
+    W->img = W->next, W->next = t;
+    int32_t *u = W->src;
+    W->src = W->src_next, W->src_next = u;
+}
+
+static int run_level(const tex_job *job, level_win *W, int level)
+{
+    const tex_level *ex = &job->ex->lv[level];
+    int P = job->ex->patch, s = P / 2;
+    int side = (4 * P > CROP_MIN ? 4 * P : CROP_MIN) / s; /* crop side in patches */
+    int bw = (ex->w + P - 1) / P, bh = (ex->h + P - 1) / P;
+    pgrid g;
+    int *cuts = malloc(sizeof(int) * (size_t)(W->w / s + W->h / s + 8));
+    float *pen = malloc(sizeof(float) * (size_t)bw * bh);
+    if (!cuts || !pen || pgrid_alloc(&g, W->w, W->h, s)) {
+        free(cuts), free(pen);
+        return -ENOMEM;
+    }
+    iter_ctx c = { job, ex, W, &g, cuts, cuts + W->w / s + 4, 0, 0, level, 0, 0, pen, bw };
+    int iters = job->s->iterations << level; /* coarse passes are cheap and settle the layout */
+    for (c.iter = 0; c.iter < iters; c.iter++) {
+        reuse_penalty(W, ex, P, job->s->reuse, pen, bw, bh);
+        run_iteration(&c, s, side);
+    }
+    pgrid_free(&g);
+    free(cuts), free(pen);
+    return 0;
+}
+
+static void win_free(level_win *W)
+{
+    free(W->img), free(W->next), free(W->src), free(W->src_next);
+    memset(W, 0, sizeof(*W));
+}
+
+static int win_alloc(level_win *W, int w, int h)
+{
+    size_t n = (size_t)w * h;
+    *W = (level_win){ malloc(n * 3 * sizeof(float)), malloc(n * 3 * sizeof(float)), NULL,
+                      malloc(n * sizeof(int32_t)), malloc(n * sizeof(int32_t)), w, h };
+    if (W->img && W->next && W->src && W->src_next)
+        return 0;
+    win_free(W);
+    return -ENOMEM;
+}
+
+/* Free pixels copy their source pixel; the others take the window's own values at this level. */
+static void paint(level_win *W, const tex_level *ex, const float *img, const uint8_t *fixed)
+{
+    for (size_t p = 0; p < (size_t)W->w * W->h; p++)
+        memcpy(W->img + 3 * p, fixed[p] != TEX_FREE ? img + 3 * p : ex->px + 3 * (size_t)W->src[p], 3 * sizeof(float));
+}
+
+/* The coarsest start: patch-sized cells, each copying a random exemplar patch. */
+static void seed_cells(const tex_job *job, level_win *W, const tex_level *ex)
+{
+    int P = job->ex->patch;
+    for (int y = 0; y < W->h; y++)
+        for (int x = 0; x < W->w; x++) {
+            uint64_t cell = ((uint64_t)(y / P) << 32) | (uint64_t)(x / P);
+            int32_t n = ex->list[tex_hash(job->key, cell) % (uint64_t)ex->n_list];
+            W->src[(size_t)y * W->w + x] = n + (y % P) * ex->w + x % P;
+        }
+}
+
+/* The next finer level's source map: each coarse source pixel's 2 x 2 children. */
+static void upsample(const level_win *C, const tex_level *cex, level_win *F, const tex_level *fex)
+{
+    for (int y = 0; y < F->h; y++)
+        for (int x = 0; x < F->w; x++) {
+            int32_t q = C->src[(size_t)(y / 2) * C->w + x / 2];
+            int sx = 2 * (q % cex->w) + (x & 1), sy = 2 * (q / cex->w) + (y & 1);
+            sx = sx < fex->w ? sx : fex->w - 1;
+            sy = sy < fex->h ? sy : fex->h - 1;
+            F->src[(size_t)y * F->w + x] = sy * fex->w + sx;
+        }
+}
+
+int tex_synth_window(const tex_job *job, float *img, const uint8_t *fixed, int w, int h, int levels)
+{
+    float *pimg[TEX_MAX_LEVELS] = { img };
+    uint8_t *pfix[TEX_MAX_LEVELS] = { (uint8_t *)fixed };
+    int pw[TEX_MAX_LEVELS] = { w }, ph[TEX_MAX_LEVELS] = { h }, ret = -ENOMEM;
+    level_win W = { 0 }, C = { 0 };
+    for (int l = 1; l < levels; l++) {
+        pw[l] = (pw[l - 1] + 1) / 2, ph[l] = (ph[l - 1] + 1) / 2;
+        pimg[l] = malloc(sizeof(float) * 3 * (size_t)pw[l] * ph[l]);
+        pfix[l] = malloc((size_t)pw[l] * ph[l]);
+        if (!pimg[l] || !pfix[l])
+            goto out;
+        tex_reduce(pimg[l - 1], pfix[l - 1], pw[l - 1], ph[l - 1], pimg[l], pfix[l], pw[l], ph[l]);
+    }
+    for (int l = levels - 1; l >= 0; l--) {
+        const tex_level *ex = &job->ex->lv[l];
+        if (win_alloc(&W, pw[l], ph[l]))
+            goto out;
+        W.fixed = pfix[l];
+        if (l == levels - 1)
+            seed_cells(job, &W, ex);
+        else
+            upsample(&C, &job->ex->lv[l + 1], &W, ex);
+        win_free(&C);
+        paint(&W, ex, pimg[l], pfix[l]);
+        if ((ret = run_level(job, &W, l)))
+            goto out;
+        C = W;
+        memset(&W, 0, sizeof(W));
+    }
+    memcpy(img, C.img, sizeof(float) * 3 * (size_t)w * h);
+    ret = 0;
+out:
+    win_free(&W), win_free(&C);
+    for (int l = 1; l < levels; l++)
+        free(pimg[l]), free(pfix[l]);
+    return ret;
+}

@@ -1,0 +1,261 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Texture synthesis (pipeline/texture/): the same image for any thread count,
+ * every row handed over once and in order, the reuse penalty at work, a
+ * seamless tileable wrap, hole filling, the extremes of sizes and settings, and
+ * the row-by-row PNG writer against the reader.
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "check.h"
+#include "export/png.h"
+#include "export/png_read.h"
+#include "sunprobe/sp_texture.h"
+#include "tools/bench/texture_eval.h"
+
+typedef struct collect {
+    float *px;
+    uint32_t w, h, next_row;
+    int order_ok;
+} collect;
+
+static int sink(void *ctx, uint32_t y0, uint32_t n, const float *rgb)
+{
+    collect *c = ctx;
+    c->order_ok &= y0 == c->next_row && y0 + n <= c->h;
+    if (c->order_ok)
+        memcpy(c->px + (size_t)y0 * c->w * 3, rgb, sizeof(float) * 3 * c->w * n);
+    c->next_row = y0 + n;
+    return 0;
+}
+
+/* Synthesises w x h from ex into out (allocated); the sink checks the row order. */
+static int synth(const tev_image *ex, int w, int h, const sp_texture_settings *s, tev_image *out)
+{
+    collect c = { calloc((size_t)w * h * 3, sizeof(float)), (uint32_t)w, (uint32_t)h, 0, 1 };
+    int ret = sp_texture_synthesize(ex->px, (uint32_t)ex->w, (uint32_t)ex->h, (uint32_t)w, (uint32_t)h, s, sink, &c);
+    CHECK_MSG(ret || (c.order_ok && c.next_row == (uint32_t)h), "rows out of order or missing (next %u of %d)",
+              c.next_row, h);
+    *out = (tev_image){ c.px, w, h };
+    return ret;
+}
+
+static int same(const tev_image *a, const tev_image *b)
+{
+    return !memcmp(a->px, b->px, sizeof(float) * 3 * (size_t)a->w * a->h);
+}
+
+static void test_threads_and_seed(void)
+{
+    tev_image ex, a, b, c, d;
+    tev_procedural(&ex, TEV_STONES, 96, 96, 5);
+    sp_texture_settings s;
+    sp_texture_default_settings(&s);
+    s.tile = 128;
+    s.threads = 1;
+    CHECK_EQ_INT(synth(&ex, 300, 170, &s, &a), 0); /* 3 x 2 tiles, the last ones narrower */
+    s.threads = 2;
+    CHECK_EQ_INT(synth(&ex, 300, 170, &s, &b), 0);
+    s.threads = 5;
+    CHECK_EQ_INT(synth(&ex, 300, 170, &s, &c), 0);
+    CHECK_MSG(same(&a, &b) && same(&a, &c), "the thread count changed the texture");
+    s.seed = 2;
+    CHECK_EQ_INT(synth(&ex, 300, 170, &s, &d), 0);
+    CHECK_MSG(!same(&a, &d), "another seed gave the same texture");
+    int finite = 1;
+    for (size_t i = 0; i < (size_t)300 * 170 * 3; i++)
+        finite &= a.px[i] >= 0 && a.px[i] <= 1;
+    CHECK_MSG(finite, "values outside [0, 1]");
+    tev_free(&ex), tev_free(&a), tev_free(&b), tev_free(&c), tev_free(&d);
+}
+
+/* The penalty spreads the copies: with it the largest verbatim region shrinks. */
+static void test_reuse_penalty(void)
+{
+    tev_image ex, with, without;
+    tev_procedural(&ex, TEV_BLOBS, 128, 128, 9);
+    sp_texture_settings s;
+    sp_texture_default_settings(&s);
+    CHECK_EQ_INT(synth(&ex, 384, 384, &s, &with), 0);
+    s.reuse = 0;
+    CHECK_EQ_INT(synth(&ex, 384, 384, &s, &without), 0);
+    double rw = tev_repetition(&with, &ex), ro = tev_repetition(&without, &ex);
+    printf("repetition: %.3f with the reuse penalty, %.3f without\n", rw, ro);
+    CHECK_MSG(rw < 0.8 * ro, "the reuse penalty did not reduce repetition (%.3f vs %.3f)", rw, ro);
+    tev_free(&ex), tev_free(&with), tev_free(&without);
+}
+
+/* Mean squared step across column x - 1 -> x (x = w: the wrap back to column 0). */
+static double col_step(const tev_image *im, int x)
+{
+    double s = 0;
+    for (int y = 0; y < im->h; y++)
+        for (int c = 0; c < 3; c++) {
+            double d = (double)im->px[3 * ((size_t)y * im->w + (size_t)(x % im->w)) + c] -
+                       (double)im->px[3 * ((size_t)y * im->w + (size_t)(x - 1)) + c];
+            s += d * d;
+        }
+    return s / im->h;
+}
+
+static void test_tileable(void)
+{
+    tev_image ex, out;
+    tev_procedural(&ex, TEV_BLOBS, 96, 96, 3);
+    sp_texture_settings s;
+    sp_texture_default_settings(&s);
+    s.tile = 128;
+    s.tileable = 1;
+    CHECK_EQ_INT(synth(&ex, 200, 160, &s, &out), 0);
+    double wrap = col_step(&out, out.w), inner = 0;
+    for (int x = 2; x < out.w; x += 2)
+        inner += col_step(&out, x) / (out.w / 2 - 1);
+    printf("tileable: step across the left-right wrap %.5f, inside %.5f\n", wrap, inner);
+    CHECK_MSG(wrap < 2.0 * inner, "a seam at the wrap: %.5f vs %.5f", wrap, inner);
+    s.tileable = 0; /* without --tileable the two sides are unrelated */
+    tev_image plain;
+    CHECK_EQ_INT(synth(&ex, 200, 160, &s, &plain), 0);
+    CHECK_MSG(col_step(&plain, plain.w) > wrap, "an ordinary texture wrapped as well as a tileable one");
+    tev_free(&ex), tev_free(&out), tev_free(&plain);
+}
+
+static void test_extremes(void)
+{
+    sp_texture_settings s;
+    sp_texture_default_settings(&s);
+    tev_image flat = { malloc(sizeof(float) * 3 * 8 * 8), 8, 8 }, out;
+    for (int i = 0; i < 8 * 8; i++)
+        flat.px[3 * i] = 0.25f, flat.px[3 * i + 1] = 0.5f, flat.px[3 * i + 2] = 1.0f;
+    /* the exemplar exactly one patch, the output exactly one patch, then larger, all flat */
+    CHECK_EQ_INT(synth(&flat, 8, 8, &s, &out), 0);
+    tev_free(&out);
+    CHECK_EQ_INT(synth(&flat, 70, 9, &s, &out), 0);
+    float err = 0;
+    for (int i = 0; i < 70 * 9; i++)
+        err = fmaxf(err, fabsf(out.px[3 * i] - 0.25f) + fabsf(out.px[3 * i + 2] - 1.0f));
+    CHECK_MSG(err < 1e-6f, "a flat exemplar gave a texture off by %g", (double)err);
+    tev_free(&out);
+    collect c = { 0 };
+    CHECK_EQ_INT(sp_texture_synthesize(flat.px, 7, 8, 64, 64, &s, sink, &c), -EINVAL); /* exemplar < patch */
+    CHECK_EQ_INT(sp_texture_synthesize(flat.px, 8, 8, 0, 64, &s, sink, &c), -EINVAL);
+    CHECK_EQ_INT(sp_texture_synthesize(flat.px, 8, 8, 7, 64, &s, sink, &c), -EINVAL);
+    CHECK_EQ_INT(sp_texture_synthesize(flat.px, 8, 8, SP_TEXTURE_MAX_SIDE + 1, 8, &s, sink, &c), -EINVAL);
+    s.tileable = 1;
+    CHECK_EQ_INT(sp_texture_synthesize(flat.px, 8, 8, 127, 200, &s, sink, &c), -EINVAL); /* < 16 patches */
+    s.tileable = 0;
+    s.patch = 3;
+    CHECK_EQ_INT(sp_texture_synthesize(flat.px, 8, 8, 64, 64, &s, sink, &c), -EINVAL);
+    s.patch = 32, s.tile = 255;
+    CHECK_EQ_INT(sp_texture_synthesize(flat.px, 8, 8, 64, 64, &s, sink, &c), -EINVAL); /* tile < 8 patches */
+    tev_free(&flat);
+}
+
+static int stop_at_second(void *ctx, uint32_t y0, uint32_t n, const float *rgb)
+{
+    (void)y0, (void)n, (void)rgb;
+    return ++*(int *)ctx == 2 ? -ENOSPC : 0;
+}
+
+/* A sink that fails ends the synthesis with its error, after no further call. */
+static void test_sink_error(void)
+{
+    tev_image ex;
+    tev_procedural(&ex, TEV_BRICKS, 64, 64, 1);
+    sp_texture_settings s;
+    sp_texture_default_settings(&s);
+    s.tile = 64;
+    int calls = 0;
+    CHECK_EQ_INT(sp_texture_synthesize(ex.px, 64, 64, 80, 300, &s, stop_at_second, &calls), -ENOSPC);
+    CHECK_EQ_INT(calls, 2);
+    tev_free(&ex);
+}
+
+static void test_fill(void)
+{
+    tev_image im;
+    tev_procedural(&im, TEV_STONES, 128, 128, 4);
+    float *orig = malloc(sizeof(float) * 3 * 128 * 128);
+    memcpy(orig, im.px, sizeof(float) * 3 * 128 * 128);
+    uint8_t *fill = calloc(128 * 128, 1), *src = calloc(128 * 128, 1);
+    double m_src[3] = { 0 }, m_fill[3] = { 0 };
+    int n_src = 0, n_fill = 0;
+    for (int y = 0; y < 128; y++)
+        for (int x = 0; x < 128; x++) {
+            int hole = (x - 80) * (x - 80) + (y - 60) * (y - 60) < 20 * 20;
+            fill[y * 128 + x] = (uint8_t)hole, src[y * 128 + x] = (uint8_t)!hole;
+            if (hole)
+                for (int c = 0; c < 3; c++)
+                    im.px[3 * (y * 128 + x) + c] = 1.0f; /* garbage the fill must not keep */
+        }
+    sp_texture_settings s;
+    sp_texture_default_settings(&s);
+    CHECK_EQ_INT(sp_texture_fill(im.px, 128, 128, fill, src, &s), 0);
+    int outside_same = 1;
+    for (int i = 0; i < 128 * 128; i++)
+        for (int c = 0; c < 3; c++) {
+            if (fill[i])
+                m_fill[c] += (double)im.px[3 * i + c], n_fill += !c;
+            else {
+                m_src[c] += (double)orig[3 * i + c], n_src += !c;
+                outside_same &= im.px[3 * i + c] == orig[3 * i + c];
+            }
+        }
+    CHECK_MSG(outside_same, "the fill changed pixels outside the hole");
+    for (int c = 0; c < 3; c++)
+        CHECK_NEAR(m_fill[c] / n_fill, m_src[c] / n_src, 0.1);
+    uint8_t none[64] = { 0 };
+    float tiny[64 * 3] = { 0 };
+    memset(fill, 1, 64);
+    CHECK_EQ_INT(sp_texture_fill(tiny, 8, 8, fill, none, &s), SP_ENODATA); /* no source patch at all */
+    free(orig), free(fill), free(src);
+    tev_free(&im);
+}
+
+/* Rows written one call at a time read back as the whole-image writer's pixels. */
+static void test_png_stream(void)
+{
+    const uint32_t w = 37, h = 23;
+    uint8_t *px = malloc((size_t)w * h * 3);
+    for (size_t i = 0; i < (size_t)w * h * 3; i++)
+        px[i] = (uint8_t)(i * 31 + i / 7);
+    char *buf = NULL;
+    size_t n = 0;
+    FILE *f = open_memstream(&buf, &n);
+    sp_png_stream *ps = NULL;
+    CHECK_EQ_INT(sp_png_stream_open(&ps, f, w, h, 3), 0);
+    for (uint32_t y = 0; y < h; y += 5)
+        CHECK_EQ_INT(sp_png_stream_rows(ps, px + (size_t)y * w * 3, h - y < 5 ? h - y : 5, w * 3), 0);
+    CHECK_EQ_INT(sp_png_stream_rows(ps, px, 1, w * 3), -EINVAL); /* past the height */
+    CHECK_EQ_INT(sp_png_stream_finish(&ps), 0);
+    CHECK(ps == NULL);
+    fclose(f);
+    uint8_t *rgba = NULL;
+    uint32_t rw = 0, rh = 0;
+    CHECK_EQ_INT(sp_png_decode_rgba((const uint8_t *)buf, n, &rgba, &rw, &rh), 0);
+    int eq = rgba && rw == w && rh == h;
+    for (size_t i = 0; eq && i < (size_t)w * h; i++)
+        eq = !memcmp(rgba + 4 * i, px + 3 * i, 3);
+    CHECK_MSG(eq, "the streamed PNG does not read back as written");
+    free(rgba), free(buf);
+    f = open_memstream(&buf, &n);
+    CHECK_EQ_INT(sp_png_stream_open(&ps, f, w, h, 3), 0);
+    CHECK_EQ_INT(sp_png_stream_finish(&ps), -EINVAL); /* rows missing */
+    fclose(f);
+    free(buf), free(px);
+}
+
+int main(void)
+{
+    test_threads_and_seed();
+    test_reuse_penalty();
+    test_tileable();
+    test_extremes();
+    test_sink_error();
+    test_fill();
+    test_png_stream();
+    return check_exit();
+}

@@ -1,0 +1,369 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * bench_texture: sunprobe's texture synthesis against image quilting (Efros and
+ * Freeman 2001, implemented here as the baseline: blocks chosen among the
+ * candidates within 10% of the best overlap error, joined along minimum-error
+ * cuts) on procedural exemplars, crops of the path-traced captures (ground,
+ * shirt, skin; when ../shared/captures is there) and a Debian-packaged fabric
+ * (blender-data, GPL-2+). Measures: coherence, repetition, seams, colour
+ * histogram and autocorrelation distances (texture_eval.h), and time.
+ *
+ *   bench_texture [quality] [--size N] [--captures DIR]
+ *   bench_texture scale --size WxH [--out FILE.png] [--threads N]   (one size per process: peak RSS)
+ */
+#include <errno.h>
+#include <float.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <time.h>
+
+#include "export/png.h"
+#include "export/png_read.h"
+#include "sunprobe/sp_texture.h"
+#include "texture_eval.h"
+
+#define FABRIC "/usr/share/blender/scripts/addons/archimesh/images/fabric_diffuse.png"
+
+static double now_s(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+static double cpu_s(void)
+{
+    struct rusage u;
+    getrusage(RUSAGE_SELF, &u);
+    return (double)u.ru_utime.tv_sec + (double)u.ru_stime.tv_sec + 1e-6 * (double)(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+/* A crop of a PNG file as an exemplar; 0, or -1 when the file is not there. */
+static int load_crop(const char *path, int x0, int y0, int w, int h, tev_image *out)
+{
+    uint8_t *rgba = NULL;
+    uint32_t iw, ih;
+    if (sp_png_read_rgba(path, &rgba, &iw, &ih) || (uint32_t)(x0 + w) > iw || (uint32_t)(y0 + h) > ih) {
+        free(rgba);
+        return -1;
+    }
+    *out = (tev_image){ malloc(sizeof(float) * 3 * (size_t)w * h), w, h };
+    for (int y = 0; out->px && y < h; y++)
+        for (int x = 0; x < w; x++)
+            for (int c = 0; c < 3; c++)
+                out->px[3 * ((size_t)y * w + x) + c] = (float)rgba[4 * ((size_t)(y + y0) * iw + x + x0) + c] / 255.0f;
+    free(rgba);
+    return out->px ? 0 : -1;
+}
+
+/* ---- image quilting, the baseline ---- */
+
+static double overlap_err(const tev_image *ex, int ex0, int ey0, const tev_image *out, int bx, int by, int bw, int bh,
+                          int O)
+{
+    double e = 0;
+    for (int y = 0; y < bh; y++)
+        for (int x = 0; x < bw; x++) {
+            if (!((bx > 0 && x < O) || (by > 0 && y < O)))
+                continue;
+            const float *a = ex->px + 3 * ((size_t)(ey0 + y) * ex->w + ex0 + x), *b = out->px + 3 * ((size_t)(by + y) * out->w + bx + x);
+            for (int c = 0; c < 3; c++)
+                e += (double)((a[c] - b[c]) * (a[c] - b[c]));
+        }
+    return e;
+}
+
+static double pix_err(const tev_image *ex, int ex0, int ey0, const tev_image *out, int bx, int by, int x, int y)
+{
+    const float *a = ex->px + 3 * ((size_t)(ey0 + y) * ex->w + ex0 + x), *b = out->px + 3 * ((size_t)(by + y) * out->w + bx + x);
+    double e = 0;
+    for (int c = 0; c < 3; c++)
+        e += (double)((a[c] - b[c]) * (a[c] - b[c]));
+    return e;
+}
+
+/* Minimum-error cut through an n x O strip of errors (row-major along n): cut[k] = where the new block starts. */
+static void min_cut(const double *err, int n, int O, int *cut)
+{
+    double *acc = malloc(sizeof(double) * (size_t)n * O);
+    if (!acc)
+        return;
+    for (int k = 0; k < n; k++)
+        for (int o = 0; o < O; o++) {
+            double best = 0;
+            if (k) {
+                best = acc[(k - 1) * O + o];
+                if (o > 0 && acc[(k - 1) * O + o - 1] < best)
+                    best = acc[(k - 1) * O + o - 1];
+                if (o + 1 < O && acc[(k - 1) * O + o + 1] < best)
+                    best = acc[(k - 1) * O + o + 1];
+            }
+            acc[k * O + o] = err[k * O + o] + best;
+        }
+    int o = 0;
+    for (int t = 1; t < O; t++)
+        o = acc[(n - 1) * O + t] < acc[(n - 1) * O + o] ? t : o;
+    for (int k = n - 1; k >= 0; k--) {
+        cut[k] = o;
+        if (k) {
+            int b = o;
+            if (o > 0 && acc[(k - 1) * O + o - 1] < acc[(k - 1) * O + b])
+                b = o - 1;
+            if (o + 1 < O && acc[(k - 1) * O + o + 1] < acc[(k - 1) * O + b])
+                b = o + 1;
+            o = b;
+        }
+    }
+    free(acc);
+}
+
+static void place_block(const tev_image *ex, int ex0, int ey0, tev_image *out, int bx, int by, int bw, int bh, int O)
+{
+    int *vcut = calloc((size_t)bh, sizeof(int)), *hcut = calloc((size_t)bw, sizeof(int));
+    double *err = malloc(sizeof(double) * (size_t)(bw > bh ? bw : bh) * O);
+    if (!vcut || !hcut || !err)
+        goto out;
+    if (bx > 0) {
+        for (int y = 0; y < bh; y++)
+            for (int o = 0; o < O; o++)
+                err[y * O + o] = pix_err(ex, ex0, ey0, out, bx, by, o, y);
+        min_cut(err, bh, O, vcut);
+    }
+    if (by > 0) {
+        for (int x = 0; x < bw; x++)
+            for (int o = 0; o < O; o++)
+                err[x * O + o] = pix_err(ex, ex0, ey0, out, bx, by, x, o);
+        min_cut(err, bw, O, hcut);
+    }
+    for (int y = 0; y < bh; y++)
+        for (int x = 0; x < bw; x++) {
+            if ((bx > 0 && x < vcut[y]) || (by > 0 && y < hcut[x]))
+                continue; /* the old side of the cut */
+            memcpy(out->px + 3 * ((size_t)(by + y) * out->w + bx + x), ex->px + 3 * ((size_t)(ey0 + y) * ex->w + ex0 + x),
+                   3 * sizeof(float));
+        }
+out:
+    free(vcut), free(hcut), free(err);
+}
+
+static uint64_t rnd(uint64_t *s)
+{
+    uint64_t z = (*s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+/* Blocks of side B with overlap B/6, candidates on a stride-2 grid. */
+static void quilt(const tev_image *ex, tev_image *out, int B, uint64_t seed)
+{
+    int O = B / 6 > 2 ? B / 6 : 2, step = B - O;
+    int ncx = (ex->w - B) / 2 + 1, ncy = (ex->h - B) / 2 + 1;
+    double *cand = malloc(sizeof(double) * (size_t)ncx * ncy);
+    if (!cand)
+        return;
+    for (int by = 0; by < out->h; by += step)
+        for (int bx = 0; bx < out->w; bx += step) {
+            int bw = out->w - bx < B ? out->w - bx : B, bh = out->h - by < B ? out->h - by : B;
+            double best = DBL_MAX;
+            for (int k = 0; k < ncx * ncy; k++) {
+                cand[k] = bx || by ? overlap_err(ex, 2 * (k % ncx), 2 * (k / ncx), out, bx, by, bw, bh, O) : 0;
+                best = cand[k] < best ? cand[k] : best;
+            }
+            int n = 0;
+            for (int k = 0; k < ncx * ncy; k++)
+                n += cand[k] <= 1.1 * best + 1e-12;
+            int pick = (int)(rnd(&seed) % (uint64_t)n), k = 0;
+            for (;; k++)
+                if (cand[k] <= 1.1 * best + 1e-12 && pick-- == 0)
+                    break;
+            place_block(ex, 2 * (k % ncx), 2 * (k / ncx), out, bx, by, bw, bh, O);
+        }
+    free(cand);
+}
+
+/* ---- sunprobe's synthesis into memory ---- */
+
+typedef struct mem_sink {
+    tev_image *out;
+} mem_sink;
+
+static int to_memory(void *ctx, uint32_t y0, uint32_t n, const float *rgb)
+{
+    tev_image *o = ((mem_sink *)ctx)->out;
+    memcpy(o->px + (size_t)y0 * o->w * 3, rgb, sizeof(float) * 3 * (size_t)o->w * n);
+    return 0;
+}
+
+typedef struct scores {
+    double coh, rep, seam, hist, ac, secs;
+} scores;
+
+static scores score(const tev_image *out, const tev_image *ex, int tile, double secs)
+{
+    return (scores){ tev_coherence(out, ex, 7, 13), tev_repetition(out, ex), tev_seam_ratio(out, tile),
+                     tev_histogram_distance(out, ex), tev_autocorr_distance(out, ex, 8), secs };
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static double median(double *v, int n)
+{
+    qsort(v, (size_t)n, sizeof(double), cmp_double);
+    return n ? (n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2])) : 0;
+}
+
+#define MAX_EX 8
+
+static int gather_exemplars(const char *cap, tev_image *ex, const char **name)
+{
+    int n = 0;
+    for (int k = 0; k < TEV_KINDS; k++, n++) {
+        tev_procedural(&ex[n], (enum tev_kind)k, 128, 128, 7);
+        name[n] = tev_kind_name((enum tev_kind)k);
+    }
+    char p[1024];
+    snprintf(p, sizeof(p), "%s/street-sunny-dev1/gt/clean_plate.png", cap);
+    if (!load_crop(p, 200, 232, 128, 128, &ex[n]))
+        name[n++] = "ground (street plate)";
+    snprintf(p, sizeof(p), "%s/selfie-sunny-dev1/frames/00000.png", cap);
+    if (!load_crop(p, 190, 296, 96, 64, &ex[n]))
+        name[n++] = "shirt (selfie frame)";
+    snprintf(p, sizeof(p), "%s/selfie-sunny-dev1/gt/albedo_head.png", cap);
+    if (!load_crop(p, 400, 300, 128, 128, &ex[n]))
+        name[n++] = "skin (true albedo)";
+    if (n == TEV_KINDS)
+        printf("note: no path-traced captures under %s: their crops are left out\n", cap);
+    if (!load_crop(FABRIC, 0, 0, 128, 128, &ex[n]))
+        name[n++] = "fabric (blender-data, GPL-2+)";
+    else
+        printf("note: %s absent (Debian package blender-data): left out\n", FABRIC);
+    return n;
+}
+
+static void print_row(const char *who, const scores *s)
+{
+    printf("  %-9s coherence %6.3f  repetition %6.3f  seams %6.3f  histogram %6.3f  autocorr %6.4f  %6.2f s\n", who,
+           s->coh, s->rep, s->seam, s->hist, s->ac, s->secs);
+}
+
+static int quality(int N, const char *cap)
+{
+    tev_image ex[MAX_EX];
+    const char *name[MAX_EX];
+    int n = gather_exemplars(cap, ex, name), tile = 128, B = 32;
+    double r[5][MAX_EX];
+    int wins[5] = { 0 };
+    sp_texture_settings s;
+    sp_texture_default_settings(&s);
+    s.tile = tile;
+    printf("%dx%d from each exemplar; sunprobe tiles of %d (seams across them), quilting blocks of %d (seams across "
+           "its block steps of %d)\n", N, N, tile, B, B - B / 6);
+    for (int k = 0; k < n; k++) {
+        tev_image a = { malloc(sizeof(float) * 3 * (size_t)N * N), N, N };
+        tev_image q = { calloc((size_t)N * N * 3, sizeof(float)), N, N };
+        mem_sink ms = { &a };
+        double t0 = now_s();
+        if (!a.px || !q.px || sp_texture_synthesize(ex[k].px, (uint32_t)ex[k].w, (uint32_t)ex[k].h, (uint32_t)N,
+                                                     (uint32_t)N, &s, to_memory, &ms))
+            return 1;
+        double t1 = now_s();
+        quilt(&ex[k], &q, B, 11);
+        double t2 = now_s();
+        scores sa = score(&a, &ex[k], tile, t1 - t0), sq = score(&q, &ex[k], B - B / 6, t2 - t1);
+        printf("%s (%dx%d):\n", name[k], ex[k].w, ex[k].h);
+        print_row("sunprobe", &sa);
+        print_row("quilting", &sq);
+        double va[5] = { sa.coh, sa.rep, sa.seam, sa.hist, sa.ac }, vq[5] = { sq.coh, sq.rep, sq.seam, sq.hist, sq.ac };
+        for (int m = 0; m < 5; m++) {
+            r[m][k] = va[m] / (vq[m] > 1e-12 ? vq[m] : 1e-12);
+            wins[m] += m == 2 ? va[m] < vq[m] || va[m] < 1.1 : va[m] < vq[m];
+        }
+        tev_free(&a), tev_free(&q), tev_free(&ex[k]);
+    }
+    static const char *metric[5] = { "coherence", "repetition", "seams", "histogram", "autocorr" };
+    printf("median ratio sunprobe / quilting over %d exemplars (below 1: sunprobe better):\n", n);
+    for (int m = 0; m < 5; m++)
+        printf("  %-10s %.3f  (sunprobe better on %d of %d%s)\n", metric[m], median(r[m], n), wins[m], n,
+               m == 2 ? "; or no seam: ratio < 1.1" : "");
+    return 0;
+}
+
+/* ---- scale: one size per process, the PNG streamed out ---- */
+
+typedef struct png_sink {
+    sp_png_stream *png;
+    uint8_t *row;
+    uint32_t w;
+} png_sink;
+
+static int to_png(void *ctx, uint32_t y0, uint32_t n, const float *rgb)
+{
+    (void)y0;
+    png_sink *k = ctx;
+    for (uint32_t y = 0; y < n; y++) {
+        for (size_t i = 0; i < (size_t)k->w * 3; i++) {
+            float v = rgb[(size_t)y * k->w * 3 + i] * 255.0f + 0.5f;
+            k->row[i] = (uint8_t)(v < 0 ? 0 : v > 255 ? 255 : v);
+        }
+        int ret = sp_png_stream_rows(k->png, k->row, 1, k->w * 3);
+        if (ret)
+            return ret;
+    }
+    return 0;
+}
+
+static int scale(uint32_t W, uint32_t H, const char *out, int threads)
+{
+    tev_image ex;
+    if (tev_procedural(&ex, TEV_STONES, 128, 128, 7))
+        return 1;
+    sp_texture_settings s;
+    sp_texture_default_settings(&s);
+    s.threads = threads;
+    FILE *f = fopen(out, "wb");
+    png_sink k = { NULL, malloc((size_t)W * 3), W };
+    if (!f || !k.row || sp_png_stream_open(&k.png, f, W, H, 3))
+        return fprintf(stderr, "bench_texture: cannot write %s\n", out), 1;
+    double t0 = now_s(), c0 = cpu_s();
+    int ret = sp_texture_synthesize(ex.px, 128, 128, W, H, &s, to_png, &k);
+    ret = ret ? ret : sp_png_stream_finish(&k.png);
+    double secs = now_s() - t0, cpu = cpu_s() - c0, mp = (double)W * H / 1e6;
+    fclose(f);
+    struct rusage u;
+    getrusage(RUSAGE_SELF, &u);
+    printf("scale %ux%u (%.1f MP): %.1f s wall, %.1f s CPU, %.2f s/MP wall, %.2f s/MP CPU, peak RSS %.1f MB%s\n", W, H,
+           mp, secs, cpu, secs / mp, cpu / mp, (double)u.ru_maxrss / 1024.0, ret ? " (FAILED)" : "");
+    free(k.row);
+    tev_free(&ex);
+    return ret ? 1 : 0;
+}
+
+int main(int argc, char **argv)
+{
+    int scale_mode = argc > 1 && !strcmp(argv[1], "scale"), threads = 0, N = 384;
+    uint32_t W = 2304, H = 2304;
+    const char *cap = "../shared/captures", *out = "/dev/null";
+    for (int i = 1 + (argc > 1 && (scale_mode || !strcmp(argv[1], "quality"))); i + 1 < argc; i += 2) {
+        if (!strcmp(argv[i], "--size") && scale_mode && sscanf(argv[i + 1], "%ux%u", &W, &H) == 2)
+            continue;
+        if (!strcmp(argv[i], "--size") && !scale_mode && (N = atoi(argv[i + 1])) >= 64)
+            continue;
+        if (!strcmp(argv[i], "--captures"))
+            cap = argv[i + 1];
+        else if (!strcmp(argv[i], "--out"))
+            out = argv[i + 1];
+        else if (!strcmp(argv[i], "--threads"))
+            threads = atoi(argv[i + 1]);
+        else
+            return fprintf(stderr, "usage: bench_texture [quality] [--size N] [--captures DIR] | "
+                                   "scale --size WxH [--out F.png] [--threads N]\n"), 1;
+    }
+    return scale_mode ? scale(W, H, out, threads) : quality(N, cap);
+}
