@@ -31,18 +31,18 @@ typedef int (*tiled_close_fn)(sp_tiled_image **);
 static sp_module_slot sp_tiled_open_slot, sp_tiled_rows_slot, sp_tiled_close_slot;
 int sp_tiled_open(sp_tiled_image **out, const char *path, uint32_t width, uint32_t height, uint32_t tile)
 {
-    tiled_open_fn fn = (tiled_open_fn)sp_module_symbol_cached(&oiio, "sp_tiled_open", &sp_tiled_open_slot);
+    tiled_open_fn fn = (tiled_open_fn)sp_module_symbol_cached(&sp_module_oiio, "sp_tiled_open", &sp_tiled_open_slot);
     return fn ? fn(out, path, width, height, tile) : SP_EMODULE;
 }
 
 int sp_tiled_rows(sp_tiled_image *t, uint32_t n, const float *rgb)
 {
-    tiled_rows_fn fn = (tiled_rows_fn)sp_module_symbol_cached(&oiio, "sp_tiled_rows", &sp_tiled_rows_slot);
+    tiled_rows_fn fn = (tiled_rows_fn)sp_module_symbol_cached(&sp_module_oiio, "sp_tiled_rows", &sp_tiled_rows_slot);
     return fn ? fn(t, n, rgb) : SP_EMODULE;
 }
 
 int sp_tiled_close(sp_tiled_image **t)
 {
-    tiled_close_fn fn = (tiled_close_fn)sp_module_symbol_cached(&oiio, "sp_tiled_close", &sp_tiled_close_slot);
+    tiled_close_fn fn = (tiled_close_fn)sp_module_symbol_cached(&sp_module_oiio, "sp_tiled_close", &sp_tiled_close_slot);
     return fn ? fn(t) : SP_EMODULE;
 }

@@ -402,7 +402,8 @@ static void to_fit(const double *v, int W, int H, int ch, int w, int h, double *
 
 /*
  * Squared error and count of keyframe k rendered as the fit sees it (its camera at the fit's size, one sample
- * a pixel) against its frame box-filtered as the fit's front end does, inside the face, unsaturated.
+ * a pixel) against its frame box-filtered as the fit's front end does, inside the face (rim out, as the fit
+ * has it), unsaturated.
  */
 static int round_trip_frame(const sp_json *kf, int k, double *se, double *cnt)
 {
@@ -425,7 +426,10 @@ static int round_trip_frame(const sp_json *kf, int k, double *se, double *cnt)
         to_fit(frame, (int)wf, (int)hf, 3, (int)w, (int)h, target);
         for (size_t i = 0; i < (size_t)w * h; i++) {
             const double *g = target + i * 3;
-            if (!(a[i] >= 0.999f) || fmax(g[0], fmax(g[1], g[2])) > 0.98) /* the fit leaves saturation out too */
+            size_t x = i % w, y = i / w; /* the fit's mask: face with its four neighbours (not the rim), unsaturated */
+            int inside = x > 0 && y > 0 && x + 1 < w && y + 1 < h && a[i] >= 0.999f && a[i - 1] >= 0.999f &&
+                         a[i + 1] >= 0.999f && a[i - w] >= 0.999f && a[i + w] >= 0.999f;
+            if (!inside || fmax(g[0], fmax(g[1], g[2])) > 0.98)
                 continue;
             for (int c = 0; c < 3; c++) {
                 double d = sp_sunstage_linear_to_display(fmax(0.0, (double)b[i * 3 + (size_t)c])) - g[c];
