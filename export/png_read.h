@@ -24,7 +24,7 @@ int sp_png_decode_rgba(const uint8_t *data, size_t size, uint8_t **rgba, uint32_
 int sp_png_read_rgba(const char *path, uint8_t **rgba, uint32_t *width, uint32_t *height);
 /* 1 when the PNG carries alpha (gray + alpha, RGBA, or a tRNS chunk), 0 when not, SP_EFORMAT when not a PNG. */
 int sp_png_has_alpha(const uint8_t *data, size_t size);
- 
+
 /*
  * A PNG or (where libjpeg is built) JPEG file, told apart by content, as RGB24 into *rgb (malloc'd,
  * width*height*3 bytes, the caller frees); alpha is dropped. The PNG reader's errors, the JPEG
