@@ -9,7 +9,7 @@
  * buffers and two full-image sweeps. The arithmetic and its order match the
  * classic path, so the loss is bit-identical. settings.fit_float runs the
  * same sweep on batches of samples through the float SoA kernels
- * (surf_simd.h, shade_simd.h; RENDERER.md "Fourth pass").
+ * (surf_simd.h, shade_simd.h; OPTIMISATION-LOG.md "Fourth pass").
  */
 #include "sunprobe/sp_render.h"
 

@@ -9,7 +9,7 @@
  * per-sample vertex data (scalar), runs the kernels, and scatters the
  * per-vertex and per-texel adjoints (scalar). Decisions that switch
  * discretely (coverage, shadow texel, cluster) stay with the caller in
- * double, so they match the double path exactly. See RENDERER.md "Fourth pass".
+ * double, so they match the double path exactly. See OPTIMISATION-LOG.md "Fourth pass".
  */
 #ifndef SUNPROBE_RENDER_SURF_SIMD_H
 #define SUNPROBE_RENDER_SURF_SIMD_H
