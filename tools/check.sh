@@ -23,7 +23,9 @@ run_suite() { # name, meson options...
         meson setup "$dir" -Dwerror=true "$@" >"$logs_dir/$dir.setup.log" 2>&1 || { cat "$logs_dir/$dir.setup.log"; status=1; return; }
     fi
     ninja -C "$dir" -j "$jobs" >"$logs_dir/$dir.build.log" 2>&1 || { tail -50 "$logs_dir/$dir.build.log"; status=1; return; }
-    meson test -C "$dir" --num-processes "$jobs" --print-errorlogs || status=1
+    local setup=() # the sanitizer build's runtime options (meson.build's test setups)
+    [ "$dir" = build-check-sanitize ] && setup=(--setup sanitize)
+    meson test -C "$dir" "${setup[@]}" --num-processes "$jobs" --print-errorlogs || status=1
 }
 
 # ---- run_vm (live capture): the vm suite. A static minimal build (V4L2 only) boots Debian's kernel
@@ -58,8 +60,6 @@ run_cross() {
 }
 # ---- end run_cross ----
 
-export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
-export ASAN_OPTIONS=detect_leaks=1
 run_suite normal
 # the sanitizer build also covers the shims linked in directly (the normal build loads them as modules)
 run_suite sanitize -Db_sanitize=address,undefined -Db_lundef=false -Dlazy_modules=false

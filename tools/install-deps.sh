@@ -11,6 +11,7 @@ full=(clang libclang-rt-14-dev libopencv-dev opencv-doc libopenimageio-dev libdr
       chromium # chromium: the face viewer's headless test (tests/export/test_viewer.sh)
       draco    # draco_encoder: the reference the exported Draco geometry is measured against (test_export.c)
       blender  # headless Blender round trip of the exported face (tests/export/test_blender.sh)
+      valgrind # meson test --setup valgrind
       help2man # the man page, made from the program's own --help (tools/man/make-man.sh)
       python3-numpy python3-pil) # scoring probes against the shared street capture's truth (check_street_truth.py)
 pkgs=("${core[@]}")
