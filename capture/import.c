@@ -44,6 +44,12 @@ typedef struct import_ctx {
     double fps;
     int64_t *times;          /* frame-times CSV in ns, or NULL */
     size_t ntimes;
+    const char *times_src;   /* where the frame times came from */
+    const char *imu_src;     /* the IMU log: --imu, or INPUT when it is a sensor-log export */
+    sp_import_log log;       /* an app's IMU log read whole (import_logs.c) */
+    int log_loaded;
+    int64_t imu_first, imu_last; /* span of the samples written, on the frame clock */
+    uint64_t imu_written;
     sp_import_imu imu;
     sp_imu_sample *batch;
     size_t nbatch;
@@ -323,6 +329,7 @@ static int load_frame_times(import_ctx *c, const char *path)
     }
     if (rc == SP_EOS)
         rc = c->ntimes ? 0 : sp_csv_fail(&csv, SP_ENODATA, "no frame times after the header");
+    c->times_src = path;
     sp_csv_close(&csv);
     return rc;
 }
@@ -359,7 +366,7 @@ static int frame_time(import_ctx *c, uint64_t i, int64_t *out)
     if (c->times) {
         if (i >= c->ntimes)
             return FAIL(c, SP_ECORRUPT, "%s: has %zu frame times, but the input has more frames",
-                        c->s->frame_times_csv, c->ntimes);
+                        c->times_src, c->ntimes);
         *out = c->times[i] - c->times[0];
         return 0;
     }
@@ -388,6 +395,9 @@ static int flush_imu(import_ctx *c, int64_t limit_ns)
     const sp_imu_sample *smp;
     int rc;
     while ((rc = sp_import_imu_peek(&c->imu, &smp)) == 0 && smp->timestamp_ns <= limit_ns) {
+        if (c->imu_written++ == 0)
+            c->imu_first = smp->timestamp_ns;
+        c->imu_last = smp->timestamp_ns;
         c->batch[c->nbatch++] = *smp;
         sp_import_imu_pop(&c->imu);
         if (c->nbatch == c->s->imu_batch && (rc = write_batch(c)) != 0)
@@ -416,12 +426,59 @@ static int write_meta(import_ctx *c, uint32_t w, uint32_t h)
 
 /* ---- the run ---- */
 
-/* IMU times share the clock of the frame times (or start at the first frame), plus the offset. */
+static int adopt_log_times(import_ctx *c)
+{
+    if (c->times || !c->log.nframes)
+        return 0;
+    c->times = malloc(c->log.nframes * sizeof(*c->times));
+    if (!c->times)
+        return -ENOMEM;
+    memcpy(c->times, c->log.frame_ns, c->log.nframes * sizeof(*c->times));
+    c->ntimes = c->log.nframes;
+    c->times_src = c->imu_src;
+    return 0;
+}
+
+/*
+ * IMU times share the clock of the frame times when there are any (the CSV's or the log's own);
+ * else an epoch log is mapped through the recording's start, and a video-clock log is taken as it
+ * is. The offset is added last.
+ */
 static int open_imu(import_ctx *c)
 {
-    int64_t t0 = c->times ? c->times[0] : 0;
+    int64_t t0 = 0;
+    const char *how = "t = 0 is the first frame";
+    if (c->times) {
+        t0 = c->times[0];
+        how = "on the clock of the frame times (t = their first)";
+    } else if (c->log_loaded && c->log.clock == SP_CLOCK_EPOCH) {
+        if (!c->log.has_start)
+            return FAIL(c, SP_ECORRUPT, "%s: a %s log on the epoch clock, and nothing gives the video's start time: "
+                        "give --frame-times on the same clock", c->imu_src, c->log.format);
+        t0 = c->log.start_ns;
+        how = c->log.start_from;
+    }
     int64_t shift = llround(c->s->imu_offset_s * 1e9) - t0;
-    return sp_import_imu_open(&c->imu, c->s->imu_csv, shift, c->rep->message, sizeof(c->rep->message));
+    snprintf(c->rep->imu_clock, sizeof(c->rep->imu_clock), "%s log, %s, offset %+.3f s",
+             c->log_loaded ? c->log.format : "sunprobe CSV", how, c->s->imu_offset_s);
+    if (c->log_loaded) {
+        sp_import_imu_from_log(&c->imu, &c->log, shift);
+        return 0;
+    }
+    return sp_import_imu_open(&c->imu, c->imu_src, shift, c->rep->message, sizeof(c->rep->message));
+}
+
+/* An app's log is read whole; its own frame times (OpenCamera-Sensors) stand in for --frame-times. */
+static int load_imu_log(import_ctx *c)
+{
+    const char *path = c->imu_src = c->s->imu_csv;
+    int fmt;
+    int rc = sp_import_log_detect(path, (int)c->s->imu_format, &fmt, c->rep->message, sizeof(c->rep->message));
+    if (rc || fmt == SP_IMPORT_IMU_SUNPROBE)
+        return rc;
+    rc = sp_import_log_load(&c->log, path, fmt, c->s->output, 0, c->rep->message, sizeof(c->rep->message));
+    c->log_loaded = !rc;
+    return rc ? rc : adopt_log_times(c);
 }
 
 static int check_settings(import_ctx *c)
@@ -447,13 +504,37 @@ static int check_settings(import_ctx *c)
     return c->batch ? 0 : -ENOMEM;
 }
 
+/* A Sensor Logger export (a .zip, or a directory with Gyroscope.csv) as INPUT: its video and its IMU log. */
+static int is_export(const char *in, const struct stat *st)
+{
+    char found[4096];
+    sp_import_bundle b = { .path = in };
+    if (S_ISDIR(st->st_mode))
+        return sp_import_bundle_find(&b, sp_import_match_name, "Gyroscope.csv", found, sizeof(found));
+    return S_ISREG(st->st_mode) && sp_import_is_zip(in);
+}
+
+static int open_export(import_ctx *c, const char *in)
+{
+    if (c->s->imu_csv)
+        return FAIL(c, -EINVAL, "%s: a sensor-log export brings its own IMU log; drop --imu, or give its video as "
+                    "INPUT", in);
+    int rc = sp_import_log_load(&c->log, in, SP_IMPORT_IMU_SENSOR_LOGGER, c->s->output, 1, c->rep->message,
+                                sizeof(c->rep->message));
+    c->log_loaded = !rc;
+    c->imu_src = in;
+    return rc ? rc : open_video(c, c->log.video);
+}
+
 static int open_input(import_ctx *c)
 {
     const char *in = c->s->input;
     struct stat st;
     int rc;
     if (stat(in, &st) == 0) {
-        if (S_ISDIR(st.st_mode))
+        if (is_export(in, &st))
+            rc = open_export(c, in);
+        else if (S_ISDIR(st.st_mode))
             rc = sp_import_list_directory(in, &c->images, c->rep->message, sizeof(c->rep->message));
         else if (sp_import_is_image_name(in))
             rc = sp_import_paths_add(&c->images, NULL, in);
@@ -543,6 +624,21 @@ static void report_progress(import_ctx *c)
     c->s->progress(c->s->progress_user, c->index, total);
 }
 
+/* A log whose span misses the frames' is on another clock or shifted: nothing downstream could use it. */
+static int check_overlap(import_ctx *c)
+{
+    if (!c->imu_src)
+        return 0;
+    double f1 = (double)c->rep->last_frame_ns * 1e-9;
+    if (!c->imu_written)
+        return FAIL(c, SP_ENODATA, "%s: no IMU samples", c->imu_src);
+    if (c->imu_first <= c->rep->last_frame_ns && c->imu_last >= 0)
+        return 0;
+    return FAIL(c, SP_ECORRUPT, "%s: the IMU log spans %.3f to %.3f s and the frames 0 to %.3f s on the video clock: "
+                "they never overlap (%s); fix the clock with --imu-offset or --frame-times", c->imu_src,
+                (double)c->imu_first * 1e-9, (double)c->imu_last * 1e-9, f1, c->rep->imu_clock);
+}
+
 static int import_frames(import_ctx *c)
 {
     int rc = 0;
@@ -572,7 +668,8 @@ static int import_frames(import_ctx *c)
     if (c->times && c->ntimes > c->index && !c->s->max_frames)
         sp_log(SP_LOG_WARN, "import", "%s: %zu frame times for %llu frames; the rest are ignored",
                c->s->frame_times_csv, c->ntimes, (unsigned long long)c->index);
-    return flush_imu(c, INT64_MAX); /* IMU samples after the last frame are kept too */
+    int rc2 = flush_imu(c, INT64_MAX); /* IMU samples after the last frame are kept too */
+    return rc2 ? rc2 : check_overlap(c);
 }
 
 static int finish_output(import_ctx *c)
@@ -595,6 +692,7 @@ static void cleanup(import_ctx *c)
     sp_cv_video_close(&c->video);
 #endif
     sp_import_imu_close(&c->imu);
+    sp_import_log_free(&c->log);
     sp_import_paths_free(&c->images);
     sp_json_free(c->meta_root);
     sp_jpeg_buffer_free(&c->jpeg);
@@ -623,11 +721,15 @@ int sp_import_run(const sp_import_settings *s, sp_import_report *report)
         rc = check_output_not_input(&c);
     if (!rc && s->frame_times_csv)
         rc = load_frame_times(&c, s->frame_times_csv);
+    if (!rc && s->imu_csv && !c.log_loaded)
+        rc = load_imu_log(&c);
     if (!rc && s->meta_json)
         rc = sp_import_meta_load(s->meta_json, &c.meta_root, &c.meta, report->message, sizeof(report->message));
     if (!rc)
         rc = choose_fps(&c);
-    if (!rc && s->imu_csv)
+    if (!rc && s->imu_csv && !c.imu_src)
+        c.imu_src = s->imu_csv;
+    if (!rc && c.imu_src)
         rc = open_imu(&c);
     if (!rc)
         rc = open_output(&c);

@@ -23,6 +23,15 @@ enum sp_import_store {
     SP_IMPORT_STORE_RGB = 1,  /* raw RGB24; JPEG files are decoded too (needs libjpeg for those) */
 };
 
+/* The IMU log's layout (capture/IMPORT.md, "IMU logs"). */
+enum sp_import_imu_format {
+    SP_IMPORT_IMU_AUTO = 0,      /* by content */
+    SP_IMPORT_IMU_SUNPROBE,      /* the CSV with t/t_ns, gx..mz */
+    SP_IMPORT_IMU_SENSOR_LOGGER, /* Sensor Logger: a directory or .zip of per-sensor CSVs */
+    SP_IMPORT_IMU_OPENCAMERA,    /* OpenCamera-Sensors: *_gyro.csv, *_accel.csv, *_timestamps.csv */
+    SP_IMPORT_IMU_GCSV,          /* Gyroflow .gcsv */
+};
+
 /* The --fps range: what a capture's META camera.fps may hold (capture/FORMAT.md). */
 #define SP_IMPORT_MIN_FPS 1e-3
 #define SP_IMPORT_MAX_FPS 1e4
@@ -44,6 +53,7 @@ typedef struct sp_import_settings {
     const char *frame_times_csv; /* optional: one row per frame, column t (s) or t_ns */
     const char *imu_csv;         /* optional: t or t_ns, then gx,gy,gz / ax,ay,az / mx,my,mz */
     double imu_offset_s;         /* added to every IMU time (seconds, |x| <= 1e6); default 0 */
+    enum sp_import_imu_format imu_format; /* default SP_IMPORT_IMU_AUTO */
     const char *meta_json;       /* optional: META JSON (capture/FORMAT.md), merged with what the import knows */
     const char *kind;            /* "selfie", "static" or NULL to keep the metadata's */
     enum sp_import_store store;  /* default SP_IMPORT_STORE_JPEG; JPEG files are always copied byte-for-byte */
@@ -66,6 +76,7 @@ typedef struct sp_import_report {
     uint32_t width, height;
     double fps;             /* the nominal rate written to the metadata */
     int64_t last_frame_ns;  /* timestamp of the last frame; the first is 0 */
+    char imu_clock[256];    /* how the IMU log's clock was mapped to the frames', for the user */
     /* On failure: what went wrong, naming the file and line where there is one. */
     char message[512];
 } sp_import_report;

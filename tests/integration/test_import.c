@@ -155,13 +155,19 @@ static void test_bad_input(void)
     CHECK_EQ_INT(run("import", iu_path("jpg"), "-o", out, "--fps", "10", "--imu", iu_path("back.csv"), NULL), 2);
     CHECK(stderr_has("back.csv:4: time goes backwards"));
     CHECK(!iu_exists(out) && !iu_exists(iu_path("bad.spcap.partial")));
-    /* an IMU log whose clock never meets the frames': the orientation stage has no result (exit 2, no CSV) */
+    /* an IMU log whose clock never meets the frames' is refused with both spans; --imu-offset fixes it */
     iu_write_text("late_imu.csv", "t,gx,gy,gz,ax,ay,az\n1000,0,0,0,0,0,9.81\n1000.01,0,0,0,0,0,9.81\n"
                                   "1000.02,0,0,0,0,0,9.81\n1000.03,0,0,0,0,0,9.81\n");
     CHECK_EQ_INT(run("import", iu_path("jpg"), "-o", iu_path("late.spcap"), "--fps", "10", "--imu",
-                     iu_path("late_imu.csv"), "-q", NULL), 0);
-    CHECK_EQ_INT(run("replay", iu_path("late.spcap"), "--stage", "orientation", "-o", iu_path("late.csv"), NULL), 2);
-    CHECK(!iu_exists(iu_path("late.csv")));
+                     iu_path("late_imu.csv"), "-q", NULL), 2);
+    CHECK(stderr_has("late_imu.csv: the IMU log spans 1000.000 to 1000.030 s and the frames 0 to 0.300 s"));
+    CHECK(stderr_has("never overlap"));
+    CHECK(!iu_exists(iu_path("late.spcap")) && !iu_exists(iu_path("late.spcap.partial")));
+    CHECK_EQ_INT(run("import", iu_path("jpg"), "-o", out, "--fps", "10", "--imu", iu_path("late_imu.csv"),
+                     "--imu-format", "csv", NULL), 1);
+    CHECK(stderr_has("imu-format"));
+    CHECK_EQ_INT(run("import", iu_path("jpg"), "-o", iu_path("late.spcap"), "--fps", "10", "--imu",
+                     iu_path("late_imu.csv"), "--imu-offset", "-1000", "-q", NULL), 0);
     /* META strings that are not UTF-8, or that a C string cannot hold, are refused with the byte (format: UTF-8) */
     static const char *const not_utf8[][2] = { { "{\"source\": \"caf\xe9\"}", "not UTF-8" },
                                                { "{\"source\": \"a\\u0000b\"}", "\\u0000 in a string" },

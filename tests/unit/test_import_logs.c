@@ -1,0 +1,340 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Phone and camera IMU logs through sp_import_run: the samples in tests/data (Sensor Logger directory
+ * and .zip, OpenCamera-Sensors, Gyroflow .gcsv) land with the right axes, units and clock, and every
+ * bad log (NaN or duplicate rows, a missing scale, a clock that never meets the frames, a zip without
+ * video) fails naming file and line with nothing written. argv[1]: the tests/data directory.
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "capture/opencv_shim.h"
+#include "check.h"
+#include "import_util.h"
+#include "sp_config.h"
+#include "sunprobe/sp_import.h"
+#if HAVE_LIBZIP
+#include <zip.h>
+#endif
+
+static const char *data_dir;
+
+static const char *data(const char *name)
+{
+    static char buf[8][1024];
+    static unsigned next;
+    char *p = buf[next++ % 8];
+    snprintf(p, sizeof(buf[0]), "%s/%s", data_dir, name);
+    return p;
+}
+
+enum { MAX_SAMPLES = 4096 };
+static sp_imu_sample samples[MAX_SAMPLES];
+static int nsamples;
+
+/* Every IMU sample of a capture, in file order. */
+static void read_samples(const char *path)
+{
+    nsamples = 0;
+    sp_capture_reader *r = NULL;
+    CHECK_EQ_INT(sp_capture_reader_open(&r, path, NULL), 0);
+    if (!r)
+        return;
+    sp_chunk ch;
+    while (sp_capture_reader_next(r, &ch) == 0)
+        for (int64_t i = 0; ch.type == SP_CHUNK_IMU && i < sp_chunk_imu_count(&ch) && nsamples < MAX_SAMPLES; i++)
+            CHECK_EQ_INT(sp_chunk_imu_get(&ch, (size_t)i, &samples[nsamples++]), 0);
+    sp_capture_reader_close(&r);
+}
+
+static const sp_imu_sample *first_of(uint32_t sensor)
+{
+    for (int i = 0; i < nsamples; i++)
+        if (samples[i].sensor == sensor)
+            return &samples[i];
+    return NULL;
+}
+
+static int count_of(uint32_t sensor)
+{
+    int n = 0;
+    for (int i = 0; i < nsamples; i++)
+        n += samples[i].sensor == sensor;
+    return n;
+}
+
+static void settings(sp_import_settings *s, const char *imu, const char *out)
+{
+    sp_import_default_settings(s);
+    s->input = iu_path("jpg");
+    s->output = iu_path(out);
+    s->fps = 10;
+    s->imu_csv = imu;
+    s->overwrite = 1;
+}
+
+static int run_ok(sp_import_settings *s, sp_import_report *rep)
+{
+    int rc = sp_import_run(s, rep);
+    CHECK_MSG(rc == 0, "%s: %s", s->imu_csv ? s->imu_csv : s->input, rep->message);
+    return rc == 0;
+}
+
+static void expect_failure(sp_import_settings *s, int code, const char *needle)
+{
+    sp_import_report rep;
+    char partial[400];
+    snprintf(partial, sizeof(partial), "%s.partial", s->output);
+    remove(s->output);
+    int rc = sp_import_run(s, &rep);
+    CHECK_MSG(rc == code, "returned %d (%s), expected %d; message: %s", rc, sp_strerror(rc), code, rep.message);
+    CHECK_MSG(strstr(rep.message, needle) != NULL, "message '%s' lacks '%s'", rep.message, needle);
+    CHECK(!iu_exists(s->output) && !iu_exists(partial));
+}
+
+/* The Sensor Logger sample: columns z,y,x, epoch ns mapped through time - seconds_elapsed, gravity added. */
+static void check_sensor_logger_capture(const char *path)
+{
+    read_samples(path);
+    CHECK_EQ_INT(count_of(SP_IMU_GYRO), 53);
+    CHECK_EQ_INT(count_of(SP_IMU_ACCEL), 25);
+    CHECK_EQ_INT(count_of(SP_IMU_MAG), 10);
+    const sp_imu_sample *g = first_of(SP_IMU_GYRO), *a = first_of(SP_IMU_ACCEL), *m = first_of(SP_IMU_MAG);
+    if (!g || !a || !m)
+        return;
+    CHECK_EQ_INT(g->timestamp_ns, -20000000); /* seconds_elapsed -0.02 */
+    CHECK_NEAR(g->v[0], 0.1, 1e-6);
+    CHECK_NEAR(g->v[1], 0.2, 1e-6);
+    CHECK_NEAR(g->v[2], 0.28, 1e-6);
+    CHECK_EQ_INT(a->timestamp_ns, 1000000);
+    CHECK_NEAR(a->v[0], 0.11, 1e-6); /* user acceleration + gravity */
+    CHECK_NEAR(a->v[1], 9.72, 1e-5);
+    CHECK_NEAR(a->v[2], 0.53, 1e-6);
+    CHECK_NEAR(m->v[0], 20.0, 1e-6);
+    CHECK_NEAR(m->v[2], 40.5, 1e-6);
+    for (int i = 1; i < nsamples; i++)
+        CHECK(samples[i].timestamp_ns >= samples[i - 1].timestamp_ns);
+}
+
+static void test_sensor_logger(void)
+{
+    sp_import_settings s;
+    sp_import_report rep;
+    settings(&s, data("sensor_logger"), "sl.spcap");
+    if (run_ok(&s, &rep)) {
+        CHECK(strstr(rep.imu_clock, "Sensor Logger") && strstr(rep.imu_clock, "seconds_elapsed"));
+        check_sensor_logger_capture(s.output);
+    }
+    /* one of its CSVs names the export too; --imu-format says the same */
+    settings(&s, data("sensor_logger/Gyroscope.csv"), "sl1.spcap");
+    s.imu_format = SP_IMPORT_IMU_SENSOR_LOGGER;
+    if (run_ok(&s, &rep))
+        check_sensor_logger_capture(s.output);
+    /* the same export zipped (without a video: fine as --imu, refused as INPUT) */
+    settings(&s, data("sensor_logger_novideo.zip"), "slz.spcap");
+#if HAVE_LIBZIP
+    if (run_ok(&s, &rep))
+        check_sensor_logger_capture(s.output);
+    settings(&s, NULL, "slz2.spcap");
+    s.input = data("sensor_logger_novideo.zip");
+    expect_failure(&s, SP_ENODATA, "sensor_logger_novideo.zip: the export holds no video");
+#else
+    expect_failure(&s, SP_EDISABLED, "-Dlibzip=enabled");
+#endif
+    /* its clock shifted away from the frames */
+    settings(&s, data("sensor_logger"), "late.spcap");
+    s.imu_offset_s = 100;
+    expect_failure(&s, SP_ECORRUPT, "never overlap");
+}
+
+static void write_sl_copy(const char *dir, const char *gyro)
+{
+    mkdir(iu_path(dir), 0755);
+    char name[128];
+    snprintf(name, sizeof(name), "%s/Gyroscope.csv", dir);
+    iu_write_text(name, gyro);
+}
+
+static void test_sensor_logger_bad(void)
+{
+    sp_import_settings s;
+    write_sl_copy("sl_nan", "time,seconds_elapsed,z,y,x\n1000000000,0,0,0,0\n1010000000,0.01,0,nan,0\n");
+    settings(&s, iu_path("sl_nan"), "bad.spcap");
+    expect_failure(&s, SP_ECORRUPT, "sl_nan/Gyroscope.csv:3: column 'y': 'nan' is not a finite number");
+    write_sl_copy("sl_dup", "time,seconds_elapsed,z,y,x\n1000000000,0,0,0,0\n1000000000,0,0,0,0\n");
+    settings(&s, iu_path("sl_dup"), "bad.spcap");
+    expect_failure(&s, SP_ECORRUPT, "sl_dup/Gyroscope.csv:3: duplicate row");
+    write_sl_copy("sl_cols", "time,seconds_elapsed,a,b,c\n1000000000,0,0,0,0\n");
+    settings(&s, iu_path("sl_cols"), "bad.spcap");
+    expect_failure(&s, SP_ECORRUPT, "sl_cols/Gyroscope.csv:1: a Sensor Logger CSV needs the columns");
+    mkdir(iu_path("sl_none"), 0755);
+    iu_write_text("sl_none/readme.txt", "nothing here\n");
+    settings(&s, iu_path("sl_none"), "bad.spcap");
+    s.imu_format = SP_IMPORT_IMU_SENSOR_LOGGER;
+    expect_failure(&s, SP_ENODATA, "no Gyroscope.csv");
+    s.imu_format = SP_IMPORT_IMU_AUTO;
+    expect_failure(&s, SP_ECORRUPT, "neither Sensor Logger CSVs");
+}
+
+static void test_opencamera(void)
+{
+    static const int64_t frames[5] = { 0, 33366000, 66733000, 116733000, 150100000 };
+    sp_import_settings s;
+    sp_import_report rep;
+    settings(&s, data("opencamera/VID_20240621_120000_gyro.csv"), "oc.spcap");
+    s.fps = 0; /* the log's frame times give both times and rate */
+    if (!run_ok(&s, &rep))
+        return;
+    iu_readback rb;
+    if (iu_read_capture(s.output, &rb) == 0)
+        for (int i = 0; i < 5; i++)
+            CHECK_EQ_INT(rb.frame_ts[i], frames[i]);
+    CHECK_NEAR(rep.fps, 4.0 / 0.1501, 1e-6);
+    read_samples(s.output);
+    CHECK_EQ_INT(count_of(SP_IMU_GYRO), 105);
+    CHECK_EQ_INT(count_of(SP_IMU_ACCEL), 50);
+    const sp_imu_sample *g = first_of(SP_IMU_GYRO), *a = first_of(SP_IMU_ACCEL);
+    if (g && a) {
+        CHECK_EQ_INT(g->timestamp_ns, -20000000);
+        CHECK_NEAR(g->v[2], -0.008, 1e-7);
+        CHECK_EQ_INT(a->timestamp_ns, 1000000);
+        CHECK_NEAR(a->v[1], 9.79, 1e-5);
+    }
+    /* the directory finds the same files */
+    settings(&s, data("opencamera"), "oc2.spcap");
+    s.fps = 0;
+    CHECK(run_ok(&s, &rep) && rep.frames == 5);
+    iu_write_text("short_gyro.csv", "0.1,0.2,0.3,1000\n0.1,0.2,1000\n");
+    settings(&s, iu_path("short_gyro.csv"), "bad.spcap");
+    expect_failure(&s, SP_ECORRUPT, "short_gyro.csv:2: 3 fields, but the first row has 4");
+    iu_write_text("dup_gyro.csv", "0.1,0.2,0.3,1000\n0.1,0.2,0.3,1000\n");
+    settings(&s, iu_path("dup_gyro.csv"), "bad.spcap");
+    expect_failure(&s, SP_ECORRUPT, "dup_gyro.csv:2: duplicate row");
+}
+
+static void test_gcsv(void)
+{
+    sp_import_settings s;
+    sp_import_report rep;
+    settings(&s, data("gyroflow/sample.gcsv"), "g.spcap");
+    if (run_ok(&s, &rep)) {
+        read_samples(s.output);
+        CHECK_EQ_INT(count_of(SP_IMU_GYRO), 101);
+        CHECK_EQ_INT(count_of(SP_IMU_ACCEL), 101);
+        const sp_imu_sample *g = first_of(SP_IMU_GYRO), *a = first_of(SP_IMU_ACCEL);
+        if (g && a) {
+            CHECK_EQ_INT(g->timestamp_ns, 0);
+            CHECK_NEAR(g->v[0], 100 * 0.00122173047, 1e-7);
+            CHECK_NEAR(g->v[1], -50 * 0.00122173047, 1e-7);
+            CHECK_NEAR(a->v[1], 9.80665, 1e-5); /* 2048 x 1/2048 g */
+        }
+        CHECK_EQ_INT(samples[nsamples - 1].timestamp_ns, 500000000);
+    }
+    static const struct {
+        const char *name, *text, *needle;
+    } bad[] = {
+        { "notscale.gcsv", "GYROFLOW IMU LOG\nversion,1.3\ngscale,0.001\nt,gx,gy,gz\n0,1,2,3\n",
+          "notscale.gcsv:4: the header has no tscale, needed to read t" },
+        { "nogscale.gcsv", "GYROFLOW IMU LOG\ntscale,0.001\nt,gx,gy,gz\n0,1,2,3\n",
+          "nogscale.gcsv:3: the header has no gscale" },
+        { "noascale.gcsv", "GYROFLOW IMU LOG\ntscale,0.001\ngscale,0.001\nt,gx,gy,gz,ax,ay,az\n0,1,2,3,4,5,6\n",
+          "noascale.gcsv:4: the header has no ascale" },
+        { "zero.gcsv", "GYROFLOW IMU LOG\ntscale,0\n", "zero.gcsv:2: tscale must be a positive number" },
+        { "nan.gcsv", "GYROFLOW IMU LOG\ntscale,0.001\ngscale,0.001\nt,gx,gy,gz\n0,1,2,3\n1,nan,2,3\n",
+          "nan.gcsv:6: column 'gx'" },
+        { "dup.gcsv", "GYROFLOW IMU LOG\ntscale,0.001\ngscale,0.001\nt,gx,gy,gz\n0,1,2,3\n0,1,2,3\n",
+          "dup.gcsv:6: duplicate row" },
+        { "nocols.gcsv", "GYROFLOW IMU LOG\ntscale,0.001\n", "nocols.gcsv:2: the header ends" },
+    };
+    for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
+        iu_write_text(bad[i].name, bad[i].text);
+        settings(&s, iu_path(bad[i].name), "bad.spcap");
+        expect_failure(&s, SP_ECORRUPT, bad[i].needle);
+    }
+    /* forcing a format the file is not */
+    settings(&s, data("sensor_logger/Gyroscope.csv"), "bad.spcap");
+    s.imu_format = SP_IMPORT_IMU_GCSV;
+    expect_failure(&s, SP_ECORRUPT, "Gyroscope.csv:1: a .gcsv starts with 'GYROFLOW IMU LOG'");
+}
+
+#if HAVE_LIBZIP && HAVE_OPENCV
+/* A Sensor Logger zip as a phone writes it: CSVs at the top, Camera/<epoch ms>.mp4. */
+static int make_export_zip(const char *zip_path)
+{
+    sp_cv_video_writer *w = NULL;
+    if (sp_cv_video_writer_open(&w, iu_path("1718971200000.mp4"), 16, 16, 10) != 0)
+        return 0;
+    for (int i = 0; i < 5; i++) {
+        uint8_t *img = iu_solid_image(i, 16, 16);
+        sp_cv_video_write(w, img, 16 * 3);
+        free(img);
+    }
+    if (sp_cv_video_writer_close(&w) != 0)
+        return 0;
+    int err = 0;
+    zip_t *z = zip_open(zip_path, ZIP_CREATE | ZIP_TRUNCATE, &err);
+    CHECK(z != NULL);
+    if (!z)
+        return 0;
+    static const char *const csvs[] = { "Gyroscope.csv", "Accelerometer.csv", "Gravity.csv", "Magnetometer.csv" };
+    for (int i = 0; i < 4; i++) {
+        char src[1024];
+        snprintf(src, sizeof(src), "sensor_logger/%s", csvs[i]);
+        CHECK(zip_file_add(z, csvs[i], zip_source_file(z, data(src), 0, 0), 0) >= 0);
+    }
+    CHECK(zip_file_add(z, "Camera/1718971200000.mp4", zip_source_file(z, iu_path("1718971200000.mp4"), 0, 0), 0) >= 0);
+    return zip_close(z) == 0;
+}
+
+static void test_export_zip(void)
+{
+    if (!make_export_zip(iu_path("export.zip"))) {
+        printf("skipping the zip with video: OpenCV cannot write mp4 here\n");
+        return;
+    }
+    sp_import_settings s;
+    sp_import_report rep;
+    settings(&s, NULL, "export.spcap");
+    s.input = iu_path("export.zip");
+    s.fps = 0;
+    if (run_ok(&s, &rep)) {
+        CHECK_EQ_INT(rep.frames, 5);
+        CHECK(strstr(rep.imu_clock, "file name") != NULL);
+        check_sensor_logger_capture(s.output); /* the file name's epoch is the sample's session start */
+    }
+    char cmd[600];
+    snprintf(cmd, sizeof(cmd), "ls -a '%s' | grep -q sp-import-video", iu_tmp);
+    CHECK_MSG(system(cmd) != 0, "the unpacked video was left behind");
+    settings(&s, data("sensor_logger"), "export2.spcap");
+    s.input = iu_path("export.zip");
+    expect_failure(&s, -EINVAL, "drop --imu");
+}
+#endif
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        fprintf(stderr, "usage: test_import_logs TESTS_DATA_DIR\n");
+        return 99;
+    }
+    data_dir = argv[1];
+    iu_make_tmp("import_logs");
+    mkdir(iu_path("jpg"), 0755);
+    for (int i = 0; i < 5; i++) {
+        char name[64];
+        snprintf(name, sizeof(name), "jpg/f_%d.jpg", i);
+        iu_write_marked_jpeg(name, i);
+    }
+    test_sensor_logger();
+    test_sensor_logger_bad();
+    test_opencamera();
+    test_gcsv();
+#if HAVE_LIBZIP && HAVE_OPENCV
+    test_export_zip();
+#endif
+    return iu_finish();
+}
