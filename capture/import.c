@@ -77,6 +77,17 @@ int sp_import_fail(char *msg, size_t msg_size, int rc, const char *fmt, ...)
 
 #define FAIL(c, rc, ...) sp_import_fail((c)->rep->message, sizeof((c)->rep->message), rc, __VA_ARGS__)
 
+int sp_import_to_camera_preset(enum sp_import_to_camera preset, double q[4])
+{
+    /* iOS and Android share the sensor axes; a back camera looks along -z (180 deg about x), a front
+     * camera along +z with its image's right on the phone's left (180 deg about z) */
+    static const double table[][4] = { { 1, 0, 0, 0 }, { 0, 0, 0, 1 }, { 0, 1, 0, 0 }, { 0, 0, 0, 1 }, { 0, 1, 0, 0 } };
+    if (preset < SP_IMPORT_TO_CAMERA_IDENTITY || preset > SP_IMPORT_TO_CAMERA_IOS_BACK)
+        return -EINVAL;
+    memcpy(q, table[preset - SP_IMPORT_TO_CAMERA_IDENTITY], sizeof(table[0]));
+    return 0;
+}
+
 void sp_import_default_settings(sp_import_settings *s)
 {
     if (!s)
@@ -416,8 +427,12 @@ static int write_meta(import_ctx *c, uint32_t w, uint32_t h)
     if (isfinite(c->meta.fps) && c->fps > 0 && fabs(c->meta.fps - c->fps) > 1e-3 * c->fps)
         sp_log(SP_LOG_WARN, "import", "%s: camera.fps %g replaced by %g, the rate of the timestamps",
                c->s->meta_json, c->meta.fps, c->fps);
+    double q[4];
+    int preset = sp_import_to_camera_preset(c->s->imu_to_camera, q) == 0;
+    if (preset && sp_json_get(sp_json_get(c->meta_root, "imu"), "to_camera"))
+        sp_log(SP_LOG_WARN, "import", "%s: imu.to_camera replaced by the --imu-to-camera preset", c->s->meta_json);
     sp_strbuf b = { 0 };
-    int rc = sp_import_meta_build(c->meta_root, c->s->kind, c->s->input, w, h, c->fps, &b);
+    int rc = sp_import_meta_build(c->meta_root, c->s->kind, c->s->input, w, h, c->fps, preset ? q : NULL, &b);
     if (!rc)
         rc = sp_capture_write_meta(c->writer, 0, b.data, b.len);
     sp_strbuf_free(&b);
@@ -496,6 +511,8 @@ static int check_settings(import_ctx *c)
         return FAIL(c, -EINVAL, "unknown storage mode %d", (int)s->store);
     if (s->kind && strcmp(s->kind, "selfie") != 0 && strcmp(s->kind, "static") != 0)
         return FAIL(c, -EINVAL, "kind '%s' is neither 'selfie' nor 'static'", s->kind);
+    if (s->imu_to_camera < SP_IMPORT_TO_CAMERA_KEEP || s->imu_to_camera > SP_IMPORT_TO_CAMERA_IOS_BACK)
+        return FAIL(c, -EINVAL, "unknown IMU-to-camera preset %d", (int)s->imu_to_camera);
     if (s->imu_batch == 0 || s->imu_batch > (1u << 20))
         return FAIL(c, -EINVAL, "IMU batch size %u is not in 1..1048576", s->imu_batch);
     if (!s->overwrite && access(s->output, F_OK) == 0)

@@ -138,10 +138,11 @@ int sp_import_log_gcsv(sp_import_log *log, const char *path, char *msg, size_t m
  */
 int sp_import_meta_load(const char *path, sp_json **root, sp_capture_meta *meta, char *msg, size_t msg_size);
 /*
- * The META chunk: root's members (root may be NULL) with kind (NULL: root's),
- * source (root's, else "import:INPUT") and camera width/height/fps (fps only if > 0) put over them.
+ * The META chunk: root's members (root may be NULL) with kind (NULL: root's), source (root's,
+ * else "import:INPUT"), camera width/height/fps (fps only if > 0) and imu.to_camera (w, x, y, z;
+ * NULL: root's) put over them.
  */
 int sp_import_meta_build(const sp_json *root, const char *kind, const char *input, uint32_t w, uint32_t h,
-                         double fps, sp_strbuf *b);
+                         double fps, const double *to_camera, sp_strbuf *b);
 
 #endif

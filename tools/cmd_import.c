@@ -30,6 +30,8 @@ static void usage(FILE *out)
             "      --imu-offset S      seconds added to every IMU time, -1e6..1e6 (default 0)\n"
             "      --imu-format F      auto (default: by content), sunprobe, sensor-logger, opencamera, gcsv\n"
             "                          (a Sensor Logger directory or .zip may also be INPUT: video + IMU)\n"
+            "      --imu-to-camera P   IMU axes to camera axes: android-front, android-back, ios-front,\n"
+            "                          ios-back or identity (replaces the metadata's imu.to_camera)\n"
             "      --meta JSON         metadata (capture/FORMAT.md), merged with what the import knows\n"
             "      --kind K            selfie or static (overrides the metadata's)\n"
             "      --store M           jpeg (default) or rgb: how non-JPEG frames are stored\n"
@@ -50,7 +52,7 @@ static void on_progress(void *user, uint64_t done, uint64_t total)
 }
 
 enum { OPT_FPS = 256, OPT_FRAME_TIMES, OPT_IMU, OPT_IMU_OFFSET, OPT_META, OPT_KIND, OPT_STORE, OPT_QUALITY,
-       OPT_MAX_FRAMES, OPT_IMU_FORMAT };
+       OPT_MAX_FRAMES, OPT_IMU_FORMAT, OPT_TO_CAMERA };
 
 /* Fills s from the command line; returns -1 to go on, else an exit code. */
 static int parse_args(int argc, char **argv, sp_import_settings *s, int *quiet)
@@ -62,11 +64,13 @@ static int parse_args(int argc, char **argv, sp_import_settings *s, int *quiet)
         { "kind", required_argument, NULL, OPT_KIND },    { "store", required_argument, NULL, OPT_STORE },
         { "quality", required_argument, NULL, OPT_QUALITY }, { "max-frames", required_argument, NULL, OPT_MAX_FRAMES },
         { "imu-format", required_argument, NULL, OPT_IMU_FORMAT },
+        { "imu-to-camera", required_argument, NULL, OPT_TO_CAMERA },
         { "force", no_argument, NULL, 'f' },              { "quiet", no_argument, NULL, 'q' },
         { "help", no_argument, NULL, 'h' },               { 0 },
     };
     optind = 0; /* full getopt reset: commands may run more than once in a process (tests) */
     static const char *const stores[] = { "jpeg", "rgb" };
+    static const char *const presets[] = { "identity", "android-front", "android-back", "ios-front", "ios-back" };
     static const char *const imu_formats[] = { "auto", "sunprobe", "sensor-logger", "opencamera", "gcsv" };
     int c, bad = 0, v = 0;
     while (!bad && (c = getopt_long(argc, argv, "o:fqh", opts, NULL)) != -1) {
@@ -85,6 +89,10 @@ static int parse_args(int argc, char **argv, sp_import_settings *s, int *quiet)
         case OPT_IMU_FORMAT:
             bad = sp_opt_choice(CMD, "imu-format", optarg, imu_formats, 5, &v);
             s->imu_format = (enum sp_import_imu_format)v;
+            break;
+        case OPT_TO_CAMERA:
+            bad = sp_opt_choice(CMD, "imu-to-camera", optarg, presets, 5, &v);
+            s->imu_to_camera = (enum sp_import_to_camera)(v + SP_IMPORT_TO_CAMERA_IDENTITY);
             break;
         case OPT_QUALITY: bad = sp_opt_int(CMD, "quality", optarg, 1, 100, &s->quality); break;
         case OPT_MAX_FRAMES: bad = sp_opt_u64(CMD, "max-frames", optarg, 1, UINT64_MAX, &s->max_frames); break;

@@ -32,6 +32,23 @@ enum sp_import_imu_format {
     SP_IMPORT_IMU_GCSV,          /* Gyroflow .gcsv */
 };
 
+/*
+ * IMU-to-camera rotation presets for phones (capture/IMPORT.md, "IMU to camera"): the phone's sensor
+ * axes (x right, y up, z out of the screen, held in portrait) into camera axes (x right, y down, z
+ * forward) for frames shown upright in portrait.
+ */
+enum sp_import_to_camera {
+    SP_IMPORT_TO_CAMERA_KEEP = 0,  /* the metadata's imu.to_camera (identity when absent) */
+    SP_IMPORT_TO_CAMERA_IDENTITY,
+    SP_IMPORT_TO_CAMERA_ANDROID_FRONT,
+    SP_IMPORT_TO_CAMERA_ANDROID_BACK,
+    SP_IMPORT_TO_CAMERA_IOS_FRONT,
+    SP_IMPORT_TO_CAMERA_IOS_BACK,
+};
+
+/* The preset's unit quaternion (w, x, y, z) into q; -EINVAL for KEEP or an unknown value. */
+SP_API int sp_import_to_camera_preset(enum sp_import_to_camera preset, double q[4]);
+
 /* The --fps range: what a capture's META camera.fps may hold (capture/FORMAT.md). */
 #define SP_IMPORT_MIN_FPS 1e-3
 #define SP_IMPORT_MAX_FPS 1e4
@@ -54,6 +71,7 @@ typedef struct sp_import_settings {
     const char *imu_csv;         /* optional: t or t_ns, then gx,gy,gz / ax,ay,az / mx,my,mz */
     double imu_offset_s;         /* added to every IMU time (seconds, |x| <= 1e6); default 0 */
     enum sp_import_imu_format imu_format; /* default SP_IMPORT_IMU_AUTO */
+    enum sp_import_to_camera imu_to_camera; /* default KEEP; a preset replaces the metadata's imu.to_camera */
     const char *meta_json;       /* optional: META JSON (capture/FORMAT.md), merged with what the import knows */
     const char *kind;            /* "selfie", "static" or NULL to keep the metadata's */
     enum sp_import_store store;  /* default SP_IMPORT_STORE_JPEG; JPEG files are always copied byte-for-byte */

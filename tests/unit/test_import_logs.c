@@ -17,6 +17,8 @@
 #include "import_util.h"
 #include "sp_config.h"
 #include "sunprobe/sp_import.h"
+#include "sunprobe/sp_math.h"
+#include "sunprobe/sp_meta.h"
 #if HAVE_LIBZIP
 #include <zip.h>
 #endif
@@ -315,6 +317,55 @@ static void test_export_zip(void)
 }
 #endif
 
+static void check_axis(enum sp_import_to_camera p, sp_vec3 imu, sp_vec3 cam)
+{
+    double q[4];
+    CHECK_EQ_INT(sp_import_to_camera_preset(p, q), 0);
+    sp_vec3 r = sp_quat_rotate((sp_quat){ q[0], q[1], q[2], q[3] }, imu);
+    CHECK_MSG(fabs(r.x - cam.x) + fabs(r.y - cam.y) + fabs(r.z - cam.z) < 1e-12,
+              "preset %d: (%g %g %g) -> (%g %g %g), expected (%g %g %g)", (int)p, imu.x, imu.y, imu.z, r.x, r.y, r.z,
+              cam.x, cam.y, cam.z);
+}
+
+/* Phone axes: x right, y up, z out of the screen (towards the user); camera: x right, y down, z forward. */
+static void test_to_camera(void)
+{
+    const sp_vec3 up = { 0, 1, 0 }, screen_right = { 1, 0, 0 }, to_user = { 0, 0, 1 };
+    for (int p = SP_IMPORT_TO_CAMERA_IDENTITY; p <= SP_IMPORT_TO_CAMERA_IOS_BACK; p++) {
+        if (p == SP_IMPORT_TO_CAMERA_IDENTITY)
+            continue;
+        check_axis((enum sp_import_to_camera)p, up, (sp_vec3){ 0, -1, 0 }); /* upright portrait frames */
+    }
+    /* a back camera looks away from the user and sees the screen's right on the image's right */
+    check_axis(SP_IMPORT_TO_CAMERA_ANDROID_BACK, to_user, (sp_vec3){ 0, 0, -1 });
+    check_axis(SP_IMPORT_TO_CAMERA_IOS_BACK, screen_right, (sp_vec3){ 1, 0, 0 });
+    /* a front camera looks at the user, who sees the screen's right on the (unmirrored) image's left */
+    check_axis(SP_IMPORT_TO_CAMERA_ANDROID_FRONT, to_user, (sp_vec3){ 0, 0, 1 });
+    check_axis(SP_IMPORT_TO_CAMERA_IOS_FRONT, screen_right, (sp_vec3){ -1, 0, 0 });
+    check_axis(SP_IMPORT_TO_CAMERA_IDENTITY, screen_right, screen_right);
+    double q[4];
+    CHECK_EQ_INT(sp_import_to_camera_preset(SP_IMPORT_TO_CAMERA_KEEP, q), -EINVAL);
+    CHECK_EQ_INT(sp_import_to_camera_preset((enum sp_import_to_camera)99, q), -EINVAL);
+
+    /* the preset replaces the metadata's to_camera and keeps its other imu keys */
+    iu_write_text("meta.json", "{\"imu\": {\"name\": \"phone\", \"to_camera\": [1, 0, 0, 0]}}");
+    sp_import_settings s;
+    sp_import_report rep;
+    settings(&s, data("gyroflow/sample.gcsv"), "tc.spcap");
+    s.meta_json = iu_path("meta.json");
+    s.imu_to_camera = SP_IMPORT_TO_CAMERA_ANDROID_FRONT;
+    iu_readback rb;
+    if (run_ok(&s, &rep) && iu_read_capture(s.output, &rb) == 0) {
+        sp_capture_meta m;
+        sp_capture_meta_init(&m);
+        CHECK_EQ_INT(sp_capture_meta_merge(&m, rb.meta_json, strlen(rb.meta_json)), 0);
+        CHECK(m.imu_to_camera.w == 0 && m.imu_to_camera.x == 0 && m.imu_to_camera.y == 0 && m.imu_to_camera.z == 1);
+        CHECK(strcmp(m.imu_name, "phone") == 0);
+    }
+    s.imu_to_camera = (enum sp_import_to_camera)42;
+    expect_failure(&s, -EINVAL, "preset 42");
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 2) {
@@ -333,6 +384,7 @@ int main(int argc, char **argv)
     test_sensor_logger_bad();
     test_opencamera();
     test_gcsv();
+    test_to_camera();
 #if HAVE_LIBZIP && HAVE_OPENCV
     test_export_zip();
 #endif
