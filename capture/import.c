@@ -45,6 +45,7 @@ typedef struct import_ctx {
     int64_t *times;          /* frame-times CSV in ns, or NULL */
     size_t ntimes;
     const char *times_src;   /* where the frame times came from */
+    sp_import_exposure expo; /* per-frame exposure, or empty */
     const char *imu_src;     /* the IMU log: --imu, or INPUT when it is a sensor-log export */
     sp_import_log log;       /* an app's IMU log read whole (import_logs.c) */
     int log_loaded;
@@ -327,9 +328,12 @@ static int load_frame_times(import_ctx *c, const char *path)
     int rc = sp_csv_open(&csv, path, c->rep->message, sizeof(c->rep->message));
     if (rc)
         return rc;
-    int col_t, col_tns;
+    int col_t, col_tns, expo_col[3];
     size_t cap = 0;
     rc = sp_csv_time_columns(&csv, &col_t, &col_tns);
+    int expo = rc ? 0 : c->s->exposure_csv ? 0 : sp_import_exposure_columns(&csv, expo_col);
+    rc = expo < 0 ? expo : rc;
+    c->expo.path = path;
     while (!rc && (rc = sp_csv_next(&csv)) == 0) {
         int64_t t;
         rc = sp_csv_time_ns(&csv, col_t, col_tns, &t);
@@ -337,6 +341,8 @@ static int load_frame_times(import_ctx *c, const char *path)
             rc = sp_csv_fail(&csv, SP_ECORRUPT, "frame time is not after the previous row's (times must increase)");
         if (!rc)
             rc = push_time(c, &cap, t);
+        if (!rc && expo)
+            rc = sp_import_exposure_row(&c->expo, &csv, expo_col);
     }
     if (rc == SP_EOS)
         rc = c->ntimes ? 0 : sp_csv_fail(&csv, SP_ENODATA, "no frame times after the header");
@@ -358,7 +364,7 @@ static int check_output_not_input(import_ctx *c)
     struct stat out;
     if (stat(s->output, &out) != 0)
         return 0; /* not there yet: cannot be an input */
-    const char *named[] = { s->input, s->frame_times_csv, s->imu_csv, s->meta_json };
+    const char *named[] = { s->input, s->frame_times_csv, s->imu_csv, s->meta_json, s->exposure_csv };
     const char *hit = NULL;
     for (size_t i = 0; !hit && i < sizeof(named) / sizeof(named[0]); i++)
         if (named[i] && same_file(named[i], &out))
@@ -614,6 +620,13 @@ static int next_frame(import_ctx *c, sp_frame *f)
     f->sequence = c->index;
     f->exposure_us = NAN;
     f->gain = NAN;
+    if (c->expo.n && c->index >= c->expo.n)
+        return FAIL(c, SP_ECORRUPT, "%s: has exposures for %zu frames, but the input has more frames", c->expo.path,
+                    c->expo.n);
+    if (c->expo.n) {
+        f->exposure_us = c->expo.v[c->index][0];
+        f->gain = c->expo.v[c->index][1];
+    }
     return 0;
 }
 
@@ -710,6 +723,7 @@ static void cleanup(import_ctx *c)
 #endif
     sp_import_imu_close(&c->imu);
     sp_import_log_free(&c->log);
+    sp_import_exposure_free(&c->expo);
     sp_import_paths_free(&c->images);
     sp_json_free(c->meta_root);
     sp_jpeg_buffer_free(&c->jpeg);
@@ -738,6 +752,8 @@ int sp_import_run(const sp_import_settings *s, sp_import_report *report)
         rc = check_output_not_input(&c);
     if (!rc && s->frame_times_csv)
         rc = load_frame_times(&c, s->frame_times_csv);
+    if (!rc && s->exposure_csv)
+        rc = sp_import_exposure_load(&c.expo, s->exposure_csv, report->message, sizeof(report->message));
     if (!rc && s->imu_csv && !c.log_loaded)
         rc = load_imu_log(&c);
     if (!rc && s->meta_json)

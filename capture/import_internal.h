@@ -130,6 +130,22 @@ int sp_import_log_push(sp_import_log *log, int64_t t, uint32_t sensor, const dou
 /* Gyroflow .gcsv (import_gcsv.c). */
 int sp_import_log_gcsv(sp_import_log *log, const char *path, char *msg, size_t msg_size);
 
+/* ---- per-frame exposure (import_exposure.c) ---- */
+
+typedef struct sp_import_exposure {
+    float (*v)[2];    /* per frame: exposure_us, gain (NaN unknown) */
+    size_t n, cap;
+    const char *path; /* borrowed */
+} sp_import_exposure;
+
+/* col[] = exposure_s, iso, gain (-1 absent): 1 when any is there, 0 none, SP_ECORRUPT for iso and gain both. */
+int sp_import_exposure_columns(sp_csv *csv, int col[3]);
+/* Appends the current row's exposure (empty cells: unknown). */
+int sp_import_exposure_row(sp_import_exposure *x, sp_csv *csv, const int col[3]);
+/* A CSV of its own (--exposure): one row per frame. */
+int sp_import_exposure_load(sp_import_exposure *x, const char *path, char *msg, size_t msg_size);
+void sp_import_exposure_free(sp_import_exposure *x);
+
 /* ---- metadata (import_meta.c) ---- */
 
 /*

@@ -25,7 +25,9 @@ static void usage(FILE *out)
             "      --fps F             frame rate for timestamps, 0.001..10000 (default: frame-times CSV,\n"
             "                          the video's rate, or camera.fps of --meta; required otherwise)\n"
             "      --frame-times CSV   per-frame times: column t (seconds) or t_ns, one row per frame\n"
-            "      --imu CSV           IMU samples: t or t_ns, then gx,gy,gz (rad/s) ax,ay,az (m/s^2)\n"
+            "      --exposure CSV      per-frame exposure: exposure_s and/or iso or gain, one row per frame\n"
+            "                          (the frame-times CSV may carry these columns too)\n"
+            "      --imu LOG           IMU samples: t or t_ns, then gx,gy,gz (rad/s) ax,ay,az (m/s^2)\n"
             "                          mx,my,mz (uT); times on the frame clock, 0 = first frame\n"
             "      --imu-offset S      seconds added to every IMU time, -1e6..1e6 (default 0)\n"
             "      --imu-format F      auto (default: by content), sunprobe, sensor-logger, opencamera, gcsv\n"
@@ -52,7 +54,7 @@ static void on_progress(void *user, uint64_t done, uint64_t total)
 }
 
 enum { OPT_FPS = 256, OPT_FRAME_TIMES, OPT_IMU, OPT_IMU_OFFSET, OPT_META, OPT_KIND, OPT_STORE, OPT_QUALITY,
-       OPT_MAX_FRAMES, OPT_IMU_FORMAT, OPT_TO_CAMERA };
+       OPT_MAX_FRAMES, OPT_IMU_FORMAT, OPT_TO_CAMERA, OPT_EXPOSURE };
 
 /* Fills s from the command line; returns -1 to go on, else an exit code. */
 static int parse_args(int argc, char **argv, sp_import_settings *s, int *quiet)
@@ -64,6 +66,7 @@ static int parse_args(int argc, char **argv, sp_import_settings *s, int *quiet)
         { "kind", required_argument, NULL, OPT_KIND },    { "store", required_argument, NULL, OPT_STORE },
         { "quality", required_argument, NULL, OPT_QUALITY }, { "max-frames", required_argument, NULL, OPT_MAX_FRAMES },
         { "imu-format", required_argument, NULL, OPT_IMU_FORMAT },
+        { "exposure", required_argument, NULL, OPT_EXPOSURE },
         { "imu-to-camera", required_argument, NULL, OPT_TO_CAMERA },
         { "force", no_argument, NULL, 'f' },              { "quiet", no_argument, NULL, 'q' },
         { "help", no_argument, NULL, 'h' },               { 0 },
@@ -79,6 +82,7 @@ static int parse_args(int argc, char **argv, sp_import_settings *s, int *quiet)
         case OPT_FPS: bad = sp_opt_double(CMD, "fps", optarg, SP_IMPORT_MIN_FPS, SP_IMPORT_MAX_FPS, &s->fps); break;
         case OPT_FRAME_TIMES: s->frame_times_csv = optarg; break;
         case OPT_IMU: s->imu_csv = optarg; break;
+        case OPT_EXPOSURE: s->exposure_csv = optarg; break;
         case OPT_IMU_OFFSET: bad = sp_opt_double(CMD, "imu-offset", optarg, -1e6, 1e6, &s->imu_offset_s); break;
         case OPT_META: s->meta_json = optarg; break;
         case OPT_KIND: s->kind = optarg; break;

@@ -67,7 +67,8 @@ typedef struct sp_import_settings {
      * frame-times CSV, else the video's rate, else camera.fps. -EINVAL outside.
      */
     double fps;
-    const char *frame_times_csv; /* optional: one row per frame, column t (s) or t_ns */
+    const char *frame_times_csv; /* optional: one row per frame, column t (s) or t_ns; exposure_s, iso or gain too */
+    const char *exposure_csv;    /* optional: one row per frame, columns exposure_s and/or iso or gain */
     const char *imu_csv;         /* optional: t or t_ns, then gx,gy,gz / ax,ay,az / mx,my,mz */
     double imu_offset_s;         /* added to every IMU time (seconds, |x| <= 1e6); default 0 */
     enum sp_import_imu_format imu_format; /* default SP_IMPORT_IMU_AUTO */

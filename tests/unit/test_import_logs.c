@@ -366,6 +366,67 @@ static void test_to_camera(void)
     expect_failure(&s, -EINVAL, "preset 42");
 }
 
+/* exposure_us and gain of every frame of a capture */
+static int read_exposures(const char *path, float out[][2], int cap)
+{
+    sp_capture_reader *r = NULL;
+    CHECK_EQ_INT(sp_capture_reader_open(&r, path, NULL), 0);
+    int n = 0;
+    sp_chunk ch;
+    while (r && sp_capture_reader_next(r, &ch) == 0) {
+        sp_frame_chunk fc;
+        if (ch.type == SP_CHUNK_FRAME && n < cap && sp_chunk_parse_frame(&ch, &fc) == 0) {
+            out[n][0] = fc.exposure_us;
+            out[n++][1] = fc.gain;
+        }
+    }
+    sp_capture_reader_close(&r);
+    return n;
+}
+
+static void test_exposure(void)
+{
+    sp_import_settings s;
+    sp_import_report rep;
+    float e[8][2];
+    /* in the frame-times CSV: shutter seconds and ISO (ISO 100 = gain 1); an empty cell is unknown */
+    iu_write_text("times.csv", "t,exposure_s,iso\n0,0.01,100\n0.1,0.005,200\n0.2,,400\n0.3,0.02,\n0.4,1e-4,50\n");
+    settings(&s, NULL, "ex.spcap");
+    s.frame_times_csv = iu_path("times.csv");
+    if (run_ok(&s, &rep) && read_exposures(s.output, e, 8) == 5) {
+        CHECK_NEAR(e[0][0], 10000, 1e-3);
+        CHECK_NEAR(e[0][1], 1, 0);
+        CHECK_NEAR(e[1][0], 5000, 1e-3);
+        CHECK_NEAR(e[1][1], 2, 0);
+        CHECK(isnan(e[2][0]) && e[2][1] == 4);
+        CHECK(e[3][0] == 20000 && isnan(e[3][1]));
+        CHECK_NEAR(e[4][0], 100, 1e-3);
+        CHECK_NEAR(e[4][1], 0.5, 0);
+    }
+    /* a CSV of its own, gain only; it wins over the frame-times CSV's columns */
+    iu_write_text("gain.csv", "frame,gain\n0,1\n1,1.5\n2,2\n3,2.5\n4,8\n");
+    s.exposure_csv = iu_path("gain.csv");
+    if (run_ok(&s, &rep) && read_exposures(s.output, e, 8) == 5)
+        for (int i = 0; i < 5; i++)
+            CHECK(isnan(e[i][0]) && e[i][1] == (i < 4 ? 1 + 0.5f * (float)i : 8));
+    static const struct {
+        const char *name, *text, *needle;
+    } bad[] = {
+        { "both.csv", "iso,gain\n100,1\n", "both.csv:1: has both 'iso' and 'gain'" },
+        { "zero.csv", "exposure_s\n0.01\n0\n", "zero.csv:3: column 'exposure_s': 0 is not in (0, 3600]" },
+        { "nan.csv", "exposure_s\n0.01\nnan\n", "nan.csv:3: column 'exposure_s'" },
+        { "huge.csv", "gain\n1e9\n", "huge.csv:2: column 'gain'" },
+        { "none.csv", "frame\n0\n", "none.csv:1: needs a column exposure_s, iso or gain" },
+        { "short.csv", "iso\n100\n100\n", "short.csv: has exposures for 2 frames, but the input has more" },
+    };
+    for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
+        iu_write_text(bad[i].name, bad[i].text);
+        settings(&s, NULL, "bad.spcap");
+        s.exposure_csv = iu_path(bad[i].name);
+        expect_failure(&s, SP_ECORRUPT, bad[i].needle);
+    }
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 2) {
@@ -385,6 +446,7 @@ int main(int argc, char **argv)
     test_opencamera();
     test_gcsv();
     test_to_camera();
+    test_exposure();
 #if HAVE_LIBZIP && HAVE_OPENCV
     test_export_zip();
 #endif
