@@ -39,6 +39,9 @@ typedef struct import_ctx {
     sp_cv_video_reader *video;
     uint32_t video_w, video_h;
     double video_fps;        /* as the video declares it, 0 if unknown */
+    int pts_ok;              /* the container gives presentation times, used for the frame times */
+    int64_t pts, pts0;       /* the current and the first frame's presentation time */
+    int pts_fixed;           /* frames whose time did not increase, timed a nominal frame later */
     uint64_t total;          /* frames expected, 0 if unknown */
     uint64_t index;          /* next frame */
     double fps;
@@ -296,6 +299,13 @@ static int next_video_frame(import_ctx *c, sp_frame *f)
     int rc = sp_cv_video_read(c->video, c->rgb, c->rgb_cap, c->video_w * 3);
     if (rc == SP_EOS)
         return rc;
+    int64_t pts = 0;
+    int have = !rc && sp_cv_video_time_ns(c->video, &pts) == 0;
+    if (c->index == 0) { /* the container's clock unless the user set one (--fps, --frame-times) */
+        c->pts_ok = have && !c->times && !(c->s->fps > 0);
+        c->pts0 = pts;
+    }
+    c->pts = have ? pts : INT64_MIN;
     if (rc)
         return FAIL(c, rc == SP_ECORRUPT ? SP_EFORMAT : rc, "%s: frame %llu: %s", c->s->input,
                     (unsigned long long)c->index, rc == SP_ECORRUPT ? "frame size changed" : sp_strerror(rc));
@@ -385,6 +395,15 @@ static int frame_time(import_ctx *c, uint64_t i, int64_t *out)
             return FAIL(c, SP_ECORRUPT, "%s: has %zu frame times, but the input has more frames",
                         c->times_src, c->ntimes);
         *out = c->times[i] - c->times[0];
+        return 0;
+    }
+    if (c->pts_ok) {
+        int64_t t = c->pts == INT64_MIN ? INT64_MIN : c->pts - c->pts0;
+        if (i > 0 && t <= c->rep->last_frame_ns) { /* missing or repeated: keep the order, say so at the end */
+            t = c->rep->last_frame_ns + llround(1e9 / c->fps);
+            c->pts_fixed++;
+        }
+        *out = t;
         return 0;
     }
     *out = llround((double)i * 1e9 / c->fps);
@@ -695,6 +714,11 @@ static int import_frames(import_ctx *c)
     }
     if (c->index == 0)
         return FAIL(c, SP_ENODATA, "%s: no frames", c->s->input);
+    if (c->pts_fixed)
+        sp_log(SP_LOG_WARN, "import", "%s: %d frames had no presentation time after the previous frame's; each was "
+               "timed one nominal frame (1/%g s) after it", c->s->input, c->pts_fixed, c->fps);
+    snprintf(c->rep->frame_clock, sizeof(c->rep->frame_clock), "%s",
+             c->times ? "from the frame-times CSV" : c->pts_ok ? "the container's presentation times" : "i / fps");
     if (c->times && c->ntimes > c->index && !c->s->max_frames)
         sp_log(SP_LOG_WARN, "import", "%s: %zu frame times for %llu frames; the rest are ignored",
                c->s->frame_times_csv, c->ntimes, (unsigned long long)c->index);

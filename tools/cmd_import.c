@@ -124,7 +124,7 @@ static void print_summary(const sp_import_settings *s, const sp_import_report *r
     printf("%s: %llu frames %ux%u", s->output, (unsigned long long)r->frames, r->width, r->height);
     if (r->fps > 0)
         printf(" at %.6g fps", r->fps);
-    printf(", %.3f s", (double)r->last_frame_ns * 1e-9);
+    printf(", %.3f s (times: %s)", (double)r->last_frame_ns * 1e-9, r->frame_clock);
     if (r->frames_copied)
         printf(", %llu JPEG files copied as-is", (unsigned long long)r->frames_copied);
     if (r->imu_clock[0])

@@ -95,6 +95,7 @@ typedef struct sp_import_report {
     uint32_t width, height;
     double fps;             /* the nominal rate written to the metadata */
     int64_t last_frame_ns;  /* timestamp of the last frame; the first is 0 */
+    char frame_clock[64];   /* where the frame times came from */
     char imu_clock[256];    /* how the IMU log's clock was mapped to the frames', for the user */
     /* On failure: what went wrong, naming the file and line where there is one. */
     char message[512];
