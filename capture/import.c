@@ -42,6 +42,10 @@ typedef struct import_ctx {
     int pts_ok;              /* the container gives presentation times, used for the frame times */
     int64_t pts, pts0;       /* the current and the first frame's presentation time */
     int pts_fixed;           /* frames whose time did not increase, timed a nominal frame later */
+    const char *video_path;
+    int dry;                 /* the --imu-offset auto pass: frames decoded into rgb, not stored */
+    int rgb_fresh;           /* rgb holds the current frame */
+    double offset_s;         /* added to IMU times: --imu-offset, or its estimate */
     uint64_t total;          /* frames expected, 0 if unknown */
     uint64_t index;          /* next frame */
     double fps;
@@ -100,6 +104,7 @@ void sp_import_default_settings(sp_import_settings *s)
     s->store = SP_IMPORT_STORE_JPEG;
     s->quality = 92;
     s->imu_batch = 256;
+    s->imu_offset_range_s = 2.0;
 }
 
 /* ---- reading one image ---- */
@@ -156,6 +161,9 @@ static int frame_from_rgb(import_ctx *c, const char *what, uint32_t w, uint32_t 
 {
     f->width = w;
     f->height = h;
+    c->rgb_fresh = 1;
+    if (c->dry)
+        return 0;
     if (c->s->store == SP_IMPORT_STORE_RGB) {
         f->format = SP_PIXFMT_RGB24;
         f->stride = w * 3;
@@ -204,6 +212,7 @@ static int check_stored_jpeg(import_ctx *c, const char *path, const sp_jpeg_head
                             hdr->width * 3);
     if (rc == -ENOMEM)
         return FAIL(c, rc, "%s: %s", path, sp_strerror(rc));
+    c->rgb_fresh = !rc;
     return rc ? FAIL(c, SP_ECORRUPT, "%s: damaged or truncated JPEG: it does not decode (%s)", path, sp_strerror(rc))
               : 0;
 }
@@ -273,6 +282,7 @@ static int open_video(import_ctx *c, const char *path)
 #if HAVE_OPENCV
     sp_cv_video_info info;
     int rc = sp_cv_video_open(&c->video, path, &info);
+    c->video_path = path;
     if (rc == SP_EFORMAT)
         return FAIL(c, rc, "%s: OpenCV cannot open or decode this as a video", path);
     if (rc)
@@ -484,7 +494,7 @@ static int adopt_log_times(import_ctx *c)
  * else an epoch log is mapped through the recording's start, and a video-clock log is taken as it
  * is. The offset is added last.
  */
-static int open_imu(import_ctx *c)
+static int imu_base(import_ctx *c, int64_t *base, const char **what)
 {
     int64_t t0 = 0;
     const char *how = "t = 0 is the first frame";
@@ -498,14 +508,109 @@ static int open_imu(import_ctx *c)
         t0 = c->log.start_ns;
         how = c->log.start_from;
     }
-    int64_t shift = llround(c->s->imu_offset_s * 1e9) - t0;
-    snprintf(c->rep->imu_clock, sizeof(c->rep->imu_clock), "%s log, %s, offset %+.3f s",
-             c->log_loaded ? c->log.format : "sunprobe CSV", how, c->s->imu_offset_s);
+    *base = -t0;
+    *what = how;
+    return 0;
+}
+
+static int open_imu(import_ctx *c)
+{
+    int64_t base = 0;
+    const char *how = NULL;
+    int rc = imu_base(c, &base, &how);
+    if (rc)
+        return rc;
+    int64_t shift = llround(c->offset_s * 1e9) + base;
+    snprintf(c->rep->imu_clock, sizeof(c->rep->imu_clock), "%s log, %s, offset %+.3f s%s",
+             c->log_loaded ? c->log.format : "sunprobe CSV", how, c->offset_s,
+             c->s->imu_offset_auto ? " (estimated)" : "");
     if (c->log_loaded) {
         sp_import_imu_from_log(&c->imu, &c->log, shift);
         return 0;
     }
     return sp_import_imu_open(&c->imu, c->imu_src, shift, c->rep->message, sizeof(c->rep->message));
+}
+
+static int next_frame(import_ctx *c, sp_frame *f);
+
+/* The gyro on the frame clock before any offset, for --imu-offset auto. */
+static int collect_gyro(import_ctx *c, sp_import_sync *sy)
+{
+    int64_t base = 0;
+    const char *how = NULL;
+    int rc = imu_base(c, &base, &how);
+    for (size_t i = 0; !rc && c->log_loaded && i < c->log.n; i++)
+        if (c->log.s[i].sensor == SP_IMU_GYRO)
+            rc = sp_import_sync_gyro(sy, c->log.s[i].timestamp_ns + base, c->log.s[i].v);
+    if (rc || c->log_loaded)
+        return rc;
+    sp_import_imu r;
+    const sp_imu_sample *smp;
+    rc = sp_import_imu_open(&r, c->imu_src, base, c->rep->message, sizeof(c->rep->message));
+    while (!rc && (rc = sp_import_imu_peek(&r, &smp)) == 0) {
+        if (smp->sensor == SP_IMU_GYRO)
+            rc = sp_import_sync_gyro(sy, smp->timestamp_ns, smp->v);
+        sp_import_imu_pop(&r);
+    }
+    sp_import_imu_close(&r);
+    return rc == SP_EOS ? 0 : rc;
+}
+
+/* The frames' motion, decoded but not stored, at the times the import will give them. */
+static int collect_motion(import_ctx *c, sp_import_sync *sy)
+{
+    int rc = 0;
+    c->dry = 1;
+    for (c->index = 0; !rc && (!c->s->max_frames || c->index < c->s->max_frames); c->index++) {
+        if (c->s->cancel && *c->s->cancel)
+            rc = FAIL(c, -ECANCELED, "interrupted while estimating the IMU offset");
+        sp_frame f;
+        int64_t t = 0;
+        if (!rc && (rc = next_frame(c, &f)) == SP_EOS) {
+            rc = 0;
+            break;
+        }
+        if (!rc)
+            rc = frame_time(c, c->index, &t);
+        if (!rc && !c->rgb_fresh && !sp_jpeg_available())
+            rc = FAIL(c, SP_EDISABLED, "%s: --imu-offset auto needs the frames' pixels: rebuild with -Djpeg=enabled",
+                      c->s->input);
+        if (!rc && c->rgb_fresh && (c->index == 0 || (f.width == c->rep->width && f.height == c->rep->height)))
+            rc = sp_import_sync_frame(sy, c->rgb, f.width, f.height, t);
+        if (c->index == 0) {
+            c->rep->width = f.width;
+            c->rep->height = f.height;
+        }
+        c->rep->last_frame_ns = t;
+    }
+    c->dry = 0;
+    return rc;
+}
+
+/* --imu-offset auto: one pass over frames and gyro, then everything rewound for the import itself. */
+static int estimate_offset(import_ctx *c)
+{
+    sp_import_sync sy = { 0 };
+    int rc = collect_gyro(c, &sy);
+    if (!rc)
+        rc = collect_motion(c, &sy);
+    if (!rc)
+        rc = sp_import_sync_estimate(&sy, 0, c->s->imu_offset_range_s, &c->offset_s, &c->rep->imu_offset_corr,
+                                     c->rep->message, sizeof(c->rep->message));
+    sp_import_sync_free(&sy);
+    c->rep->imu_offset_s = c->offset_s;
+    c->index = 0;
+    c->rep->last_frame_ns = 0;
+    c->rep->width = c->rep->height = 0;
+    c->rep->frames_copied = 0;
+    c->pts_fixed = 0;
+#if HAVE_OPENCV
+    if (!rc && c->video) {
+        sp_cv_video_close(&c->video);
+        rc = open_video(c, c->video_path);
+    }
+#endif
+    return rc;
 }
 
 /* An app's log is read whole; its own frame times (OpenCamera-Sensors) stand in for --frame-times. */
@@ -532,6 +637,9 @@ static int check_settings(import_ctx *c)
         return FAIL(c, -EINVAL, "frame rate %g is not in [0.001, 10000]", s->fps);
     if (!isfinite(s->imu_offset_s) || fabs(s->imu_offset_s) > MAX_IMU_OFFSET_S)
         return FAIL(c, -EINVAL, "IMU offset %g s is not a finite number of at most 1e6 s", s->imu_offset_s);
+    if (s->imu_offset_auto && !(s->imu_offset_range_s > 0 && s->imu_offset_range_s <= 60))
+        return FAIL(c, -EINVAL, "IMU offset search range %g s is not in (0, 60]", s->imu_offset_range_s);
+    c->offset_s = s->imu_offset_s;
     if (s->store != SP_IMPORT_STORE_JPEG && s->store != SP_IMPORT_STORE_RGB)
         return FAIL(c, -EINVAL, "unknown storage mode %d", (int)s->store);
     if (s->kind && strcmp(s->kind, "selfie") != 0 && strcmp(s->kind, "static") != 0)
@@ -633,6 +741,7 @@ static int open_output(import_ctx *c)
 static int next_frame(import_ctx *c, sp_frame *f)
 {
     memset(f, 0, sizeof(*f));
+    c->rgb_fresh = 0;
     int rc = c->video ? next_video_frame(c, f) : next_image(c, f);
     if (rc)
         return rc;
@@ -786,6 +895,10 @@ int sp_import_run(const sp_import_settings *s, sp_import_report *report)
         rc = choose_fps(&c);
     if (!rc && s->imu_csv && !c.imu_src)
         c.imu_src = s->imu_csv;
+    if (!rc && s->imu_offset_auto && !c.imu_src)
+        rc = FAIL(&c, -EINVAL, "--imu-offset auto needs an IMU log (--imu, or a sensor-log export as INPUT)");
+    else if (!rc && s->imu_offset_auto)
+        rc = estimate_offset(&c);
     if (!rc && c.imu_src)
         rc = open_imu(&c);
     if (!rc)

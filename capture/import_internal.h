@@ -146,6 +146,35 @@ int sp_import_exposure_row(sp_import_exposure *x, sp_csv *csv, const int col[3])
 int sp_import_exposure_load(sp_import_exposure *x, const char *path, char *msg, size_t msg_size);
 void sp_import_exposure_free(sp_import_exposure *x);
 
+/* ---- --imu-offset auto (import_sync.c) ---- */
+
+typedef struct sp_sync_pair {
+    double t0, t1; /* the two frames' times, ns */
+    double m;      /* visual motion between them, px/s of a grey thumbnail */
+} sp_sync_pair;
+
+typedef struct sp_import_sync {
+    sp_sync_pair *pairs;
+    size_t n, cap;
+    float *prev, *cur; /* thumbnails */
+    int tw, th, have_prev;
+    int64_t prev_t;
+    double *gt, *gw;   /* gyro times (ns, shifted by the base offset) and rate magnitudes (rad/s) */
+    size_t gn, gcap;
+} sp_import_sync;
+
+/* Adds a frame (RGB24, borrowed) at t_ns on the frame clock. */
+int sp_import_sync_frame(sp_import_sync *s, const uint8_t *rgb, uint32_t w, uint32_t h, int64_t t_ns);
+/* Adds a gyro sample (rad/s) at t_ns, in time order. */
+int sp_import_sync_gyro(sp_import_sync *s, int64_t t_ns, const float v[3]);
+/*
+ * The offset (s, added to IMU times) in base_s +- range_s maximising the correlation (into *corr).
+ * SP_ENODATA too little data or overlap, SP_ECORRUPT no clear peak (messages say so).
+ */
+int sp_import_sync_estimate(const sp_import_sync *s, double base_s, double range_s, double *offset_s, double *corr,
+                            char *msg, size_t msg_size);
+void sp_import_sync_free(sp_import_sync *s);
+
 /* ---- metadata (import_meta.c) ---- */
 
 /*

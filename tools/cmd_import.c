@@ -29,7 +29,8 @@ static void usage(FILE *out)
             "                          (the frame-times CSV may carry these columns too)\n"
             "      --imu LOG           IMU samples: t or t_ns, then gx,gy,gz (rad/s) ax,ay,az (m/s^2)\n"
             "                          mx,my,mz (uT); times on the frame clock, 0 = first frame\n"
-            "      --imu-offset S      seconds added to every IMU time, -1e6..1e6 (default 0)\n"
+            "      --imu-offset S      seconds added to every IMU time, -1e6..1e6 (default 0), or auto:\n"
+            "                          estimated within +-2 s from the gyro and the frames' motion\n"
             "      --imu-format F      auto (default: by content), sunprobe, sensor-logger, opencamera, gcsv\n"
             "                          (a Sensor Logger directory or .zip may also be INPUT: video + IMU)\n"
             "      --imu-to-camera P   IMU axes to camera axes: android-front, android-back, ios-front,\n"
@@ -83,7 +84,10 @@ static int parse_args(int argc, char **argv, sp_import_settings *s, int *quiet)
         case OPT_FRAME_TIMES: s->frame_times_csv = optarg; break;
         case OPT_IMU: s->imu_csv = optarg; break;
         case OPT_EXPOSURE: s->exposure_csv = optarg; break;
-        case OPT_IMU_OFFSET: bad = sp_opt_double(CMD, "imu-offset", optarg, -1e6, 1e6, &s->imu_offset_s); break;
+        case OPT_IMU_OFFSET:
+            s->imu_offset_auto = strcmp(optarg, "auto") == 0;
+            bad = s->imu_offset_auto ? 0 : sp_opt_double(CMD, "imu-offset", optarg, -1e6, 1e6, &s->imu_offset_s);
+            break;
         case OPT_META: s->meta_json = optarg; break;
         case OPT_KIND: s->kind = optarg; break;
         case OPT_STORE:
@@ -133,6 +137,9 @@ static void print_summary(const sp_import_settings *s, const sp_import_report *r
     printf("\n");
     if (r->imu_clock[0])
         printf("IMU clock: %s\n", r->imu_clock);
+    if (s->imu_offset_auto)
+        printf("IMU offset: %+.4f s estimated (gyro rate against the frames' motion, correlation %.2f)\n",
+               r->imu_offset_s, r->imu_offset_corr);
 }
 
 int sp_cmd_import(int argc, char **argv)

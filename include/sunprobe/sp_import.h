@@ -71,6 +71,8 @@ typedef struct sp_import_settings {
     const char *exposure_csv;    /* optional: one row per frame, columns exposure_s and/or iso or gain */
     const char *imu_csv;         /* optional: t or t_ns, then gx,gy,gz / ax,ay,az / mx,my,mz */
     double imu_offset_s;         /* added to every IMU time (seconds, |x| <= 1e6); default 0 */
+    int imu_offset_auto;         /* estimate the offset from gyro and frames instead (imu_offset_s unused) */
+    double imu_offset_range_s;   /* its search range, +- seconds around the clock's mapping; default 2 */
     enum sp_import_imu_format imu_format; /* default SP_IMPORT_IMU_AUTO */
     enum sp_import_to_camera imu_to_camera; /* default KEEP; a preset replaces the metadata's imu.to_camera */
     const char *meta_json;       /* optional: META JSON (capture/FORMAT.md), merged with what the import knows */
@@ -96,6 +98,8 @@ typedef struct sp_import_report {
     double fps;             /* the nominal rate written to the metadata */
     int64_t last_frame_ns;  /* timestamp of the last frame; the first is 0 */
     char frame_clock[64];   /* where the frame times came from */
+    double imu_offset_s;    /* with imu_offset_auto: the estimate */
+    double imu_offset_corr; /* and its correlation, -1..1 */
     char imu_clock[256];    /* how the IMU log's clock was mapped to the frames', for the user */
     /* On failure: what went wrong, naming the file and line where there is one. */
     char message[512];

@@ -14,6 +14,7 @@
 
 #include "capture/opencv_shim.h"
 #include "check.h"
+#include "common/jpeg.h"
 #include "import_util.h"
 #include "sp_config.h"
 #include "sunprobe/sp_import.h"
@@ -156,8 +157,8 @@ static void test_sensor_logger(void)
 static void write_sl_copy(const char *dir, const char *gyro)
 {
     mkdir(iu_path(dir), 0755);
-    char name[128];
-    snprintf(name, sizeof(name), "%s/Gyroscope.csv", dir);
+    char name[48];
+    snprintf(name, sizeof(name), "%.20s/Gyroscope.csv", dir);
     iu_write_text(name, gyro);
 }
 
@@ -427,6 +428,110 @@ static void test_exposure(void)
     }
 }
 
+/* Horizontal image speed (px/s at 160 px) of the synthetic turn: uneven, so one shift matches best. */
+static double speed(double t)
+{
+    return 60 * (0.6 + 0.4 * sin(2 * M_PI * t / 1.3)) * (0.5 + 0.5 * sin(2 * M_PI * t / 0.45 + 1));
+}
+
+/* 90 JPEG frames at 30 fps of a texture sliding by the integral of speed (static: not moving). */
+static void make_motion_frames(const char *dir, int moving)
+{
+    enum { W = 160, H = 120 };
+    mkdir(iu_path(dir), 0755);
+    static uint8_t rgb[W * H * 3];
+    double x0 = 0;
+    for (int i = 0; i < 90; i++) {
+        for (int k = 0; moving && i > 0 && k < 100; k++) /* the shift since the previous frame */
+            x0 += speed((i - 1 + (k + 0.5) / 100) / 30.0) / 3000.0;
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                double u = x - x0, v = 128 + 50 * sin(0.25 * u) + 30 * sin(0.17 * y + 0.3) + 20 * sin(0.11 * u + 0.13 * y);
+                rgb[(y * W + x) * 3] = rgb[(y * W + x) * 3 + 1] = rgb[(y * W + x) * 3 + 2] = (uint8_t)lround(v);
+            }
+        sp_jpeg_buffer jb = { 0 };
+        CHECK_EQ_INT(sp_jpeg_encode_rgb24(rgb, W, H, W * 3, 95, &jb), 0);
+        char name[48];
+        snprintf(name, sizeof(name), "%.20s/f_%03d.jpg", dir, i);
+        FILE *f = fopen(iu_path(name), "wb");
+        if (f && jb.data) {
+            fwrite(jb.data, 1, jb.size, f);
+            fclose(f);
+        }
+        sp_jpeg_buffer_free(&jb);
+    }
+}
+
+/* A gyro log whose clock runs `late` s behind the video's: IMU time + late = video time. */
+static void write_gyro(const char *name, double late, int moving)
+{
+    FILE *f = fopen(iu_path(name), "w");
+    if (!f)
+        return;
+    fprintf(f, "t,gx,gy,gz\n");
+    unsigned lcg = 12345;
+    for (int i = -200; i <= 700; i++) { /* 200 Hz, -1 to 3.5 s, with +-0.05 rad/s of noise on every axis */
+        double t = i / 200.0, n[3];
+        for (int a = 0; a < 3; a++) {
+            lcg = lcg * 1103515245u + 12345u;
+            n[a] = 0.1 * ((double)(lcg >> 8) / (double)(1u << 24) - 0.5);
+        }
+        fprintf(f, "%.4f,%.6f,%.6f,%.6f\n", t, n[0], (moving ? speed(t + late) / 100 : 0.3) + n[1], n[2]);
+    }
+    fclose(f);
+}
+
+static void test_offset_auto(void)
+{
+    if (!sp_jpeg_available()) {
+        printf("skipping --imu-offset auto: built without libjpeg\n");
+        return;
+    }
+    make_motion_frames("turn", 1);
+    write_gyro("late.csv", 0.3, 1);
+    sp_import_settings s;
+    sp_import_report rep;
+    settings(&s, iu_path("late.csv"), "auto.spcap");
+    s.input = iu_path("turn");
+    s.fps = 30;
+    s.imu_offset_auto = 1;
+    if (run_ok(&s, &rep)) {
+        printf("--imu-offset auto: %+.4f s for a true +0.3 s, correlation %.3f\n", rep.imu_offset_s,
+               rep.imu_offset_corr);
+        CHECK_MSG(fabs(rep.imu_offset_s - 0.3) < 0.01, "estimated %+.4f s, true +0.3 s (corr %.3f)", rep.imu_offset_s,
+                  rep.imu_offset_corr);
+        CHECK(rep.imu_offset_corr > 0.9);
+        CHECK(rep.frames == 90 && rep.frames_copied == 90);
+        read_samples(s.output);
+        CHECK_MSG(llabs(samples[0].timestamp_ns - llround((-1.0 + rep.imu_offset_s) * 1e9)) < 2,
+                  "first sample at %lld ns", (long long)samples[0].timestamp_ns);
+    }
+    write_gyro("early.csv", -0.75, 1);
+    settings(&s, iu_path("early.csv"), "auto2.spcap");
+    s.input = iu_path("turn");
+    s.fps = 30;
+    s.imu_offset_auto = 1;
+    if (run_ok(&s, &rep) && printf("--imu-offset auto: %+.4f s for a true -0.75 s, correlation %.3f\n",
+                                   rep.imu_offset_s, rep.imu_offset_corr))
+        CHECK_MSG(fabs(rep.imu_offset_s + 0.75) < 0.01, "estimated %+.4f s, true -0.75 s", rep.imu_offset_s);
+    /* nothing moves: nothing to match */
+    make_motion_frames("still", 0);
+    write_gyro("still.csv", 0, 0);
+    settings(&s, iu_path("still.csv"), "bad.spcap");
+    s.input = iu_path("still");
+    s.fps = 30;
+    s.imu_offset_auto = 1;
+    expect_failure(&s, SP_ECORRUPT, "nothing to match");
+    /* a true offset beyond the search range cannot be found: refused, not guessed */
+    s.imu_offset_range_s = 0.2;
+    s.imu_csv = iu_path("late.csv");
+    s.input = iu_path("turn");
+    expect_failure(&s, SP_ECORRUPT, "no clear match");
+    settings(&s, NULL, "bad.spcap");
+    s.imu_offset_auto = 1;
+    expect_failure(&s, -EINVAL, "needs an IMU log");
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 2) {
@@ -447,6 +552,7 @@ int main(int argc, char **argv)
     test_gcsv();
     test_to_camera();
     test_exposure();
+    test_offset_auto();
 #if HAVE_LIBZIP && HAVE_OPENCV
     test_export_zip();
 #endif
