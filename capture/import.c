@@ -4,7 +4,8 @@
  * The capture is written to "<out>.partial" and renamed into place only when
  * complete, so a failed or interrupted import never leaves a file that looks valid.
  * Memory is bounded by one decoded frame, one encoded frame and one IMU batch,
- * plus the list of input file names and the frame-times table.
+ * plus the list of input file names, the frame-times table and an app's IMU log
+ * (read whole). Frames are read in import_read.c, the IMU clock set in import_clock.c.
  */
 #include "sunprobe/sp_import.h"
 
@@ -20,6 +21,7 @@
 
 #include "capture/container_format.h"
 #include "capture/import_csv.h"
+#include "capture/import_ctx.h"
 #include "capture/import_internal.h"
 #include "capture/opencv_shim.h"
 #include "common/file_util.h"
@@ -29,48 +31,7 @@
 #include "sunprobe/sp_capture.h"
 #include "sunprobe/sp_meta.h"
 
-#define MAX_IMAGE_FILE (SPC_MAX_PAYLOAD - SPC_FRAME_HDR_SIZE)
 #define MAX_IMU_OFFSET_S 1e6
-
-typedef struct import_ctx {
-    const sp_import_settings *s;
-    sp_import_report *rep;
-    sp_import_paths images;  /* image sequence, or empty for a video */
-    sp_cv_video_reader *video;
-    uint32_t video_w, video_h;
-    double video_fps;        /* as the video declares it, 0 if unknown */
-    int pts_ok;              /* the container gives presentation times, used for the frame times */
-    int64_t pts, pts0;       /* the current and the first frame's presentation time */
-    int pts_fixed;           /* frames whose time did not increase, timed a nominal frame later */
-    const char *video_path;
-    int dry;                 /* the --imu-offset auto pass: frames decoded into rgb, not stored */
-    int rgb_fresh;           /* rgb holds the current frame */
-    double offset_s;         /* added to IMU times: --imu-offset, or its estimate */
-    uint64_t total;          /* frames expected, 0 if unknown */
-    uint64_t index;          /* next frame */
-    double fps;
-    int64_t *times;          /* frame-times CSV in ns, or NULL */
-    size_t ntimes;
-    const char *times_src;   /* where the frame times came from */
-    sp_import_exposure expo; /* per-frame exposure, or empty */
-    const char *imu_src;     /* the IMU log: --imu, or INPUT when it is a sensor-log export */
-    sp_import_log log;       /* an app's IMU log read whole (import_logs.c) */
-    int log_loaded;
-    int64_t imu_first, imu_last; /* span of the samples written, on the frame clock */
-    uint64_t imu_written;
-    sp_import_imu imu;
-    sp_imu_sample *batch;
-    size_t nbatch;
-    sp_json *meta_root;      /* the user's META JSON, or NULL */
-    sp_capture_meta meta;
-    sp_capture_writer *writer;
-    sp_partial partial;      /* the output while it is written */
-    uint8_t *file_buf;
-    size_t file_cap, file_size;
-    uint8_t *rgb;
-    size_t rgb_cap;
-    sp_jpeg_buffer jpeg;
-} import_ctx;
 
 int sp_import_fail(char *msg, size_t msg_size, int rc, const char *fmt, ...)
 {
@@ -82,8 +43,6 @@ int sp_import_fail(char *msg, size_t msg_size, int rc, const char *fmt, ...)
     }
     return rc;
 }
-
-#define FAIL(c, rc, ...) sp_import_fail((c)->rep->message, sizeof((c)->rep->message), rc, __VA_ARGS__)
 
 int sp_import_to_camera_preset(enum sp_import_to_camera preset, double q[4])
 {
@@ -106,227 +65,6 @@ void sp_import_default_settings(sp_import_settings *s)
     s->imu_batch = 256;
     s->imu_offset_range_s = 2.0;
 }
-
-/* ---- reading one image ---- */
-
-static int read_file(import_ctx *c, const char *path)
-{
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (fd < 0) {
-        int rc = -errno;
-        return FAIL(c, rc, "%s: cannot open: %s", path, sp_strerror(rc));
-    }
-    struct stat st;
-    int rc = fstat(fd, &st) ? -errno : 0;
-    if (!rc && (st.st_size <= 0 || (uint64_t)st.st_size > MAX_IMAGE_FILE))
-        rc = FAIL(c, SP_EFORMAT, "%s: %s", path, st.st_size <= 0 ? "empty file" : "file too large for one frame");
-    if (!rc && (size_t)st.st_size > c->file_cap) {
-        uint8_t *p = realloc(c->file_buf, (size_t)st.st_size);
-        rc = p ? 0 : -ENOMEM;
-        if (p) {
-            c->file_buf = p;
-            c->file_cap = (size_t)st.st_size;
-        }
-    }
-    size_t got = 0;
-    while (!rc && got < (size_t)st.st_size) {
-        ssize_t n = read(fd, c->file_buf + got, (size_t)st.st_size - got);
-        if (n < 0 && errno == EINTR)
-            continue;
-        if (n <= 0)
-            rc = n < 0 ? -errno : -EIO; /* the file shrank under us */
-        else
-            got += (size_t)n;
-    }
-    close(fd);
-    c->file_size = got;
-    return rc ? FAIL(c, rc, "%s: read failed: %s", path, sp_strerror(rc)) : 0;
-}
-
-static int ensure_rgb(import_ctx *c, uint32_t w, uint32_t h)
-{
-    size_t need = (size_t)w * h * 3;
-    if (need <= c->rgb_cap)
-        return 0;
-    uint8_t *p = realloc(c->rgb, need);
-    if (!p)
-        return -ENOMEM;
-    c->rgb = p;
-    c->rgb_cap = need;
-    return 0;
-}
-
-/* Fills f with the RGB24 image in c->rgb, or its JPEG re-encoding. */
-static int frame_from_rgb(import_ctx *c, const char *what, uint32_t w, uint32_t h, sp_frame *f)
-{
-    f->width = w;
-    f->height = h;
-    c->rgb_fresh = 1;
-    if (c->dry)
-        return 0;
-    if (c->s->store == SP_IMPORT_STORE_RGB) {
-        f->format = SP_PIXFMT_RGB24;
-        f->stride = w * 3;
-        f->data = c->rgb;
-        f->bytes_used = (size_t)w * h * 3;
-        return 0;
-    }
-    int rc = sp_jpeg_encode_rgb24(c->rgb, w, h, w * 3, c->s->quality, &c->jpeg);
-    if (rc == SP_EDISABLED)
-        return FAIL(c, rc, "%s: storing as JPEG needs libjpeg; rebuild with -Djpeg=enabled or use --store rgb", what);
-    if (rc)
-        return FAIL(c, rc, "%s: JPEG encoding failed: %s", what, sp_strerror(rc));
-    f->format = SP_PIXFMT_MJPEG;
-    f->stride = 0;
-    f->data = c->jpeg.data;
-    f->bytes_used = c->jpeg.size;
-    return 0;
-}
-
-/*
- * 1 when the file ends in EOI (some writers pad after it: the last KiB is searched). Entropy-coded data
- * never holds FF D9 (0xFF is stuffed there); only the tail is searched, as an EXIF thumbnail has its own.
- */
-static int has_eoi(const uint8_t *d, size_t n)
-{
-    for (size_t i = n; i >= 2 && n - i < 1024; i--)
-        if (d[i - 2] == 0xFF && d[i - 1] == 0xD9)
-            return 1;
-    return 0;
-}
-
-/*
- * A JPEG stored as it is must decode later (export-video, fit): decoded once here, with libjpeg; without
- * it, at least not cut short.
- */
-static int check_stored_jpeg(import_ctx *c, const char *path, const sp_jpeg_header *hdr)
-{
-    if (c->index > 0 && (hdr->width != c->rep->width || hdr->height != c->rep->height))
-        return 0; /* refused by check_size, with a better message */
-    if (!sp_jpeg_available())
-        return has_eoi(c->file_buf, c->file_size) ? 0
-                                                  : FAIL(c, SP_ETRUNCATED, "%s: truncated JPEG (no end marker)", path);
-    int rc = ensure_rgb(c, hdr->width, hdr->height);
-    if (!rc)
-        rc = sp_jpeg_decode(c->file_buf, c->file_size, SP_PIXFMT_RGB24, hdr->width, hdr->height, c->rgb, c->rgb_cap,
-                            hdr->width * 3);
-    if (rc == -ENOMEM)
-        return FAIL(c, rc, "%s: %s", path, sp_strerror(rc));
-    c->rgb_fresh = !rc;
-    return rc ? FAIL(c, SP_ECORRUPT, "%s: damaged or truncated JPEG: it does not decode (%s)", path, sp_strerror(rc))
-              : 0;
-}
-
-static int frame_from_jpeg_file(import_ctx *c, const char *path, sp_frame *f)
-{
-    sp_jpeg_header hdr;
-    int rc = sp_jpeg_parse_header(c->file_buf, c->file_size, &hdr);
-    if (rc)
-        return FAIL(c, SP_EFORMAT, "%s: not a valid JPEG (%s)", path, sp_strerror(rc));
-    if (hdr.components == 4)
-        return FAIL(c, SP_EUNSUPPORTED, "%s: CMYK JPEG is not supported", path);
-    if (c->s->store == SP_IMPORT_STORE_JPEG) { /* byte-for-byte: no generation loss */
-        if ((rc = check_stored_jpeg(c, path, &hdr)))
-            return rc;
-        *f = (sp_frame){ .format = SP_PIXFMT_MJPEG, .width = hdr.width, .height = hdr.height,
-                         .data = c->file_buf, .bytes_used = c->file_size };
-        c->rep->frames_copied++;
-        return 0;
-    }
-    if ((rc = ensure_rgb(c, hdr.width, hdr.height)) != 0)
-        return FAIL(c, rc, "%s: %s", path, sp_strerror(rc));
-    rc = sp_jpeg_decode(c->file_buf, c->file_size, SP_PIXFMT_RGB24, hdr.width, hdr.height, c->rgb, c->rgb_cap,
-                        hdr.width * 3);
-    if (rc == SP_EDISABLED)
-        return FAIL(c, rc, "%s: decoding JPEG for --store rgb needs libjpeg; rebuild with -Djpeg=enabled", path);
-    if (rc)
-        return FAIL(c, SP_EFORMAT, "%s: cannot decode JPEG: %s", path, sp_strerror(rc));
-    return frame_from_rgb(c, path, hdr.width, hdr.height, f);
-}
-
-static int frame_from_png_file(import_ctx *c, const char *path, sp_frame *f)
-{
-#if HAVE_OPENCV
-    uint32_t w = 0, h = 0;
-    int rc = sp_cv_image_decode(c->file_buf, c->file_size, &c->rgb, &c->rgb_cap, &w, &h);
-    if (rc)
-        return FAIL(c, rc, "%s: cannot decode image: %s", path, sp_strerror(rc));
-    return frame_from_rgb(c, path, w, h, f);
-#else
-    (void)f;
-    return FAIL(c, SP_EDISABLED, "%s: decoding PNG needs OpenCV; rebuild with -Dopencv=enabled (JPEG sequences "
-                "import without it)", path);
-#endif
-}
-
-static int next_image(import_ctx *c, sp_frame *f)
-{
-    if (c->index >= c->images.count)
-        return SP_EOS;
-    const char *path = c->images.items[c->index];
-    int rc = read_file(c, path);
-    if (rc)
-        return rc;
-    static const uint8_t png_magic[8] = { 0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n' };
-    if (c->file_size >= 2 && c->file_buf[0] == 0xFF && c->file_buf[1] == 0xD8)
-        return frame_from_jpeg_file(c, path, f);
-    if (c->file_size >= 8 && memcmp(c->file_buf, png_magic, 8) == 0)
-        return frame_from_png_file(c, path, f);
-    return FAIL(c, SP_EFORMAT, "%s: neither a JPEG nor a PNG file", path);
-}
-
-/* ---- video ---- */
-
-static int open_video(import_ctx *c, const char *path)
-{
-#if HAVE_OPENCV
-    sp_cv_video_info info;
-    int rc = sp_cv_video_open(&c->video, path, &info);
-    c->video_path = path;
-    if (rc == SP_EFORMAT)
-        return FAIL(c, rc, "%s: OpenCV cannot open or decode this as a video", path);
-    if (rc)
-        return FAIL(c, rc, "%s: %s", path, sp_strerror(rc));
-    if ((rc = ensure_rgb(c, info.width, info.height)) != 0)
-        return rc;
-    c->video_w = info.width;
-    c->video_h = info.height;
-    c->total = info.frame_count > 0 ? (uint64_t)info.frame_count : 0;
-    if (isfinite(info.fps) && info.fps > 0 && info.fps <= 1000)
-        c->video_fps = info.fps;
-    if (c->s->store == SP_IMPORT_STORE_JPEG && !sp_jpeg_available())
-        return FAIL(c, SP_EDISABLED, "%s: storing video frames as JPEG needs libjpeg; rebuild with "
-                    "-Djpeg=enabled or use --store rgb", path);
-    return 0;
-#else
-    return FAIL(c, SP_EDISABLED, "%s: importing video needs OpenCV; rebuild with -Dopencv=enabled", path);
-#endif
-}
-
-static int next_video_frame(import_ctx *c, sp_frame *f)
-{
-#if HAVE_OPENCV
-    int rc = sp_cv_video_read(c->video, c->rgb, c->rgb_cap, c->video_w * 3);
-    if (rc == SP_EOS)
-        return rc;
-    int64_t pts = 0;
-    int have = !rc && sp_cv_video_time_ns(c->video, &pts) == 0;
-    if (c->index == 0) { /* the container's clock unless the user set one (--fps, --frame-times) */
-        c->pts_ok = have && !c->times && !(c->s->fps > 0);
-        c->pts0 = pts;
-    }
-    c->pts = have ? pts : INT64_MIN;
-    if (rc)
-        return FAIL(c, rc == SP_ECORRUPT ? SP_EFORMAT : rc, "%s: frame %llu: %s", c->s->input,
-                    (unsigned long long)c->index, rc == SP_ECORRUPT ? "frame size changed" : sp_strerror(rc));
-    return frame_from_rgb(c, c->s->input, c->video_w, c->video_h, f);
-#else
-    (void)f;
-    return FAIL(c, SP_EDISABLED, "%s: importing video needs OpenCV; rebuild with -Dopencv=enabled", c->s->input);
-#endif
-}
-
-/* ---- frame times ---- */
 
 static int push_time(import_ctx *c, size_t *cap, int64_t t)
 {
@@ -398,7 +136,7 @@ static int check_output_not_input(import_ctx *c)
     return 0;
 }
 
-static int frame_time(import_ctx *c, uint64_t i, int64_t *out)
+int sp_import_frame_time(import_ctx *c, uint64_t i, int64_t *out)
 {
     if (c->times) {
         if (i >= c->ntimes)
@@ -476,156 +214,6 @@ static int write_meta(import_ctx *c, uint32_t w, uint32_t h)
 
 /* ---- the run ---- */
 
-static int adopt_log_times(import_ctx *c)
-{
-    if (c->times || !c->log.nframes)
-        return 0;
-    c->times = malloc(c->log.nframes * sizeof(*c->times));
-    if (!c->times)
-        return -ENOMEM;
-    memcpy(c->times, c->log.frame_ns, c->log.nframes * sizeof(*c->times));
-    c->ntimes = c->log.nframes;
-    c->times_src = c->imu_src;
-    return 0;
-}
-
-/*
- * IMU times share the clock of the frame times when there are any (the CSV's or the log's own);
- * else an epoch log is mapped through the recording's start, and a video-clock log is taken as it
- * is. The offset is added last.
- */
-static int imu_base(import_ctx *c, int64_t *base, const char **what)
-{
-    int64_t t0 = 0;
-    const char *how = "t = 0 is the first frame";
-    if (c->times) {
-        t0 = c->times[0];
-        how = "on the clock of the frame times (t = their first)";
-    } else if (c->log_loaded && c->log.clock == SP_CLOCK_EPOCH) {
-        if (!c->log.has_start)
-            return FAIL(c, SP_ECORRUPT, "%s: a %s log on the epoch clock, and nothing gives the video's start time: "
-                        "give --frame-times on the same clock", c->imu_src, c->log.format);
-        t0 = c->log.start_ns;
-        how = c->log.start_from;
-    }
-    *base = -t0;
-    *what = how;
-    return 0;
-}
-
-static int open_imu(import_ctx *c)
-{
-    int64_t base = 0;
-    const char *how = NULL;
-    int rc = imu_base(c, &base, &how);
-    if (rc)
-        return rc;
-    int64_t shift = llround(c->offset_s * 1e9) + base;
-    snprintf(c->rep->imu_clock, sizeof(c->rep->imu_clock), "%s log, %s, offset %+.3f s%s",
-             c->log_loaded ? c->log.format : "sunprobe CSV", how, c->offset_s,
-             c->s->imu_offset_auto ? " (estimated)" : "");
-    if (c->log_loaded) {
-        sp_import_imu_from_log(&c->imu, &c->log, shift);
-        return 0;
-    }
-    return sp_import_imu_open(&c->imu, c->imu_src, shift, c->rep->message, sizeof(c->rep->message));
-}
-
-static int next_frame(import_ctx *c, sp_frame *f);
-
-/* The gyro on the frame clock before any offset, for --imu-offset auto. */
-static int collect_gyro(import_ctx *c, sp_import_sync *sy)
-{
-    int64_t base = 0;
-    const char *how = NULL;
-    int rc = imu_base(c, &base, &how);
-    for (size_t i = 0; !rc && c->log_loaded && i < c->log.n; i++)
-        if (c->log.s[i].sensor == SP_IMU_GYRO)
-            rc = sp_import_sync_gyro(sy, c->log.s[i].timestamp_ns + base, c->log.s[i].v);
-    if (rc || c->log_loaded)
-        return rc;
-    sp_import_imu r;
-    const sp_imu_sample *smp;
-    rc = sp_import_imu_open(&r, c->imu_src, base, c->rep->message, sizeof(c->rep->message));
-    while (!rc && (rc = sp_import_imu_peek(&r, &smp)) == 0) {
-        if (smp->sensor == SP_IMU_GYRO)
-            rc = sp_import_sync_gyro(sy, smp->timestamp_ns, smp->v);
-        sp_import_imu_pop(&r);
-    }
-    sp_import_imu_close(&r);
-    return rc == SP_EOS ? 0 : rc;
-}
-
-/* The frames' motion, decoded but not stored, at the times the import will give them. */
-static int collect_motion(import_ctx *c, sp_import_sync *sy)
-{
-    int rc = 0;
-    c->dry = 1;
-    for (c->index = 0; !rc && (!c->s->max_frames || c->index < c->s->max_frames); c->index++) {
-        if (c->s->cancel && *c->s->cancel)
-            rc = FAIL(c, -ECANCELED, "interrupted while estimating the IMU offset");
-        sp_frame f;
-        int64_t t = 0;
-        if (!rc && (rc = next_frame(c, &f)) == SP_EOS) {
-            rc = 0;
-            break;
-        }
-        if (!rc)
-            rc = frame_time(c, c->index, &t);
-        if (!rc && !c->rgb_fresh && !sp_jpeg_available())
-            rc = FAIL(c, SP_EDISABLED, "%s: --imu-offset auto needs the frames' pixels: rebuild with -Djpeg=enabled",
-                      c->s->input);
-        if (!rc && c->rgb_fresh && (c->index == 0 || (f.width == c->rep->width && f.height == c->rep->height)))
-            rc = sp_import_sync_frame(sy, c->rgb, f.width, f.height, t);
-        if (c->index == 0) {
-            c->rep->width = f.width;
-            c->rep->height = f.height;
-        }
-        c->rep->last_frame_ns = t;
-    }
-    c->dry = 0;
-    return rc;
-}
-
-/* --imu-offset auto: one pass over frames and gyro, then everything rewound for the import itself. */
-static int estimate_offset(import_ctx *c)
-{
-    sp_import_sync sy = { 0 };
-    int rc = collect_gyro(c, &sy);
-    if (!rc)
-        rc = collect_motion(c, &sy);
-    if (!rc)
-        rc = sp_import_sync_estimate(&sy, 0, c->s->imu_offset_range_s, &c->offset_s, &c->rep->imu_offset_corr,
-                                     c->rep->message, sizeof(c->rep->message));
-    sp_import_sync_free(&sy);
-    c->rep->imu_offset_s = c->offset_s;
-    c->index = 0;
-    c->rep->last_frame_ns = 0;
-    c->rep->width = c->rep->height = 0;
-    c->rep->frames_copied = 0;
-    c->pts_fixed = 0;
-#if HAVE_OPENCV
-    if (!rc && c->video) {
-        sp_cv_video_close(&c->video);
-        rc = open_video(c, c->video_path);
-    }
-#endif
-    return rc;
-}
-
-/* An app's log is read whole; its own frame times (OpenCamera-Sensors) stand in for --frame-times. */
-static int load_imu_log(import_ctx *c)
-{
-    const char *path = c->imu_src = c->s->imu_csv;
-    int fmt;
-    int rc = sp_import_log_detect(path, (int)c->s->imu_format, &fmt, c->rep->message, sizeof(c->rep->message));
-    if (rc || fmt == SP_IMPORT_IMU_SUNPROBE)
-        return rc;
-    rc = sp_import_log_load(&c->log, path, fmt, c->s->output, 0, c->rep->message, sizeof(c->rep->message));
-    c->log_loaded = !rc;
-    return rc ? rc : adopt_log_times(c);
-}
-
 static int check_settings(import_ctx *c)
 {
     const sp_import_settings *s = c->s;
@@ -673,7 +261,7 @@ static int open_export(import_ctx *c, const char *in)
                                 sizeof(c->rep->message));
     c->log_loaded = !rc;
     c->imu_src = in;
-    return rc ? rc : open_video(c, c->log.video);
+    return rc ? rc : sp_import_open_video(c, c->log.video);
 }
 
 static int open_input(import_ctx *c)
@@ -689,7 +277,7 @@ static int open_input(import_ctx *c)
         else if (sp_import_is_image_name(in))
             rc = sp_import_paths_add(&c->images, NULL, in);
         else
-            rc = open_video(c, in);
+            rc = sp_import_open_video(c, in);
     } else if (strchr(in, '%')) {
         rc = sp_import_list_pattern(in, &c->images, c->rep->message, sizeof(c->rep->message));
     } else {
@@ -738,26 +326,6 @@ static int open_output(import_ctx *c)
     return rc;
 }
 
-static int next_frame(import_ctx *c, sp_frame *f)
-{
-    memset(f, 0, sizeof(*f));
-    c->rgb_fresh = 0;
-    int rc = c->video ? next_video_frame(c, f) : next_image(c, f);
-    if (rc)
-        return rc;
-    f->sequence = c->index;
-    f->exposure_us = NAN;
-    f->gain = NAN;
-    if (c->expo.n && c->index >= c->expo.n)
-        return FAIL(c, SP_ECORRUPT, "%s: has exposures for %zu frames, but the input has more frames", c->expo.path,
-                    c->expo.n);
-    if (c->expo.n) {
-        f->exposure_us = c->expo.v[c->index][0];
-        f->gain = c->expo.v[c->index][1];
-    }
-    return 0;
-}
-
 static int check_size(import_ctx *c, const sp_frame *f)
 {
     if (c->index == 0) {
@@ -804,12 +372,12 @@ static int import_frames(import_ctx *c)
         if (c->s->cancel && *c->s->cancel)
             return FAIL(c, -ECANCELED, "interrupted after %llu frames", (unsigned long long)c->index);
         sp_frame f;
-        if ((rc = next_frame(c, &f)) == SP_EOS)
+        if ((rc = sp_import_next_frame(c, &f)) == SP_EOS)
             break;
         if (!rc)
             rc = check_size(c, &f);
         if (!rc)
-            rc = frame_time(c, c->index, &f.timestamp_ns);
+            rc = sp_import_frame_time(c, c->index, &f.timestamp_ns);
         if (!rc)
             rc = flush_imu(c, f.timestamp_ns);
         if (rc)
@@ -888,7 +456,7 @@ int sp_import_run(const sp_import_settings *s, sp_import_report *report)
     if (!rc && s->exposure_csv)
         rc = sp_import_exposure_load(&c.expo, s->exposure_csv, report->message, sizeof(report->message));
     if (!rc && s->imu_csv && !c.log_loaded)
-        rc = load_imu_log(&c);
+        rc = sp_import_load_imu_log(&c);
     if (!rc && s->meta_json)
         rc = sp_import_meta_load(s->meta_json, &c.meta_root, &c.meta, report->message, sizeof(report->message));
     if (!rc)
@@ -898,9 +466,9 @@ int sp_import_run(const sp_import_settings *s, sp_import_report *report)
     if (!rc && s->imu_offset_auto && !c.imu_src)
         rc = FAIL(&c, -EINVAL, "--imu-offset auto needs an IMU log (--imu, or a sensor-log export as INPUT)");
     else if (!rc && s->imu_offset_auto)
-        rc = estimate_offset(&c);
+        rc = sp_import_estimate_offset(&c);
     if (!rc && c.imu_src)
-        rc = open_imu(&c);
+        rc = sp_import_open_imu(&c);
     if (!rc)
         rc = open_output(&c);
     if (!rc)

@@ -174,7 +174,11 @@ int sp_import_sync_estimate(const sp_import_sync *s, double base_s, double range
     double best = -2, at = 0, nb[2];
     int overlapped = 0;
     double *c = malloc((size_t)(2 * steps + 1) * sizeof(*c));
-    for (long k = -steps; c && k <= steps; k++) {
+    if (!c) {
+        free(grid);
+        return -ENOMEM;
+    }
+    for (long k = -steps; k <= steps; k++) {
         size_t used;
         double v = ncc_at(s, grid, ng, (base_s + (double)k * 1e-3) * 1e9, &used);
         c[k + steps] = v;
@@ -184,7 +188,7 @@ int sp_import_sync_estimate(const sp_import_sync *s, double base_s, double range
             at = (double)k;
         }
     }
-    if (c && best > -2) { /* parabola through the peak and its neighbours */
+    if (best > -2) { /* parabola through the peak and its neighbours */
         long k = lround(at) + steps;
         nb[0] = k > 0 ? c[k - 1] : (double)NAN;
         nb[1] = k < 2 * steps ? c[k + 1] : (double)NAN;
