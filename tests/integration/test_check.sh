@@ -5,22 +5,7 @@
 # motion blur; a capture without IMU fails; a missing file is an I/O error (exit 3).
 set -u
 SP=$1
-dir=$(mktemp -d "${TMPDIR:-/tmp}/sp-check.XXXXXX")
-trap 'rm -rf "$dir"' EXIT
-fails=0
-fail() { echo "FAIL: $*"; fails=$((fails + 1)); }
-
-expect() { # expected-exit-code description command...
-    local want=$1 what=$2; shift 2
-    "$@" >"$dir/out.txt" 2>"$dir/err.txt"
-    local got=$?
-    if [ "$got" -ne "$want" ]; then
-        fail "$what: exit $got, expected $want"; sed 's/^/  | /' "$dir/out.txt" "$dir/err.txt"
-    fi
-}
-contains() { # file pattern description
-    grep -qE "$2" "$1" || { fail "$3: no /$2/ in $1"; sed 's/^/  | /' "$1"; }
-}
+. "$(dirname "$0")/cli_lib.sh" check
 
 small=(--face generic --width 64 --height 64 --fps 10 --still 0.5 --turn-seconds 6 --albedo-size 128
        --supersample 1 --shadow-size 128 --no-truth --seed 3)
