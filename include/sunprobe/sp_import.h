@@ -57,7 +57,8 @@ typedef struct sp_import_settings {
     /*
      * A directory of .jpg/.jpeg/.png files (sorted by name, digit runs compared
      * as numbers), a printf-style pattern such as "shots/img_%04d.png" (first
-     * index 0..4, up to the first missing number), one image, or a video file.
+     * index 0..4, up to the first missing number), one image, a video file, or a
+     * Sensor Logger export (a .zip, or a directory with Gyroscope.csv: its video and IMU).
      */
     const char *input;
     /* The capture to create. Written as "<output>.partial", renamed when complete, removed on failure. */
@@ -69,7 +70,7 @@ typedef struct sp_import_settings {
     double fps;
     const char *frame_times_csv; /* optional: one row per frame, column t (s) or t_ns; exposure_s, iso or gain too */
     const char *exposure_csv;    /* optional: one row per frame, columns exposure_s and/or iso or gain */
-    const char *imu_csv;         /* optional: t or t_ns, then gx,gy,gz / ax,ay,az / mx,my,mz */
+    const char *imu_csv;         /* optional: the sunprobe CSV or an app's log (imu_format; IMPORT.md) */
     double imu_offset_s;         /* added to every IMU time (seconds, |x| <= 1e6); default 0 */
     int imu_offset_auto;         /* estimate the offset from gyro and frames instead (imu_offset_s unused) */
     double imu_offset_range_s;   /* its search range, +- seconds around the clock's mapping; default 2 */
@@ -111,9 +112,11 @@ SP_API void sp_import_default_settings(sp_import_settings *s);
  * be NULL). Returns 0; -EINVAL for bad settings; -EEXIST when the output exists;
  * -ENOENT for a missing input; SP_ENODATA for an empty sequence; SP_EFORMAT for
  * unreadable images or video; SP_ECORRUPT for bad CSV/JSON content (NaN/Inf,
- * non-monotonic times, missing columns, wrong types); SP_EDISABLED when the
- * input needs OpenCV (`-Dopencv`) or libjpeg (`-Djpeg`) and the build has none;
- * -ECANCELED when *cancel became non-zero. On any failure no output file is left.
+ * non-monotonic times or duplicate rows, missing columns or scales, wrong types,
+ * an IMU log that never overlaps the frames, no clear --imu-offset auto estimate);
+ * SP_EDISABLED when the input needs OpenCV (`-Dopencv`), libjpeg (`-Djpeg`) or
+ * libzip (`-Dlibzip`) and the build has none; -ECANCELED when *cancel became
+ * non-zero. On any failure no output file is left (nor an unpacked video).
  */
 SP_API int sp_import_run(const sp_import_settings *s, sp_import_report *report);
 
