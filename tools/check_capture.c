@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "common/pixconv.h"
+#include "pipeline/sunstage/landmarks.h"
 #include "sunprobe/sp_capture.h"
 #include "sunprobe/sp_meta.h"
 
@@ -20,6 +21,7 @@
 
 typedef struct frame_rec {
     double t, centre, clipped, sharp, expo;
+    double face;      /* mean grey level inside the landmarks' box, NaN when no face was found */
     double shutter_s; /* NaN unknown */
     uint32_t width;
 } frame_rec;
@@ -31,10 +33,18 @@ typedef struct scan {
     size_t ng, capg;
     double acc[3];
     size_t nacc;
-    uint8_t *gray;
+    uint8_t *gray, *rgb;
     size_t gray_size;
     size_t undecodable;
     double fx; /* META camera.fx, NaN unknown */
+    /* the last frame waits for its side data (landmarks) before its face is looked for */
+    int pending;
+    uint64_t pending_seq;
+    uint32_t pw, ph;
+    int have_side;
+    double side_lm[136];
+    ss_lm_tracker *tracker; /* NULL: landmarks from side data only */
+    size_t faces, face_looked;
 } scan;
 
 static int grow(void **p, size_t *cap, size_t n, size_t elem)
@@ -75,26 +85,89 @@ static void measure(const uint8_t *g, uint32_t w, uint32_t h, frame_rec *r)
     r->sharp = lap / fmax((double)(w - 2) * (h - 2), 1) / fmax(mean * mean, 1.0);
 }
 
+/* The grey mean inside the landmarks' box, shrunk to its middle 60 % (skin, not background). */
+static double face_level(const scan *s, const double *lm)
+{
+    double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
+    for (int k = 0; k < 68; k++) {
+        x0 = fmin(x0, lm[2 * k]), x1 = fmax(x1, lm[2 * k]);
+        y0 = fmin(y0, lm[2 * k + 1]), y1 = fmax(y1, lm[2 * k + 1]);
+    }
+    double mx = 0.2 * (x1 - x0), my = 0.2 * (y1 - y0), sum = 0;
+    long xa = lround(fmax(x0 + mx, 0)), xb = lround(fmin(x1 - mx, s->pw - 1.0));
+    long ya = lround(fmax(y0 + my, 0)), yb = lround(fmin(y1 - my, s->ph - 1.0));
+    size_t n = 0;
+    for (long y = ya; y <= yb; y++)
+        for (long x = xa; x <= xb; x++, n++)
+            sum += s->gray[(size_t)y * s->pw + (size_t)x];
+    return n ? sum / (double)n : (double)NAN;
+}
+
+/* Landmarks for the pending frame: its side data, else the fit's tracker (dlib) when built. */
+static int finish_face(scan *s)
+{
+    if (!s->pending)
+        return 0;
+    s->pending = 0;
+    ss_lm_result res = { .source = SS_LM_NONE };
+    const double *lm = NULL;
+    if (s->have_side) {
+        lm = s->side_lm;
+    } else if (s->tracker) {
+        int rc = ss_lm_tracker_frame(s->tracker, s->rgb, (int)s->pw, (int)s->ph, &res);
+        if (rc)
+            return rc;
+        lm = res.source != SS_LM_NONE ? res.lm : NULL;
+    } else {
+        return 0;
+    }
+    s->face_looked++;
+    if (lm) {
+        s->faces++;
+        s->f[s->nf - 1].face = face_level(s, lm);
+    }
+    return 0;
+}
+
+static void take_side(scan *s, const sp_chunk *ch)
+{
+    sp_side_chunk sc;
+    if (!s->pending || sp_chunk_parse_side(ch, &sc) != 0 || sc.kind != SP_SIDE_LANDMARKS_2D || sc.count != 136 ||
+        sc.frame_sequence != s->pending_seq)
+        return;
+    for (uint32_t i = 0; i < 136; i++)
+        s->side_lm[i] = (double)sp_side_value(&sc, i);
+    s->have_side = 1;
+}
+
 static int take_frame(scan *s, const sp_chunk *ch)
 {
     sp_frame_chunk fc;
     if (sp_chunk_parse_frame(ch, &fc) != 0 || fc.stream_id != 0)
         return 0;
+    int rc = finish_face(s);
+    if (rc)
+        return rc;
     size_t need = (size_t)fc.width * fc.height;
     if (need > s->gray_size) {
-        uint8_t *g = realloc(s->gray, need);
-        if (!g)
+        uint8_t *g = realloc(s->gray, need), *c = g ? realloc(s->rgb, need * 3) : NULL;
+        s->gray = g ? g : s->gray;
+        s->rgb = c ? c : s->rgb;
+        if (!g || !c)
             return -ENOMEM;
-        s->gray = g;
         s->gray_size = need;
     }
     sp_pixconv_src src = { fc.format, fc.width, fc.height, fc.stride, fc.data, fc.data_size };
-    int rc = sp_pixconv_to_gray8(&src, s->gray, s->gray_size, fc.width);
+    rc = sp_pixconv_to_rgb24(&src, s->rgb, need * 3, fc.width * 3);
     if (rc == SP_EDISABLED)
         return rc;
     if (rc || fc.width < 3 || fc.height < 3) {
         s->undecodable++;
         return 0;
+    }
+    for (size_t i = 0; i < need; i++) {
+        const uint8_t *p = s->rgb + i * 3;
+        s->gray[i] = (uint8_t)((77 * p[0] + 150 * p[1] + 29 * p[2] + 128) >> 8);
     }
     if ((rc = grow((void **)&s->f, &s->capf, s->nf, sizeof(*s->f))) != 0)
         return rc;
@@ -106,6 +179,12 @@ static int take_frame(scan *s, const sp_chunk *ch)
     r->shutter_s = us > 0 && isfinite(us) ? us * 1e-6 : (double)NAN;
     r->width = fc.width;
     r->expo = e > 0 && isfinite(e) ? e : (us > 0 && isfinite(us) ? us : (double)NAN);
+    r->face = NAN;
+    s->pending = 1;
+    s->pending_seq = fc.sequence;
+    s->pw = fc.width;
+    s->ph = fc.height;
+    s->have_side = 0;
     return 0;
 }
 
@@ -210,8 +289,13 @@ static void lighting(const scan *s, const double *yaw, sp_check_report *r)
             e0 = s->f[i].expo;
             break;
         }
+    int by_face = s->faces * 2 > s->nf;
+    r->light_from_face = by_face;
     for (size_t i = 0; i < s->nf; i++) {
-        double lin = pow(s->f[i].centre / 255.0, 2.2);
+        double level = by_face ? s->f[i].face : s->f[i].centre;
+        if (!isfinite(level))
+            continue;
+        double lin = pow(level / 255.0, 2.2);
         if (isfinite(e0) && isfinite(s->f[i].expo))
             lin *= e0 / s->f[i].expo; /* auto-exposure undone where the frames say it */
         double x[3] = { 1, cos(yaw[i]), sin(yaw[i]) };
@@ -243,6 +327,7 @@ static void lighting(const scan *s, const double *yaw, sp_check_report *r)
 static void summarise(scan *s, sp_check_report *r)
 {
     r->frames = s->nf;
+    r->face_share = s->face_looked ? (double)s->faces / (double)s->face_looked : (double)NAN;
     r->undecodable = s->undecodable;
     r->gyro_samples = s->ng;
     if (s->nf < 2)
@@ -283,7 +368,7 @@ static void summarise(scan *s, sp_check_report *r)
     free(yaw);
 }
 
-int sp_check_capture(const char *path, sp_check_report *r)
+int sp_check_capture(const char *path, int find_faces, sp_check_report *r)
 {
     memset(r, 0, sizeof(*r));
     r->light_modulation = NAN;
@@ -293,6 +378,12 @@ int sp_check_capture(const char *path, sp_check_report *r)
     if (rc)
         return rc;
     scan s = { .fx = NAN };
+    if (find_faces) { /* without dlib (or its model) faces come from side data only */
+        ss_lm_settings ls;
+        ss_lm_default_settings(&ls);
+        if (ss_lm_tracker_open(&s.tracker, &ls) != 0)
+            s.tracker = NULL;
+    }
     sp_chunk ch;
     while (!rc && (rc = sp_capture_reader_next(rd, &ch)) == 0) {
         if (ch.type == SP_CHUNK_META) {
@@ -304,15 +395,19 @@ int sp_check_capture(const char *path, sp_check_report *r)
             rc = take_frame(&s, &ch);
         else if (ch.type == SP_CHUNK_IMU)
             rc = take_imu(&s, &ch);
+        else if (ch.type == SP_CHUNK_SIDE)
+            take_side(&s, &ch);
     }
     sp_capture_reader_close(&rd);
     if (rc == SP_EOS)
-        rc = 0;
+        rc = finish_face(&s);
     if (!rc)
         summarise(&s, r);
+    ss_lm_tracker_close(&s.tracker);
     free(s.f);
     free(s.gt);
     free(s.gv);
     free(s.gray);
+    free(s.rgb);
     return rc;
 }

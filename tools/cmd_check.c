@@ -22,15 +22,18 @@
 #define MAX_CLIPPED 0.2
 #define MAX_BLURRED 0.25
 #define MIN_MODULATION 0.1
+#define MIN_FACES 0.5
+#define GOOD_FACES 0.8
 
 static void usage(FILE *out)
 {
-    fprintf(out, "usage: sunprobe check CAPTURE [--json FILE]\n\n"
+    fprintf(out, "usage: sunprobe check CAPTURE [--json FILE] [--no-face]\n\n"
                  "Measures a selfie capture before fitting: frames and their timing, IMU rate and coverage, the\n"
                  "turn about gravity, clipped and blurred frames, and whether the brightness of the frame's\n"
                  "centre (the face) follows the turn (lighting observable). Prints one verdict per item with\n"
                  "what to re-shoot. Exit 0 when nothing fails, 2 when the capture cannot work.\n"
-                 "  --json FILE   the measurements as JSON too\n");
+                 "  --json FILE   the measurements as JSON too\n"
+                 "  --no-face     do not run the landmark tracker (dlib) on frames without landmarks\n");
 }
 
 typedef struct verdicts {
@@ -59,6 +62,13 @@ static void judge(const sp_check_report *r, verdicts *v)
         say(v, 1, "frames", "%zu frames do not decode; the fit skips them", r->undecodable);
     if (r->fps > 0 && r->max_gap_s > 5 / r->fps)
         say(v, 1, "gaps", "a gap of %.2f s between frames: frames were dropped", r->max_gap_s);
+    if (!isfinite(r->face_share))
+        say(v, 1, "face", "not looked for: no landmark side data, and %s", "no dlib tracker (build with -Ddlib, "
+            "install its model, or drop --no-face)");
+    else
+        say(v, r->face_share < MIN_FACES ? 2 : r->face_share < GOOD_FACES ? 1 : 0, "face", "found on %.0f %% of frames%s",
+            100 * r->face_share, r->face_share < GOOD_FACES ? ": keep the whole face in the frame, lit, at arm's length"
+                                                             : "");
     if (!r->gyro_samples) {
         say(v, 2, "imu", "no gyroscope samples: the fit needs the IMU's orientation (import one with --imu)");
         return;
@@ -83,7 +93,8 @@ static void judge(const sp_check_report *r, verdicts *v)
         say(v, 1, "lighting", "not judged: the turn is too short to compare sides");
     else
         say(v, r->light_modulation < MIN_MODULATION ? 1 : 0, "lighting",
-            "the centre's brightness varies by %.2f of its mean over the turn: %s", r->light_modulation,
+            "the %s's brightness varies by %.2f of its mean over the turn: %s",
+            r->light_from_face ? "face" : "frame centre", r->light_modulation,
             r->light_modulation < MIN_MODULATION ? "flat (overcast?): the fit will probably leave the sun out; "
                                                    "shoot in direct sun"
                                                  : "lighting observable");
@@ -95,7 +106,9 @@ static int write_json(const char *path, const sp_check_report *r, const verdicts
     int rc = sp_atomic_file_open(&f, path);
     if (rc)
         return rc;
-    char light[32] = "null", blur[32] = "null"; /* JSON has no NaN */
+    char light[32] = "null", blur[32] = "null", face[32] = "null"; /* JSON has no NaN */
+    if (isfinite(r->face_share))
+        snprintf(face, sizeof(face), "%.6g", r->face_share);
     if (isfinite(r->light_modulation))
         snprintf(light, sizeof(light), "%.6g", r->light_modulation);
     if (isfinite(r->blurred_share))
@@ -105,24 +118,26 @@ static int write_json(const char *path, const sp_check_report *r, const verdicts
             " \"gyro_samples\": %zu, \"gyro_hz\": %.6g, \"imu_coverage\": %.6g, \"turn_deg\": %.6g,\n"
             " \"turn_range_deg\": %.6g, \"clipped_share\": %.6g, \"blurred_share\": %s, \"blur_max_px\": %.6g,\n"
             " \"sharpness\": %.6g,"
-            " \"light_modulation\": %s, \"fails\": %d, \"warnings\": %d}\n",
+            " \"light_modulation\": %s, \"light_from_face\": %d, \"face_share\": %s, \"fails\": %d, \"warnings\": %d}\n",
             r->frames, r->undecodable, r->duration_s, r->fps, r->max_gap_s, r->gyro_samples, r->gyro_hz,
             r->imu_coverage, r->turn_deg, r->turn_range_deg, r->clipped_share,
             blur, r->blur_max_px, r->sharpness, light,
-            v->fails, v->warns);
+            r->light_from_face, face, v->fails, v->warns);
     return sp_atomic_file_finish(&f, ferror(f.file) ? -EIO : 0);
 }
 
 int sp_cmd_check(int argc, char **argv)
 {
-    static const struct option opts[] = { { "json", required_argument, NULL, 'j' }, { "help", no_argument, NULL, 'h' },
-                                          { 0 } };
+    static const struct option opts[] = { { "json", required_argument, NULL, 'j' }, { "no-face", no_argument, NULL, 'n' },
+                                          { "help", no_argument, NULL, 'h' }, { 0 } };
     optind = 0;
     const char *json = NULL;
-    int c;
+    int c, faces = 1;
     while ((c = getopt_long(argc, argv, "h", opts, NULL)) != -1) {
         if (c == 'j')
             json = optarg;
+        else if (c == 'n')
+            faces = 0;
         else if (c == 'h') {
             usage(stdout);
             return SP_EXIT_OK;
@@ -138,7 +153,7 @@ int sp_cmd_check(int argc, char **argv)
     }
     const char *path = argv[optind];
     sp_check_report r;
-    int rc = sp_check_capture(path, &r);
+    int rc = sp_check_capture(path, faces, &r);
     if (rc) {
         fprintf(stderr, "sunprobe " CMD ": %s: %s%s\n", path, sp_strerror(rc),
                 rc == SP_EDISABLED ? " (decoding MJPEG frames needs libjpeg: rebuild with -Djpeg=enabled)" : "");

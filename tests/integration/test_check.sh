@@ -22,7 +22,8 @@ synth blur --shutter 0.1 --motion-blur 4
 expect 0 "good capture" "$SP" check "$dir/good.spcap" --json "$dir/good.json"
 contains "$dir/out.txt" "good to fit" "verdict"
 contains "$dir/out.txt" "^ok +turn +3[5-6][0-9] deg" "a full turn measured"
-contains "$dir/out.txt" "^ok +lighting .*observable" "sunny lighting observable"
+contains "$dir/out.txt" "^ok +lighting .*face's brightness.*observable" "sunny lighting observable, on the face"
+contains "$dir/out.txt" "^ok +face +found on 100 %" "faces from the landmark side data"
 contains "$dir/good.json" '"fails": 0' "JSON"
 python3 -c "import json,sys; json.load(open(sys.argv[1]))" "$dir/good.json" || fail "JSON does not parse"
 
@@ -46,6 +47,18 @@ if [ "$rc" -eq 0 ]; then
     expect 2 "no IMU" "$SP" check "$dir/noimu.spcap"
     contains "$dir/out.txt" "^FAIL imu +no gyroscope" "no IMU named"
 fi
+# a rotating test pattern: no face anywhere (the tracker finds none; without dlib it is not looked for)
+"$SP" synth turn -o "$dir/turn.spcap" --width 96 --height 72 --fps 10 --turn-seconds 4 >/dev/null 2>&1 || fail "synth turn"
+"$SP" check "$dir/turn.spcap" >"$dir/out.txt" 2>&1
+rc=$?
+if grep -q "not looked for" "$dir/out.txt"; then
+    [ "$rc" -eq 0 ] || fail "no face, not looked for: exit $rc"
+else
+    [ "$rc" -eq 2 ] || fail "no face: exit $rc, expected 2"
+    contains "$dir/out.txt" "^FAIL face +found on 0 %" "no face found"
+fi
+expect 0 "--no-face" "$SP" check "$dir/turn.spcap" --no-face
+contains "$dir/out.txt" "^warn face +not looked for" "--no-face"
 expect 3 "missing file" "$SP" check "$dir/nothing.spcap"
 expect 1 "no argument" "$SP" check
 
