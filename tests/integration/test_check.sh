@@ -43,7 +43,12 @@ rc=$?
 [ "$rc" -eq 4 ] && echo "note: no OpenCV/libjpeg in this build: the capture without IMU is not made"
 [ "$rc" -ne 0 ] && [ "$rc" -ne 4 ] && fail "export-video: exit $rc"
 if [ "$rc" -eq 0 ]; then
-    expect 0 "import without IMU" "$SP" import "$dir/frames" -o "$dir/noimu.spcap" --fps 10 -q
+    "$SP" import "$dir/frames" -o "$dir/noimu.spcap" --fps 10 -q >"$dir/out.txt" 2>&1
+    rc=$?
+    [ "$rc" -eq 4 ] && echo "note: this build cannot import PNG frames: the capture without IMU is not made"
+    [ "$rc" -ne 0 ] && [ "$rc" -ne 4 ] && fail "import without IMU: exit $rc"
+fi
+if [ "$rc" -eq 0 ]; then
     expect 2 "no IMU" "$SP" check "$dir/noimu.spcap"
     contains "$dir/out.txt" "^FAIL imu +no gyroscope" "no IMU named"
 fi
