@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * --imu-offset auto: the IMU-video time offset from the data. The frames' visual motion (a global
- * translation between consecutive grey thumbnails, Lucas-Kanade in one step, in px/s) and the gyro's
+ * --imu-offset auto: the IMU-video time offset from the data. The frames' visual motion (the normal
+ * flow between consecutive grey thumbnails, in px/s) and the gyro's
  * rate magnitude (averaged over each frame pair's interval) rise and fall together as the camera
  * turns; the offset is the shift of the gyro series that maximises their normalised
  * cross-correlation. Magnitudes make it independent of the IMU-to-camera rotation and of the focal
@@ -54,23 +54,24 @@ static void thumbnail(const uint8_t *rgb, uint32_t w, uint32_t h, float *out, in
         }
 }
 
-/* Magnitude (px) of the global translation from a to b: one Gauss-Newton step of brightness constancy. */
-static double shift_magnitude(const float *a, const float *b, int w, int h)
+/*
+ * How far the image moved from a to b, in px: the mean temporal difference over the mean spatial
+ * gradient (normal flow). Unlike a one-step Lucas-Kanade translation it does not break down for shifts
+ * of several pixels, nor when a face that moves with the camera covers part of the frame; it
+ * saturates for very large shifts but stays monotonic, which is all a correlation needs.
+ */
+static double motion_magnitude(const float *a, const float *b, int w, int h)
 {
-    double sxx = 0, sxy = 0, syy = 0, sxt = 0, syt = 0;
+    double dt = 0, grad = 0;
     for (int y = 1; y < h - 1; y++)
         for (int x = 1; x < w - 1; x++) {
             int i = y * w + x;
-            double ix = 0.25 * (double)(a[i + 1] - a[i - 1] + b[i + 1] - b[i - 1]);
-            double iy = 0.25 * (double)(a[i + w] - a[i - w] + b[i + w] - b[i - w]);
-            double it = (double)(b[i] - a[i]);
-            sxx += ix * ix, sxy += ix * iy, syy += iy * iy, sxt += ix * it, syt += iy * it;
+            double gx = 0.25 * (double)(a[i + 1] - a[i - 1] + b[i + 1] - b[i - 1]);
+            double gy = 0.25 * (double)(a[i + w] - a[i - w] + b[i + w] - b[i - w]);
+            dt += fabs((double)(b[i] - a[i]));
+            grad += hypot(gx, gy);
         }
-    double det = sxx * syy - sxy * sxy;
-    if (!(det > 1e-9 * (sxx + syy) * (sxx + syy)) || !isfinite(det))
-        return (double)NAN; /* a flat or one-directional image: no motion to measure */
-    double dx = (-syy * sxt + sxy * syt) / det, dy = (sxy * sxt - sxx * syt) / det;
-    return hypot(dx, dy);
+    return grad > 1e-6 * (double)w * h ? dt / grad : (double)NAN; /* a flat image: nothing to measure */
 }
 
 int sp_import_sync_frame(sp_import_sync *s, const uint8_t *rgb, uint32_t w, uint32_t h, int64_t t_ns)
@@ -85,7 +86,7 @@ int sp_import_sync_frame(sp_import_sync *s, const uint8_t *rgb, uint32_t w, uint
     }
     thumbnail(rgb, w, h, s->cur, s->tw, s->th);
     if (s->have_prev && t_ns > s->prev_t && s->tw >= 8 && s->th >= 8) {
-        double m = shift_magnitude(s->prev, s->cur, s->tw, s->th);
+        double m = motion_magnitude(s->prev, s->cur, s->tw, s->th);
         if (isfinite(m)) {
             if (s->n == s->cap) {
                 size_t cap = s->cap ? s->cap * 2 : 1024;
@@ -209,8 +210,9 @@ int sp_import_sync_estimate(const sp_import_sync *s, double base_s, double range
     *offset_s = base_s + at * 1e-3;
     if (best < MIN_CORR || fabs(at) >= (double)steps)
         return sp_import_fail(msg, msg_size, SP_ECORRUPT, "--imu-offset auto: no clear match between the gyroscope "
-                              "and the frames' motion (best correlation %.2f at %+.3f s, needs %.2f inside +-%g s); "
-                              "give --imu-offset S", best, *offset_s, MIN_CORR, range_s);
+                              "and the frames' motion (best correlation %.2f at %+.3f s, needs %.2f inside +-%g s; a "
+                              "steady turn has no changes of speed to match: record its start or end too); give "
+                              "--imu-offset S", best, *offset_s, MIN_CORR, range_s);
     return 0;
 }
 

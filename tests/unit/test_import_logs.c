@@ -434,7 +434,7 @@ static double speed(double t)
     return 60 * (0.6 + 0.4 * sin(2 * M_PI * t / 1.3)) * (0.5 + 0.5 * sin(2 * M_PI * t / 0.45 + 1));
 }
 
-/* 90 JPEG frames at 30 fps of a texture sliding by the integral of speed (static: not moving). */
+/* 90 JPEG frames at 30 fps of a texture sliding by the integral of speed (moving 0: still; -1: flat grey). */
 static void make_motion_frames(const char *dir, int moving)
 {
     enum { W = 160, H = 120 };
@@ -442,11 +442,12 @@ static void make_motion_frames(const char *dir, int moving)
     static uint8_t rgb[W * H * 3];
     double x0 = 0;
     for (int i = 0; i < 90; i++) {
-        for (int k = 0; moving && i > 0 && k < 100; k++) /* the shift since the previous frame */
+        for (int k = 0; moving > 0 && i > 0 && k < 100; k++) /* the shift since the previous frame */
             x0 += speed((i - 1 + (k + 0.5) / 100) / 30.0) / 3000.0;
         for (int y = 0; y < H; y++)
             for (int x = 0; x < W; x++) {
                 double u = x - x0, v = 128 + 50 * sin(0.25 * u) + 30 * sin(0.17 * y + 0.3) + 20 * sin(0.11 * u + 0.13 * y);
+                v = moving < 0 ? 128 : v;
                 rgb[(y * W + x) * 3] = rgb[(y * W + x) * 3 + 1] = rgb[(y * W + x) * 3 + 2] = (uint8_t)lround(v);
             }
         sp_jpeg_buffer jb = { 0 };
@@ -522,6 +523,11 @@ static void test_offset_auto(void)
     s.fps = 30;
     s.imu_offset_auto = 1;
     expect_failure(&s, SP_ECORRUPT, "nothing to match");
+    /* a flat image has no gradient to measure motion by */
+    make_motion_frames("flat", -1);
+    s.input = iu_path("flat");
+    s.imu_csv = iu_path("late.csv");
+    expect_failure(&s, SP_ENODATA, "0 frame pairs with measurable motion");
     /* a true offset beyond the search range cannot be found: refused, not guessed */
     s.imu_offset_range_s = 0.2;
     s.imu_csv = iu_path("late.csv");
