@@ -4,7 +4,8 @@
  * The capture is written to "<out>.partial" and renamed into place only when
  * complete, so a failed or interrupted import never leaves a file that looks valid.
  * Memory is bounded by one decoded frame, one encoded frame and one IMU batch,
- * plus the list of input file names and the frame-times table.
+ * plus the list of input file names, the frame-times table and an app's IMU log
+ * (read whole). Frames are read in import_read.c, the IMU clock set in import_clock.c.
  */
 #include "sunprobe/sp_import.h"
 
@@ -20,6 +21,7 @@
 
 #include "capture/container_format.h"
 #include "capture/import_csv.h"
+#include "capture/import_ctx.h"
 #include "capture/import_internal.h"
 #include "capture/opencv_shim.h"
 #include "common/file_util.h"
@@ -29,34 +31,7 @@
 #include "sunprobe/sp_capture.h"
 #include "sunprobe/sp_meta.h"
 
-#define MAX_IMAGE_FILE (SPC_MAX_PAYLOAD - SPC_FRAME_HDR_SIZE)
 #define MAX_IMU_OFFSET_S 1e6
-
-typedef struct import_ctx {
-    const sp_import_settings *s;
-    sp_import_report *rep;
-    sp_import_paths images;  /* image sequence, or empty for a video */
-    sp_cv_video_reader *video;
-    uint32_t video_w, video_h;
-    double video_fps;        /* as the video declares it, 0 if unknown */
-    uint64_t total;          /* frames expected, 0 if unknown */
-    uint64_t index;          /* next frame */
-    double fps;
-    int64_t *times;          /* frame-times CSV in ns, or NULL */
-    size_t ntimes;
-    sp_import_imu imu;
-    sp_imu_sample *batch;
-    size_t nbatch;
-    sp_json *meta_root;      /* the user's META JSON, or NULL */
-    sp_capture_meta meta;
-    sp_capture_writer *writer;
-    sp_partial partial;      /* the output while it is written */
-    uint8_t *file_buf;
-    size_t file_cap, file_size;
-    uint8_t *rgb;
-    size_t rgb_cap;
-    sp_jpeg_buffer jpeg;
-} import_ctx;
 
 int sp_import_fail(char *msg, size_t msg_size, int rc, const char *fmt, ...)
 {
@@ -69,7 +44,16 @@ int sp_import_fail(char *msg, size_t msg_size, int rc, const char *fmt, ...)
     return rc;
 }
 
-#define FAIL(c, rc, ...) sp_import_fail((c)->rep->message, sizeof((c)->rep->message), rc, __VA_ARGS__)
+int sp_import_to_camera_preset(enum sp_import_to_camera preset, double q[4])
+{
+    /* iOS and Android share the sensor axes; a back camera looks along -z (180 deg about x), a front
+     * camera along +z with its image's right on the phone's left (180 deg about z) */
+    static const double table[][4] = { { 1, 0, 0, 0 }, { 0, 0, 0, 1 }, { 0, 1, 0, 0 }, { 0, 0, 0, 1 }, { 0, 1, 0, 0 } };
+    if (preset < SP_IMPORT_TO_CAMERA_IDENTITY || preset > SP_IMPORT_TO_CAMERA_IOS_BACK)
+        return -EINVAL;
+    memcpy(q, table[preset - SP_IMPORT_TO_CAMERA_IDENTITY], sizeof(table[0]));
+    return 0;
+}
 
 void sp_import_default_settings(sp_import_settings *s)
 {
@@ -79,216 +63,8 @@ void sp_import_default_settings(sp_import_settings *s)
     s->store = SP_IMPORT_STORE_JPEG;
     s->quality = 92;
     s->imu_batch = 256;
+    s->imu_offset_range_s = 2.0;
 }
-
-/* ---- reading one image ---- */
-
-static int read_file(import_ctx *c, const char *path)
-{
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (fd < 0) {
-        int rc = -errno;
-        return FAIL(c, rc, "%s: cannot open: %s", path, sp_strerror(rc));
-    }
-    struct stat st;
-    int rc = fstat(fd, &st) ? -errno : 0;
-    if (!rc && (st.st_size <= 0 || (uint64_t)st.st_size > MAX_IMAGE_FILE))
-        rc = FAIL(c, SP_EFORMAT, "%s: %s", path, st.st_size <= 0 ? "empty file" : "file too large for one frame");
-    if (!rc && (size_t)st.st_size > c->file_cap) {
-        uint8_t *p = realloc(c->file_buf, (size_t)st.st_size);
-        rc = p ? 0 : -ENOMEM;
-        if (p) {
-            c->file_buf = p;
-            c->file_cap = (size_t)st.st_size;
-        }
-    }
-    size_t got = 0;
-    while (!rc && got < (size_t)st.st_size) {
-        ssize_t n = read(fd, c->file_buf + got, (size_t)st.st_size - got);
-        if (n < 0 && errno == EINTR)
-            continue;
-        if (n <= 0)
-            rc = n < 0 ? -errno : -EIO; /* the file shrank under us */
-        else
-            got += (size_t)n;
-    }
-    close(fd);
-    c->file_size = got;
-    return rc ? FAIL(c, rc, "%s: read failed: %s", path, sp_strerror(rc)) : 0;
-}
-
-static int ensure_rgb(import_ctx *c, uint32_t w, uint32_t h)
-{
-    size_t need = (size_t)w * h * 3;
-    if (need <= c->rgb_cap)
-        return 0;
-    uint8_t *p = realloc(c->rgb, need);
-    if (!p)
-        return -ENOMEM;
-    c->rgb = p;
-    c->rgb_cap = need;
-    return 0;
-}
-
-/* Fills f with the RGB24 image in c->rgb, or its JPEG re-encoding. */
-static int frame_from_rgb(import_ctx *c, const char *what, uint32_t w, uint32_t h, sp_frame *f)
-{
-    f->width = w;
-    f->height = h;
-    if (c->s->store == SP_IMPORT_STORE_RGB) {
-        f->format = SP_PIXFMT_RGB24;
-        f->stride = w * 3;
-        f->data = c->rgb;
-        f->bytes_used = (size_t)w * h * 3;
-        return 0;
-    }
-    int rc = sp_jpeg_encode_rgb24(c->rgb, w, h, w * 3, c->s->quality, &c->jpeg);
-    if (rc == SP_EDISABLED)
-        return FAIL(c, rc, "%s: storing as JPEG needs libjpeg; rebuild with -Djpeg=enabled or use --store rgb", what);
-    if (rc)
-        return FAIL(c, rc, "%s: JPEG encoding failed: %s", what, sp_strerror(rc));
-    f->format = SP_PIXFMT_MJPEG;
-    f->stride = 0;
-    f->data = c->jpeg.data;
-    f->bytes_used = c->jpeg.size;
-    return 0;
-}
-
-/*
- * 1 when the file ends in EOI (some writers pad after it: the last KiB is searched). Entropy-coded data
- * never holds FF D9 (0xFF is stuffed there); only the tail is searched, as an EXIF thumbnail has its own.
- */
-static int has_eoi(const uint8_t *d, size_t n)
-{
-    for (size_t i = n; i >= 2 && n - i < 1024; i--)
-        if (d[i - 2] == 0xFF && d[i - 1] == 0xD9)
-            return 1;
-    return 0;
-}
-
-/*
- * A JPEG stored as it is must decode later (export-video, fit): decoded once here, with libjpeg; without
- * it, at least not cut short.
- */
-static int check_stored_jpeg(import_ctx *c, const char *path, const sp_jpeg_header *hdr)
-{
-    if (c->index > 0 && (hdr->width != c->rep->width || hdr->height != c->rep->height))
-        return 0; /* refused by check_size, with a better message */
-    if (!sp_jpeg_available())
-        return has_eoi(c->file_buf, c->file_size) ? 0
-                                                  : FAIL(c, SP_ETRUNCATED, "%s: truncated JPEG (no end marker)", path);
-    int rc = ensure_rgb(c, hdr->width, hdr->height);
-    if (!rc)
-        rc = sp_jpeg_decode(c->file_buf, c->file_size, SP_PIXFMT_RGB24, hdr->width, hdr->height, c->rgb, c->rgb_cap,
-                            hdr->width * 3);
-    if (rc == -ENOMEM)
-        return FAIL(c, rc, "%s: %s", path, sp_strerror(rc));
-    return rc ? FAIL(c, SP_ECORRUPT, "%s: damaged or truncated JPEG: it does not decode (%s)", path, sp_strerror(rc))
-              : 0;
-}
-
-static int frame_from_jpeg_file(import_ctx *c, const char *path, sp_frame *f)
-{
-    sp_jpeg_header hdr;
-    int rc = sp_jpeg_parse_header(c->file_buf, c->file_size, &hdr);
-    if (rc)
-        return FAIL(c, SP_EFORMAT, "%s: not a valid JPEG (%s)", path, sp_strerror(rc));
-    if (hdr.components == 4)
-        return FAIL(c, SP_EUNSUPPORTED, "%s: CMYK JPEG is not supported", path);
-    if (c->s->store == SP_IMPORT_STORE_JPEG) { /* byte-for-byte: no generation loss */
-        if ((rc = check_stored_jpeg(c, path, &hdr)))
-            return rc;
-        *f = (sp_frame){ .format = SP_PIXFMT_MJPEG, .width = hdr.width, .height = hdr.height,
-                         .data = c->file_buf, .bytes_used = c->file_size };
-        c->rep->frames_copied++;
-        return 0;
-    }
-    if ((rc = ensure_rgb(c, hdr.width, hdr.height)) != 0)
-        return FAIL(c, rc, "%s: %s", path, sp_strerror(rc));
-    rc = sp_jpeg_decode(c->file_buf, c->file_size, SP_PIXFMT_RGB24, hdr.width, hdr.height, c->rgb, c->rgb_cap,
-                        hdr.width * 3);
-    if (rc == SP_EDISABLED)
-        return FAIL(c, rc, "%s: decoding JPEG for --store rgb needs libjpeg; rebuild with -Djpeg=enabled", path);
-    if (rc)
-        return FAIL(c, SP_EFORMAT, "%s: cannot decode JPEG: %s", path, sp_strerror(rc));
-    return frame_from_rgb(c, path, hdr.width, hdr.height, f);
-}
-
-static int frame_from_png_file(import_ctx *c, const char *path, sp_frame *f)
-{
-#if HAVE_OPENCV
-    uint32_t w = 0, h = 0;
-    int rc = sp_cv_image_decode(c->file_buf, c->file_size, &c->rgb, &c->rgb_cap, &w, &h);
-    if (rc)
-        return FAIL(c, rc, "%s: cannot decode image: %s", path, sp_strerror(rc));
-    return frame_from_rgb(c, path, w, h, f);
-#else
-    (void)f;
-    return FAIL(c, SP_EDISABLED, "%s: decoding PNG needs OpenCV; rebuild with -Dopencv=enabled (JPEG sequences "
-                "import without it)", path);
-#endif
-}
-
-static int next_image(import_ctx *c, sp_frame *f)
-{
-    if (c->index >= c->images.count)
-        return SP_EOS;
-    const char *path = c->images.items[c->index];
-    int rc = read_file(c, path);
-    if (rc)
-        return rc;
-    static const uint8_t png_magic[8] = { 0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n' };
-    if (c->file_size >= 2 && c->file_buf[0] == 0xFF && c->file_buf[1] == 0xD8)
-        return frame_from_jpeg_file(c, path, f);
-    if (c->file_size >= 8 && memcmp(c->file_buf, png_magic, 8) == 0)
-        return frame_from_png_file(c, path, f);
-    return FAIL(c, SP_EFORMAT, "%s: neither a JPEG nor a PNG file", path);
-}
-
-/* ---- video ---- */
-
-static int open_video(import_ctx *c, const char *path)
-{
-#if HAVE_OPENCV
-    sp_cv_video_info info;
-    int rc = sp_cv_video_open(&c->video, path, &info);
-    if (rc == SP_EFORMAT)
-        return FAIL(c, rc, "%s: OpenCV cannot open or decode this as a video", path);
-    if (rc)
-        return FAIL(c, rc, "%s: %s", path, sp_strerror(rc));
-    if ((rc = ensure_rgb(c, info.width, info.height)) != 0)
-        return rc;
-    c->video_w = info.width;
-    c->video_h = info.height;
-    c->total = info.frame_count > 0 ? (uint64_t)info.frame_count : 0;
-    if (isfinite(info.fps) && info.fps > 0 && info.fps <= 1000)
-        c->video_fps = info.fps;
-    if (c->s->store == SP_IMPORT_STORE_JPEG && !sp_jpeg_available())
-        return FAIL(c, SP_EDISABLED, "%s: storing video frames as JPEG needs libjpeg; rebuild with "
-                    "-Djpeg=enabled or use --store rgb", path);
-    return 0;
-#else
-    return FAIL(c, SP_EDISABLED, "%s: importing video needs OpenCV; rebuild with -Dopencv=enabled", path);
-#endif
-}
-
-static int next_video_frame(import_ctx *c, sp_frame *f)
-{
-#if HAVE_OPENCV
-    int rc = sp_cv_video_read(c->video, c->rgb, c->rgb_cap, c->video_w * 3);
-    if (rc == SP_EOS)
-        return rc;
-    if (rc)
-        return FAIL(c, rc == SP_ECORRUPT ? SP_EFORMAT : rc, "%s: frame %llu: %s", c->s->input,
-                    (unsigned long long)c->index, rc == SP_ECORRUPT ? "frame size changed" : sp_strerror(rc));
-    return frame_from_rgb(c, c->s->input, c->video_w, c->video_h, f);
-#else
-    (void)f;
-    return FAIL(c, SP_EDISABLED, "%s: importing video needs OpenCV; rebuild with -Dopencv=enabled", c->s->input);
-#endif
-}
-
-/* ---- frame times ---- */
 
 static int push_time(import_ctx *c, size_t *cap, int64_t t)
 {
@@ -310,9 +86,12 @@ static int load_frame_times(import_ctx *c, const char *path)
     int rc = sp_csv_open(&csv, path, c->rep->message, sizeof(c->rep->message));
     if (rc)
         return rc;
-    int col_t, col_tns;
+    int col_t, col_tns, expo_col[3];
     size_t cap = 0;
     rc = sp_csv_time_columns(&csv, &col_t, &col_tns);
+    int expo = rc ? 0 : c->s->exposure_csv ? 0 : sp_import_exposure_columns(&csv, expo_col);
+    rc = expo < 0 ? expo : rc;
+    c->expo.path = path;
     while (!rc && (rc = sp_csv_next(&csv)) == 0) {
         int64_t t;
         rc = sp_csv_time_ns(&csv, col_t, col_tns, &t);
@@ -320,9 +99,12 @@ static int load_frame_times(import_ctx *c, const char *path)
             rc = sp_csv_fail(&csv, SP_ECORRUPT, "frame time is not after the previous row's (times must increase)");
         if (!rc)
             rc = push_time(c, &cap, t);
+        if (!rc && expo)
+            rc = sp_import_exposure_row(&c->expo, &csv, expo_col);
     }
     if (rc == SP_EOS)
         rc = c->ntimes ? 0 : sp_csv_fail(&csv, SP_ENODATA, "no frame times after the header");
+    c->times_src = path;
     sp_csv_close(&csv);
     return rc;
 }
@@ -340,7 +122,7 @@ static int check_output_not_input(import_ctx *c)
     struct stat out;
     if (stat(s->output, &out) != 0)
         return 0; /* not there yet: cannot be an input */
-    const char *named[] = { s->input, s->frame_times_csv, s->imu_csv, s->meta_json };
+    const char *named[] = { s->input, s->frame_times_csv, s->imu_csv, s->meta_json, s->exposure_csv };
     const char *hit = NULL;
     for (size_t i = 0; !hit && i < sizeof(named) / sizeof(named[0]); i++)
         if (named[i] && same_file(named[i], &out))
@@ -354,13 +136,22 @@ static int check_output_not_input(import_ctx *c)
     return 0;
 }
 
-static int frame_time(import_ctx *c, uint64_t i, int64_t *out)
+int sp_import_frame_time(import_ctx *c, uint64_t i, int64_t *out)
 {
     if (c->times) {
         if (i >= c->ntimes)
             return FAIL(c, SP_ECORRUPT, "%s: has %zu frame times, but the input has more frames",
-                        c->s->frame_times_csv, c->ntimes);
+                        c->times_src, c->ntimes);
         *out = c->times[i] - c->times[0];
+        return 0;
+    }
+    if (c->pts_ok) {
+        int64_t t = c->pts == INT64_MIN ? INT64_MIN : c->pts - c->pts0;
+        if (i > 0 && t <= c->rep->last_frame_ns) { /* missing or repeated: keep the order, say so at the end */
+            t = c->rep->last_frame_ns + llround(1e9 / c->fps);
+            c->pts_fixed++;
+        }
+        *out = t;
         return 0;
     }
     *out = llround((double)i * 1e9 / c->fps);
@@ -388,6 +179,9 @@ static int flush_imu(import_ctx *c, int64_t limit_ns)
     const sp_imu_sample *smp;
     int rc;
     while ((rc = sp_import_imu_peek(&c->imu, &smp)) == 0 && smp->timestamp_ns <= limit_ns) {
+        if (c->imu_written++ == 0)
+            c->imu_first = smp->timestamp_ns;
+        c->imu_last = smp->timestamp_ns;
         c->batch[c->nbatch++] = *smp;
         sp_import_imu_pop(&c->imu);
         if (c->nbatch == c->s->imu_batch && (rc = write_batch(c)) != 0)
@@ -406,8 +200,12 @@ static int write_meta(import_ctx *c, uint32_t w, uint32_t h)
     if (isfinite(c->meta.fps) && c->fps > 0 && fabs(c->meta.fps - c->fps) > 1e-3 * c->fps)
         sp_log(SP_LOG_WARN, "import", "%s: camera.fps %g replaced by %g, the rate of the timestamps",
                c->s->meta_json, c->meta.fps, c->fps);
+    double q[4];
+    int preset = sp_import_to_camera_preset(c->s->imu_to_camera, q) == 0;
+    if (preset && sp_json_get(sp_json_get(c->meta_root, "imu"), "to_camera"))
+        sp_log(SP_LOG_WARN, "import", "%s: imu.to_camera replaced by the --imu-to-camera preset", c->s->meta_json);
     sp_strbuf b = { 0 };
-    int rc = sp_import_meta_build(c->meta_root, c->s->kind, c->s->input, w, h, c->fps, &b);
+    int rc = sp_import_meta_build(c->meta_root, c->s->kind, c->s->input, w, h, c->fps, preset ? q : NULL, &b);
     if (!rc)
         rc = sp_capture_write_meta(c->writer, 0, b.data, b.len);
     sp_strbuf_free(&b);
@@ -415,14 +213,6 @@ static int write_meta(import_ctx *c, uint32_t w, uint32_t h)
 }
 
 /* ---- the run ---- */
-
-/* IMU times share the clock of the frame times (or start at the first frame), plus the offset. */
-static int open_imu(import_ctx *c)
-{
-    int64_t t0 = c->times ? c->times[0] : 0;
-    int64_t shift = llround(c->s->imu_offset_s * 1e9) - t0;
-    return sp_import_imu_open(&c->imu, c->s->imu_csv, shift, c->rep->message, sizeof(c->rep->message));
-}
 
 static int check_settings(import_ctx *c)
 {
@@ -435,10 +225,15 @@ static int check_settings(import_ctx *c)
         return FAIL(c, -EINVAL, "frame rate %g is not in [0.001, 10000]", s->fps);
     if (!isfinite(s->imu_offset_s) || fabs(s->imu_offset_s) > MAX_IMU_OFFSET_S)
         return FAIL(c, -EINVAL, "IMU offset %g s is not a finite number of at most 1e6 s", s->imu_offset_s);
+    if (s->imu_offset_auto && !(s->imu_offset_range_s > 0 && s->imu_offset_range_s <= 60))
+        return FAIL(c, -EINVAL, "IMU offset search range %g s is not in (0, 60]", s->imu_offset_range_s);
+    c->offset_s = s->imu_offset_s;
     if (s->store != SP_IMPORT_STORE_JPEG && s->store != SP_IMPORT_STORE_RGB)
         return FAIL(c, -EINVAL, "unknown storage mode %d", (int)s->store);
     if (s->kind && strcmp(s->kind, "selfie") != 0 && strcmp(s->kind, "static") != 0)
         return FAIL(c, -EINVAL, "kind '%s' is neither 'selfie' nor 'static'", s->kind);
+    if (s->imu_to_camera < SP_IMPORT_TO_CAMERA_KEEP || s->imu_to_camera > SP_IMPORT_TO_CAMERA_IOS_BACK)
+        return FAIL(c, -EINVAL, "unknown IMU-to-camera preset %d", (int)s->imu_to_camera);
     if (s->imu_batch == 0 || s->imu_batch > (1u << 20))
         return FAIL(c, -EINVAL, "IMU batch size %u is not in 1..1048576", s->imu_batch);
     if (!s->overwrite && access(s->output, F_OK) == 0)
@@ -447,18 +242,42 @@ static int check_settings(import_ctx *c)
     return c->batch ? 0 : -ENOMEM;
 }
 
+/* A Sensor Logger export (a .zip, or a directory with Gyroscope.csv) as INPUT: its video and its IMU log. */
+static int is_export(const char *in, const struct stat *st)
+{
+    char found[4096];
+    sp_import_bundle b = { .path = in };
+    if (S_ISDIR(st->st_mode))
+        return sp_import_bundle_find(&b, sp_import_match_name, "Gyroscope.csv", found, sizeof(found));
+    return S_ISREG(st->st_mode) && sp_import_is_zip(in);
+}
+
+static int open_export(import_ctx *c, const char *in)
+{
+    if (c->s->imu_csv)
+        return FAIL(c, -EINVAL, "%s: a sensor-log export brings its own IMU log; drop --imu, or give its video as "
+                    "INPUT", in);
+    int rc = sp_import_log_load(&c->log, in, SP_IMPORT_IMU_SENSOR_LOGGER, c->s->output, 1, c->rep->message,
+                                sizeof(c->rep->message));
+    c->log_loaded = !rc;
+    c->imu_src = in;
+    return rc ? rc : sp_import_open_video(c, c->log.video);
+}
+
 static int open_input(import_ctx *c)
 {
     const char *in = c->s->input;
     struct stat st;
     int rc;
     if (stat(in, &st) == 0) {
-        if (S_ISDIR(st.st_mode))
+        if (is_export(in, &st))
+            rc = open_export(c, in);
+        else if (S_ISDIR(st.st_mode))
             rc = sp_import_list_directory(in, &c->images, c->rep->message, sizeof(c->rep->message));
         else if (sp_import_is_image_name(in))
             rc = sp_import_paths_add(&c->images, NULL, in);
         else
-            rc = open_video(c, in);
+            rc = sp_import_open_video(c, in);
     } else if (strchr(in, '%')) {
         rc = sp_import_list_pattern(in, &c->images, c->rep->message, sizeof(c->rep->message));
     } else {
@@ -507,18 +326,6 @@ static int open_output(import_ctx *c)
     return rc;
 }
 
-static int next_frame(import_ctx *c, sp_frame *f)
-{
-    memset(f, 0, sizeof(*f));
-    int rc = c->video ? next_video_frame(c, f) : next_image(c, f);
-    if (rc)
-        return rc;
-    f->sequence = c->index;
-    f->exposure_us = NAN;
-    f->gain = NAN;
-    return 0;
-}
-
 static int check_size(import_ctx *c, const sp_frame *f)
 {
     if (c->index == 0) {
@@ -543,6 +350,21 @@ static void report_progress(import_ctx *c)
     c->s->progress(c->s->progress_user, c->index, total);
 }
 
+/* A log whose span misses the frames' is on another clock or shifted: nothing downstream could use it. */
+static int check_overlap(import_ctx *c)
+{
+    if (!c->imu_src)
+        return 0;
+    double f1 = (double)c->rep->last_frame_ns * 1e-9;
+    if (!c->imu_written)
+        return FAIL(c, SP_ENODATA, "%s: no IMU samples", c->imu_src);
+    if (c->imu_first <= c->rep->last_frame_ns && c->imu_last >= 0)
+        return 0;
+    return FAIL(c, SP_ECORRUPT, "%s: the IMU log spans %.3f to %.3f s and the frames 0 to %.3f s on the video clock: "
+                "they never overlap (%s); fix the clock with --imu-offset or --frame-times", c->imu_src,
+                (double)c->imu_first * 1e-9, (double)c->imu_last * 1e-9, f1, c->rep->imu_clock);
+}
+
 static int import_frames(import_ctx *c)
 {
     int rc = 0;
@@ -550,12 +372,12 @@ static int import_frames(import_ctx *c)
         if (c->s->cancel && *c->s->cancel)
             return FAIL(c, -ECANCELED, "interrupted after %llu frames", (unsigned long long)c->index);
         sp_frame f;
-        if ((rc = next_frame(c, &f)) == SP_EOS)
+        if ((rc = sp_import_next_frame(c, &f)) == SP_EOS)
             break;
         if (!rc)
             rc = check_size(c, &f);
         if (!rc)
-            rc = frame_time(c, c->index, &f.timestamp_ns);
+            rc = sp_import_frame_time(c, c->index, &f.timestamp_ns);
         if (!rc)
             rc = flush_imu(c, f.timestamp_ns);
         if (rc)
@@ -569,10 +391,16 @@ static int import_frames(import_ctx *c)
     }
     if (c->index == 0)
         return FAIL(c, SP_ENODATA, "%s: no frames", c->s->input);
+    if (c->pts_fixed)
+        sp_log(SP_LOG_WARN, "import", "%s: %d frames had no presentation time after the previous frame's; each was "
+               "timed one nominal frame (1/%g s) after it", c->s->input, c->pts_fixed, c->fps);
+    snprintf(c->rep->frame_clock, sizeof(c->rep->frame_clock), "%s",
+             c->times ? "from the frame-times CSV" : c->pts_ok ? "the container's presentation times" : "i / fps");
     if (c->times && c->ntimes > c->index && !c->s->max_frames)
         sp_log(SP_LOG_WARN, "import", "%s: %zu frame times for %llu frames; the rest are ignored",
                c->s->frame_times_csv, c->ntimes, (unsigned long long)c->index);
-    return flush_imu(c, INT64_MAX); /* IMU samples after the last frame are kept too */
+    int rc2 = flush_imu(c, INT64_MAX); /* IMU samples after the last frame are kept too */
+    return rc2 ? rc2 : check_overlap(c);
 }
 
 static int finish_output(import_ctx *c)
@@ -595,6 +423,8 @@ static void cleanup(import_ctx *c)
     sp_cv_video_close(&c->video);
 #endif
     sp_import_imu_close(&c->imu);
+    sp_import_log_free(&c->log);
+    sp_import_exposure_free(&c->expo);
     sp_import_paths_free(&c->images);
     sp_json_free(c->meta_root);
     sp_jpeg_buffer_free(&c->jpeg);
@@ -623,12 +453,22 @@ int sp_import_run(const sp_import_settings *s, sp_import_report *report)
         rc = check_output_not_input(&c);
     if (!rc && s->frame_times_csv)
         rc = load_frame_times(&c, s->frame_times_csv);
+    if (!rc && s->exposure_csv)
+        rc = sp_import_exposure_load(&c.expo, s->exposure_csv, report->message, sizeof(report->message));
+    if (!rc && s->imu_csv && !c.log_loaded)
+        rc = sp_import_load_imu_log(&c);
     if (!rc && s->meta_json)
         rc = sp_import_meta_load(s->meta_json, &c.meta_root, &c.meta, report->message, sizeof(report->message));
     if (!rc)
         rc = choose_fps(&c);
-    if (!rc && s->imu_csv)
-        rc = open_imu(&c);
+    if (!rc && s->imu_csv && !c.imu_src)
+        c.imu_src = s->imu_csv;
+    if (!rc && s->imu_offset_auto && !c.imu_src)
+        rc = FAIL(&c, -EINVAL, "--imu-offset auto needs an IMU log (--imu, or a sensor-log export as INPUT)");
+    else if (!rc && s->imu_offset_auto)
+        rc = sp_import_estimate_offset(&c);
+    if (!rc && c.imu_src)
+        rc = sp_import_open_imu(&c);
     if (!rc)
         rc = open_output(&c);
     if (!rc)

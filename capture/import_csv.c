@@ -105,16 +105,45 @@ static int read_header(sp_csv *c)
 
 int sp_csv_open(sp_csv *c, const char *path, char *err, size_t err_size)
 {
+    FILE *f = fopen(path, "r");
+    if (!f) {
+        int rc = -errno;
+        memset(c, 0, sizeof(*c));
+        c->path = path;
+        c->err = err;
+        c->err_size = err_size;
+        return sp_csv_fail(c, rc, "cannot open: %s", sp_strerror(rc));
+    }
+    return sp_csv_open_stream(c, f, path, 0, 1, err, err_size);
+}
+
+/* A headerless table takes its width from the first row; its columns are named "1", "2", ... */
+static int name_columns(sp_csv *c)
+{
+    c->names = calloc(c->nfields, sizeof(*c->names));
+    if (!c->names)
+        return -ENOMEM;
+    c->nnames = c->nfields;
+    for (size_t i = 0; i < c->nfields; i++) {
+        char name[24];
+        snprintf(name, sizeof(name), "%zu", i + 1);
+        if (!(c->names[i] = strdup(name)))
+            return -ENOMEM;
+    }
+    return 0;
+}
+
+int sp_csv_open_stream(sp_csv *c, FILE *f, const char *path, unsigned long lines_before, int header, char *err,
+                       size_t err_size)
+{
     memset(c, 0, sizeof(*c));
     c->path = path;
     c->err = err;
     c->err_size = err_size;
-    c->file = fopen(path, "r");
-    if (!c->file) {
-        int rc = -errno;
-        return sp_csv_fail(c, rc, "cannot open: %s", sp_strerror(rc));
-    }
-    int rc = read_header(c);
+    c->file = f;
+    c->line = lines_before;
+    c->headerless = !header;
+    int rc = header ? read_header(c) : 0;
     if (rc)
         sp_csv_close(c);
     return rc;
@@ -149,8 +178,11 @@ int sp_csv_next(sp_csv *c)
     int rc = read_row(c);
     if (rc)
         return rc;
+    if (c->headerless && !c->names && (rc = name_columns(c)) != 0)
+        return rc;
     if (c->nfields != c->nnames)
-        return sp_csv_fail(c, SP_ECORRUPT, "%zu fields, but the header has %zu columns", c->nfields, c->nnames);
+        return sp_csv_fail(c, SP_ECORRUPT, "%zu fields, but the %s has %zu", c->nfields,
+                           c->headerless ? "first row" : "header", c->nnames);
     return 0;
 }
 

@@ -23,6 +23,7 @@ typedef struct sp_csv {
     size_t nfields, fields_cap;
     char **names;          /* header names (owned copies) */
     size_t nnames;
+    int headerless;        /* no header row: the first row's width counts */
     char *err;             /* message buffer of the caller */
     size_t err_size;
 } sp_csv;
@@ -33,6 +34,13 @@ typedef struct sp_csv {
  * header, SP_ECORRUPT for an empty or duplicate column name.
  */
 int sp_csv_open(sp_csv *c, const char *path, char *err, size_t err_size);
+/*
+ * The same for an open stream (ownership moves to c, closed by sp_csv_close, also on failure), whose
+ * first lines_before lines were already read by the caller (messages count them). header 0: no header
+ * row; every row must have as many fields as the first, and columns are named "1", "2", ...
+ */
+int sp_csv_open_stream(sp_csv *c, FILE *f, const char *path, unsigned long lines_before, int header, char *err,
+                       size_t err_size);
 void sp_csv_close(sp_csv *c);
 /* Column index of name, or -1. */
 int sp_csv_column(const sp_csv *c, const char *name);

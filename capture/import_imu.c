@@ -93,9 +93,25 @@ static int imu_read_row(sp_import_imu *r)
     return 0;
 }
 
+void sp_import_imu_from_log(sp_import_imu *r, const sp_import_log *log, int64_t shift_ns)
+{
+    memset(r, 0, sizeof(*r));
+    r->log = log;
+    r->shift_ns = shift_ns;
+    r->open = 1;
+}
+
 /* The next sample without taking it: 0, SP_EOS, or an error (message already set). */
 int sp_import_imu_peek(sp_import_imu *r, const sp_imu_sample **out)
 {
+    if (r->log) {
+        if (r->ilog >= r->log->n)
+            return SP_EOS;
+        r->row[0] = r->log->s[r->ilog];
+        r->row[0].timestamp_ns += r->shift_ns;
+        *out = &r->row[0];
+        return 0;
+    }
     while (r->irow >= r->nrow) {
         if (r->eof)
             return SP_EOS;
@@ -111,13 +127,15 @@ int sp_import_imu_peek(sp_import_imu *r, const sp_imu_sample **out)
 
 void sp_import_imu_pop(sp_import_imu *r)
 {
-    if (r->irow < r->nrow)
+    if (r->log && r->ilog < r->log->n)
+        r->ilog++;
+    else if (r->irow < r->nrow)
         r->irow++;
 }
 
 void sp_import_imu_close(sp_import_imu *r)
 {
-    if (r->open)
+    if (r->open && !r->log)
         sp_csv_close(&r->csv);
     r->open = 0;
 }

@@ -166,17 +166,38 @@ static void put_value(sp_strbuf *b, const sp_json *v)
     }
 }
 
+/* The JSON's imu object with to_camera replaced. */
+static void put_imu(sp_strbuf *b, const sp_json *root, const double *q, int *first)
+{
+    static const char *const skip[] = { "to_camera", NULL };
+    int imu_first = 1;
+    put_member(b, first, "imu");
+    sp_strbuf_append(b, "{", 1);
+    put_members(b, sp_json_get(root, "imu"), skip, &imu_first);
+    put_member(b, &imu_first, "to_camera");
+    sp_strbuf_append(b, "[", 1);
+    for (int i = 0; i < 4; i++) {
+        if (i)
+            sp_strbuf_append(b, ",", 1);
+        sp_strbuf_json_number(b, q[i]);
+    }
+    sp_strbuf_append(b, "]}", 2);
+}
+
 int sp_import_meta_build(const sp_json *root, const char *kind, const char *input, uint32_t w, uint32_t h,
-                         double fps, sp_strbuf *b)
+                         double fps, const double *to_camera, sp_strbuf *b)
 {
     if (!kind)
         kind = sp_json_string(sp_json_get(root, "kind"), NULL);
     const char *source = sp_json_string(sp_json_get(root, "source"), NULL);
     static const char *const top_skip[] = { "kind", "source", "camera", NULL };
+    static const char *const top_skip_imu[] = { "kind", "source", "camera", "imu", NULL };
     static const char *const cam_skip[] = { "width", "height", "fps", NULL };
     int first = 1, cam_first = 1;
     sp_strbuf_append(b, "{", 1);
-    put_members(b, root, top_skip, &first);
+    put_members(b, root, to_camera ? top_skip_imu : top_skip, &first);
+    if (to_camera)
+        put_imu(b, root, to_camera, &first);
     if (kind) {
         put_member(b, &first, "kind");
         sp_strbuf_json_string(b, kind);

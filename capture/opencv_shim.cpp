@@ -25,6 +25,8 @@ struct sp_cv_video_reader {
     cv::Mat bgr;
     uint32_t width = 0, height = 0;
     bool pending = false; /* bgr holds the first frame, decoded at open to learn the size */
+    double pending_ms = NAN; /* that frame's presentation time */
+    double last_ms = NAN;    /* the presentation time of the frame read last */
 };
 
 struct sp_cv_video_writer {
@@ -90,6 +92,7 @@ extern "C" int sp_cv_video_open(sp_cv_video_reader **out, const char *path, sp_c
         if (!r->cap.read(r->bgr) || r->bgr.empty() || r->bgr.type() != CV_8UC3)
             return SP_EFORMAT;
         r->pending = true;
+        r->pending_ms = r->cap.get(cv::CAP_PROP_POS_MSEC);
         r->width = (uint32_t)r->bgr.cols;
         r->height = (uint32_t)r->bgr.rows;
         info->width = r->width;
@@ -114,6 +117,8 @@ extern "C" int sp_cv_video_read(sp_cv_video_reader *r, uint8_t *dst, size_t dst_
     return guarded("read video frame", [&]() -> int {
         if (!r->pending && (!r->cap.read(r->bgr) || r->bgr.empty()))
             return SP_EOS;
+        /* the FFmpeg backend gives the frame's presentation time from the start of the stream */
+        r->last_ms = r->pending ? r->pending_ms : r->cap.get(cv::CAP_PROP_POS_MSEC);
         r->pending = false;
         if ((uint32_t)r->bgr.cols != r->width || (uint32_t)r->bgr.rows != r->height || r->bgr.type() != CV_8UC3)
             return SP_ECORRUPT;
@@ -121,6 +126,16 @@ extern "C" int sp_cv_video_read(sp_cv_video_reader *r, uint8_t *dst, size_t dst_
         cv::cvtColor(r->bgr, rgb, cv::COLOR_BGR2RGB);
         return 0;
     });
+}
+
+extern "C" int sp_cv_video_time_ns(sp_cv_video_reader *r, int64_t *out)
+{
+    if (!r || !out)
+        return -EINVAL;
+    if (!std::isfinite(r->last_ms) || r->last_ms < 0 || r->last_ms > 1e14)
+        return SP_ENODATA;
+    *out = (int64_t)std::llround(r->last_ms * 1e6);
+    return 0;
 }
 
 extern "C" void sp_cv_video_close(sp_cv_video_reader **r)

@@ -33,6 +33,12 @@ int sp_cv_video_open(sp_cv_video_reader **out, const char *path, sp_cv_video_inf
  * bytes). SP_EOS after the last frame; SP_ECORRUPT if the size changes mid-stream.
  */
 int sp_cv_video_read(sp_cv_video_reader *r, uint8_t *dst, size_t dst_size, uint32_t dst_stride);
+/*
+ * The presentation time of the frame the last sp_cv_video_read returned, in ns from the stream's start
+ * (the container's timestamps: a variable frame rate keeps its timing). SP_ENODATA when the container
+ * gives none.
+ */
+int sp_cv_video_time_ns(sp_cv_video_reader *r, int64_t *out);
 void sp_cv_video_close(sp_cv_video_reader **r);
 
 /*

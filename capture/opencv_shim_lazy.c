@@ -33,6 +33,14 @@ int sp_cv_video_read(sp_cv_video_reader *r, uint8_t *dst, size_t dst_size, uint3
     return fn ? fn(r, dst, dst_size, dst_stride) : SP_EMODULE;
 }
 
+typedef int (*video_time_fn)(sp_cv_video_reader *, int64_t *);
+static sp_module_slot sp_cv_video_time_ns_slot;
+int sp_cv_video_time_ns(sp_cv_video_reader *r, int64_t *out)
+{
+    video_time_fn fn = SYMBOL(video_time_fn, sp_cv_video_time_ns);
+    return fn ? fn(r, out) : SP_EMODULE;
+}
+
 static sp_module_slot sp_cv_video_close_slot;
 void sp_cv_video_close(sp_cv_video_reader **r)
 {

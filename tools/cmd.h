@@ -70,6 +70,7 @@ int sp_cmd_verify(int argc, char **argv);
 int sp_cmd_recover(int argc, char **argv);
 int sp_cmd_replay(int argc, char **argv);
 int sp_cmd_import(int argc, char **argv);
+int sp_cmd_check(int argc, char **argv); /* a selfie capture's fitness, before fitting */
 int sp_cmd_export_video(int argc, char **argv);
 int sp_cmd_synth(int argc, char **argv);
 int sp_cmd_synth_street(int argc, char **argv); /* `synth street`, called by sp_cmd_synth */

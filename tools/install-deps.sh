@@ -8,6 +8,8 @@ profile=${1:-full}
 core=(meson ninja-build pkg-config gcc g++ python3 zlib1g-dev libjpeg62-turbo-dev)
 full=(clang libclang-rt-14-dev libopencv-dev opencv-doc libopenimageio-dev libdraco-dev libeigen3-dev
       libcamera-dev libiio-dev libdlib-dev
+      libzip-dev # Sensor Logger .zip exports (capture/import_bundle.c)
+      ffmpeg     # ffmpeg: makes the variable-frame-rate video of the import test
       chromium # chromium: the face viewer's headless test (tests/export/test_viewer.sh)
       draco    # draco_encoder: the reference the exported Draco geometry is measured against (test_export.c)
       blender  # headless Blender round trip of the exported face (tests/export/test_blender.sh)

@@ -130,10 +130,17 @@ static void frame_stats(const float *rgb, int w, int h, double *mean, double *sa
     *sharp = e / ((w - 2) * (h - 2)) / fmax(*mean * *mean, 1e-6);
 }
 
-/* Exposure relative to the first frame from the frame's shutter time and gain; 1 when either is unknown. */
+double ss_exposure_product(double exposure_us, double gain)
+{
+    int te = exposure_us > 0.0 && isfinite(exposure_us), tg = gain > 0.0 && isfinite(gain);
+    /* an import may know the shutter time and not the gain (or the ISO alone): what is known still counts */
+    return te || tg ? (te ? exposure_us : 1.0) * (tg ? gain : 1.0) : 0.0;
+}
+
+/* Exposure relative to the first frame from the frame's shutter time and gain; 1 when both are unknown. */
 static double frame_exposure(sp_sunstage *ss, const sp_frame *frame)
 {
-    double e = (double)frame->exposure_us * (double)frame->gain;
+    double e = ss_exposure_product((double)frame->exposure_us, (double)frame->gain);
     if (!(e > 0.0) || !isfinite(e))
         return 1.0;
     if (!(ss->fe.expo_ref > 0.0))

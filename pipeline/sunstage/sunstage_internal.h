@@ -164,6 +164,8 @@ int ss_reservoir_offer(sp_sunstage *ss, const float *rgb, const float *clip, con
                        double expo, uint64_t seq, int64_t t, sp_quat q, int heldout_hint, int *slot_out);
 /* The fit camera of a window: the capture's intrinsics moved and scaled into it. */
 void ss_window_camera(const sp_sunstage *ss, const ss_window *w, sp_face_camera *cam);
+/* A frame's exposure_us x gain, a factor that is unknown (NaN, <= 0) taken as 1; 0 when both are unknown. */
+double ss_exposure_product(double exposure_us, double gain);
 /* The face-crop window around 68 landmarks in capture pixels (W x W fit pixels). */
 void ss_window_around(const sp_sunstage *ss, const double *lm_capture, ss_window *w);
 /* Fitted frames in slot order: fills idx with the used training (heldout = 0) or held-out slots. */

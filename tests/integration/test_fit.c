@@ -32,7 +32,21 @@ static const char *sunprobe;
 
 typedef enum { CONTENT_BLACK, CONTENT_NOISE } content;
 
-/* Writes a capture: n RGB24 frames at 15 fps (black or noise), optionally 2 s of still IMU at 200 Hz. */
+/* Still IMU at 200 Hz from start_ns to end_ns. */
+static int write_still_imu(sp_capture_writer *w, int64_t start_ns, int64_t end_ns)
+{
+    int ret = 0;
+    for (int64_t t = start_ns; !ret && t < end_ns; t += 5000000) {
+        sp_imu_sample s[2] = { { t, SP_IMU_GYRO, { 0, 0, 0 } }, { t, SP_IMU_ACCEL, { 0, -9.81f, 0 } } };
+        ret = sp_capture_write_imu(w, s, 2);
+    }
+    return ret;
+}
+
+/*
+ * Writes a capture: n RGB24 frames at 15 fps (black or noise), with_imu 1: still IMU over them at
+ * 200 Hz; 2: the same IMU 1000 s later (a clock that never meets the frames', as a recorder could write).
+ */
 static int write_capture(const char *path, int n, content what, int with_imu)
 {
     sp_capture_writer_settings ws;
@@ -50,10 +64,8 @@ static int write_capture(const char *path, int n, content what, int with_imu)
     if (!ret)
         ret = sp_frame_pool_open(&pool, 1, FW * FH * 3);
     int64_t end_ns = (int64_t)n * 66666667 + 500000000;
-    for (int64_t t = 0; !ret && with_imu && t < end_ns; t += 5000000) {
-        sp_imu_sample s[2] = { { t, SP_IMU_GYRO, { 0, 0, 0 } }, { t, SP_IMU_ACCEL, { 0, -9.81f, 0 } } };
-        ret = sp_capture_write_imu(w, s, 2);
-    }
+    if (!ret && with_imu == 1)
+        ret = write_still_imu(w, 0, end_ns);
     unsigned seed = 7;
     for (int i = 0; !ret && i < n; i++) {
         sp_frame *f = NULL;
@@ -71,6 +83,8 @@ static int write_capture(const char *path, int n, content what, int with_imu)
         ret = sp_capture_write_frame(w, f);
         sp_frame_unref(&f);
     }
+    if (!ret && with_imu == 2)
+        ret = write_still_imu(w, 1000000000000LL, 1000000000000LL + end_ns);
     sp_frame_pool_close(&pool);
     int cret = sp_capture_writer_close(&w);
     return ret ? ret : cret;
@@ -695,6 +709,7 @@ int main(int argc, char **argv)
         clock_fit();
     } else {
         bad_input("noimu", 12, CONTENT_NOISE, 0, "no IMU");
+        bad_input("lateimu", 12, CONTENT_NOISE, 2, "never overlap in time");
         bad_input("oneframe", 1, CONTENT_NOISE, 1, "no camera orientation");
         bad_input("black", 12, CONTENT_BLACK, 1, "12 of 12 frames are too dark");
         bad_input("noface", 12, CONTENT_NOISE, 1, "no face");

@@ -32,7 +32,7 @@
 
 static const char *sunprobe;
 
-/* Runs sunprobe with NULL-terminated arguments, stderr into stderr.txt; returns the exit code. */
+/* Runs sunprobe with NULL-terminated arguments, stderr into stderr.txt, stdout into stdout.txt; returns the exit code. */
 static int run(const char *arg0, ...)
 {
     const char *argv[32] = { sunprobe, arg0 };
@@ -44,15 +44,15 @@ static int run(const char *arg0, ...)
         argv[n++] = a;
     va_end(ap);
     argv[n] = NULL;
-    const char *err_path = iu_path("stderr.txt");
+    const char *err_path = iu_path("stderr.txt"), *out_path = iu_path("stdout.txt");
     pid_t pid = fork();
     if (pid == 0) {
         int fd = open(err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        int devnull = open("/dev/null", O_WRONLY);
+        int out = open(out_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
         if (fd >= 0)
             dup2(fd, 2);
-        if (devnull >= 0)
-            dup2(devnull, 1);
+        if (out >= 0)
+            dup2(out, 1);
         execv(sunprobe, (char *const *)argv);
         _exit(127);
     }
@@ -61,18 +61,28 @@ static int run(const char *arg0, ...)
     return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
 }
 
-static int stderr_has(const char *needle)
+static int output_has(const char *name, const char *needle)
 {
     char buf[4096] = { 0 };
-    FILE *f = fopen(iu_path("stderr.txt"), "r");
+    FILE *f = fopen(iu_path(name), "r");
     if (f) {
         buf[fread(buf, 1, sizeof(buf) - 1, f)] = 0;
         fclose(f);
     }
     if (strstr(buf, needle))
         return 1;
-    fprintf(stderr, "stderr was: %s(expected to contain '%s')\n", buf, needle);
+    fprintf(stderr, "%s was: %s(expected to contain '%s')\n", name, buf, needle);
     return 0;
+}
+
+static int stderr_has(const char *needle)
+{
+    return output_has("stderr.txt", needle);
+}
+
+static int stdout_has(const char *needle)
+{
+    return output_has("stdout.txt", needle);
 }
 
 static int count_files(const char *dir, const char *suffix)
@@ -155,13 +165,19 @@ static void test_bad_input(void)
     CHECK_EQ_INT(run("import", iu_path("jpg"), "-o", out, "--fps", "10", "--imu", iu_path("back.csv"), NULL), 2);
     CHECK(stderr_has("back.csv:4: time goes backwards"));
     CHECK(!iu_exists(out) && !iu_exists(iu_path("bad.spcap.partial")));
-    /* an IMU log whose clock never meets the frames': the orientation stage has no result (exit 2, no CSV) */
+    /* an IMU log whose clock never meets the frames' is refused with both spans; --imu-offset fixes it */
     iu_write_text("late_imu.csv", "t,gx,gy,gz,ax,ay,az\n1000,0,0,0,0,0,9.81\n1000.01,0,0,0,0,0,9.81\n"
                                   "1000.02,0,0,0,0,0,9.81\n1000.03,0,0,0,0,0,9.81\n");
     CHECK_EQ_INT(run("import", iu_path("jpg"), "-o", iu_path("late.spcap"), "--fps", "10", "--imu",
-                     iu_path("late_imu.csv"), "-q", NULL), 0);
-    CHECK_EQ_INT(run("replay", iu_path("late.spcap"), "--stage", "orientation", "-o", iu_path("late.csv"), NULL), 2);
-    CHECK(!iu_exists(iu_path("late.csv")));
+                     iu_path("late_imu.csv"), "-q", NULL), 2);
+    CHECK(stderr_has("late_imu.csv: the IMU log spans 1000.000 to 1000.030 s and the frames 0 to 0.300 s"));
+    CHECK(stderr_has("never overlap"));
+    CHECK(!iu_exists(iu_path("late.spcap")) && !iu_exists(iu_path("late.spcap.partial")));
+    CHECK_EQ_INT(run("import", iu_path("jpg"), "-o", out, "--fps", "10", "--imu", iu_path("late_imu.csv"),
+                     "--imu-format", "csv", NULL), 1);
+    CHECK(stderr_has("imu-format"));
+    CHECK_EQ_INT(run("import", iu_path("jpg"), "-o", iu_path("late.spcap"), "--fps", "10", "--imu",
+                     iu_path("late_imu.csv"), "--imu-offset", "-1000", "-q", NULL), 0);
     /* META strings that are not UTF-8, or that a C string cannot hold, are refused with the byte (format: UTF-8) */
     static const char *const not_utf8[][2] = { { "{\"source\": \"caf\xe9\"}", "not UTF-8" },
                                                { "{\"source\": \"a\\u0000b\"}", "\\u0000 in a string" },
@@ -363,6 +379,41 @@ static void test_vtest(void)
 #endif
 }
 
+/*
+ * A variable-frame-rate video made with ffmpeg (10 frames at 30 fps, then 10 at 15 fps): its frames keep
+ * the container's times, not i / fps; --fps and --frame-times still override them.
+ */
+static void test_vfr(void)
+{
+#if HAVE_OPENCV
+    if (system("command -v ffmpeg >/dev/null 2>&1") != 0)
+        SKIP("ffmpeg not installed (Debian package ffmpeg): cannot make the variable-frame-rate video");
+    iu_make_tmp("import_vfr");
+    char cmd[1200];
+    snprintf(cmd, sizeof(cmd), "ffmpeg -hide_banner -loglevel error -y -f lavfi -i testsrc=size=64x48:rate=30 "
+             "-frames:v 20 -vf \"setpts='if(lt(N,10),N/30,(2*N-10)/30)/TB'\" -fps_mode vfr -c:v mpeg4 -q:v 5 '%s'",
+             iu_path("vfr.mp4"));
+    if (system(cmd) != 0)
+        SKIP("this ffmpeg cannot write an mpeg4 .mp4 with a variable frame rate");
+    CHECK_EQ_INT(run("import", iu_path("vfr.mp4"), "-o", iu_path("vfr.spcap"), NULL), 0);
+    CHECK(stdout_has("the container's presentation times"));
+    iu_readback rb;
+    if (iu_read_capture(iu_path("vfr.spcap"), &rb) == 0 && rb.frames == 20)
+        for (int i = 0; i < 20; i++) { /* the container's millisecond timestamps: within 1 ms */
+            double want = (i < 10 ? i : 2 * i - 10) / 30.0;
+            CHECK_MSG(fabs((double)rb.frame_ts[i] * 1e-9 - want) < 1e-3, "frame %d at %.6f s, expected %.6f s", i,
+                      (double)rb.frame_ts[i] * 1e-9, want);
+        }
+    else
+        CHECK_MSG(0, "expected 20 frames");
+    CHECK_EQ_INT(run("import", iu_path("vfr.mp4"), "-o", iu_path("cfr.spcap"), "--fps", "30", "-q", NULL), 0);
+    if (iu_read_capture(iu_path("cfr.spcap"), &rb) == 0)
+        CHECK_EQ_INT(rb.frame_ts[19], llround(19 * 1e9 / 30));
+#else
+    SKIP("built without OpenCV (-Dopencv): cannot decode video");
+#endif
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 2) {
@@ -376,6 +427,10 @@ int main(int argc, char **argv)
     }
     if (argc > 2 && strcmp(argv[2], "vtest") == 0) {
         test_vtest();
+        return iu_finish();
+    }
+    if (argc > 2 && strcmp(argv[2], "vfr") == 0) {
+        test_vfr();
         return iu_finish();
     }
     iu_make_tmp("import_cli");

@@ -5,22 +5,7 @@
 # the same bytes, --overcast gives a zero sun, bad options get exit code 1.
 set -u
 SP=$1
-dir=$(mktemp -d "${TMPDIR:-/tmp}/sp-selfie.XXXXXX")
-trap 'rm -rf "$dir"' EXIT
-fails=0
-fail() { echo "FAIL: $*"; fails=$((fails + 1)); }
-
-expect() { # expected-exit-code description command...
-    local want=$1 what=$2; shift 2
-    "$@" >"$dir/out.txt" 2>"$dir/err.txt"
-    local got=$?
-    if [ "$got" -ne "$want" ]; then
-        fail "$what: exit $got, expected $want"; sed 's/^/  | /' "$dir/out.txt" "$dir/err.txt"
-    fi
-}
-contains() { # file pattern description
-    grep -qE "$2" "$1" || { fail "$3: no /$2/ in $1"; sed 's/^/  | /' "$1"; }
-}
+. "$(dirname "$0")/cli_lib.sh" selfie
 
 small=(--face generic --width 96 --height 96 --fps 15 --still 0.5 --turn-seconds 1 --albedo-size 128
        --supersample 1 --shadow-size 256 --seed 7)

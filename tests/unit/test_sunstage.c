@@ -579,12 +579,25 @@ static void test_clock_north(void)
     CHECK(!ss.clock.have && strstr(ss.clock.note, "ISO 8601"));
 }
 
+/* Per-frame exposure as imports store it: shutter time alone, gain (ISO) alone, both, neither. */
+static void test_exposure_product(void)
+{
+    CHECK_NEAR(ss_exposure_product(1000, 2), 2000, 0);
+    CHECK_NEAR(ss_exposure_product(1000, NAN), 1000, 0);
+    CHECK_NEAR(ss_exposure_product(NAN, 4), 4, 0);
+    CHECK_NEAR(ss_exposure_product(NAN, NAN), 0, 0);
+    CHECK_NEAR(ss_exposure_product(0, -1), 0, 0);
+    CHECK_NEAR(ss_exposure_product(INFINITY, 2), 2, 0);
+    CHECK_NEAR(ss_exposure_product(1e-3, 1e6), 1e3, 1e-9); /* extremes stay finite */
+}
+
 int main(int argc, char **argv)
 {
     sp_log_set_level(getenv("SP_LOG") ? SP_LOG_INFO : SP_LOG_WARN);
     test_cholesky_nnls();
     test_tonemap_inverse();
     test_clock_north();
+    test_exposure_product();
     sp_face_model m;
     CHECK(sp_face_model_generic(&m) == 0);
     test_bad_args(&m);

@@ -1,0 +1,27 @@
+/* SPDX-License-Identifier: MIT */
+/* `sunprobe check`: a capture's fitness for a SunStage fit, measured in one pass (check_capture.c). */
+#ifndef SUNPROBE_TOOLS_CHECK_CAPTURE_H
+#define SUNPROBE_TOOLS_CHECK_CAPTURE_H
+
+#include <stddef.h>
+
+typedef struct sp_check_report {
+    size_t frames, undecodable, gyro_samples;
+    double duration_s, fps, max_gap_s;  /* from the frames' timestamps (fps: 1 / median interval) */
+    double clipped_share;               /* frames with more than 5 % of pixels at 250 or above */
+    double sharpness;                   /* median Laplacian energy / mean^2 (for comparing captures of one scene) */
+    double blurred_share, blur_max_px;  /* frames whose gyro x shutter x focal exceeds 1 px at 128 px wide (NaN unknown) */
+    double gyro_hz, imu_coverage;       /* gyro rate; share of frames inside the gyro log's span */
+    double turn_deg, turn_range_deg;    /* net turn about gravity from first to last frame; its range */
+    double light_modulation;            /* the face's (else the centre's) brightness: first harmonic over yaw / mean; NaN unknown */
+    int light_from_face;                /* 1: measured in the landmarks' box (faces on most frames), 0: the frame's centre */
+    double face_share;                  /* frames with landmarks (side data, else dlib), NaN when not looked for */
+} sp_check_report;
+
+/*
+ * Reads the capture at path (borrowed) into r; find_faces: run the fit's landmark tracker (dlib) on
+ * frames without landmark side data. 0, or a negative error (the file, not the verdict).
+ */
+int sp_check_capture(const char *path, int find_faces, sp_check_report *r);
+
+#endif
