@@ -65,7 +65,7 @@ void sp_probe_default_settings(sp_probe_settings *s)
     memset(s, 0, sizeof(*s));
     s->window_s = 4.0;
     s->window_samples = 15;
-    s->settle_s = 0.0; /* opt-in: see PROBE.md, "People who stop" */
+    s->settle_s = 120.0; /* PROBE.md, "People who stop" */
     s->fg_threshold = 50;
     s->shadow_min_ratio = 0.3;
     s->shadow_max_ratio = 0.85;
@@ -321,11 +321,13 @@ static int ghost_like(const sp_probe *p, const probe_object *o)
  * that stand where the last frame held (a person who stopped: trackers lose still or merged people, and
  * a new track has not moved), one cell around them included: the next plate sample keeps the slot's
  * older background value there (plate_offer), so a person who stops stays out of the plate. Ghosts
- * (ghost_like) are not held and clear within half the window. Nothing to do when holding is off.
+ * (ghost_like) are not held and clear within half the window. Nothing to do when holding is off, nor
+ * in the plate's first two windows: the warm-up samples show whoever crowded the view at the start
+ * (vtest.avi's sign), and holding them would keep those people in the plate where others keep walking.
  */
 static void hold_movers(sp_probe *p)
 {
-    if (!p->plate.settle_samples)
+    if (!p->plate.settle_samples || p->plate.updates < 2 * p->plate.k)
         return;
     const probe_segment *sg = &p->seg;
     uint8_t *prev = p->hold;
