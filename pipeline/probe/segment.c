@@ -485,6 +485,35 @@ static void extend_legs(probe_segment *sg, const uint8_t *rgb, const uint8_t *pl
     *foot = found;
 }
 
+/*
+ * A body still too short for its head row (legs found or not) whose foot row lies on a horizontal edge
+ * of the plate across most of its width stands behind that edge: the top of a planter, a bench, a low
+ * wall. Its lower body is hidden, and its foot is where the scale model puts it. Legs lost on open
+ * ground end on no edge of the plate, or on the edge of a shadow on it (the darker side passes the
+ * shadow test against the brighter one), which is no occluder. NaN when not so.
+ */
+static double cut_foot(const probe_segment *sg, const uint8_t *plate, const sp_probe_plane *plane, int top, int foot,
+                       int xa, int xb)
+{
+    double pred = predicted_foot(plane, 0.5 * (xa + xb), top, foot);
+    if (!isfinite(pred) || foot - top + 1 >= 0.75 * (pred - top + 1) || pred > (double)sg->height - 1)
+        return (double)NAN;
+    int edge = 0, y0 = foot - 3 < 1 ? 1 : foot - 3, y1 = foot + 3 < (int)sg->height - 2 ? foot + 3 : (int)sg->height - 2;
+    for (int x = xa; x <= xb; x++) {
+        int best = 0;
+        for (int y = y0; y <= y1; y++) {
+            const uint8_t *a = plate + ((size_t)(y - 1) * sg->width + (size_t)x) * 3;
+            const uint8_t *b = plate + ((size_t)(y + 1) * sg->width + (size_t)x) * 3;
+            int g = abs(a[0] - b[0]) + abs(a[1] - b[1]) + abs(a[2] - b[2]);
+            int dark_a = a[0] + a[1] + a[2] < b[0] + b[1] + b[2];
+            if (g > best && classify_pixel(sg, dark_a ? a : b, NULL, dark_a ? b : a) != PROBE_CLS_SHADOW)
+                best = g;
+        }
+        edge += 2 * best >= (int)sg->fg_threshold; /* half the object threshold across two rows */
+    }
+    return 5 * edge >= 3 * (xb - xa + 1) ? pred : (double)NAN;
+}
+
 typedef struct sums {
     double n, x, rgb[3], t, foot_n, foot_x;
     double sh_n, sh_x, sh_y, sh_ratio;
@@ -562,6 +591,7 @@ static int extract_object(probe_segment *sg, const uint8_t *rgb, const uint8_t *
     o->cx = s.x / s.n;
     o->tbar = s.t / s.n;
     o->person = person_shaped(o);
+    o->cut_foot = o->touches ? (double)NAN : cut_foot(sg, plate, plane, top, foot, xa, xb);
     if (s.sh_n > 0) {
         o->shadow_area = (uint32_t)s.sh_n;
         o->shadow_cx = s.sh_x / s.sh_n;
