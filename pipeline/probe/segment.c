@@ -486,19 +486,14 @@ static void extend_legs(probe_segment *sg, const uint8_t *rgb, const uint8_t *pl
 }
 
 /*
- * A body still too short for its head row (legs found or not) whose foot row lies on a horizontal edge
- * of the plate across most of its width stands behind that edge: the top of a planter, a bench, a low
- * wall. Its lower body is hidden, and its foot is where the scale model puts it. Legs lost on open
- * ground end on no edge of the plate, or on the edge of a shadow on it (the darker side passes the
- * shadow test against the brighter one), which is no occluder. NaN when not so.
+ * Row `row` of the body (its top or foot) lies, within 3 rows, on a horizontal edge of the plate across
+ * 3/5 of the columns xa..xb: the plate changes across two rows by half the object threshold, and the
+ * darker side fails the shadow test against the brighter one (a shadow's edge on the ground is no
+ * occluder's). There the body meets something static in front of it: a sign's lower edge, a planter.
  */
-static double cut_foot(const probe_segment *sg, const uint8_t *plate, const sp_probe_plane *plane, int top, int foot,
-                       int xa, int xb)
+static int on_plate_edge(const probe_segment *sg, const uint8_t *plate, int row, int xa, int xb)
 {
-    double pred = predicted_foot(plane, 0.5 * (xa + xb), top, foot);
-    if (!isfinite(pred) || foot - top + 1 >= 0.75 * (pred - top + 1) || pred > (double)sg->height - 1)
-        return (double)NAN;
-    int edge = 0, y0 = foot - 3 < 1 ? 1 : foot - 3, y1 = foot + 3 < (int)sg->height - 2 ? foot + 3 : (int)sg->height - 2;
+    int edge = 0, y0 = row - 3 < 1 ? 1 : row - 3, y1 = row + 3 < (int)sg->height - 2 ? row + 3 : (int)sg->height - 2;
     for (int x = xa; x <= xb; x++) {
         int best = 0;
         for (int y = y0; y <= y1; y++) {
@@ -509,9 +504,24 @@ static double cut_foot(const probe_segment *sg, const uint8_t *plate, const sp_p
             if (g > best && classify_pixel(sg, dark_a ? a : b, NULL, dark_a ? b : a) != PROBE_CLS_SHADOW)
                 best = g;
         }
-        edge += 2 * best >= (int)sg->fg_threshold; /* half the object threshold across two rows */
+        edge += 2 * best >= (int)sg->fg_threshold;
     }
-    return 5 * edge >= 3 * (xb - xa + 1) ? pred : (double)NAN;
+    return 5 * edge >= 3 * (xb - xa + 1);
+}
+
+/*
+ * A body still too short for its head row (under 0.75 of it, legs found or not) whose foot lies on an
+ * edge of the plate stands behind that edge: the top of a planter, a bench, a low wall. Its lower body
+ * is hidden, and its foot is where the scale model puts it; legs lost on open ground end on no edge.
+ * NaN when not so.
+ */
+static double cut_foot(const probe_segment *sg, const uint8_t *plate, const sp_probe_plane *plane, int top, int foot,
+                       int xa, int xb)
+{
+    double pred = predicted_foot(plane, 0.5 * (xa + xb), top, foot);
+    if (!isfinite(pred) || foot - top + 1 >= 0.75 * (pred - top + 1) || pred > (double)sg->height - 1)
+        return (double)NAN;
+    return on_plate_edge(sg, plate, foot, xa, xb) ? pred : (double)NAN;
 }
 
 typedef struct sums {
@@ -571,7 +581,10 @@ static int extract_object(probe_segment *sg, const uint8_t *rgb, const uint8_t *
     int top, foot, xa, xb;
     if (!object_extent(sg, label, r, &top, &foot, &xa, &xb))
         return 0; /* a shadow without an object, or a speck */
-    extend_legs(sg, rgb, plate, plane, label, top, &foot, xa, xb);
+    /* a head hidden by a sign's edge makes the body look short too: its legs are where they were found */
+    int top_cut = top > 0 && on_plate_edge(sg, plate, top, xa, xb);
+    if (!top_cut)
+        extend_legs(sg, rgb, plate, plane, label, top, &foot, xa, xb);
     r = component_rect(sg, label);
     reclaim_clothing(sg, label, top, foot, xa, xb);
     sums s;
