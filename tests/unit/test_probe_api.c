@@ -185,6 +185,43 @@ static void test_classes(void)
     sp_probe_close(&p);
 }
 
+/*
+ * Only cars, at three depths (wheels on rows 60, 80 and 100, where a person is y / 2 px tall): the scale
+ * comes from them with the car-height prior (a car 1.5 m against a person's 1.7 m), and says so.
+ */
+static void test_cars_only(void)
+{
+    sp_probe_settings s;
+    base_settings(&s);
+    sp_probe *p = NULL;
+    CHECK(sp_probe_open(&p, W, H, &s) == 0);
+    static uint8_t img[W * H * 3];
+    static const uint8_t paint[3][3] = { { 20, 40, 160 }, { 170, 30, 30 }, { 240, 240, 230 } };
+    for (int f = 0; f < 600; f++) { /* one car at a time: 100 frames each, crossing left to right */
+        memcpy(img, background, sizeof(background));
+        int c = f / 100 % 3, wheels = 60 + 20 * c, h = (int)lrint(wheels / 2.0 * 1.5 / 1.7), len = wheels;
+        int x0 = (int)((f % 100) * (W + len) / 100.0) - len;
+        for (int y = wheels - h + 1; y <= wheels; y++)
+            for (int x = x0; x < x0 + len; x++)
+                if (x >= 0 && x < W)
+                    memcpy(img + (y * W + x) * 3, paint[c], 3);
+        CHECK(sp_probe_push_rgb(p, img, W * 3, (int64_t)f * 100000000) == 0);
+    }
+    CHECK(sp_probe_finish(p) == 0);
+    sp_probe_plane pl;
+    sp_probe_stats st;
+    CHECK(sp_probe_get_plane(p, &pl) == 0 && sp_probe_get_stats(p, &st) == 0);
+    double h60 = sp_probe_plane_height(&pl, 80, 60), h100 = sp_probe_plane_height(&pl, 80, 100);
+    printf("cars only: %llu cars, %llu people; plane %.1f px at row 60 (person 30), %.1f at row 100 (50): %s\n",
+           (unsigned long long)st.cars, (unsigned long long)st.people, h60, h100, pl.note);
+    CHECK_MSG(st.people == 0 && st.cars > 50, "%llu people, %llu cars", (unsigned long long)st.people,
+              (unsigned long long)st.cars);
+    CHECK_MSG(pl.status == SP_PROBE_PLANE_OK && strstr(pl.note, "car"), "plane %d: %s", (int)pl.status, pl.note);
+    CHECK_NEAR(h60, 30.0, 1.5);
+    CHECK_NEAR(h100, 50.0, 2.5);
+    sp_probe_close(&p);
+}
+
 static int run_frames(int kind, int n, char *msg, size_t msg_size)
 {
     sp_probe_settings s;
@@ -285,6 +322,7 @@ int main(void)
     make_background();
     test_scene();
     test_classes();
+    test_cars_only();
     test_bad_input();
     test_misuse();
     test_clock_overflow();
