@@ -257,7 +257,8 @@ static int is_person(sp_probe *p, const probe_object *o)
 }
 
 /*
- * A car (or another vehicle) seen from the street: wider than tall (a side view 0.3, a front or back view
+ * A car (or another vehicle) seen from the street, judged on its core rows (segment.c: a walker merged
+ * behind it adds a narrow column on top): wider than tall (a side view 0.3, a front or back view
  * about 0.8 of its width), solid (a group of people side by side leaves gaps between them: fill under
  * 0.55), and, where the scale model is known, 0.45 to 2.2 of a person's height standing there: a car is
  * 1.4-1.6 m against a person's ~1.7, a van or bus up to about 3.5 m; a group is a person's height but is
@@ -265,8 +266,9 @@ static int is_person(sp_probe *p, const probe_object *o)
  */
 static int car_shaped(const sp_probe *p, const probe_object *o)
 {
-    double w = o->x1 - o->x0 + 1, h = o->height, fill = o->area / (w * h);
-    if (h < 8 || h > 0.8 * w || fill < 0.55)
+    double w = o->x1 - o->x0 + 1, h = o->core_y1 - o->core_y0 + 1, fill = o->core_area / (w * h);
+    /* the core reaches the ground: a group's solid rows are its torsos, over legs with gaps */
+    if (o->core_y0 < 0 || o->foot_y - o->core_y1 > 0.2 * h || h < 8 || h > 0.8 * w || fill < 0.55)
         return 0;
     double expect = sp_probe_plane_height(&p->plane, o->foot_x, o->foot_y);
     return !isfinite(expect) || expect <= 0 || (h >= 0.45 * expect && h <= 2.2 * expect);
@@ -451,7 +453,7 @@ static int probe_frame(sp_probe *p, int64_t t)
         p->st.cars += p->cls[i] == SP_PROBE_CAR;
         if (p->cls[i] == SP_PROBE_CAR && !o->touches && !repeat) /* a car cut by the border has no height */
             reservoir_add(&p->cars, (const float[PERSON_REC]){ (float)o->foot_x, (float)o->foot_y,
-                                                               (float)(o->height * PERSON_HEIGHT_M / CAR_HEIGHT_M) });
+                                                               (float)((o->core_y1 - o->core_y0 + 1) * PERSON_HEIGHT_M / CAR_HEIGHT_M) });
     }
     if (p->st.frames_probed % p->s.checkpoint_frames == 0)
         checkpoint(p);

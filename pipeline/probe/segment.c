@@ -574,6 +574,25 @@ static int person_shaped(const probe_object *o)
     return !o->touches && o->height >= 16 && aspect >= 1.4 && aspect <= 5.5 && fill >= 0.25 && fill <= 0.95;
 }
 
+/*
+ * The object's solid rows: from the first to the last row with at least half the widest row's object
+ * pixels (rows[] of object_extent, top..foot as it found them). A car merged with a person standing
+ * behind it is the car's wide rows under a narrow column; its core is the car.
+ */
+static void core_rows(const probe_segment *sg, probe_object *o, int top, int foot)
+{
+    int32_t widest = 0;
+    for (int y = top; y <= foot; y++)
+        widest = max_i32(widest, sg->rows[y]);
+    o->core_y0 = o->core_y1 = -1;
+    for (int y = top; y <= foot; y++)
+        if (2 * sg->rows[y] >= widest)
+            o->core_y0 = o->core_y0 < 0 ? y : o->core_y0, o->core_y1 = y;
+    o->core_area = 0;
+    for (int y = o->core_y0; y <= o->core_y1; y++)
+        o->core_area += (uint32_t)sg->rows[y];
+}
+
 static int extract_object(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate, const sp_probe_plane *plane,
                           int32_t label, probe_object *o)
 {
@@ -582,7 +601,7 @@ static int extract_object(probe_segment *sg, const uint8_t *rgb, const uint8_t *
     if (!object_extent(sg, label, r, &top, &foot, &xa, &xb))
         return 0; /* a shadow without an object, or a speck */
     /* a head hidden by a sign's edge makes the body look short too: its legs are where they were found */
-    int top_cut = top > 0 && on_plate_edge(sg, plate, top, xa, xb);
+    int top_cut = top > 0 && on_plate_edge(sg, plate, top, xa, xb), foot0 = foot;
     if (!top_cut)
         extend_legs(sg, rgb, plate, plane, label, top, &foot, xa, xb);
     r = component_rect(sg, label);
@@ -604,6 +623,7 @@ static int extract_object(probe_segment *sg, const uint8_t *rgb, const uint8_t *
     o->cx = s.x / s.n;
     o->tbar = s.t / s.n;
     o->person = person_shaped(o);
+    core_rows(sg, o, top, foot0);
     o->cut_foot = o->touches ? (double)NAN : cut_foot(sg, plate, plane, top, foot, xa, xb);
     if (s.sh_n > 0) {
         o->shadow_area = (uint32_t)s.sh_n;

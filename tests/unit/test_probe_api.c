@@ -222,6 +222,39 @@ static void test_cars_only(void)
     sp_probe_close(&p);
 }
 
+/* A car (64 x 28, wheels on row 96) with a walker behind it whose body shows above its roof: one object, a car. */
+static void test_car_merged(void)
+{
+    sp_probe_settings s;
+    base_settings(&s);
+    sp_probe *p = NULL;
+    CHECK(sp_probe_open(&p, W, H, &s) == 0);
+    static uint8_t img[W * H * 3];
+    static const uint8_t paint[3] = { 20, 40, 160 }, coat[3] = { 200, 150, 40 };
+    int seen = 0, called_car = 0;
+    for (int f = 0; f < 300; f++) {
+        memcpy(img, background, sizeof(background));
+        int cx0 = (int)fmod(f * 3.0, 300) - 80;
+        for (int y = 40; y <= 96; y++)
+            for (int x = cx0; x < cx0 + 64; x++) {
+                int roof = y <= 96 - 28, torso = x >= cx0 + 40 && x < cx0 + 50;
+                if (x >= 0 && x < W && (!roof || torso))
+                    memcpy(img + (y * W + x) * 3, roof ? coat : paint, 3);
+            }
+        CHECK(sp_probe_push_rgb(p, img, W * 3, (int64_t)f * 100000000) == 0);
+        sp_probe_object o[16];
+        unsigned n = sp_probe_frame_objects(p, o, 16);
+        for (unsigned i = 0; i < n && i < 16; i++)
+            if (!o[i].touches_border && o[i].y1 == 96 && o[i].y0 <= 42)
+                seen++, called_car += o[i].cls == SP_PROBE_CAR;
+    }
+    CHECK(sp_probe_finish(p) == 0);
+    printf("car with a walker behind it: called car in %d of %d frames\n", called_car, seen);
+    CHECK_MSG(seen > 20 && called_car == seen, "car with a walker behind it called car in %d of %d frames", called_car,
+              seen);
+    sp_probe_close(&p);
+}
+
 static int run_frames(int kind, int n, char *msg, size_t msg_size)
 {
     sp_probe_settings s;
@@ -323,6 +356,7 @@ int main(void)
     test_scene();
     test_classes();
     test_cars_only();
+    test_car_merged();
     test_bad_input();
     test_misuse();
     test_clock_overflow();
