@@ -53,7 +53,7 @@ static void usage(FILE *out)
             "      --window S        clean-plate median window in seconds (default 4)\n"
             "      --samples K       frames in that window, odd 3..31 (default 15)\n"
             "      --settle S        a person who walks in and stops stays out of the plate this long,\n"
-            "                        then becomes background (e.g. 120; default 0: the median alone)\n"
+            "                        then becomes background (default 120; 0: the median alone)\n"
             "      --threshold T     refined-mask colour distance |dR|+|dG|+|dB|, 1..765 (default 50)\n"
             "      --min-object PX   smallest object in pixels (default: width * height / 4000)\n"
             "      --detector D      shape (default) or hog (OpenCV's HOG people detector confirms)\n"

@@ -43,8 +43,8 @@ typedef struct sp_probe_truth_sample {
 typedef struct sp_probe_settings {
     double window_s;          /* clean-plate median window in seconds, default 4 */
     unsigned window_samples;  /* frames kept for the median, odd, 3..31, default 15 */
-    double settle_s;          /* a person who walked in and stopped stays out of the plate this long;
-                                 0 (default): off */
+    double settle_s;          /* a person who walked in and stopped stays out of the plate this long,
+                                 then becomes background; default 120, 0: the median alone */
     unsigned fg_threshold;    /* refined mask: |dR|+|dG|+|dB| to the plate above this, default 50 */
     double shadow_min_ratio;  /* a shadow pixel keeps this much of the plate's brightness at least, default 0.3 */
     double shadow_max_ratio;  /* and at most this much, default 0.85 */

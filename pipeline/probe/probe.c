@@ -22,6 +22,9 @@
 #endif
 
 #define PERSON_REC 3     /* x, y, h */
+/* a car's height against a person's: scales a scene where only cars were seen (PROBE.md, Object classes) */
+#define CAR_HEIGHT_M 1.5
+#define PERSON_HEIGHT_M 1.7
 #define RECENT_MAX 1024  /* observations between checkpoints scored before they join the fit */
 #define N_SERIES 8
 #define REPEAT_MOVE 0.015 /* of the height: closer to the last counted foot point, a person's view repeats */
@@ -41,7 +44,7 @@ struct sp_probe {
     uint64_t hold_frame;     /* st.frames of the frame after the one that set hold (0: none) */
     sp_probe_class cls[PROBE_MAX_OBJECTS]; /* of the last frame's objects */
     unsigned n_cls;
-    probe_reservoir people, holdout;
+    probe_reservoir people, holdout, cars; /* cars: heights scaled to a person's, for a car-only scene */
     float *recent;
     unsigned n_recent;
     uint8_t *rgb;            /* the last frame, packed RGB24 */
@@ -65,7 +68,7 @@ void sp_probe_default_settings(sp_probe_settings *s)
     memset(s, 0, sizeof(*s));
     s->window_s = 4.0;
     s->window_samples = 15;
-    s->settle_s = 0.0; /* opt-in: see PROBE.md, "People who stop" */
+    s->settle_s = 120.0; /* PROBE.md, "People who stop" */
     s->fg_threshold = 50;
     s->shadow_min_ratio = 0.3;
     s->shadow_max_ratio = 0.85;
@@ -112,7 +115,7 @@ static size_t memory_bound(uint32_t w, uint32_t h, const sp_probe_settings *s)
                     3 /* denoised */ + 1 /* classes */ + 4 * PROBE_EVIDENCE * 2 /* occlusion slots */ + 16 /* lighting */ + 16 /* long-term plate */ +
                     3 + 4 + 12 /* final maps */ + 5 /* checkpoint */;
     return px * per_px + px / 8 /* motion thumbnails */ + cells * 32 + PROBE_MAX_TRACKS * sizeof(probe_track) +
-           (size_t)s->max_observations * 4 * (2 * PERSON_REC + 4) + RECENT_MAX * PERSON_REC * 4;
+           (size_t)s->max_observations * 4 * (3 * PERSON_REC + 4) + RECENT_MAX * PERSON_REC * 4;
 }
 
 static int open_report(sp_probe *p)
@@ -156,6 +159,8 @@ static int open_parts(sp_probe *p)
         ret = reservoir_open(&p->people, s->max_observations, PERSON_REC, s->seed);
     if (!ret)
         ret = reservoir_open(&p->holdout, s->max_observations, PERSON_REC, s->seed + 1);
+    if (!ret)
+        ret = reservoir_open(&p->cars, s->max_observations, PERSON_REC, s->seed + 2);
     if (!ret) {
         p->recent = malloc(RECENT_MAX * PERSON_REC * sizeof(float));
         p->rgb = calloc((size_t)p->width * p->height, 3);
@@ -226,6 +231,7 @@ void sp_probe_close(sp_probe **pp)
     motion_close(&p->motion);
     reservoir_close(&p->people);
     reservoir_close(&p->holdout);
+    reservoir_close(&p->cars);
     probe_hog_close(&p->hog);
     free(p->recent);
     free(p->hold);
@@ -251,7 +257,8 @@ static int is_person(sp_probe *p, const probe_object *o)
 }
 
 /*
- * A car (or another vehicle) seen from the street: wider than tall (a side view 0.3, a front or back view
+ * A car (or another vehicle) seen from the street, judged on its core rows (segment.c: a walker merged
+ * behind it adds a narrow column on top): wider than tall (a side view 0.3, a front or back view
  * about 0.8 of its width), solid (a group of people side by side leaves gaps between them: fill under
  * 0.55), and, where the scale model is known, 0.45 to 2.2 of a person's height standing there: a car is
  * 1.4-1.6 m against a person's ~1.7, a van or bus up to about 3.5 m; a group is a person's height but is
@@ -259,8 +266,9 @@ static int is_person(sp_probe *p, const probe_object *o)
  */
 static int car_shaped(const sp_probe *p, const probe_object *o)
 {
-    double w = o->x1 - o->x0 + 1, h = o->height, fill = o->area / (w * h);
-    if (h < 8 || h > 0.8 * w || fill < 0.55)
+    double w = o->x1 - o->x0 + 1, h = o->core_y1 - o->core_y0 + 1, fill = o->core_area / (w * h);
+    /* the core reaches the ground: a group's solid rows are its torsos, over legs with gaps */
+    if (o->core_y0 < 0 || o->foot_y - o->core_y1 > 0.2 * h || h < 8 || h > 0.8 * w || fill < 0.55)
         return 0;
     double expect = sp_probe_plane_height(&p->plane, o->foot_x, o->foot_y);
     return !isfinite(expect) || expect <= 0 || (h >= 0.45 * expect && h <= 2.2 * expect);
@@ -321,11 +329,13 @@ static int ghost_like(const sp_probe *p, const probe_object *o)
  * that stand where the last frame held (a person who stopped: trackers lose still or merged people, and
  * a new track has not moved), one cell around them included: the next plate sample keeps the slot's
  * older background value there (plate_offer), so a person who stops stays out of the plate. Ghosts
- * (ghost_like) are not held and clear within half the window. Nothing to do when holding is off.
+ * (ghost_like) are not held and clear within half the window. Nothing to do when holding is off, nor
+ * in the plate's first two windows: the warm-up samples show whoever crowded the view at the start
+ * (vtest.avi's sign), and holding them would keep those people in the plate where others keep walking.
  */
 static void hold_movers(sp_probe *p)
 {
-    if (!p->plate.settle_samples)
+    if (!p->plate.settle_samples || p->plate.updates < 2 * p->plate.k)
         return;
     const probe_segment *sg = &p->seg;
     uint8_t *prev = p->hold;
@@ -441,6 +451,9 @@ static int probe_frame(sp_probe *p, int64_t t)
         else if (p->cls[i] == SP_PROBE_PERSON)
             observe_person(p, o);
         p->st.cars += p->cls[i] == SP_PROBE_CAR;
+        if (p->cls[i] == SP_PROBE_CAR && !o->touches && !repeat) /* a car cut by the border has no height */
+            reservoir_add(&p->cars, (const float[PERSON_REC]){ (float)o->foot_x, (float)o->foot_y,
+                                                               (float)((o->core_y1 - o->core_y0 + 1) * PERSON_HEIGHT_M / CAR_HEIGHT_M) });
     }
     if (p->st.frames_probed % p->s.checkpoint_frames == 0)
         checkpoint(p);
@@ -533,6 +546,26 @@ double probe_shadow_direction_error(const sp_probe_shadow *sh, const sp_probe_tr
     return k ? sum / (double)k : (double)NAN;
 }
 
+/*
+ * The scale model from people; where no person was seen, from cars with the car-height prior (a car's
+ * pixel height times PERSON_HEIGHT_M / CAR_HEIGHT_M is a person's there), and the note says so.
+ */
+static void fit_scale(sp_probe *p, sp_probe_plane *out)
+{
+    int from_cars = !p->people.n && p->cars.n;
+    const probe_reservoir *r = from_cars ? &p->cars : &p->people;
+    plane_fit(r->v, r->n, PERSON_REC, p->width, p->height, &p->rng, out);
+    char note[sizeof(out->note)];
+    if (from_cars)
+        snprintf(note, sizeof(note), "no person seen: from %u car observations, a car taken as %.1f m against a "
+                 "person's %.1f m; %.100s", r->n, CAR_HEIGHT_M, PERSON_HEIGHT_M, out->note);
+    else if (!r->n)
+        snprintf(note, sizeof(note), "no person or car was observed: the scale cannot be estimated");
+    else
+        return;
+    memcpy(out->note, note, sizeof(note));
+}
+
 static void checkpoint(sp_probe *p)
 {
     double v[N_SERIES];
@@ -541,7 +574,7 @@ static void checkpoint(sp_probe *p)
     v[4] = p->n_recent ? plane_median_error(&p->plane, p->recent, p->n_recent, PERSON_REC) : (double)NAN;
     p->n_recent = 0;
     sp_probe_plane next = p->plane;
-    plane_fit(p->people.v, p->people.n, PERSON_REC, p->width, p->height, &p->rng, &next);
+    fit_scale(p, &next);
     v[5] = plane_change(&next, &p->plane, p->width, p->height);
     p->plane = next;
     v[6] = p->s.n_truth ? truth_plane_error(p, &p->plane) : (double)NAN;
@@ -586,7 +619,7 @@ int sp_probe_finish(sp_probe *p)
     if (ret)
         return ret;
     checkpoint(p);
-    plane_fit(p->people.v, p->people.n, PERSON_REC, p->width, p->height, &p->rng, &p->plane);
+    fit_scale(p, &p->plane);
     p->plane.holdout_n = (unsigned)(p->holdout.seen < UINT32_MAX ? p->holdout.seen : UINT32_MAX);
     p->plane.holdout_error_rel =
         p->holdout.n ? plane_median_error(&p->plane, p->holdout.v, p->holdout.n, PERSON_REC) : (double)NAN;

@@ -118,6 +118,9 @@ typedef struct probe_object {
     double cx;               /* mean x of the refined mask */
     double tbar;             /* mean height fraction (0 foot .. 1 top) of the refined mask */
     int person;
+    int core_y0, core_y1;    /* solid rows: at least half the widest row's object pixels (a car under a merged walker) */
+    uint32_t core_area;      /* object pixels in them */
+    double cut_foot;         /* lower body behind a low occluder: the foot the scale model puts there; NaN: none */
     /* its shadow, when one was found (shadow_area > 0) */
     uint32_t shadow_area;
     double shadow_cx, shadow_cy;

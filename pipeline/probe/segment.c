@@ -457,6 +457,45 @@ static void extend_legs(probe_segment *sg, const uint8_t *rgb, const uint8_t *pl
     *foot = found;
 }
 
+/*
+ * Row `row` of the body (its top or foot) lies, within 3 rows, on a horizontal edge of the plate across
+ * 3/5 of the columns xa..xb: the plate changes across two rows by half the object threshold, and the
+ * darker side fails the shadow test against the brighter one (a shadow's edge on the ground is no
+ * occluder's). There the body meets something static in front of it: a sign's lower edge, a planter.
+ */
+static int on_plate_edge(const probe_segment *sg, const uint8_t *plate, int row, int xa, int xb)
+{
+    int edge = 0, y0 = row - 3 < 1 ? 1 : row - 3, y1 = row + 3 < (int)sg->height - 2 ? row + 3 : (int)sg->height - 2;
+    for (int x = xa; x <= xb; x++) {
+        int best = 0;
+        for (int y = y0; y <= y1; y++) {
+            const uint8_t *a = plate + ((size_t)(y - 1) * sg->width + (size_t)x) * 3;
+            const uint8_t *b = plate + ((size_t)(y + 1) * sg->width + (size_t)x) * 3;
+            int g = abs(a[0] - b[0]) + abs(a[1] - b[1]) + abs(a[2] - b[2]);
+            int dark_a = a[0] + a[1] + a[2] < b[0] + b[1] + b[2];
+            if (g > best && classify_pixel(sg, dark_a ? a : b, NULL, dark_a ? b : a) != PROBE_CLS_SHADOW)
+                best = g;
+        }
+        edge += 2 * best >= (int)sg->fg_threshold;
+    }
+    return 5 * edge >= 3 * (xb - xa + 1);
+}
+
+/*
+ * A body still too short for its head row (under 0.75 of it, legs found or not) whose foot lies on an
+ * edge of the plate stands behind that edge: the top of a planter, a bench, a low wall. Its lower body
+ * is hidden, and its foot is where the scale model puts it; legs lost on open ground end on no edge.
+ * NaN when not so.
+ */
+static double cut_foot(const probe_segment *sg, const uint8_t *plate, const sp_probe_plane *plane, int top, int foot,
+                       int xa, int xb)
+{
+    double pred = predicted_foot(plane, 0.5 * (xa + xb), top, foot);
+    if (!isfinite(pred) || foot - top + 1 >= 0.75 * (pred - top + 1) || pred > (double)sg->height - 1)
+        return (double)NAN;
+    return on_plate_edge(sg, plate, foot, xa, xb) ? pred : (double)NAN;
+}
+
 typedef struct sums {
     double n, x, rgb[3], t, foot_n, foot_x;
     double sh_n, sh_x, sh_y, sh_ratio;
@@ -507,6 +546,25 @@ static int person_shaped(const probe_object *o)
     return !o->touches && o->height >= 16 && aspect >= 1.4 && aspect <= 5.5 && fill >= 0.25 && fill <= 0.95;
 }
 
+/*
+ * The object's solid rows: from the first to the last row with at least half the widest row's object
+ * pixels (rows[] of object_extent, top..foot as it found them). A car merged with a person standing
+ * behind it is the car's wide rows under a narrow column; its core is the car.
+ */
+static void core_rows(const probe_segment *sg, probe_object *o, int top, int foot)
+{
+    int32_t widest = 0;
+    for (int y = top; y <= foot; y++)
+        widest = max_i32(widest, sg->rows[y]);
+    o->core_y0 = o->core_y1 = -1;
+    for (int y = top; y <= foot; y++)
+        if (2 * sg->rows[y] >= widest)
+            o->core_y0 = o->core_y0 < 0 ? y : o->core_y0, o->core_y1 = y;
+    o->core_area = 0;
+    for (int y = o->core_y0; y <= o->core_y1; y++)
+        o->core_area += (uint32_t)sg->rows[y];
+}
+
 static int extract_object(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate, const sp_probe_plane *plane,
                           int32_t label, probe_object *o)
 {
@@ -514,7 +572,10 @@ static int extract_object(probe_segment *sg, const uint8_t *rgb, const uint8_t *
     int top, foot, xa, xb;
     if (!object_extent(sg, label, r, &top, &foot, &xa, &xb))
         return 0; /* a shadow without an object, or a speck */
-    extend_legs(sg, rgb, plate, plane, label, top, &foot, xa, xb);
+    /* a head hidden by a sign's edge makes the body look short too: its legs are where they were found */
+    int top_cut = top > 0 && on_plate_edge(sg, plate, top, xa, xb), foot0 = foot;
+    if (!top_cut)
+        extend_legs(sg, rgb, plate, plane, label, top, &foot, xa, xb);
     r = component_rect(sg, label);
     reclaim_clothing(sg, label, top, foot, xa, xb);
     sums s;
@@ -534,6 +595,8 @@ static int extract_object(probe_segment *sg, const uint8_t *rgb, const uint8_t *
     o->cx = s.x / s.n;
     o->tbar = s.t / s.n;
     o->person = person_shaped(o);
+    core_rows(sg, o, top, foot0);
+    o->cut_foot = o->touches ? (double)NAN : cut_foot(sg, plate, plane, top, foot, xa, xb);
     if (s.sh_n > 0) {
         o->shadow_area = (uint32_t)s.sh_n;
         o->shadow_cx = s.sh_x / s.sh_n;

@@ -30,9 +30,9 @@ rc=$?
 [ $rc = 0 ] || { cat "$tmp/probe.log"; exit 1; }
 cat "$tmp/probe.log"
 fail=0
-"$py" "$here/check_street_truth.py" "$tmp/p" "$cap" --json "$tmp/score.json" --min-recall 0.22 \
-    --max-false-rate 0.02 --max-ground-false 0.065 --max-plane-error 0.065 --min-plate-psnr 42 \
-    --max-relight-changed 0.38 --min-car-recall 0.25 || fail=1
+"$py" "$here/check_street_truth.py" "$tmp/p" "$cap" --json "$tmp/score.json" --min-recall 0.55 \
+    --max-false-rate 0.01 --max-ground-false 0.045 --max-plane-error 0.05 --min-plate-psnr 42 \
+    --max-relight-changed 0.38 --min-car-recall 0.55 || fail=1
 # people's blue, skylit shadows are shadows (5 of 281 observations cast one before the skylight test,
 # 59 with it, 16 once grainy frames get noise-scaled shadow tests)
 "$py" - "$tmp/p/probe.json" <<'PY' || fail=1

@@ -185,6 +185,76 @@ static void test_classes(void)
     sp_probe_close(&p);
 }
 
+/*
+ * Only cars, at three depths (wheels on rows 60, 80 and 100, where a person is y / 2 px tall): the scale
+ * comes from them with the car-height prior (a car 1.5 m against a person's 1.7 m), and says so.
+ */
+static void test_cars_only(void)
+{
+    sp_probe_settings s;
+    base_settings(&s);
+    sp_probe *p = NULL;
+    CHECK(sp_probe_open(&p, W, H, &s) == 0);
+    static uint8_t img[W * H * 3];
+    static const uint8_t paint[3][3] = { { 20, 40, 160 }, { 170, 30, 30 }, { 240, 240, 230 } };
+    for (int f = 0; f < 600; f++) { /* one car at a time: 100 frames each, crossing left to right */
+        memcpy(img, background, sizeof(background));
+        int c = f / 100 % 3, wheels = 60 + 20 * c, h = (int)lrint(wheels / 2.0 * 1.5 / 1.7), len = wheels;
+        int x0 = (int)((f % 100) * (W + len) / 100.0) - len;
+        for (int y = wheels - h + 1; y <= wheels; y++)
+            for (int x = x0; x < x0 + len; x++)
+                if (x >= 0 && x < W)
+                    memcpy(img + (y * W + x) * 3, paint[c], 3);
+        CHECK(sp_probe_push_rgb(p, img, W * 3, (int64_t)f * 100000000) == 0);
+    }
+    CHECK(sp_probe_finish(p) == 0);
+    sp_probe_plane pl;
+    sp_probe_stats st;
+    CHECK(sp_probe_get_plane(p, &pl) == 0 && sp_probe_get_stats(p, &st) == 0);
+    double h60 = sp_probe_plane_height(&pl, 80, 60), h100 = sp_probe_plane_height(&pl, 80, 100);
+    printf("cars only: %llu cars, %llu people; plane %.1f px at row 60 (person 30), %.1f at row 100 (50): %s\n",
+           (unsigned long long)st.cars, (unsigned long long)st.people, h60, h100, pl.note);
+    CHECK_MSG(st.people == 0 && st.cars > 50, "%llu people, %llu cars", (unsigned long long)st.people,
+              (unsigned long long)st.cars);
+    CHECK_MSG(pl.status == SP_PROBE_PLANE_OK && strstr(pl.note, "car"), "plane %d: %s", (int)pl.status, pl.note);
+    CHECK_NEAR(h60, 30.0, 1.5);
+    CHECK_NEAR(h100, 50.0, 2.5);
+    sp_probe_close(&p);
+}
+
+/* A car (64 x 28, wheels on row 96) with a walker behind it whose body shows above its roof: one object, a car. */
+static void test_car_merged(void)
+{
+    sp_probe_settings s;
+    base_settings(&s);
+    sp_probe *p = NULL;
+    CHECK(sp_probe_open(&p, W, H, &s) == 0);
+    static uint8_t img[W * H * 3];
+    static const uint8_t paint[3] = { 20, 40, 160 }, coat[3] = { 200, 150, 40 };
+    int seen = 0, called_car = 0;
+    for (int f = 0; f < 300; f++) {
+        memcpy(img, background, sizeof(background));
+        int cx0 = (int)fmod(f * 3.0, 300) - 80;
+        for (int y = 40; y <= 96; y++)
+            for (int x = cx0; x < cx0 + 64; x++) {
+                int roof = y <= 96 - 28, torso = x >= cx0 + 40 && x < cx0 + 50;
+                if (x >= 0 && x < W && (!roof || torso))
+                    memcpy(img + (y * W + x) * 3, roof ? coat : paint, 3);
+            }
+        CHECK(sp_probe_push_rgb(p, img, W * 3, (int64_t)f * 100000000) == 0);
+        sp_probe_object o[16];
+        unsigned n = sp_probe_frame_objects(p, o, 16);
+        for (unsigned i = 0; i < n && i < 16; i++)
+            if (!o[i].touches_border && o[i].y1 == 96 && o[i].y0 <= 42)
+                seen++, called_car += o[i].cls == SP_PROBE_CAR;
+    }
+    CHECK(sp_probe_finish(p) == 0);
+    printf("car with a walker behind it: called car in %d of %d frames\n", called_car, seen);
+    CHECK_MSG(seen > 20 && called_car == seen, "car with a walker behind it called car in %d of %d frames", called_car,
+              seen);
+    sp_probe_close(&p);
+}
+
 static int run_frames(int kind, int n, char *msg, size_t msg_size)
 {
     sp_probe_settings s;
@@ -285,6 +355,8 @@ int main(void)
     make_background();
     test_scene();
     test_classes();
+    test_cars_only();
+    test_car_merged();
     test_bad_input();
     test_misuse();
     test_clock_overflow();
