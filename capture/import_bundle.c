@@ -32,11 +32,13 @@ int sp_import_is_zip(const char *path)
     return n == 4 && memcmp(magic, "PK\x03\x04", 4) == 0;
 }
 
+#if HAVE_LIBZIP /* zip members are named by path */
 static const char *base_name(const char *p)
 {
     const char *s = strrchr(p, '/');
     return s ? s + 1 : p;
 }
+#endif
 
 int sp_import_bundle_open(sp_import_bundle *b, const char *path, char *msg, size_t msg_size)
 {
