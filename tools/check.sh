@@ -17,14 +17,14 @@ status=0
 
 run_suite() { # name, meson options...
     local dir="build-check-$1"; shift
-    logs+=("$dir/meson-logs/testlog.json") # a build that fails leaves none: counted as a failure
+    local setup=() log=testlog.json # the sanitizer build's runtime options (meson.build's test setups)
+    [ "$dir" = build-check-sanitize ] && setup=(--setup sanitize) && log=testlog-sanitize.json
+    logs+=("$dir/meson-logs/$log") # a build that fails leaves none: counted as a failure
     echo "=== $dir: meson setup $*"
     if [ ! -f "$dir/build.ninja" ]; then
         meson setup "$dir" -Dwerror=true "$@" >"$logs_dir/$dir.setup.log" 2>&1 || { cat "$logs_dir/$dir.setup.log"; status=1; return; }
     fi
     ninja -C "$dir" -j "$jobs" >"$logs_dir/$dir.build.log" 2>&1 || { tail -50 "$logs_dir/$dir.build.log"; status=1; return; }
-    local setup=() # the sanitizer build's runtime options (meson.build's test setups)
-    [ "$dir" = build-check-sanitize ] && setup=(--setup sanitize)
     meson test -C "$dir" "${setup[@]}" --num-processes "$jobs" --print-errorlogs || status=1
 }
 
