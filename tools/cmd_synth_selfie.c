@@ -77,17 +77,10 @@ static int u32num(const char *o, const char *s, int lo, int hi, uint32_t *out)
 /* n comma-separated finite numbers; `form` names them in the message */
 static int numbers(const char *o, const char *s, int n, const char *form, double *v)
 {
-    char *end;
-    const char *p = s;
-    for (int i = 0; i < n; i++) {
-        v[i] = strtod(p, &end);
-        if (end == p || !isfinite(v[i]) || (i < n - 1 ? *end != ',' : *end != '\0')) {
-            fprintf(stderr, "sunprobe " CMD ": --%s '%s': expected %s (%d finite numbers)\n", o, s, form, n);
-            return -1;
-        }
-        p = end + 1;
-    }
-    return 0;
+    if (!sp_opt_numbers(s, v, n))
+        return 0;
+    fprintf(stderr, "sunprobe " CMD ": --%s '%s': expected %s (%d finite numbers)\n", o, s, form, n);
+    return -1;
 }
 
 /* X,Y,Z: three finite numbers, scaled */

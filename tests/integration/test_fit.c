@@ -18,6 +18,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "common/file_util.h"
 #include "common/json.h"
 #include "export/png_read.h"
 #include "sunprobe/sp_capture.h"
@@ -628,17 +629,16 @@ static void synth_fit(void)
     CHECK(run(args) == 1);
 }
 
-/* A file's first JSON object, parsed; NULL (with a failed check) when unreadable. */
+/* A JSON file, parsed; NULL (with a failed check) when unreadable. */
 static sp_json *read_json(const char *path)
 {
-    char buf[65536];
-    FILE *f = fopen(path, "r");
-    size_t n = f ? fread(buf, 1, sizeof(buf) - 1, f) : 0;
-    if (f)
-        fclose(f);
+    void *buf = NULL;
+    size_t n = 0;
     sp_json *root = NULL;
     char err[160];
-    CHECK_MSG(n > 0 && sp_json_parse(buf, n, &root, err, sizeof(err)) == 0, "%s unreadable", path);
+    CHECK_MSG(sp_read_whole_file(path, 64u << 20, &buf, &n) == 0 && sp_json_parse(buf, n, &root, err, sizeof(err)) == 0,
+              "%s unreadable", path);
+    free(buf);
     return root;
 }
 
