@@ -6,16 +6,9 @@
 # byte and no partial file left.
 set -u
 SP=$1 MK=$2
-dir=$(mktemp -d "${TMPDIR:-/tmp}/sp-texture.XXXXXX")
-trap 'umount "$dir/mnt" 2>/dev/null; rm -rf "$dir"' EXIT
-fails=0
-fail() { echo "FAIL: $*"; fails=$((fails + 1)); }
-expect() { # expected-exit-code description command...
-    local want=$1 what=$2; shift 2
-    "$@" >"$dir/out.txt" 2>"$dir/err.txt"
-    local got=$?
-    [ "$got" -eq "$want" ] || { fail "$what: exit $got, expected $want"; sed 's/^/  | /' "$dir/out.txt" "$dir/err.txt"; }
-}
+. "$(dirname "$0")/cli_lib.sh" texture
+trap 'umount "$dir/mnt" 2>/dev/null; rm -rf "$dir"' EXIT # the full-tmpfs case mounts inside $dir
+# case-insensitive, unlike cli_lib.sh's contains: messages are matched by their words
 contains() { grep -qiE -- "$2" "$1" || { fail "$3: no /$2/ in output"; sed 's/^/  | /' "$1"; }; }
 write_limit() { # OUT KiB SIZE expected-message: exit 3 under ulimit -f, OUT kept byte for byte, nothing partial
     cp "$1" "$dir/old"
