@@ -204,8 +204,11 @@ static int write_meta(import_ctx *c, uint32_t w, uint32_t h)
     int preset = sp_import_to_camera_preset(c->s->imu_to_camera, q) == 0;
     if (preset && sp_json_get(sp_json_get(c->meta_root, "imu"), "to_camera"))
         sp_log(SP_LOG_WARN, "import", "%s: imu.to_camera replaced by the --imu-to-camera preset", c->s->meta_json);
+    char utc[40];
+    sp_import_meta_extra extra;
+    sp_import_log_extra(c, utc, sizeof(utc), &extra);
     sp_strbuf b = { 0 };
-    int rc = sp_import_meta_build(c->meta_root, c->s->kind, c->s->input, w, h, c->fps, preset ? q : NULL, &b);
+    int rc = sp_import_meta_build(c->meta_root, c->s->kind, c->s->input, w, h, c->fps, preset ? q : NULL, &extra, &b);
     if (!rc)
         rc = sp_capture_write_meta(c->writer, 0, b.data, b.len);
     sp_strbuf_free(&b);

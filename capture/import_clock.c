@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "sp_config.h"
 
@@ -66,6 +67,32 @@ int sp_import_open_imu(import_ctx *c)
         return 0;
     }
     return sp_import_imu_open(&c->imu, c->imu_src, shift, c->rep->message, sizeof(c->rep->message));
+}
+
+/*
+ * An epoch log's clock is UTC, so the first frame's time on it (the frame times', else the recording's
+ * start) is the capture's utc_start. A time before 2000 is a device clock never set, not a date.
+ */
+void sp_import_log_extra(const import_ctx *c, char *utc, size_t n, sp_import_meta_extra *x)
+{
+    memset(x, 0, sizeof(*x));
+    if (!c->log_loaded)
+        return;
+    x->has_location = c->log.has_location;
+    memcpy(x->location, c->log.location, sizeof(x->location));
+    int64_t t0 = c->times ? c->times[0] : c->log.start_ns;
+    if (c->log.clock != SP_CLOCK_EPOCH || (!c->times && !c->log.has_start))
+        return;
+    time_t sec = (time_t)(t0 / 1000000000);
+    struct tm tm;
+    if (t0 < INT64_C(946684800000000000) || !gmtime_r(&sec, &tm)) {
+        sp_log(SP_LOG_WARN, "import", "%s: the first frame's time on its clock is not a date after 2000: no utc_start",
+               c->imu_src);
+        return;
+    }
+    snprintf(utc, n, "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", tm.tm_year + 1900, tm.tm_mon + 1, tm.tm_mday, tm.tm_hour,
+             tm.tm_min, tm.tm_sec, (int)(t0 % 1000000000 / 1000000));
+    x->utc_start = utc;
 }
 
 /* The gyro on the frame clock before any offset, for --imu-offset auto. */

@@ -82,5 +82,7 @@ int sp_import_load_imu_log(import_ctx *c);
 int sp_import_estimate_offset(import_ctx *c);
 /* Sets up c->imu on the frame clock. */
 int sp_import_open_imu(import_ctx *c);
+/* The first frame's UTC (into utc, n >= 32) and the place from an epoch-clock log, for the META chunk. */
+void sp_import_log_extra(const import_ctx *c, char *utc, size_t n, sp_import_meta_extra *x);
 
 #endif

@@ -114,6 +114,9 @@ struct sp_import_log {
     const char *format; /* "Sensor Logger", ... for messages */
     char video[4096];   /* a video inside the export (Sensor Logger), else empty */
     int video_temp;     /* video is a temporary copy the caller removes */
+    int has_location;   /* a GNSS fix from the export (Sensor Logger's Location.csv) */
+    double location[3]; /* latitude, longitude (degrees), altitude (m, NaN unknown) */
+    double location_accuracy_m; /* its horizontal accuracy, NaN unknown */
 };
 
 /* Which reader a path needs: by --imu-format, else by content. */
@@ -182,12 +185,19 @@ void sp_import_sync_free(sp_import_sync *s);
  * known keys type-checked, then merged into meta exactly as readers will judge it.
  */
 int sp_import_meta_load(const char *path, sp_json **root, sp_capture_meta *meta, char *msg, size_t msg_size);
+/* What a sensor log says about the capture beyond its samples; the user's metadata wins over it. */
+typedef struct sp_import_meta_extra {
+    const char *utc_start; /* ISO 8601 UTC of the first frame, or NULL */
+    int has_location;
+    double location[3];    /* latitude, longitude, altitude_m (NaN: left out) */
+} sp_import_meta_extra;
+
 /*
  * The META chunk: root's members (root may be NULL) with kind (NULL: root's), source (root's,
  * else "import:INPUT"), camera width/height/fps (fps only if > 0) and imu.to_camera (w, x, y, z;
- * NULL: root's) put over them.
+ * NULL: root's) put over them; extra's utc_start and location where root has none (extra may be NULL).
  */
 int sp_import_meta_build(const sp_json *root, const char *kind, const char *input, uint32_t w, uint32_t h,
-                         double fps, const double *to_camera, sp_strbuf *b);
+                         double fps, const double *to_camera, const sp_import_meta_extra *extra, sp_strbuf *b);
 
 #endif

@@ -95,23 +95,30 @@ typedef struct sl_file {
     uint32_t sensor;
 } sl_file;
 
+/* Opens the export's CSV called name as c (shown: its name in messages, kept by the caller while c is open);
+ * SP_ENODATA (message empty) when the export has none. */
+static int sl_open(sp_import_bundle *b, const char *name, sp_csv *c, char shown[4200], char *msg, size_t msg_size)
+{
+    char found[4096];
+    if (!sp_import_bundle_find(b, sp_import_match_name, name, found, sizeof(found)))
+        return SP_ENODATA;
+    if (b->zip)
+        snprintf(shown, 4200, "%s:%s", b->path, found);
+    else
+        snprintf(shown, 4200, "%s", found);
+    FILE *f;
+    int rc = sp_import_bundle_fopen(b, found, &f, msg, msg_size);
+    return rc ? rc : sp_csv_open_stream(c, f, shown, 0, 1, msg, msg_size);
+}
+
 /* Reads one Sensor Logger CSV (time, seconds_elapsed, z, y, x in any order) into log; *session: time - elapsed of row 1. */
 static int sl_read(sp_import_bundle *b, const char *name, uint32_t sensor, sp_import_log *log, int64_t *session,
                    char *msg, size_t msg_size)
 {
-    char found[4096], shown[4200];
-    if (!sp_import_bundle_find(b, sp_import_match_name, name, found, sizeof(found)))
-        return SP_ENODATA;
-    if (b->zip)
-        snprintf(shown, sizeof(shown), "%s:%s", b->path, found);
-    else
-        snprintf(shown, sizeof(shown), "%s", found);
-    FILE *f;
-    int rc = sp_import_bundle_fopen(b, found, &f, msg, msg_size);
-    if (rc)
-        return rc;
     sp_csv c;
-    if ((rc = sp_csv_open_stream(&c, f, shown, 0, 1, msg, msg_size)) != 0)
+    char shown[4200];
+    int rc = sl_open(b, name, &c, shown, msg, msg_size);
+    if (rc)
         return rc;
     int ct = sp_csv_column(&c, "time"), ce = sp_csv_column(&c, "seconds_elapsed");
     int col[3] = { sp_csv_column(&c, "x"), sp_csv_column(&c, "y"), sp_csv_column(&c, "z") };
@@ -160,6 +167,55 @@ static int sl_accel_with_gravity(sp_import_bundle *b, sp_import_log *log, char *
     }
     sp_import_log_free(&acc);
     sp_import_log_free(&grav);
+    return rc;
+}
+
+/*
+ * Location.csv, optional: the fix with the smallest horizontal accuracy. A negative accuracy is iOS's
+ * "no valid fix", and 0,0 is what both platforms log before the first fix; neither is a place.
+ */
+static int sl_location(sp_import_bundle *b, sp_import_log *log, char *msg, size_t msg_size)
+{
+    sp_csv c;
+    char shown[4200];
+    int rc = sl_open(b, "Location.csv", &c, shown, msg, msg_size);
+    if (rc)
+        return rc == SP_ENODATA && !msg[0] ? 0 : rc;
+    int clat = sp_csv_column(&c, "latitude"), clon = sp_csv_column(&c, "longitude");
+    int calt = sp_csv_column(&c, "altitude"), cacc = sp_csv_column(&c, "horizontalAccuracy");
+    if (clat < 0 || clon < 0)
+        rc = sp_csv_fail(&c, SP_ECORRUPT, "a Sensor Logger Location.csv needs the columns latitude, longitude");
+    double best = INFINITY;
+    size_t rows = 0;
+    while (!rc && (rc = sp_csv_next(&c)) == 0) {
+        double lat, lon, alt = NAN, acc = NAN;
+        rows++;
+        if ((rc = sp_csv_double(&c, clat, &lat)) || (rc = sp_csv_double(&c, clon, &lon)) ||
+            (calt >= 0 && (rc = sp_csv_double(&c, calt, &alt))) || (cacc >= 0 && (rc = sp_csv_double(&c, cacc, &acc))))
+            break;
+        if (fabs(lat) > 90 || fabs(lon) > 180) {
+            rc = sp_csv_fail(&c, SP_ECORRUPT, "latitude %g, longitude %g: outside -90..90, -180..180", lat, lon);
+            break;
+        }
+        if ((lat == 0 && lon == 0) || acc < 0)
+            continue;
+        double rank = isnan(acc) ? 1e300 : acc; /* rows without an accuracy: the first one */
+        if (!log->has_location || rank < best) {
+            best = rank;
+            log->has_location = 1;
+            log->location[0] = lat;
+            log->location[1] = lon;
+            log->location[2] = alt;
+            log->location_accuracy_m = acc;
+        }
+    }
+    if (rc == SP_EOS) {
+        rc = 0;
+        if (!log->has_location)
+            sp_log(SP_LOG_WARN, "import", "%s: %zu rows, none a valid fix: the capture gets no location", c.path,
+                   rows);
+    }
+    sp_csv_close(&c);
     return rc;
 }
 
@@ -221,6 +277,8 @@ static int load_sensor_logger(sp_import_log *log, const char *path, const char *
     }
     if (!rc && (rc = sl_read(&b, "Magnetometer.csv", SP_IMU_MAG, log, NULL, msg, msg_size)) == SP_ENODATA && !msg[0])
         rc = 0;
+    if (!rc)
+        rc = sl_location(&b, log, msg, msg_size);
     if (!rc && want_video)
         rc = sl_video(&b, log, near, msg, msg_size);
     if (!rc && !log->has_start && session) {

@@ -3,6 +3,7 @@
 #include "import_internal.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -184,8 +185,29 @@ static void put_imu(sp_strbuf *b, const sp_json *root, const double *q, int *fir
     sp_strbuf_append(b, "]}", 2);
 }
 
+/* The log's start time and place, where the user's metadata gives none. */
+static void put_extra(sp_strbuf *b, const sp_json *root, const sp_import_meta_extra *x, int *first)
+{
+    if (x->utc_start && !sp_json_get(root, "utc_start")) {
+        put_member(b, first, "utc_start");
+        sp_strbuf_json_string(b, x->utc_start);
+    }
+    if (x->has_location && !sp_json_get(root, "location")) {
+        put_member(b, first, "location");
+        sp_strbuf_printf(b, "{\"latitude\":");
+        sp_strbuf_json_number(b, x->location[0]);
+        sp_strbuf_printf(b, ",\"longitude\":");
+        sp_strbuf_json_number(b, x->location[1]);
+        if (isfinite(x->location[2])) {
+            sp_strbuf_printf(b, ",\"altitude_m\":");
+            sp_strbuf_json_number(b, x->location[2]);
+        }
+        sp_strbuf_append(b, "}", 1);
+    }
+}
+
 int sp_import_meta_build(const sp_json *root, const char *kind, const char *input, uint32_t w, uint32_t h,
-                         double fps, const double *to_camera, sp_strbuf *b)
+                         double fps, const double *to_camera, const sp_import_meta_extra *extra, sp_strbuf *b)
 {
     if (!kind)
         kind = sp_json_string(sp_json_get(root, "kind"), NULL);
@@ -198,6 +220,8 @@ int sp_import_meta_build(const sp_json *root, const char *kind, const char *inpu
     put_members(b, root, to_camera ? top_skip_imu : top_skip, &first);
     if (to_camera)
         put_imu(b, root, to_camera, &first);
+    if (extra)
+        put_extra(b, root, extra, &first);
     if (kind) {
         put_member(b, &first, "kind");
         sp_strbuf_json_string(b, kind);

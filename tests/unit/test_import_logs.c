@@ -183,6 +183,53 @@ static void test_sensor_logger_bad(void)
     expect_failure(&s, SP_ECORRUPT, "neither Sensor Logger CSVs");
 }
 
+/* Location.csv's best fix and the recording's start in UTC reach the META chunk; the user's metadata wins. */
+static void check_sensor_logger_place(const char *path, double lat, double lon, double alt, const char *utc)
+{
+    iu_readback rb;
+    if (iu_read_capture(path, &rb) != 0) {
+        CHECK(0);
+        return;
+    }
+    sp_capture_meta m;
+    sp_capture_meta_init(&m);
+    CHECK_EQ_INT(sp_capture_meta_merge(&m, rb.meta_json, strlen(rb.meta_json)), 0);
+    CHECK_MSG(strcmp(m.utc_start, utc) == 0, "utc_start '%s', expected '%s'", m.utc_start, utc);
+    CHECK_NEAR(m.latitude, lat, 1e-9);
+    CHECK_NEAR(m.longitude, lon, 1e-9);
+    if (isnan(alt))
+        CHECK(isnan(m.altitude_m));
+    else
+        CHECK_NEAR(m.altitude_m, alt, 1e-9);
+}
+
+static void test_sensor_logger_place(void)
+{
+    sp_import_settings s;
+    sp_import_report rep;
+    settings(&s, data("sensor_logger"), "slp.spcap");
+    /* the 0,0 row (no fix yet) and iOS's accuracy -1 (invalid) are passed over; 4.7 m beats 15.2 m */
+    if (run_ok(&s, &rep))
+        check_sensor_logger_place(s.output, 48.8567, 2.3523, 36.0, "2024-06-21T12:00:00.000Z");
+    iu_write_text("slp_meta.json", "{\"utc_start\": \"2024-06-21T14:00:00+02:00\", "
+                                   "\"location\": {\"latitude\": 10, \"longitude\": 20}}");
+    s.meta_json = iu_path("slp_meta.json");
+    if (run_ok(&s, &rep))
+        check_sensor_logger_place(s.output, 10, 20, NAN, "2024-06-21T14:00:00+02:00");
+    /* a fix outside the globe is refused with its line; a Location.csv without coordinates too */
+    static const char *const gyro = "time,seconds_elapsed,z,y,x\n1718971200000000000,0,0,0,0\n"
+                                    "1718971200010000000,0.01,0,0,0\n";
+    write_sl_copy("sl_lat", gyro);
+    iu_write_text("sl_lat/Location.csv", "time,seconds_elapsed,altitude,longitude,latitude\n"
+                                         "1718971200000000000,0,1,2.35,48.85\n1718971200500000000,0.5,1,2.35,95\n");
+    settings(&s, iu_path("sl_lat"), "bad.spcap");
+    expect_failure(&s, SP_ECORRUPT, "sl_lat/Location.csv:3: latitude 95, longitude 2.35: outside");
+    write_sl_copy("sl_loccols", gyro);
+    iu_write_text("sl_loccols/Location.csv", "time,seconds_elapsed,altitude\n1718971200000000000,0,1\n");
+    settings(&s, iu_path("sl_loccols"), "bad.spcap");
+    expect_failure(&s, SP_ECORRUPT, "sl_loccols/Location.csv:1: a Sensor Logger Location.csv needs the columns");
+}
+
 static void test_opencamera(void)
 {
     static const int64_t frames[5] = { 0, 33366000, 66733000, 116733000, 150100000 };
@@ -554,6 +601,7 @@ int main(int argc, char **argv)
     }
     test_sensor_logger();
     test_sensor_logger_bad();
+    test_sensor_logger_place();
     test_opencamera();
     test_gcsv();
     test_to_camera();
