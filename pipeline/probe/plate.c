@@ -13,7 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define BLOCK 64 /* bytes per network pass: wires * BLOCK stay in L1 */
+#define BLOCK 128 /* bytes per network pass: wires * BLOCK stay in L1 */
 
 /* All comparators of Batcher's odd-even merge sort on n (a power of two) wires. */
 static unsigned batcher_pairs(unsigned n, uint8_t pairs[][2], unsigned max)
@@ -73,7 +73,7 @@ static void network_build(network *nw, unsigned k)
     nw->n_pairs = prune_pairs(nw->pairs, count, nw->out_wire);
 }
 
-static void compare_exchange(uint8_t *restrict a, uint8_t *restrict b)
+static inline void compare_exchange(uint8_t *restrict a, uint8_t *restrict b)
 {
     for (unsigned i = 0; i < BLOCK; i++) {
         uint8_t x = a[i], y = b[i];
@@ -83,7 +83,8 @@ static void compare_exchange(uint8_t *restrict a, uint8_t *restrict b)
 }
 
 /* Median of wires 0..k-1 over n bytes; wires k.. are the zero padding. */
-static void network_run(const network *nw, const uint8_t *const *in, unsigned k, size_t n, uint8_t *out)
+static inline __attribute__((always_inline)) void network_body(const network *nw, const uint8_t *const *in,
+                                                                 unsigned k, size_t n, uint8_t *out)
 {
     uint8_t w[PROBE_MAX_WIRES][BLOCK];
     memset(w, 0, sizeof(w));
@@ -98,6 +99,32 @@ static void network_run(const network *nw, const uint8_t *const *in, unsigned k,
             compare_exchange(w[nw->pairs[c][0]], w[nw->pairs[c][1]]);
         memcpy(out + off, w[nw->out_wire], len);
     }
+}
+
+static void network_run_base(const network *nw, const uint8_t *const *in, unsigned k, size_t n, uint8_t *out)
+{
+    network_body(nw, in, k, n, out);
+}
+
+#if defined(__x86_64__) && defined(__GNUC__)
+/* The same, compiled for AVX2: 32 bytes per min/max instead of SSE2's 16 (the median is a fifth of a
+ * probe's time); picked at run time, as crc32c.c picks its instructions, so the binary stays baseline. */
+__attribute__((target("avx2"))) static void network_run_avx2(const network *nw, const uint8_t *const *in,
+                                                              unsigned k, size_t n, uint8_t *out)
+{
+    network_body(nw, in, k, n, out);
+}
+#endif
+
+static void network_run(const network *nw, const uint8_t *const *in, unsigned k, size_t n, uint8_t *out)
+{
+#if defined(__x86_64__) && defined(__GNUC__)
+    if (__builtin_cpu_supports("avx2")) {
+        network_run_avx2(nw, in, k, n, out);
+        return;
+    }
+#endif
+    network_run_base(nw, in, k, n, out);
 }
 
 int probe_median_bytes(const uint8_t *const *in, unsigned k, size_t n, uint8_t *out)

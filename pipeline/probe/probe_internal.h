@@ -58,6 +58,7 @@ int probe_median_bytes(const uint8_t *const *in, unsigned k, size_t n, uint8_t *
 typedef struct probe_motion {
     uint32_t tw, th;         /* thumbnail: a gray cell per 4x4 pixels */
     uint8_t *cur, *prev;
+    uint16_t *rowsum;        /* 12 * tw: thumbnail scratch */
     int have_prev;
     uint64_t frames, checks, moved;
 } probe_motion;
@@ -134,6 +135,7 @@ typedef struct probe_segment {
     uint8_t *cls;            /* width * height: PROBE_CLS_* */
     uint8_t *cell_obj, *cell_sh;       /* gw * gh: object and shadow pixel counts per cell */
     uint8_t *grid, *tmp;               /* gw * gh: changed cells, morphology scratch */
+    uint8_t *morph_rows;               /* 3 * gw: morphology's row scratch */
     int32_t *lab_obj;                  /* gw * gh component labels of changed cells, 0 = none */
     int32_t *rows;                     /* height: per-row counts scratch */
     uint8_t *denoised;                 /* width * height * 3: the grainy frame denoised (classify) */
@@ -213,7 +215,8 @@ typedef struct probe_maps {
     uint16_t *hid_n, *vis_n; /* and how many events each slot holds (0: free) */
     float *light;            /* running mean RGB of covering objects' mean colours */
     uint32_t *light_n;
-    float *bg;               /* running mean RGB of the local plate where the frame is background */
+    uint32_t *bg;            /* sum of the local plate's RGB where the frame is background (bg_n terms) */
+    uint32_t bg_updates;     /* maps_add_background calls since the last halving: bounds every bg_n */
     uint32_t *bg_n;
     double light_ref[3];     /* running mean colour over all object observations (pixel-weighted) */
     double light_ref_w;

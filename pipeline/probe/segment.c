@@ -15,6 +15,11 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#elif defined(__aarch64__)
+#include <arm_neon.h>
+#endif
 
 #define NOISE_LEVELS 2 /* sensor noise assumed by the shadow test, in 8-bit levels */
 #define NOISY_LEVELS 1.5 /* measured noise from which a frame is grainy (classify) */
@@ -38,6 +43,7 @@ int segment_open(probe_segment *sg, uint32_t width, uint32_t height, const sp_pr
     sg->cell_sh = malloc(cells);
     sg->grid = malloc(cells);
     sg->tmp = malloc(cells);
+    sg->morph_rows = malloc((size_t)sg->gw * 3);
     sg->lab_obj = malloc(cells * sizeof(int32_t));
     sg->parent = malloc((cells + 1) * sizeof(int32_t));
     sg->comp = malloc((cells + 1) * 5 * sizeof(int32_t));
@@ -46,7 +52,7 @@ int segment_open(probe_segment *sg, uint32_t width, uint32_t height, const sp_pr
     sg->rows = malloc((size_t)height * sizeof(int32_t));
     sg->denoised = malloc((size_t)width * height * 3);
     sg->colsum = malloc((size_t)width * 3 * sizeof(int32_t));
-    if (!sg->cls || !sg->cell_obj || !sg->cell_sh || !sg->grid || !sg->tmp || !sg->lab_obj || !sg->parent ||
+    if (!sg->cls || !sg->cell_obj || !sg->cell_sh || !sg->grid || !sg->tmp || !sg->morph_rows || !sg->lab_obj || !sg->parent ||
         !sg->comp || !sg->objbox || !sg->order || !sg->rows || !sg->denoised || !sg->colsum) {
         segment_close(sg);
         return -ENOMEM;
@@ -63,6 +69,7 @@ void segment_close(probe_segment *sg)
     free(sg->cell_sh);
     free(sg->grid);
     free(sg->tmp);
+    free(sg->morph_rows);
     free(sg->lab_obj);
     free(sg->parent);
     free(sg->comp);
@@ -139,6 +146,33 @@ static void denoise(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate)
     }
 }
 
+#define CHUNK_PX 16 /* pixels per fast background test */
+
+/* Every |a[i] - b[i]| <= lim over n bytes (n a multiple of 16 for the vector paths). */
+static int bytes_near(const uint8_t *a, const uint8_t *b, size_t n, uint8_t lim)
+{
+    size_t i = 0;
+#if defined(__SSE2__)
+    __m128i l = _mm_set1_epi8((char)lim), m = _mm_setzero_si128();
+    for (; i + 16 <= n; i += 16) {
+        __m128i x = _mm_loadu_si128((const __m128i *)(a + i)), y = _mm_loadu_si128((const __m128i *)(b + i));
+        m = _mm_max_epu8(m, _mm_or_si128(_mm_subs_epu8(x, y), _mm_subs_epu8(y, x)));
+    }
+    if (_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_max_epu8(m, l), l)) != 0xFFFF)
+        return 0;
+#elif defined(__aarch64__)
+    uint8x16_t m = vdupq_n_u8(0);
+    for (; i + 16 <= n; i += 16)
+        m = vmaxq_u8(m, vabdq_u8(vld1q_u8(a + i), vld1q_u8(b + i)));
+    if (vmaxvq_u8(m) > lim)
+        return 0;
+#endif
+    for (; i < n; i++)
+        if ((a[i] > b[i] ? a[i] - b[i] : b[i] - a[i]) > lim)
+            return 0;
+    return 1;
+}
+
 static void classify(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate)
 {
     /* clean footage (a renderer's, a good sensor in daylight) is classified as it is: denoising would only
@@ -154,45 +188,79 @@ static void classify(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate
     memset(sg->cell_obj, 0, cells);
     memset(sg->cell_sh, 0, cells);
     uint64_t fg = 0, sh = 0;
+    /* every channel within t/3 of the plate: |dR|+|dG|+|dB| <= t for the pixel and its denoised copy */
+    uint8_t near = (uint8_t)(sg->fg_threshold / 3 > 255 ? 255 : sg->fg_threshold / 3);
     for (uint32_t y = 0; y < sg->height; y++) {
         size_t row = (size_t)y * sg->width;
+        int changed = 0;
+        for (uint32_t x = 0; x < sg->width;) {
+            size_t i = row + x;
+            if (x + CHUNK_PX <= sg->width && bytes_near(rgb + 3 * i, plate + 3 * i, 3 * CHUNK_PX, near) &&
+                (!grainy || bytes_near(sg->denoised + 3 * i, plate + 3 * i, 3 * CHUNK_PX, near))) {
+                memset(sg->cls + i, PROBE_CLS_BG, CHUNK_PX); /* background for certain: the common case */
+                x += CHUNK_PX;
+                continue;
+            }
+            uint8_t c = classify_pixel(sg, rgb + 3 * i, grainy ? sg->denoised + 3 * i : NULL, plate + 3 * i);
+            sg->cls[i] = c;
+            changed |= c != PROBE_CLS_BG;
+            x++;
+        }
+        if (!changed)
+            continue;
         uint8_t *co = sg->cell_obj + (size_t)(y / sg->block) * sg->gw;
         uint8_t *cs = sg->cell_sh + (size_t)(y / sg->block) * sg->gw;
-        for (uint32_t gx = 0, x = 0; gx < sg->gw; gx++) {
-            uint32_t xe = x + sg->block < sg->width ? x + sg->block : sg->width;
-            unsigned no = 0, ns = 0;
-            for (; x < xe; x++) {
-                uint8_t c = classify_pixel(sg, rgb + (row + x) * 3, grainy ? sg->denoised + (row + x) * 3 : NULL,
-                                           plate + (row + x) * 3);
-                sg->cls[row + x] = c;
-                no += c == PROBE_CLS_OBJECT;
-                ns += c == PROBE_CLS_SHADOW;
-            }
-            co[gx] = (uint8_t)(co[gx] + no); /* block <= 15: at most 225 per cell */
-            cs[gx] = (uint8_t)(cs[gx] + ns);
-            fg += no;
-            sh += ns;
+        for (uint32_t x = 0; x < sg->width; x++) {
+            uint8_t c = sg->cls[row + x];
+            unsigned o = c == PROBE_CLS_OBJECT, h = c == PROBE_CLS_SHADOW;
+            co[x / sg->block] = (uint8_t)(co[x / sg->block] + o); /* block <= 15: at most 225 per cell */
+            cs[x / sg->block] = (uint8_t)(cs[x / sg->block] + h);
+            fg += o;
+            sh += h;
         }
     }
     sg->fg_pixels = fg;
     sg->shadow_pixels = sh;
 }
 
-/* 3x3 dilation (grow = 1) or erosion (grow = 0) of a binary grid. */
-static void morph(const uint8_t *in, uint8_t *out, uint32_t gw, uint32_t gh, int grow)
+/* One row of three 0/1 rows combined: OR (grow) or AND; separate loops so each vectorises. */
+static void morph_combine(uint8_t *out, const uint8_t *a, const uint8_t *b, const uint8_t *c, uint32_t n, int grow)
 {
-    for (uint32_t y = 0; y < gh; y++)
-        for (uint32_t x = 0; x < gw; x++) {
-            int hit = !grow;
-            for (int dy = -1; dy <= 1; dy++)
-                for (int dx = -1; dx <= 1; dx++) {
-                    int64_t yy = (int64_t)y + dy, xx = (int64_t)x + dx;
-                    /* outside the image counts as "off" for dilation and "on" for erosion */
-                    int v = yy < 0 || xx < 0 || yy >= gh || xx >= gw ? !grow : in[yy * gw + xx];
-                    hit = grow ? hit || v : hit && v;
-                }
-            out[(size_t)y * gw + x] = (uint8_t)hit;
+    if (grow)
+        for (uint32_t x = 0; x < n; x++)
+            out[x] = (uint8_t)(a[x] | b[x] | c[x]);
+    else
+        for (uint32_t x = 0; x < n; x++)
+            out[x] = (uint8_t)(a[x] & b[x] & c[x]);
+}
+
+/*
+ * 3x3 dilation (grow = 1) or erosion (grow = 0) of a 0/1 grid, as a row pass then a column pass
+ * (the square is separable); outside the grid counts as "off" for dilation and "on" for erosion.
+ * rows: 3 * gw bytes of scratch.
+ */
+static void morph(const uint8_t *in, uint8_t *out, uint8_t *rows, uint32_t gw, uint32_t gh, int grow)
+{
+    uint8_t edge = (uint8_t)!grow, *prev = rows, *cur = rows + gw, *pad = rows + 2 * (size_t)gw;
+    memset(pad, edge, gw);
+    for (uint32_t y = 0; y < gh; y++) {
+        const uint8_t *r = in + (size_t)y * gw;
+        uint8_t *o = out + (size_t)y * gw;
+        if (gw == 1) {
+            o[0] = r[0];
+            continue;
         }
+        morph_combine(o + 1, r, r + 1, r + 2, gw - 2, grow);
+        o[0] = (uint8_t)(grow ? r[0] | r[1] : r[0] & r[1]);
+        o[gw - 1] = (uint8_t)(grow ? r[gw - 2] | r[gw - 1] : r[gw - 2] & r[gw - 1]);
+    }
+    memset(prev, edge, gw);
+    for (uint32_t y = 0; y < gh; y++) {
+        uint8_t *o = out + (size_t)y * gw, *t;
+        memcpy(cur, o, gw);
+        morph_combine(o, prev, cur, y + 1 < gh ? o + gw : pad, gw, grow);
+        t = prev, prev = cur, cur = t;
+    }
 }
 
 static int32_t uf_find(int32_t *parent, int32_t a)
@@ -633,8 +701,8 @@ void segment_frame(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate, 
     unsigned quarter = (sg->block * sg->block + 3) / 4;
     for (size_t i = 0; i < cells; i++)
         sg->grid[i] = (uint8_t)(sg->cell_obj[i] + sg->cell_sh[i] >= quarter);
-    morph(sg->grid, sg->tmp, sg->gw, sg->gh, 1); /* closing joins the parts of one person */
-    morph(sg->tmp, sg->grid, sg->gw, sg->gh, 0);
+    morph(sg->grid, sg->tmp, sg->morph_rows, sg->gw, sg->gh, 1); /* closing joins the parts of one person */
+    morph(sg->tmp, sg->grid, sg->morph_rows, sg->gw, sg->gh, 0);
     int32_t n = label_components(sg, sg->grid);
     merge_parts(sg, n, plane);
     component_boxes(sg, n, sg->comp, 0);
