@@ -37,6 +37,7 @@ void sp_export_default_settings(sp_export_settings *s)
     s->position_bits = 14;
     s->normal_bits = 10;
     s->uv_bits = 12;
+    s->texture_size = 512;
     s->write_env = 1;
 }
 
@@ -425,6 +426,10 @@ static void add_extras(const export_ctx *c, sp_strbuf *j)
                         "\"blender_world_strength_for_env\":%.9g}",
                      LUX_PER_FIT_UNIT, EV100, 1.0 / LUX_PER_FIT_UNIT, log2(BLENDER_LM_PER_W / LUX_PER_FIT_UNIT),
                      1.0 / BLENDER_LM_PER_W);
+    sp_strbuf_printf(j, ",\"textures\":{\"fitted_width\":%d,\"fitted_height\":%d,\"width\":%d,\"height\":%d,"
+                        "\"note\":\"resampled from the fit's maps (Mitchell filter, linear light): no detail beyond "
+                        "the fitted size\"}",
+                     c->asset.tex_width, c->asset.tex_height, c->tex.albedo.width, c->tex.albedo.height);
     sp_strbuf_printf(j, ",\"fit_to_scene\":{\"rotation\":[");
     for (int k = 0; k < 9; k++)
         sp_strbuf_printf(j, "%s%.9g", k ? "," : "", c->place.R[k]);

@@ -118,6 +118,12 @@ typedef struct sp_export_textures {
  */
 int sp_export_textures_build(sp_export_textures *t, const sp_face_asset *a, int size, unsigned left_out);
 void sp_export_textures_free(sp_export_textures *t);
+/*
+ * A w x h map of nc (1..4) float channels resampled to ow x oh with a Mitchell-Netravali filter (widened
+ * when shrinking, edges clamped): what the export does to the fit's linear albedo and displacement.
+ * Caller frees; NULL when out of memory or nc is out of range.
+ */
+float *sp_export_resample(const float *map, int w, int h, int nc, int ow, int oh);
 /* Blinn-Phong exponent -> glTF roughness (EXPORT.md): alpha = sqrt(2 / (s + 2)), roughness = sqrt(alpha). */
 double sp_export_roughness(double shininess);
 /* Cluster specular intensity -> KHR_materials_specular strength in [0, 1] (EXPORT.md). */

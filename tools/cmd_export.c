@@ -17,7 +17,7 @@ static void export_usage(FILE *out)
                  "  --no-draco           glb with plain accessors, and the expressions as morph targets\n"
                  "  --draco-expressions  Draco keeping the vertex order (larger), with the morph targets\n"
                  "  --jpeg[=Q]           embed the albedo as JPEG (quality Q, default 90)\n"
-                 "  --texture-size N     longest texture edge, 16..8192 (default: as fitted)\n"
+                 "  --texture-size N     longest texture edge, 16..8192 (default 512; e.g. 1024)\n"
                  "  --position-bits N    Draco quantisation bits (default 14); --normal-bits (10), --uv-bits (12)\n"
                  "  --no-env             do not write OUT.env.hdr\n"
                  "  --stats              print vertex, triangle and byte counts\n");

@@ -27,7 +27,7 @@ typedef struct sp_export_settings {
     int draco;          /* GLB: 1 = KHR_draco_mesh_compression (default 1 when built with Draco, else 0) */
     int jpeg;           /* GLB: embed the albedo as JPEG instead of PNG (default 0; needs libjpeg) */
     int jpeg_quality;   /* 1..100 (default 90) */
-    int texture_size;   /* longest texture edge in pixels, 16..8192; 0 = as fitted (default 0) */
+    int texture_size;   /* longest texture edge in pixels, 16..8192; 0 = as fitted (default 512) */
     int position_bits;  /* Draco quantisation, 1..30 (default 14) */
     int normal_bits;    /* 1..30 (default 10) */
     int uv_bits;        /* 1..30 (default 12) */

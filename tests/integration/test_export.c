@@ -445,6 +445,8 @@ static void check_formats(const char *tmp, const char *face, const char *flat)
         check_plain_geometry(&g, &a.mesh);
         check_material(&g, 1);
         CHECK(sp_json_get(g.json, "extensionsRequired") == NULL);
+        const sp_json *tx = sp_json_get(extras(&g), "textures"); /* the default 512, and the fitted 64 said */
+        CHECK(sp_json_number(sp_json_get(tx, "fitted_width"), 0) == 64 && sp_json_number(sp_json_get(tx, "width"), 0) == 512);
     }
     glb_free(&g);
     snprintf(out, sizeof(out), "%s/plain.env.hdr", tmp);
