@@ -645,6 +645,10 @@ static int check_settings(const sp_export_settings *s)
         sp_log(SP_LOG_ERROR, MOD, "Draco compression needs a build with -Ddraco=enabled (or use --no-draco)");
         return SP_EDISABLED;
     }
+    if (s->reorder && !HAVE_MESHOPTIMIZER) {
+        sp_log(SP_LOG_ERROR, MOD, "--reorder needs a build with -Dmeshoptimizer=enabled (libmeshoptimizer-dev)");
+        return SP_EDISABLED;
+    }
     if (s->format == SP_EXPORT_GLB && s->jpeg && !sp_jpeg_available()) {
         sp_log(SP_LOG_ERROR, MOD, "JPEG textures need a build with -Djpeg=enabled");
         return SP_EDISABLED;
@@ -726,7 +730,7 @@ static void note_parts(export_ctx *c)
 /* Morph targets for a plain GLB, eye and mouth primitives; a left_out entry says why for what is missing. */
 static int add_expressions(export_ctx *c)
 {
-    int ret = sp_gltf_morphs_build(&c->morphs, c->face_dir, &c->asset, &c->geom, &c->place, 1);
+    int ret = sp_gltf_morphs_build(&c->morphs, c->face_dir, &c->asset, &c->geom, &c->place, 1, c->set->reorder);
     if (ret)
         return ret;
     const char *omitted = "morph targets (mesh.extras.targetNames)";
@@ -763,6 +767,8 @@ static int prepare(export_ctx *c)
                sp_strerror(ret));
         return ret;
     }
+    if (c->set->reorder && (ret = sp_gltf_geom_reorder(&c->geom)))
+        return ret;
     if ((ret = sp_export_textures_build(&c->tex, &c->asset, c->set->texture_size, c->asset.left_out)))
         return ret;
     note_parts(c);
@@ -770,6 +776,7 @@ static int prepare(export_ctx *c)
         return ret;
     if (c->left_out.failed)
         return -ENOMEM;
+    c->st.acmr = sp_gltf_geom_acmr(c->morphs.n_prims ? c->morphs.prims[0].geom : &c->geom);
     c->st.has_specular_texture = c->tex.has_specular;
     c->st.has_normal_map = c->tex.has_normal;
     int env = c->set->write_env && c->set->format != SP_EXPORT_DRC &&

@@ -68,6 +68,7 @@ typedef struct sp_gltf_morphs {
     uint32_t n_targets;
     char names[SP_GLTF_MAX_TARGETS][32];
     double fitted[SP_GLTF_MAX_TARGETS]; /* the expression the mesh was written with (keyframe 0's) */
+    int reorder;                        /* the primitives' vertices are reordered (--reorder) */
     uint32_t n_prims;                   /* >= 1: prims[0] is the skin */
     sp_gltf_prim prims[SP_GLTF_MAX_PRIMS];
     char reason[400];                   /* why there are no targets */
@@ -75,7 +76,7 @@ typedef struct sp_gltf_morphs {
 } sp_gltf_morphs;
 /* 0 (with or without targets and parts) or -ENOMEM. whole: the whole mesh (borrowed, kept alive by the caller). */
 int sp_gltf_morphs_build(sp_gltf_morphs *mo, const char *face_dir, const sp_face_asset *a, const sp_gltf_geom *whole,
-                         const sp_gltf_placement *p, int want_parts);
+                         const sp_gltf_placement *p, int want_parts, int reorder);
 /* Drops the morph targets, keeps the primitives. */
 void sp_gltf_morphs_drop_targets(sp_gltf_morphs *mo);
 void sp_gltf_morphs_free(sp_gltf_morphs *mo);
@@ -140,6 +141,14 @@ double sp_export_specular(double ks);
 void sp_export_env_equirect(const float *env, const double R[9], float *out);
 /* Radiance RGBE (.hdr), run-length-free scanlines, written atomically. rgb: w*h*3 linear floats, row 0 = top. */
 int sp_hdr_write(const char *path, const float *rgb, int width, int height);
+
+/*
+ * `--reorder` (gltf_reorder.c): triangles in vertex-cache order, vertices in first-use order (all
+ * arrays, source included). SP_EDISABLED without meshoptimizer.
+ */
+int sp_gltf_geom_reorder(sp_gltf_geom *g);
+/* Average cache miss ratio of g's triangles (16-entry FIFO; 0 without meshoptimizer). */
+double sp_gltf_geom_acmr(const sp_gltf_geom *g);
 
 /* Writes the OBJ + MTL + PNG variant (gltf_obj.c) under temporary names added to fs (committed by the caller). */
 int sp_export_write_obj(const char *out_path, sp_file_set *fs, const sp_gltf_geom *g, const sp_export_textures *t,

@@ -149,9 +149,10 @@ static void check_model(sp_gltf_morphs *mo, const sp_face_model *m, const sp_glt
 }
 
 int sp_gltf_morphs_build(sp_gltf_morphs *mo, const char *face_dir, const sp_face_asset *a, const sp_gltf_geom *whole,
-                         const sp_gltf_placement *p, int want_parts)
+                         const sp_gltf_placement *p, int want_parts, int reorder)
 {
     memset(mo, 0, sizeof(*mo));
+    mo->reorder = reorder;
     mo->n_prims = 1;
     snprintf(mo->prims[0].name, sizeof(mo->prims[0].name), "skin");
     mo->prims[0].geom = whole;

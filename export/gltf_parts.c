@@ -48,7 +48,9 @@ static int add_prim(sp_gltf_morphs *mo, const char *name, const sp_mesh *m, cons
             k++;
         }
     sp_gltf_prim *pr = &mo->prims[mo->n_prims];
-    if (!ret && !(ret = sp_gltf_geom_build(&pr->own, &sub, p))) {
+    if (!ret && !(ret = sp_gltf_geom_build(&pr->own, &sub, p)) && mo->reorder)
+        ret = sp_gltf_geom_reorder(&pr->own);
+    if (!ret) {
         snprintf(pr->name, sizeof(pr->name), "%s", name);
         pr->geom = &pr->own;
         memcpy(pr->colour, rgb ? rgb : sclera_rgb, sizeof(pr->colour));
@@ -133,7 +135,7 @@ static int add_eyes(sp_gltf_morphs *mo, const char *face_dir, const sp_face_asse
         return -ENOMEM;
     for (uint32_t v = 0; v < a->mesh.n_vertices; v++)
         cls[v] = model->part[v] != SP_FACE_PART_EYE ? CLS_SKIN : fi->iris[v] ? CLS_IRIS : CLS_SCLERA;
-    sp_gltf_morphs skin = { .n_prims = 0 };
+    sp_gltf_morphs skin = { .reorder = mo->reorder };
     int ret = add_prim(&skin, "skin", &a->mesh, cls, CLS_SKIN, p, NULL, 1.0f, "");
     if (!ret && skin.n_prims) { /* the skin without the eyes replaces the whole mesh */
         mo->prims[0].own = skin.prims[0].own;
