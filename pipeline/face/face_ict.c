@@ -367,10 +367,9 @@ double ict_bounding_radius(const sp_mesh *m)
     return m->n_vertices ? 0.5 * sqrt(s) : 0.0;
 }
 
-static int read_modes(sp_face_model *m, const char *dir, const obj_data *neutral, const cropped *c,
-                      const char *const *exp_files)
+int ict_read_modes(sp_face_model *m, const char *dir, const obj_data *neutral, const cropped *c, double radius,
+                   const char *const *exp_files)
 {
-    double radius = ict_bounding_radius(&c->mesh);
     size_t n3 = (size_t)c->mesh.n_vertices * 3;
     int err = 0;
     for (uint32_t k = 0; !err && k < m->n_id; k++) {
@@ -440,7 +439,7 @@ static int build_model(sp_face_model *m, const sp_face_ict_settings *s, const ch
         m->part[v] = is_eyeball(c->to_old[v]) ? SP_FACE_PART_EYE : SP_FACE_PART_SKIN;
     snprintf(m->source, sizeof(m->source), "ict-facekit v1 tri=%u id=%u exp=%u eyes=%d", c->mesh.n_triangles,
              n_id, n_exp, s->keep_eyeballs ? 1 : 0);
-    err = read_modes(m, dir, neutral, c, exp_files);
+    err = ict_read_modes(m, dir, neutral, c, ict_bounding_radius(&c->mesh), exp_files);
     if (!err)
         err = face_regions_compute(m);
     if (!err)

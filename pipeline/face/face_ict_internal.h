@@ -6,6 +6,7 @@
 #include <stdint.h>
 
 #include "obj_reader.h"
+#include "sunprobe/sp_face_model.h"
 #include "sunprobe/sp_mesh.h"
 
 /* A part of the neutral OBJ as triangles, metres, vertices renumbered to those used. */
@@ -24,6 +25,9 @@ void ict_crop_free(cropped *c);
 /* dst = (file NAME in dir - neutral) in metres at c's vertices; refused when its RMS exceeds head_radius / 4. */
 int ict_read_mode(const char *dir, const char *name, const obj_data *neutral, const cropped *c, double head_radius,
                   float *dst);
+/* m's identity modes (identityNNN.obj) and expressions (exp_files[k].obj, names set) at c's vertices. */
+int ict_read_modes(sp_face_model *m, const char *dir, const obj_data *neutral, const cropped *c, double radius,
+                   const char *const *exp_files);
 /* Half the diagonal of the mesh's bounding box. */
 double ict_bounding_radius(const sp_mesh *m);
 

@@ -93,24 +93,17 @@ static int decimate_mouth(cropped *c)
     return 0;
 }
 
+/* The head's modes at the mouth's vertices; the scale check uses the head's radius (jawOpen moves the mouth a lot). */
 static int read_mouth_modes(face_interior *fi, const sp_face_model *head, const char *dir, const obj_data *o,
                             const cropped *c)
 {
-    sp_face_model *m = &fi->mouth;
-    size_t n3 = (size_t)c->mesh.n_vertices * 3;
-    double radius = ict_bounding_radius(&head->mesh); /* the head's: a mode moves the jaw by a lot of the mouth */
-    int err = 0;
-    for (uint32_t k = 0; !err && k < m->n_id; k++) {
-        char name[32];
-        snprintf(name, sizeof(name), "identity%03u.obj", k);
-        err = ict_read_mode(dir, name, o, c, radius, m->id_basis + k * n3);
-    }
-    for (uint32_t k = 0; !err && k < m->n_exp; k++) {
-        char name[SP_FACE_NAME_LEN + 8];
-        snprintf(name, sizeof(name), "%s.obj", sp_face_model_exp_name(head, k));
-        err = ict_read_mode(dir, name, o, c, radius, m->exp_basis + k * n3);
-        face_set_exp_name(m, k, sp_face_model_exp_name(head, k));
-    }
+    const char **names = malloc(sizeof(char *) * ((size_t)head->n_exp + 1));
+    if (!names)
+        return -ENOMEM;
+    for (uint32_t k = 0; k < head->n_exp; k++)
+        names[k] = sp_face_model_exp_name(head, k);
+    int err = ict_read_modes(&fi->mouth, dir, o, c, ict_bounding_radius(&head->mesh), names);
+    free(names);
     return err;
 }
 
