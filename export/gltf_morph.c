@@ -181,9 +181,11 @@ int sp_gltf_morphs_build(sp_gltf_morphs *mo, const char *face_dir, const sp_face
             snprintf(mo->names[k], sizeof(mo->names[k]), "%s", sp_face_model_exp_name(&m, k));
             mo->fitted[k] = f->exp[k];
         }
-        for (uint32_t i = 0; i < mo->n_prims && !ret; i++) /* the mouth's come with it, from its own modes */
-            if (!mo->prims[i].deltas && !(mo->prims[i].deltas = sp_gltf_fill_deltas(m.n_exp, &m, f, mo->prims[i].geom, p)))
+        for (uint32_t i = 0; i < mo->n_prims && !ret; i++) { /* the mouth's come with it, from its own modes */
+            sp_gltf_prim *pr = &mo->prims[i];
+            if (!pr->deltas && !(pr->deltas = sp_gltf_fill_deltas(m.n_exp, &m, f, pr->geom, p)))
                 ret = -ENOMEM;
+        }
     }
     if (ret)
         sp_gltf_morphs_free(mo);

@@ -63,15 +63,14 @@ static int add_prim(sp_gltf_morphs *mo, const char *name, const sp_mesh *m, cons
     return ret == SP_ECORRUPT ? 0 : ret; /* a degenerate part is left in no primitive, never fails the export */
 }
 
-static double luminance(const float *rgb)
-{
-    return 0.2126 * (double)rgb[0] + 0.7152 * (double)rgb[1] + 0.0722 * (double)rgb[2];
-}
+typedef struct texel {
+    double luminance;
+    size_t index;
+} texel;
 
-static const float *sort_albedo; /* qsort has no context argument */
 static int cmp_lum(const void *a, const void *b)
 {
-    double x = luminance(sort_albedo + *(const size_t *)a * 3), y = luminance(sort_albedo + *(const size_t *)b * 3);
+    double x = ((const texel *)a)->luminance, y = ((const texel *)b)->luminance;
     return (x > y) - (x < y);
 }
 
@@ -86,12 +85,12 @@ static void iris_colour(const char *face_dir, const sp_face_asset *a, const sp_m
     size_t w = (size_t)a->tex_width, h = (size_t)a->tex_height, n = 0, got = 0;
     char path[4096];
     void *obs = NULL;
-    size_t *texels = NULL;
+    texel *texels = NULL;
     memcpy(pr->colour, iris_default, sizeof(pr->colour));
     snprintf(pr->note, sizeof(pr->note), "default (the fit saw fewer than %d eye texels)", MIN_IRIS_TEXELS);
     if (sp_path_join(path, sizeof(path), face_dir, "albedo_observed.u8") ||
         sp_read_whole_file(path, w * h + 1, &obs, &got) || got != w * h ||
-        !(texels = malloc(sizeof(size_t) * ((size_t)m->n_triangles * 4 + 1)))) {
+        !(texels = malloc(sizeof(texel) * ((size_t)m->n_triangles * 4 + 1)))) {
         free(obs);
         return;
     }
@@ -104,21 +103,23 @@ static void iris_colour(const char *face_dir, const sp_face_asset *a, const sp_m
             const float *uv = m->uvs + (size_t)m->tri_uvs[(size_t)t * 3 + (size_t)(k % 3)] * 2;
             double u = k < 3 ? (double)uv[0] : cu / 3, v = k < 3 ? (double)uv[1] : cv / 3;
             cu += k < 3 ? u : 0, cv += k < 3 ? v : 0;
-            size_t x = (size_t)fmin(fmax(u * (double)w, 0), (double)w - 1), y = (size_t)fmin(fmax((1 - v) * (double)h, 0), (double)h - 1);
-            if (o[y * w + x] == 1) {
-                o[y * w + x] = 3; /* counted once */
-                texels[n++] = y * w + x;
+            size_t x = (size_t)fmin(fmax(u * (double)w, 0), (double)w - 1);
+            size_t y = (size_t)fmin(fmax((1 - v) * (double)h, 0), (double)h - 1);
+            size_t i = y * w + x;
+            if (o[i] == 1) {
+                const float *rgb = a->albedo + i * 3;
+                o[i] = 3; /* counted once */
+                texels[n++] = (texel){ 0.2126 * (double)rgb[0] + 0.7152 * (double)rgb[1] + 0.0722 * (double)rgb[2], i };
             }
         }
     }
     if (n >= MIN_IRIS_TEXELS) {
-        sort_albedo = a->albedo;
-        qsort(texels, n, sizeof(size_t), cmp_lum);
+        qsort(texels, n, sizeof(texel), cmp_lum);
         size_t q = (n + 3) / 4;
         double s[3] = { 0, 0, 0 };
         for (size_t i = 0; i < q; i++)
             for (int c = 0; c < 3; c++)
-                s[c] += (double)a->albedo[texels[i] * 3 + (size_t)c];
+                s[c] += (double)a->albedo[texels[i].index * 3 + (size_t)c];
         for (int c = 0; c < 3; c++)
             pr->colour[c] = (float)fmin(fmax(s[c] / (double)q, 0.0), 1.0);
         snprintf(pr->note, sizeof(pr->note), "fitted albedo: the darkest quarter (%zu) of %zu eye texels seen", q, n);
@@ -142,7 +143,8 @@ static int add_eyes(sp_gltf_morphs *mo, const char *face_dir, const sp_face_asse
         mo->prims[0].geom = &mo->prims[0].own;
     }
     if (!ret)
-        ret = add_prim(mo, "eye_sclera", &a->mesh, cls, CLS_SCLERA, p, sclera_rgb, EYE_ROUGHNESS, "default: a white sclera");
+        ret = add_prim(mo, "eye_sclera", &a->mesh, cls, CLS_SCLERA, p, sclera_rgb, EYE_ROUGHNESS,
+                       "default: a white sclera");
     if (!ret)
         ret = add_prim(mo, "eye_iris", &a->mesh, cls, CLS_IRIS, p, iris_default, EYE_ROUGHNESS, "");
     if (!ret && !strcmp(mo->prims[mo->n_prims - 1].name, "eye_iris"))

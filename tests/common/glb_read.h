@@ -69,6 +69,12 @@ static inline void glb_free(glb *g)
     free(g->file);
 }
 
+/* Primitive i of the first mesh, NULL if none. */
+static inline const sp_json *glb_primitive(const glb *g, size_t i)
+{
+    return sp_json_at(sp_json_get(sp_json_at(sp_json_get(g->json, "meshes"), 0), "primitives"), i);
+}
+
 /* Pointer into BIN for accessor k (plain accessors only), checking its size. */
 static inline const uint8_t *accessor_data(const glb *g, int k, size_t elem, uint32_t *count)
 {

@@ -43,6 +43,7 @@ check() { # NAME FACE_DIR [export options]
 check face "$TMP/face"
 check flat "$TMP/flat"
 check ict "$TMP/ict"
+check ict-expressions "$TMP/ict" --draco-expressions # every primitive's decoded vertices in their order
 PBITS=11 UBITS=10 check coarse "$TMP/face" --position-bits 11 --uv-bits 10 --texture-size 32
 check expressions "$TMP/face" --draco-expressions
 if "$SUNPROBE" export "$TMP/face" -o "$TMP/j.glb" --jpeg --no-draco >/dev/null 2>&1; then

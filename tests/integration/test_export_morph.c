@@ -90,7 +90,8 @@ static void check_reorder(const glb *a, const glb *b, double acmr_a, double acmr
     uint32_t nv, nvb, nu, ni, nib;
     const float *pa = (const float *)accessor_data(a, 0, 12, &nv), *pb = (const float *)accessor_data(b, 0, 12, &nvb);
     const float *ua = (const float *)accessor_data(a, 2, 8, &nu), *ub = (const float *)accessor_data(b, 2, 8, &nu);
-    const uint32_t *ia = (const uint32_t *)accessor_data(a, 3, 4, &ni), *ib = (const uint32_t *)accessor_data(b, 3, 4, &nib);
+    const uint32_t *ia = (const uint32_t *)accessor_data(a, 3, 4, &ni);
+    const uint32_t *ib = (const uint32_t *)accessor_data(b, 3, 4, &nib);
     CHECK(pa && pb && ua && ub && ia && ib && nv == nvb && ni == nib);
     if (!pa || !pb || !ua || !ub || !ia || !ib || nv != nvb || ni != nib)
         return;
@@ -117,8 +118,7 @@ static void check_reorder(const glb *a, const glb *b, double acmr_a, double acmr
         seen += ib[c] == seen;
     }
     CHECK_MSG(late == 0, "%u corners use a vertex before its turn", late);
-    const sp_json *ta = sp_json_get(sp_json_at(sp_json_get(sp_json_at(sp_json_get(a->json, "meshes"), 0), "primitives"), 0), "targets");
-    const sp_json *tb = sp_json_get(sp_json_at(sp_json_get(sp_json_at(sp_json_get(b->json, "meshes"), 0), "primitives"), 0), "targets");
+    const sp_json *ta = sp_json_get(glb_primitive(a, 0), "targets"), *tb = sp_json_get(glb_primitive(b, 0), "targets");
     CHECK(ta && tb && ta->count == tb->count);
     for (size_t k = 0; map && ta && tb && k < ta->count && k < tb->count; k++) {
         uint32_t n1, n2, bad = 0;
@@ -196,7 +196,8 @@ int main(int argc, char **argv)
         glb_free(&g);
         glb_free(&g2);
     } else { /* a build without meshoptimizer says which option */
-        snprintf(cmd, sizeof(cmd), "'%s' export '%s' -o '%s/r.glb' --reorder 2>&1 | grep -q meshoptimizer", argv[1], face, tmp);
+        snprintf(cmd, sizeof(cmd), "'%s' export '%s' -o '%s/r.glb' --reorder 2>&1 | grep -q meshoptimizer", argv[1],
+                 face, tmp);
         CHECK_MSG(system(cmd) == 0, "%s", cmd);
     }
     if (HAVE_DRACO) {

@@ -93,7 +93,7 @@ typedef struct ict_files {
 static void check_prim(const glb *g, int i, const ict_files *f, uint32_t lo, uint32_t hi, int jaw_target,
                        uint32_t *moved)
 {
-    const sp_json *prim = sp_json_at(sp_json_get(sp_json_at(sp_json_get(g->json, "meshes"), 0), "primitives"), (size_t)i);
+    const sp_json *prim = glb_primitive(g, (size_t)i);
     placing pl;
     uint32_t nv, nt = 0;
     const float *pos = (const float *)accessor_data(g, (int)sp_json_number(sp_json_get(sp_json_get(prim, "attributes"),
@@ -103,7 +103,8 @@ static void check_prim(const glb *g, int i, const ict_files *f, uint32_t lo, uin
         return;
     float *d = NULL;
     if (jaw_target >= 0) {
-        int k = (int)sp_json_number(sp_json_get(sp_json_at(sp_json_get(prim, "targets"), (size_t)jaw_target), "POSITION"), -1);
+        const sp_json *target = sp_json_at(sp_json_get(prim, "targets"), (size_t)jaw_target);
+        int k = (int)sp_json_number(sp_json_get(target, "POSITION"), -1);
         d = sparse_offsets(g, k, &nt);
         CHECK_MSG(d && nt == nv, "primitive %d: jawOpen target unreadable", i);
     }
@@ -131,8 +132,9 @@ static void check_prim(const glb *g, int i, const ict_files *f, uint32_t lo, uin
 
 static const char *prim_material(const glb *g, int i)
 {
-    const sp_json *prim = sp_json_at(sp_json_get(sp_json_at(sp_json_get(g->json, "meshes"), 0), "primitives"), (size_t)i);
-    const sp_json *mat = sp_json_at(sp_json_get(g->json, "materials"), (size_t)sp_json_number(sp_json_get(prim, "material"), 1e9));
+    const sp_json *prim = glb_primitive(g, (size_t)i);
+    size_t k = (size_t)sp_json_number(sp_json_get(prim, "material"), 1e9);
+    const sp_json *mat = sp_json_at(sp_json_get(g->json, "materials"), k);
     return sp_json_string(sp_json_get(mat, "name"), "");
 }
 
@@ -145,7 +147,8 @@ static size_t n_prims(const glb *g)
 /* The reason left_out gives for part, "" if none. */
 static const char *left_reason(const glb *g, const char *part)
 {
-    const sp_json *l = sp_json_get(sp_json_get(sp_json_get(sp_json_get(g->json, "asset"), "extras"), "sunprobe"), "left_out");
+    const sp_json *s = sp_json_get(sp_json_get(sp_json_get(g->json, "asset"), "extras"), "sunprobe");
+    const sp_json *l = sp_json_get(s, "left_out");
     for (size_t i = 0; l && i < l->count; i++)
         if (!strcmp(sp_json_string(sp_json_get(sp_json_at(l, i), "part"), ""), part))
             return sp_json_string(sp_json_get(sp_json_at(l, i), "reason"), "");
@@ -185,12 +188,18 @@ static void check_without(const char *sunprobe, const char *fixture, const char 
     }
 }
 
+/* Material 2's (the iris's) base colour into c (4) and its colour note. */
+static const char *iris_of(const glb *g, double c[4])
+{
+    const sp_json *mat = sp_json_at(sp_json_get(g->json, "materials"), 2);
+    CHECK(sp_json_numbers(sp_json_get(sp_json_get(mat, "pbrMetallicRoughness"), "baseColorFactor"), c, 4) == 4);
+    return sp_json_string(sp_json_get(sp_json_get(sp_json_get(mat, "extras"), "sunprobe"), "colour"), "");
+}
+
 static void check_iris(const char *sunprobe, const char *face, const char *tmp, const glb *plain)
 {
-    const sp_json *mats = sp_json_get(plain->json, "materials");
     double c[4];
-    /* the fixture has no albedo_observed.u8: the default */
-    CHECK(sp_json_numbers(sp_json_get(sp_json_get(sp_json_at(mats, 2), "pbrMetallicRoughness"), "baseColorFactor"), c, 4) == 4);
+    iris_of(plain, c); /* the fixture has no albedo_observed.u8: the default */
     CHECK(fabs(c[0] - 0.05) < 1e-6 && fabs(c[1] - 0.03) < 1e-6 && fabs(c[2] - 0.02) < 1e-6);
     char path[512], out[512];
     snprintf(path, sizeof(path), "%s/albedo_observed.u8", face);
@@ -202,9 +211,7 @@ static void check_iris(const char *sunprobe, const char *face, const char *tmp, 
     glb g;
     if (export_to(sunprobe, face, out, "--no-draco", &g))
         return;
-    mats = sp_json_get(g.json, "materials");
-    const char *note = sp_json_string(sp_json_get(sp_json_get(sp_json_get(sp_json_at(mats, 2), "extras"), "sunprobe"), "colour"), "");
-    CHECK(sp_json_numbers(sp_json_get(sp_json_get(sp_json_at(mats, 2), "pbrMetallicRoughness"), "baseColorFactor"), c, 4) == 4);
+    const char *note = iris_of(&g, c);
     /* the fixture's albedo is (0.5 + 0.3 u, 0.35 + 0.2 row/256, 0.3); the eyes' texels are u 0.90..1, v 0.76..0.99 */
     CHECK_MSG(!strncmp(note, "fitted albedo", 13) && c[0] > 0.76 && c[0] < 0.80 && c[1] > 0.35 && c[1] < 0.40 &&
               fabs(c[2] - 0.3) < 1e-6, "iris colour (%g, %g, %g): %s", c[0], c[1], c[2], note);
@@ -253,9 +260,7 @@ int main(int argc, char **argv)
         if (export_to(argv[1], face, out, "", &g) == 0) {
             CHECK_EQ_INT((int)n_prims(&g), 5);
             for (size_t i = 0; i < n_prims(&g); i++)
-                CHECK(sp_json_get(sp_json_get(sp_json_at(sp_json_get(sp_json_at(sp_json_get(g.json, "meshes"), 0),
-                                                                     "primitives"), i), "extensions"),
-                                  "KHR_draco_mesh_compression") != NULL);
+                CHECK(sp_json_get(sp_json_get(glb_primitive(&g, i), "extensions"), "KHR_draco_mesh_compression"));
             glb_free(&g);
         }
     }
