@@ -37,6 +37,7 @@ void sp_export_default_settings(sp_export_settings *s)
     s->position_bits = 14;
     s->normal_bits = 10;
     s->uv_bits = 12;
+    s->texture_size = 512;
     s->write_env = 1;
 }
 
@@ -182,16 +183,18 @@ static int embed_image(bin_buf *b, const sp_export_image *im, int jpeg, int qual
 }
 
 /*
- * Accessors 0..3 (POSITION, NORMAL, TEXCOORD_0, indices), 4 = TANGENT when the
- * material has a normal map, and the primitive's Draco extension, if any.
+ * One primitive's accessors from acc index first on: POSITION, NORMAL, TEXCOORD_0, indices, then
+ * TANGENT when the skin has a normal map; its JSON (attributes, Draco extension) goes to prim_json.
+ * Returns the number of accessors added or a negative error.
  */
-static int add_geometry(export_ctx *c, bin_buf *b, sp_strbuf *acc, sp_strbuf *draco_ext)
+static int add_geometry(export_ctx *c, bin_buf *b, sp_strbuf *acc, int first, const sp_gltf_geom *g, int tangents,
+                        sp_strbuf *prim_json)
 {
-    const sp_gltf_geom *g = &c->geom;
     uint32_t nv = g->n_vertices, ni = g->n_triangles * 3;
-    int tangents = c->tex.has_normal, n_acc = tangents ? 5 : 4;
+    int n_acc = tangents ? 5 : 4;
     int views[5] = { -1, -1, -1, -1, -1 };
-    c->st.raw_geometry_bytes = (size_t)nv * (tangents ? 48 : 32) + (size_t)ni * 4;
+    char draco_ext[320] = "";
+    c->st.raw_geometry_bytes += (size_t)nv * (tangents ? 48 : 32) + (size_t)ni * 4;
     if (c->set->draco) {
 #if HAVE_DRACO
         sp_draco_out d;
@@ -205,13 +208,13 @@ static int add_geometry(export_ctx *c, bin_buf *b, sp_strbuf *acc, sp_strbuf *dr
         }
         nv = d.n_points;
         ni = d.n_faces * 3;
-        c->st.geometry_bytes = d.size;
+        c->st.geometry_bytes += d.size;
         char tan[32] = "";
         if (tangents)
             snprintf(tan, sizeof(tan), ",\"TANGENT\":%d", d.id_tangent);
-        sp_strbuf_printf(draco_ext, "\"extensions\":{\"KHR_draco_mesh_compression\":{\"bufferView\":%d,"
-                                    "\"attributes\":{\"POSITION\":%d,\"NORMAL\":%d,\"TEXCOORD_0\":%d%s}}},",
-                         view, d.id_position, d.id_normal, d.id_uv, tan);
+        snprintf(draco_ext, sizeof(draco_ext), "\"extensions\":{\"KHR_draco_mesh_compression\":{\"bufferView\":%d,"
+                                               "\"attributes\":{\"POSITION\":%d,\"NORMAL\":%d,\"TEXCOORD_0\":%d%s}}},",
+                 view, d.id_position, d.id_normal, d.id_uv, tan);
         sp_draco_out_free(&d);
 #else
         return SP_EDISABLED;
@@ -225,13 +228,13 @@ static int add_geometry(export_ctx *c, bin_buf *b, sp_strbuf *acc, sp_strbuf *dr
         for (int k = 0; k < 5; k++)
             if (views[k] < 0)
                 return views[k];
-        c->st.geometry_bytes = c->st.raw_geometry_bytes;
+        c->st.geometry_bytes += (size_t)nv * (tangents ? 48 : 32) + (size_t)ni * 4;
     }
-    c->st.vertices = nv;
-    c->st.triangles = ni / 3;
+    c->st.vertices += nv;
+    c->st.triangles += ni / 3;
     static const char *types[5] = { "VEC3", "VEC3", "VEC2", "SCALAR", "VEC4" };
     for (int k = 0; k < n_acc; k++) {
-        sp_strbuf_printf(acc, "%s{", k ? "," : "");
+        sp_strbuf_printf(acc, "%s{", first + k ? "," : "");
         if (views[k] >= 0)
             sp_strbuf_printf(acc, "\"bufferView\":%d,", views[k]);
         sp_strbuf_printf(acc, "\"componentType\":%d,\"count\":%u,\"type\":\"%s\"", k == 3 ? 5125 : 5126,
@@ -242,24 +245,28 @@ static int add_geometry(export_ctx *c, bin_buf *b, sp_strbuf *acc, sp_strbuf *dr
                              (double)g->max[2]);
         sp_strbuf_printf(acc, "}");
     }
-    return 0;
+    sp_strbuf_printf(prim_json, "{%s\"attributes\":{\"POSITION\":%d,\"NORMAL\":%d,\"TEXCOORD_0\":%d", draco_ext, first,
+                     first + 1, first + 2);
+    if (tangents)
+        sp_strbuf_printf(prim_json, ",\"TANGENT\":%d", first + 4);
+    sp_strbuf_printf(prim_json, "},\"indices\":%d", first + 3);
+    return n_acc;
 }
 
-/* Images, textures and the one material. */
 /*
- * Morph targets from accessor first on: one sparse POSITION accessor per expression (only the vertices it
- * moves; the rest are zero), appended to acc; prim gets the primitive's "targets", mesh the mesh's weights
- * and names.
+ * Morph targets of one primitive from accessor first on: one sparse POSITION accessor per expression (only
+ * the vertices it moves; the rest are zero), appended to acc; prim gets the primitive's "targets".
+ * Returns the number of accessors added or a negative error.
  */
-static int add_morphs(export_ctx *c, bin_buf *b, sp_strbuf *acc, int first, sp_strbuf *prim, sp_strbuf *mesh)
+static int add_morphs(export_ctx *c, bin_buf *b, sp_strbuf *acc, int first, const sp_gltf_prim *pr, sp_strbuf *prim)
 {
     const sp_gltf_morphs *mo = &c->morphs;
-    uint32_t nv = c->geom.n_vertices;
-    uint32_t *idx = malloc((size_t)nv * sizeof(uint32_t));
-    float *val = malloc((size_t)nv * 3 * sizeof(float));
+    uint32_t nv = pr->geom->n_vertices;
+    uint32_t *idx = malloc((size_t)nv * sizeof(uint32_t) + 1);
+    float *val = malloc((size_t)nv * 3 * sizeof(float) + 1);
     int ret = idx && val ? 0 : -ENOMEM;
-    for (uint32_t k = 0; !ret && k < mo->n_targets; k++) {
-        const float *d = mo->deltas + (size_t)k * nv * 3;
+    for (uint32_t k = 0; !ret && pr->deltas && k < mo->n_targets; k++) {
+        const float *d = pr->deltas + (size_t)k * nv * 3;
         float lo[3] = { 0, 0, 0 }, hi[3] = { 0, 0, 0 };
         uint32_t n = 0;
         for (uint32_t i = 0; i < nv; i++) {
@@ -288,9 +295,17 @@ static int add_morphs(export_ctx *c, bin_buf *b, sp_strbuf *acc, int first, sp_s
     }
     free(idx);
     free(val);
-    if (ret || !mo->n_targets)
+    if (ret || !mo->n_targets || !pr->deltas)
         return ret;
     sp_strbuf_printf(prim, "]");
+    return (int)mo->n_targets;
+}
+
+/* The mesh's weights and target names (what three.js and Blender read). */
+static void add_target_names(const sp_gltf_morphs *mo, sp_strbuf *mesh)
+{
+    if (!mo->n_targets)
+        return;
     sp_strbuf_printf(mesh, ",\"weights\":[");
     for (uint32_t k = 0; k < mo->n_targets; k++)
         sp_strbuf_printf(mesh, "%s0", k ? "," : "");
@@ -305,6 +320,22 @@ static int add_morphs(export_ctx *c, bin_buf *b, sp_strbuf *acc, int first, sp_s
         sp_strbuf_json_number(mesh, mo->fitted[k]);
     }
     sp_strbuf_printf(mesh, "],\"note\":\"the mesh carries keyframe 0's fitted expression; weights add to it\"}}");
+}
+
+/* Every primitive of the head: geometry, targets, material i. */
+static int add_primitives(export_ctx *c, bin_buf *b, sp_strbuf *acc, sp_strbuf *prims)
+{
+    int first = 0;
+    for (uint32_t i = 0; i < c->morphs.n_prims; i++) {
+        const sp_gltf_prim *pr = &c->morphs.prims[i];
+        sp_strbuf_printf(prims, i ? "," : "");
+        int n = add_geometry(c, b, acc, first, pr->geom, i == 0 && c->tex.has_normal, prims);
+        int m = n < 0 ? n : add_morphs(c, b, acc, first + n, pr, prims);
+        if (m < 0)
+            return m;
+        sp_strbuf_printf(prims, ",\"material\":%u,\"mode\":4}", i);
+        first += n + m;
+    }
     return 0;
 }
 
@@ -334,6 +365,16 @@ static int add_material(export_ctx *c, bin_buf *b, sp_strbuf *mat, sp_strbuf *te
     else
         sp_strbuf_printf(mat, ",\"extensions\":{\"KHR_materials_specular\":{\"specularFactor\":0}}");
     sp_strbuf_printf(mat, "}");
+    for (uint32_t i = 1; i < c->morphs.n_prims; i++) { /* eyes and mouth: constant colours (EXPORT.md) */
+        const sp_gltf_prim *pr = &c->morphs.prims[i];
+        sp_strbuf_printf(mat, ",{\"name\":");
+        sp_strbuf_json_string(mat, pr->name);
+        sp_strbuf_printf(mat, ",\"pbrMetallicRoughness\":{\"baseColorFactor\":[%.6g,%.6g,%.6g,1],\"metallicFactor\":0,"
+                              "\"roughnessFactor\":%.6g},\"extras\":{\"sunprobe\":{\"colour\":",
+                         (double)pr->colour[0], (double)pr->colour[1], (double)pr->colour[2], (double)pr->roughness);
+        sp_strbuf_json_string(mat, pr->note);
+        sp_strbuf_printf(mat, "}}}");
+    }
     return 0;
 }
 
@@ -385,6 +426,10 @@ static void add_extras(const export_ctx *c, sp_strbuf *j)
                         "\"blender_world_strength_for_env\":%.9g}",
                      LUX_PER_FIT_UNIT, EV100, 1.0 / LUX_PER_FIT_UNIT, log2(BLENDER_LM_PER_W / LUX_PER_FIT_UNIT),
                      1.0 / BLENDER_LM_PER_W);
+    sp_strbuf_printf(j, ",\"textures\":{\"fitted_width\":%d,\"fitted_height\":%d,\"width\":%d,\"height\":%d,"
+                        "\"note\":\"resampled from the fit's maps (Mitchell filter, linear light): no detail beyond "
+                        "the fitted size\"}",
+                     c->asset.tex_width, c->asset.tex_height, c->tex.albedo.width, c->tex.albedo.height);
     sp_strbuf_printf(j, ",\"fit_to_scene\":{\"rotation\":[");
     for (int k = 0; k < 9; k++)
         sp_strbuf_printf(j, "%s%.9g", k ? "," : "", c->place.R[k]);
@@ -521,20 +566,17 @@ static int write_glb(const char *path, const sp_strbuf *json, const bin_buf *b, 
 static int export_glb(export_ctx *c)
 {
     bin_buf b = { 0 };
-    sp_strbuf acc = { 0 }, draco_ext = { 0 }, mat = { 0 }, texs = { 0 }, images = { 0 }, j = { 0 };
+    sp_strbuf acc = { 0 }, mat = { 0 }, texs = { 0 }, images = { 0 }, j = { 0 };
     sp_strbuf prim = { 0 }, mesh = { 0 };
-    int ret = add_geometry(c, &b, &acc, &draco_ext);
-    if (!ret)
-        ret = add_morphs(c, &b, &acc, c->tex.has_normal ? 5 : 4, &prim, &mesh);
+    int ret = add_primitives(c, &b, &acc, &prim);
     if (!ret)
         ret = add_material(c, &b, &mat, &texs, &images);
     if (!ret) {
+        add_target_names(&c->morphs, &mesh);
         sp_strbuf_printf(&j, "{");
         add_scene(c, &j, c->set->draco);
-        sp_strbuf_printf(&j, ",\"meshes\":[{\"name\":\"face\",\"primitives\":[{%s\"attributes\":{\"POSITION\":0,"
-                             "\"NORMAL\":1,\"TEXCOORD_0\":2%s},\"indices\":3,\"material\":0,\"mode\":4%s}]%s}]",
-                         draco_ext.data ? draco_ext.data : "", c->tex.has_normal ? ",\"TANGENT\":4" : "",
-                         prim.data ? prim.data : "", mesh.data ? mesh.data : "");
+        sp_strbuf_printf(&j, ",\"meshes\":[{\"name\":\"face\",\"primitives\":[%s]%s}]", prim.data,
+                         mesh.data ? mesh.data : "");
         sp_strbuf_printf(&j, ",\"materials\":[%s],\"textures\":[%s],\"images\":[%s]", mat.data, texs.data,
                          images.data);
         sp_strbuf_printf(&j, ",\"samplers\":[{\"magFilter\":9729,\"minFilter\":9729,\"wrapS\":33071,"
@@ -542,7 +584,7 @@ static int export_glb(export_ctx *c)
                              "\"buffers\":[{\"byteLength\":%zu}]}",
                          acc.data, b.views.data, (b.len + 3) & ~(size_t)3);
         ret = j.failed || acc.failed || mat.failed || texs.failed || images.failed || b.views.failed ||
-                      draco_ext.failed || prim.failed || mesh.failed ? -ENOMEM : 0;
+                      prim.failed || mesh.failed ? -ENOMEM : 0;
     }
     const char *tmp;
     if (!ret)
@@ -552,7 +594,6 @@ static int export_glb(export_ctx *c)
     free(b.data);
     sp_strbuf_free(&b.views);
     sp_strbuf_free(&acc);
-    sp_strbuf_free(&draco_ext);
     sp_strbuf_free(&mat);
     sp_strbuf_free(&texs);
     sp_strbuf_free(&images);
@@ -602,6 +643,10 @@ static int check_settings(const sp_export_settings *s)
         return -EINVAL;
     if (!HAVE_DRACO && (s->format == SP_EXPORT_DRC || (s->format == SP_EXPORT_GLB && s->draco))) {
         sp_log(SP_LOG_ERROR, MOD, "Draco compression needs a build with -Ddraco=enabled (or use --no-draco)");
+        return SP_EDISABLED;
+    }
+    if (s->reorder && !HAVE_MESHOPTIMIZER) {
+        sp_log(SP_LOG_ERROR, MOD, "--reorder needs a build with -Dmeshoptimizer=enabled (libmeshoptimizer-dev)");
         return SP_EDISABLED;
     }
     if (s->format == SP_EXPORT_GLB && s->jpeg && !sp_jpeg_available()) {
@@ -682,10 +727,10 @@ static void note_parts(export_ctx *c)
     c->st.has_sun = sun_direction(c, g);
 }
 
-/* Morph targets for a plain GLB; otherwise, or when the face cannot give them, a left_out entry says why. */
+/* Morph targets for a plain GLB, eye and mouth primitives; a left_out entry says why for what is missing. */
 static int add_expressions(export_ctx *c)
 {
-    int ret = sp_gltf_morphs_build(&c->morphs, c->face_dir, &c->asset, &c->geom, &c->place);
+    int ret = sp_gltf_morphs_build(&c->morphs, c->face_dir, &c->asset, &c->geom, &c->place, 1, c->set->reorder);
     if (ret)
         return ret;
     const char *omitted = "morph targets (mesh.extras.targetNames)";
@@ -694,8 +739,13 @@ static int add_expressions(export_ctx *c)
     else if (c->set->draco && !c->set->draco_expressions) {
         note_left_out(c, "expressions", "Draco's edgebreaker reorders the vertices, which morph targets index: "
                                         "export with --no-draco or --draco-expressions to get them", omitted);
-        sp_gltf_morphs_free(&c->morphs);
+        sp_gltf_morphs_drop_targets(&c->morphs);
     }
+    if (c->morphs.eyes_reason[0])
+        note_left_out(c, "eyes", c->morphs.eyes_reason, "eye primitives (eye_sclera, eye_iris); any eyeballs stay in "
+                                                       "the skin primitive");
+    if (c->morphs.mouth_reason[0])
+        note_left_out(c, "mouth_interior", c->morphs.mouth_reason, "mouth interior primitives (mouth_interior, teeth)");
     c->st.morph_targets = c->morphs.n_targets;
     return 0;
 }
@@ -717,6 +767,8 @@ static int prepare(export_ctx *c)
                sp_strerror(ret));
         return ret;
     }
+    if (c->set->reorder && (ret = sp_gltf_geom_reorder(&c->geom)))
+        return ret;
     if ((ret = sp_export_textures_build(&c->tex, &c->asset, c->set->texture_size, c->asset.left_out)))
         return ret;
     note_parts(c);
@@ -724,6 +776,7 @@ static int prepare(export_ctx *c)
         return ret;
     if (c->left_out.failed)
         return -ENOMEM;
+    c->st.acmr = sp_gltf_geom_acmr(c->morphs.n_prims ? c->morphs.prims[0].geom : &c->geom);
     c->st.has_specular_texture = c->tex.has_specular;
     c->st.has_normal_map = c->tex.has_normal;
     int env = c->set->write_env && c->set->format != SP_EXPORT_DRC &&

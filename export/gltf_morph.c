@@ -38,14 +38,7 @@ static sp_json *read_json(const char *dir, const char *name)
     return root;
 }
 
-/* The fit's parameters: what sp_face_model_eval needs, from the manifest and keyframe 0. */
-typedef struct fit_params {
-    char model[128];
-    double id[256], exp[SP_GLTF_MAX_TARGETS], rotvec[3], t[3], s, c2w[9];
-    size_t n_id, n_exp;
-} fit_params;
-
-static const char *read_params(const char *dir, fit_params *f)
+static const char *read_params(const char *dir, sp_gltf_fit *f)
 {
     sp_json *man = read_json(dir, "manifest.json"), *cams = read_json(dir, "cameras.json");
     const sp_json *k0 = sp_json_at(sp_json_get(cams, "frames"), 0);
@@ -76,8 +69,7 @@ static int load_model(sp_face_model *m, const char *name)
     return sp_face_model_load_default(m);
 }
 
-/* Largest distance between the model's evaluation, placed as keyframe 0 placed it, and the mesh. */
-static double mismatch(const sp_face_model *m, const fit_params *f, const sp_mesh *mesh, int *err)
+double *sp_gltf_fit_eval(const sp_face_model *m, const sp_gltf_fit *f)
 {
     sp_face_params pa;
     sp_face_params_init(&pa);
@@ -86,78 +78,115 @@ static double mismatch(const sp_face_model *m, const fit_params *f, const sp_mes
     pa.s = f->s;
     memcpy(pa.rotvec, f->rotvec, sizeof(pa.rotvec));
     memcpy(pa.t, f->t, sizeof(pa.t));
-    double *v = malloc((size_t)m->mesh.n_vertices * 3 * sizeof(double)), worst = 0.0;
-    *err = v ? sp_face_model_eval(m, &pa, v) : -ENOMEM;
-    for (uint32_t i = 0; !*err && i < mesh->n_vertices; i++) {
-        double w[3], d2 = 0.0;
-        sp_mat3_apply(f->c2w, v + (size_t)i * 3, w); /* keyframe 0's camera is the world's origin */
-        for (int k = 0; k < 3; k++)
-            d2 += (w[k] - (double)mesh->positions[(size_t)i * 3 + k]) * (w[k] - (double)mesh->positions[(size_t)i * 3 + k]);
+    double *v = malloc((size_t)m->mesh.n_vertices * 3 * sizeof(double) + 1);
+    if (!v || sp_face_model_eval(m, &pa, v)) {
+        free(v);
+        return NULL;
+    }
+    for (uint32_t i = 0; i < m->mesh.n_vertices; i++) { /* keyframe 0's camera is the world's origin */
+        double w[3];
+        sp_mat3_apply(f->c2w, v + (size_t)i * 3, w);
+        memcpy(v + (size_t)i * 3, w, sizeof(w));
+    }
+    return v;
+}
+
+/* Largest distance between the model's evaluation, placed as keyframe 0 placed it, and the mesh. */
+static double mismatch(const sp_face_model *m, const sp_gltf_fit *f, const sp_mesh *mesh, int *err)
+{
+    double *v = sp_gltf_fit_eval(m, f), worst = 0.0;
+    *err = v ? 0 : -ENOMEM;
+    for (uint32_t i = 0; v && i < mesh->n_vertices; i++) {
+        double d2 = 0.0;
+        for (int k = 0; k < 3; k++) {
+            double d = v[(size_t)i * 3 + k] - (double)mesh->positions[(size_t)i * 3 + k];
+            d2 += d * d;
+        }
         worst = fmax(worst, sqrt(d2));
     }
     free(v);
     return worst;
 }
 
-/* Per glTF vertex: s R_place R_face B_k, the offset mode k makes at strength 1, in the exported frame. */
-static int fill_deltas(sp_gltf_morphs *mo, const sp_face_model *m, const fit_params *f, const sp_gltf_geom *g,
-                       const sp_gltf_placement *p)
+/* Per glTF vertex of g: s R_place R_face B_k, the offset mode k of m makes at strength 1, in the exported frame. */
+float *sp_gltf_fill_deltas(uint32_t n_targets, const sp_face_model *m, const sp_gltf_fit *f,
+                           const sp_gltf_geom *g, const sp_gltf_placement *p)
 {
     double Rf[9], R[9];
     sp_quat_to_matrix(sp_quat_from_rotvec((sp_vec3){ f->rotvec[0], f->rotvec[1], f->rotvec[2] }), Rf);
     sp_mat3_mul(f->c2w, Rf, R);
-    mo->deltas = malloc((size_t)mo->n_targets * g->n_vertices * 3 * sizeof(float));
-    if (!mo->deltas)
-        return -ENOMEM;
-    for (uint32_t k = 0; k < mo->n_targets; k++)
+    float *deltas = malloc((size_t)n_targets * g->n_vertices * 3 * sizeof(float) + 1);
+    if (!deltas)
+        return NULL;
+    for (uint32_t k = 0; k < n_targets; k++)
         for (uint32_t i = 0; i < g->n_vertices; i++) {
             const float *b = m->exp_basis + ((size_t)k * m->mesh.n_vertices + g->source[i]) * 3;
             double x[3] = { f->s * (double)b[0], f->s * (double)b[1], f->s * (double)b[2] }, w[3], out[3];
             sp_mat3_apply(R, x, w);
             sp_gltf_place(p, w, out, 0);
             for (int d = 0; d < 3; d++)
-                mo->deltas[((size_t)k * g->n_vertices + i) * 3 + d] = (float)out[d];
+                deltas[((size_t)k * g->n_vertices + i) * 3 + d] = (float)out[d];
         }
-    return 0;
+    return deltas;
 }
 
-int sp_gltf_morphs_build(sp_gltf_morphs *mo, const char *face_dir, const sp_face_asset *a, const sp_gltf_geom *g,
-                         const sp_gltf_placement *p)
+/* Why the fit's model cannot be used, or "" (and 0 / -ENOMEM in *err). */
+static void check_model(sp_gltf_morphs *mo, const sp_face_model *m, const sp_gltf_fit *f, const sp_face_asset *a,
+                        int *err)
+{
+    double off = 0.0;
+    if (strcmp(m->source, f->model))
+        snprintf(mo->reason, sizeof(mo->reason), "the fit's face model (%s) is not the one on this machine (%s)",
+                 f->model, m->source);
+    else if (m->n_exp == 0 || m->n_exp > SP_GLTF_MAX_TARGETS || m->n_exp != f->n_exp || m->n_id != f->n_id ||
+             m->mesh.n_vertices != a->mesh.n_vertices)
+        snprintf(mo->reason, sizeof(mo->reason), "the face model's expressions, identity or vertices do not match "
+                 "the face directory (%u/%zu expressions, %u/%zu identity modes, %u/%u vertices)",
+                 m->n_exp, f->n_exp, m->n_id, f->n_id, m->mesh.n_vertices, a->mesh.n_vertices);
+    else if ((off = mismatch(m, f, &a->mesh, err)) > MAX_MISMATCH && !*err)
+        snprintf(mo->reason, sizeof(mo->reason), "the mesh is not the face model's evaluation (a vertex %.3g mm "
+                 "off)", off * 1e3);
+}
+
+int sp_gltf_morphs_build(sp_gltf_morphs *mo, const char *face_dir, const sp_face_asset *a, const sp_gltf_geom *whole,
+                         const sp_gltf_placement *p, int want_parts, int reorder)
 {
     memset(mo, 0, sizeof(*mo));
-    fit_params *f = calloc(1, sizeof(*f));
+    mo->reorder = reorder;
+    mo->n_prims = 1;
+    snprintf(mo->prims[0].name, sizeof(mo->prims[0].name), "skin");
+    mo->prims[0].geom = whole;
+    sp_gltf_fit *f = calloc(1, sizeof(*f));
     sp_face_model m;
     memset(&m, 0, sizeof(m));
     if (!f)
         return -ENOMEM;
     const char *why = read_params(face_dir, f);
     int ret = 0;
-    if (!why && (ret = load_model(&m, f->model)))
+    if (!why && load_model(&m, f->model))
         why = "the face model could not be loaded";
-    double off = 0.0;
     if (why)
         snprintf(mo->reason, sizeof(mo->reason), "%s", why);
-    else if (strcmp(m.source, f->model))
-        snprintf(mo->reason, sizeof(mo->reason), "the fit's face model (%s) is not the one on this machine (%s)",
-                 f->model, m.source);
-    else if (m.n_exp == 0 || m.n_exp > SP_GLTF_MAX_TARGETS || m.n_exp != f->n_exp || m.n_id != f->n_id ||
-             m.mesh.n_vertices != a->mesh.n_vertices)
-        snprintf(mo->reason, sizeof(mo->reason), "the face model's expressions, identity or vertices do not match "
-                 "the face directory (%u/%zu expressions, %u/%zu identity modes, %u/%u vertices)",
-                 m.n_exp, f->n_exp, m.n_id, f->n_id, m.mesh.n_vertices, a->mesh.n_vertices);
-    else if ((off = mismatch(&m, f, &a->mesh, &ret)) > MAX_MISMATCH || ret)
-        snprintf(mo->reason, sizeof(mo->reason), "the mesh is not the face model's evaluation (a vertex %.3g mm "
-                 "off)", off * 1e3);
-    else {
+    else
+        check_model(mo, &m, f, a, &ret);
+    if (!ret && !mo->reason[0] && want_parts)
+        ret = sp_gltf_parts_build(mo, face_dir, a, &m, f, p);
+    else if (!ret && want_parts) {
+        snprintf(mo->eyes_reason, sizeof(mo->eyes_reason), "%s", mo->reason);
+        snprintf(mo->mouth_reason, sizeof(mo->mouth_reason), "%s", mo->reason);
+    }
+    if (!ret && !mo->reason[0]) {
         mo->n_targets = m.n_exp;
         for (uint32_t k = 0; k < m.n_exp; k++) {
             snprintf(mo->names[k], sizeof(mo->names[k]), "%s", sp_face_model_exp_name(&m, k));
             mo->fitted[k] = f->exp[k];
         }
-        ret = fill_deltas(mo, &m, f, g, p);
+        for (uint32_t i = 0; i < mo->n_prims && !ret; i++) { /* the mouth's come with it, from its own modes */
+            sp_gltf_prim *pr = &mo->prims[i];
+            if (!pr->deltas && !(pr->deltas = sp_gltf_fill_deltas(m.n_exp, &m, f, pr->geom, p)))
+                ret = -ENOMEM;
+        }
     }
-    if (ret != -ENOMEM)
-        ret = 0; /* a model that cannot be read costs the targets, not the export */
     if (ret)
         sp_gltf_morphs_free(mo);
     sp_face_model_free(&m);
@@ -165,11 +194,21 @@ int sp_gltf_morphs_build(sp_gltf_morphs *mo, const char *face_dir, const sp_face
     return ret;
 }
 
+void sp_gltf_morphs_drop_targets(sp_gltf_morphs *mo)
+{
+    for (uint32_t i = 0; i < mo->n_prims; i++) {
+        free(mo->prims[i].deltas);
+        mo->prims[i].deltas = NULL;
+    }
+    mo->n_targets = 0;
+}
+
 void sp_gltf_morphs_free(sp_gltf_morphs *mo)
 {
     if (!mo)
         return;
-    free(mo->deltas);
-    mo->deltas = NULL;
-    mo->n_targets = 0;
+    sp_gltf_morphs_drop_targets(mo);
+    for (uint32_t i = 0; i < mo->n_prims; i++)
+        sp_gltf_geom_free(&mo->prims[i].own);
+    mo->n_prims = 0;
 }

@@ -34,17 +34,58 @@ static uint8_t to_u8(double v)
     return v >= 1.0 ? 255 : (uint8_t)(v * 255.0 + 0.5);
 }
 
-/* Bilinear sample of channel ch of a w x h x nc float map at output texel (i, j) of an ow x oh image. */
-static double sample(const float *map, int w, int h, int nc, int ch, int i, int j, int ow, int oh)
+/* Mitchell-Netravali cubic (B = C = 1/3): little ringing, little blur, weights of any phase sum to 1. */
+static double mitchell(double x)
 {
-    double fx = ((double)i + 0.5) * w / ow - 0.5, fy = ((double)j + 0.5) * h / oh - 0.5;
-    fx = fx < 0.0 ? 0.0 : fx > w - 1 ? w - 1 : fx;
-    fy = fy < 0.0 ? 0.0 : fy > h - 1 ? h - 1 : fy;
-    int x0 = (int)fx, y0 = (int)fy, x1 = x0 + 1 < w ? x0 + 1 : x0, y1 = y0 + 1 < h ? y0 + 1 : y0;
-    double ax = fx - x0, ay = fy - y0;
-#define AT(x, y) (double)map[((size_t)(y) * (size_t)w + (size_t)(x)) * (size_t)nc + (size_t)ch]
-    return (1 - ay) * ((1 - ax) * AT(x0, y0) + ax * AT(x1, y0)) + ay * ((1 - ax) * AT(x0, y1) + ax * AT(x1, y1));
-#undef AT
+    x = fabs(x);
+    if (x < 1.0)
+        return (7.0 * x * x * x - 12.0 * x * x + 16.0 / 3.0) / 6.0;
+    if (x < 2.0)
+        return (-7.0 / 3.0 * x * x * x + 12.0 * x * x - 20.0 * x + 32.0 / 3.0) / 6.0;
+    return 0.0;
+}
+
+/*
+ * One axis: n samples (stride sn between them, nc channels each) to m (stride dn). The kernel is
+ * widened by n / m when shrinking (an area filter, no aliasing); weights are normalised per output
+ * sample and the edge is clamped, so a constant stays that constant.
+ */
+static void resample_axis(const float *src, int n, size_t sn, float *dst, int m, size_t dn, int nc)
+{
+    double scale = (double)n / m, width = scale > 1.0 ? scale : 1.0, r = 2.0 * width;
+    for (int o = 0; o < m; o++) {
+        double centre = (o + 0.5) * scale - 0.5, acc[4] = { 0, 0, 0, 0 }, wsum = 0.0;
+        for (int i = (int)floor(centre - r); i <= (int)ceil(centre + r); i++) {
+            double w = mitchell((i - centre) / width);
+            if (w == 0.0)
+                continue;
+            int k = i < 0 ? 0 : i >= n ? n - 1 : i;
+            for (int c = 0; c < nc; c++)
+                acc[c] += w * (double)src[(size_t)k * sn + (size_t)c];
+            wsum += w;
+        }
+        for (int c = 0; c < nc; c++)
+            dst[(size_t)o * dn + (size_t)c] = (float)(acc[c] / wsum);
+    }
+}
+
+/* A w x h x nc (<= 4) float map resampled to ow x oh (rows, then columns); caller frees; NULL on no memory. */
+float *sp_export_resample(const float *map, int w, int h, int nc, int ow, int oh)
+{
+    float *tmp = malloc((size_t)ow * (size_t)h * (size_t)nc * sizeof(float));
+    float *out = malloc((size_t)ow * (size_t)oh * (size_t)nc * sizeof(float));
+    if (!tmp || !out || nc < 1 || nc > 4) {
+        free(tmp);
+        free(out);
+        return NULL;
+    }
+    size_t row = (size_t)nc;
+    for (int j = 0; j < h; j++)
+        resample_axis(map + (size_t)j * (size_t)w * row, w, row, tmp + (size_t)j * (size_t)ow * row, ow, row, nc);
+    for (int i = 0; i < ow; i++)
+        resample_axis(tmp + (size_t)i * row, h, (size_t)ow * row, out + (size_t)i * row, oh, (size_t)ow * row, nc);
+    free(tmp);
+    return out;
 }
 
 static int image_alloc(sp_export_image *im, int w, int h, int ch)
@@ -56,14 +97,14 @@ static int image_alloc(sp_export_image *im, int w, int h, int ch)
     return im->pixels ? 0 : -ENOMEM;
 }
 
+/* Resampled in linear light, then encoded sRGB. */
 static int bake_albedo(sp_export_image *im, const sp_face_asset *a, int w, int h)
 {
-    int ret = image_alloc(im, w, h, 3);
-    for (int j = 0; !ret && j < h; j++)
-        for (int i = 0; i < w; i++)
-            for (int c = 0; c < 3; c++)
-                im->pixels[((size_t)j * w + i) * 3 + c] =
-                    to_u8(sp_srgb_encode(sample(a->albedo, a->tex_width, a->tex_height, 3, c, i, j, w, h)));
+    float *lin = sp_export_resample(a->albedo, a->tex_width, a->tex_height, 3, w, h);
+    int ret = lin ? image_alloc(im, w, h, 3) : -ENOMEM;
+    for (size_t i = 0; !ret && i < (size_t)w * (size_t)h * 3; i++)
+        im->pixels[i] = to_u8(sp_srgb_encode((double)lin[i]));
+    free(lin);
     return ret;
 }
 
@@ -109,12 +150,8 @@ static double metres_per_uv(const sp_mesh *m)
 static int bake_normal(sp_export_image *im, const sp_face_asset *a, int w, int h)
 {
     double s = metres_per_uv(&a->mesh);
-    float *d = malloc((size_t)w * (size_t)h * sizeof(float));
+    float *d = sp_export_resample(a->displacement, a->tex_width, a->tex_height, 1, w, h);
     int ret = d && s > 0.0 ? image_alloc(im, w, h, 3) : d ? SP_ECORRUPT : -ENOMEM;
-    for (int j = 0; !ret && j < h; j++)
-        for (int i = 0; i < w; i++)
-            d[(size_t)j * w + i] =
-                (float)sample(a->displacement, a->tex_width, a->tex_height, 1, 0, i, j, w, h);
     double dx = s / w, dy = s / h; /* metres per texel */
     for (int j = 0; !ret && j < h; j++)
         for (int i = 0; i < w; i++) {

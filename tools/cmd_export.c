@@ -17,8 +17,9 @@ static void export_usage(FILE *out)
                  "  --no-draco           glb with plain accessors, and the expressions as morph targets\n"
                  "  --draco-expressions  Draco keeping the vertex order (larger), with the morph targets\n"
                  "  --jpeg[=Q]           embed the albedo as JPEG (quality Q, default 90)\n"
-                 "  --texture-size N     longest texture edge, 16..8192 (default: as fitted)\n"
+                 "  --texture-size N     longest texture edge, 16..8192 (default 512; e.g. 1024)\n"
                  "  --position-bits N    Draco quantisation bits (default 14); --normal-bits (10), --uv-bits (12)\n"
+                 "  --reorder            triangles in vertex-cache order, vertices in fetch order (meshoptimizer)\n"
                  "  --no-env             do not write OUT.env.hdr\n"
                  "  --stats              print vertex, triangle and byte counts\n");
 }
@@ -33,7 +34,8 @@ static int parse_export(int argc, char **argv, sp_export_settings *s, const char
         { "jpeg", optional_argument, NULL, 'j' }, { "texture-size", required_argument, NULL, 't' },
         { "position-bits", required_argument, NULL, 'p' }, { "normal-bits", required_argument, NULL, 'n' },
         { "uv-bits", required_argument, NULL, 'u' }, { "no-env", no_argument, NULL, 'E' },
-        { "stats", no_argument, NULL, 's' }, { "draco-expressions", no_argument, NULL, 'X' }, { 0 },
+        { "stats", no_argument, NULL, 's' }, { "draco-expressions", no_argument, NULL, 'X' },
+        { "reorder", no_argument, NULL, 'R' }, { 0 },
     };
     int c, bad = 0, li = -1;
     while (!bad && (c = getopt_long(argc, argv, "ho:", opts, &li)) != -1) {
@@ -62,6 +64,7 @@ static int parse_export(int argc, char **argv, sp_export_settings *s, const char
         case 'u': bad = sp_opt_int("export", on, optarg, 1, 30, &s->uv_bits); break;
         case 'E': s->write_env = 0; break;
         case 'X': s->draco_expressions = 1; break;
+        case 'R': s->reorder = 1; break;
         case 's': *stats = 1; break;
         default: bad = 1; /* getopt has said which option */
         }
@@ -93,8 +96,8 @@ int sp_cmd_export(int argc, char **argv)
         return sp_cmd_fail("export", ret, sp_exit_for_error(ret) == SP_EXIT_BAD_INPUT ? dir : out);
     if (stats)
         printf("vertices %u\ntriangles %u\nraw_geometry_bytes %zu\ngeometry_bytes %zu\ntotal_bytes %zu\n"
-               "specular_texture %d\nnormal_map %d\nsun %d\nmorph_targets %u\nmorph_bytes %zu\n",
+               "specular_texture %d\nnormal_map %d\nsun %d\nmorph_targets %u\nmorph_bytes %zu\nacmr %.4f\n",
                st.vertices, st.triangles, st.raw_geometry_bytes, st.geometry_bytes, st.total_bytes,
-               st.has_specular_texture, st.has_normal_map, st.has_sun, st.morph_targets, st.morph_bytes);
+               st.has_specular_texture, st.has_normal_map, st.has_sun, st.morph_targets, st.morph_bytes, st.acmr);
     return SP_EXIT_OK;
 }

@@ -9,6 +9,7 @@ core=(meson ninja-build pkg-config gcc g++ python3 zlib1g-dev libjpeg62-turbo-de
 full=(clang libclang-rt-14-dev libopencv-dev opencv-doc libopenimageio-dev libdraco-dev libeigen3-dev
       libcamera-dev libiio-dev libdlib-dev
       libzip-dev # Sensor Logger .zip exports (capture/import_bundle.c)
+      libmeshoptimizer-dev # export --reorder: vertex cache/fetch order (export/gltf_reorder.c)
       ffmpeg     # ffmpeg: makes the variable-frame-rate video of the import test
       chromium # chromium: the face viewer's headless test (tests/export/test_viewer.sh)
       draco    # draco_encoder: the reference the exported Draco geometry is measured against (test_export.c)

@@ -27,13 +27,14 @@ typedef struct sp_export_settings {
     int draco;          /* GLB: 1 = KHR_draco_mesh_compression (default 1 when built with Draco, else 0) */
     int jpeg;           /* GLB: embed the albedo as JPEG instead of PNG (default 0; needs libjpeg) */
     int jpeg_quality;   /* 1..100 (default 90) */
-    int texture_size;   /* longest texture edge in pixels, 16..8192; 0 = as fitted (default 0) */
+    int texture_size;   /* longest texture edge in pixels, 16..8192; 0 = as fitted (default 512) */
     int position_bits;  /* Draco quantisation, 1..30 (default 14) */
     int normal_bits;    /* 1..30 (default 10) */
     int uv_bits;        /* 1..30 (default 12) */
     int write_env;      /* write the environment map as FILE.env.hdr (default 1) */
     int draco_expressions; /* GLB + Draco: keep the vertex order (sequential encoding, larger) and write the
                               expressions' morph targets (default 0: Draco leaves them out) */
+    int reorder;        /* triangles in vertex-cache order, vertices in fetch order (default 0; needs meshoptimizer) */
 } sp_export_settings;
 
 /* What was written; filled by sp_export_face when not NULL. */
@@ -45,6 +46,7 @@ typedef struct sp_export_stats {
     int has_specular_texture, has_normal_map, has_sun;
     uint32_t morph_targets;          /* expression morph targets written (plain GLB only) */
     size_t morph_bytes;              /* their sparse indices and offsets */
+    double acmr;                     /* skin triangles' average cache miss ratio, 16-entry FIFO (0: no meshoptimizer) */
 } sp_export_stats;
 
 SP_API void sp_export_default_settings(sp_export_settings *settings);

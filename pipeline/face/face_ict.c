@@ -19,8 +19,8 @@
 #include "common/data_path.h"
 #include "common/file_util.h"
 #include "face_internal.h"
+#include "face_ict_internal.h"
 #include "mesh_decimate.h"
-#include "obj_reader.h"
 #include "pipeline/sp_face_config.h"
 
 #define ICT_VERTICES 26719u   /* the topology the ranges below belong to */
@@ -80,13 +80,7 @@ const char *sp_face_ict_dir(void)
 
 /* ---- the neutral mesh: crop, triangulate, scale ---- */
 
-typedef struct cropped {
-    sp_mesh mesh;       /* metres */
-    uint32_t *to_old;   /* mesh vertex -> ICT vertex */
-    uint32_t *from_old; /* ICT vertex -> mesh vertex or UINT32_MAX */
-} cropped;
-
-static void cropped_free(cropped *c)
+void ict_crop_free(cropped *c)
 {
     sp_mesh_free(&c->mesh);
     free(c->to_old);
@@ -100,8 +94,9 @@ static int kept_vertex(uint32_t v, int keep_eyeballs)
            (keep_eyeballs && v >= keep_eyes[0] && v <= keep_eyes[1]);
 }
 
-static int face_kept(const obj_data *o, uint32_t f, int keep_eyeballs)
+static int face_kept(const obj_data *o, uint32_t f, const void *arg)
 {
+    int keep_eyeballs = *(const int *)arg;
     for (uint32_t c = o->face_start[f]; c < o->face_start[f + 1]; c++)
         if (!kept_vertex(o->corner_v[c], keep_eyeballs) || o->corner_vt[c] == OBJ_NO_UV)
             return 0;
@@ -179,7 +174,8 @@ static int compact(const obj_data *o, uint32_t *tv, uint32_t *tuv, uint32_t nt, 
     return err;
 }
 
-static int crop_neutral(const obj_data *o, int keep_eyeballs, cropped *out)
+int ict_crop(const obj_data *o, int (*keep)(const obj_data *, uint32_t, const void *), const void *arg,
+             cropped *out)
 {
     memset(out, 0, sizeof(*out));
     uint32_t max_tris = o->n_corners; /* a polygon of n corners gives n - 2 triangles */
@@ -188,7 +184,7 @@ static int crop_neutral(const obj_data *o, int keep_eyeballs, cropped *out)
     int err = tv && tuv ? 0 : -ENOMEM;
     uint32_t nt = 0;
     for (uint32_t f = 0; !err && f < o->n_faces; f++)
-        if (face_kept(o, f, keep_eyeballs))
+        if (keep(o, f, arg))
             triangulate(o, f, tv, tuv, &nt);
     if (!err && nt == 0)
         err = SP_ENODATA;
@@ -197,7 +193,7 @@ static int crop_neutral(const obj_data *o, int keep_eyeballs, cropped *out)
     free(tv);
     free(tuv);
     if (err)
-        cropped_free(out);
+        ict_crop_free(out);
     return err;
 }
 
@@ -304,7 +300,7 @@ static int decimate(cropped *c, uint32_t lm[SP_FACE_N_LANDMARKS], uint32_t targe
 /* ---- blendshapes ---- */
 
 /* Reads one mesh of the same topology and stores (mesh - neutral) in metres into dst. */
-static int read_mode(const char *dir, const char *name, const obj_data *neutral, const cropped *c,
+int ict_read_mode(const char *dir, const char *name, const obj_data *neutral, const cropped *c,
                      double head_radius, float *dst)
 {
     char path[4096], err_text[160];
@@ -358,7 +354,7 @@ static uint32_t count_identity_files(const char *dir, uint32_t max)
     return k;
 }
 
-static double bounding_radius(const sp_mesh *m)
+double ict_bounding_radius(const sp_mesh *m)
 {
     double lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY }, s = 0;
     for (uint32_t i = 0; i < m->n_vertices; i++)
@@ -371,21 +367,20 @@ static double bounding_radius(const sp_mesh *m)
     return m->n_vertices ? 0.5 * sqrt(s) : 0.0;
 }
 
-static int read_modes(sp_face_model *m, const char *dir, const obj_data *neutral, const cropped *c,
-                      const char *const *exp_files)
+int ict_read_modes(sp_face_model *m, const char *dir, const obj_data *neutral, const cropped *c, double radius,
+                   const char *const *exp_files)
 {
-    double radius = bounding_radius(&c->mesh);
     size_t n3 = (size_t)c->mesh.n_vertices * 3;
     int err = 0;
     for (uint32_t k = 0; !err && k < m->n_id; k++) {
         char name[32];
         snprintf(name, sizeof(name), "identity%03u.obj", k);
-        err = read_mode(dir, name, neutral, c, radius, m->id_basis + k * n3);
+        err = ict_read_mode(dir, name, neutral, c, radius, m->id_basis + k * n3);
     }
     for (uint32_t k = 0; !err && k < m->n_exp; k++) {
         char name[SP_FACE_NAME_LEN + 8];
         snprintf(name, sizeof(name), "%s.obj", exp_files[k]);
-        err = read_mode(dir, name, neutral, c, radius, m->exp_basis + k * n3);
+        err = ict_read_mode(dir, name, neutral, c, radius, m->exp_basis + k * n3);
         face_set_exp_name(m, k, exp_files[k]);
     }
     return err;
@@ -393,7 +388,7 @@ static int read_modes(sp_face_model *m, const char *dir, const obj_data *neutral
 
 /* ---- import ---- */
 
-static int load_neutral(const char *dir, obj_data *o)
+int ict_load_neutral(const char *dir, obj_data *o)
 {
     char path[4096], err_text[160];
     int err = sp_path_join(path, sizeof(path), dir, "generic_neutral_mesh.obj");
@@ -444,7 +439,7 @@ static int build_model(sp_face_model *m, const sp_face_ict_settings *s, const ch
         m->part[v] = is_eyeball(c->to_old[v]) ? SP_FACE_PART_EYE : SP_FACE_PART_SKIN;
     snprintf(m->source, sizeof(m->source), "ict-facekit v1 tri=%u id=%u exp=%u eyes=%d", c->mesh.n_triangles,
              n_id, n_exp, s->keep_eyeballs ? 1 : 0);
-    err = read_modes(m, dir, neutral, c, exp_files);
+    err = ict_read_modes(m, dir, neutral, c, ict_bounding_radius(&c->mesh), exp_files);
     if (!err)
         err = face_regions_compute(m);
     if (!err)
@@ -466,12 +461,12 @@ int sp_face_model_import_ict(sp_face_model *model, const sp_face_ict_settings *s
         return -EINVAL;
     const char *dir = s.dir ? s.dir : sp_face_ict_dir();
     obj_data neutral;
-    int err = load_neutral(dir, &neutral);
+    int err = ict_load_neutral(dir, &neutral);
     if (err)
         return err;
     cropped c;
     uint32_t lm[SP_FACE_N_LANDMARKS];
-    err = crop_neutral(&neutral, s.keep_eyeballs, &c);
+    err = ict_crop(&neutral, face_kept, &s.keep_eyeballs, &c);
     if (!err && s.keep_eyeballs)
         err = pack_eye_uvs(&c);
     if (!err)
@@ -490,7 +485,7 @@ int sp_face_model_import_ict(sp_face_model *model, const sp_face_ict_settings *s
                "imported ICT face model from %s: %u vertices, %u triangles (%u of them eyeballs), %u+%u modes", dir,
                model->mesh.n_vertices, model->mesh.n_triangles, eye_tris, model->n_id, model->n_exp);
     }
-    cropped_free(&c);
+    ict_crop_free(&c);
     obj_free(&neutral);
     return err;
 }

@@ -69,6 +69,12 @@ static inline void glb_free(glb *g)
     free(g->file);
 }
 
+/* Primitive i of the first mesh, NULL if none. */
+static inline const sp_json *glb_primitive(const glb *g, size_t i)
+{
+    return sp_json_at(sp_json_get(sp_json_at(sp_json_get(g->json, "meshes"), 0), "primitives"), i);
+}
+
 /* Pointer into BIN for accessor k (plain accessors only), checking its size. */
 static inline const uint8_t *accessor_data(const glb *g, int k, size_t elem, uint32_t *count)
 {
@@ -81,6 +87,36 @@ static inline const uint8_t *accessor_data(const glb *g, int k, size_t elem, uin
     if (!v || len != elem * *count || off + len > g->bin_size)
         return NULL;
     return g->bin + off;
+}
+
+/* The dense offsets of a sparse accessor k (count * 3 floats, caller frees), NULL if malformed. */
+static inline float *sparse_offsets(const glb *g, int k, uint32_t *count)
+{
+    const sp_json *a = sp_json_at(sp_json_get(g->json, "accessors"), (size_t)k), *sp = sp_json_get(a, "sparse");
+    const sp_json *views = sp_json_get(g->json, "bufferViews");
+    uint32_t n = (uint32_t)sp_json_number(sp_json_get(sp, "count"), 0);
+    *count = (uint32_t)sp_json_number(sp_json_get(a, "count"), 0);
+    const sp_json *vi = sp_json_at(views, (size_t)sp_json_number(sp_json_get(sp_json_get(sp, "indices"), "bufferView"), 1e9));
+    const sp_json *vv = sp_json_at(views, (size_t)sp_json_number(sp_json_get(sp_json_get(sp, "values"), "bufferView"), 1e9));
+    size_t oi = (size_t)sp_json_number(sp_json_get(vi, "byteOffset"), 0);
+    size_t ov = (size_t)sp_json_number(sp_json_get(vv, "byteOffset"), 0);
+    if (sp_json_get(a, "bufferView") || !n || n > *count || !vi || !vv || oi + 4 * (size_t)n > g->bin_size ||
+        ov + 12 * (size_t)n > g->bin_size ||
+        sp_json_number(sp_json_get(sp_json_get(sp, "indices"), "componentType"), 0) != 5125)
+        return NULL;
+    float *d = calloc((size_t)*count * 3, sizeof(float));
+    uint32_t prev = 0;
+    for (uint32_t e = 0; d && e < n; e++) {
+        uint32_t i;
+        memcpy(&i, g->bin + oi + 4 * (size_t)e, 4);
+        if (i >= *count || (e && i <= prev)) { /* indices strictly increasing, in range */
+            free(d);
+            return NULL;
+        }
+        memcpy(d + (size_t)i * 3, g->bin + ov + 12 * (size_t)e, 12);
+        prev = i;
+    }
+    return d;
 }
 
 #endif

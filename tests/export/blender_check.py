@@ -30,9 +30,9 @@ def check(ok, what):
         failures.append(what)
 
 
-prim = gltf["meshes"][0]["primitives"][0]
-n_vert = gltf["accessors"][prim["attributes"]["POSITION"]]["count"]
-n_tri = gltf["accessors"][prim["indices"]]["count"] // 3
+prims = gltf["meshes"][0]["primitives"]  # skin, then eyes and mouth where the face model has them
+n_vert = sum(gltf["accessors"][p["attributes"]["POSITION"]]["count"] for p in prims)
+n_tri = sum(gltf["accessors"][p["indices"]]["count"] // 3 for p in prims)
 meshes = [ob for ob in scene.objects if ob.type == "MESH"]
 check(len(meshes) == 1, f"one mesh object (got {len(meshes)})")
 me = meshes[0].data
@@ -41,6 +41,12 @@ check(len(me.polygons) == n_tri and all(len(p.vertices) == 3 for p in me.polygon
       f"triangles {len(me.polygons)} == {n_tri}")
 mats = [m for m in me.materials if m]
 check(len(mats) == len(gltf["materials"]), f"materials {len(mats)} == {len(gltf['materials'])}")
+for p in prims:  # each primitive's triangles carry its own material
+    name = gltf["materials"][p["material"]]["name"]
+    idx = [i for i, m in enumerate(me.materials) if m and m.name == name]
+    got = sum(1 for poly in me.polygons if poly.material_index in idx)
+    want = gltf["accessors"][p["indices"]]["count"] // 3
+    check(got == want, f"material {name} on {got} triangles == its primitive's {want}")
 used = {n.image.name for m in mats for n in m.node_tree.nodes if n.type == "TEX_IMAGE" and n.image}
 want = {im.get("name", f"Image_{i}") for i, im in enumerate(gltf.get("images", []))}
 check(want <= used, f"the material uses the glTF's images {sorted(want)} (Blender's: {sorted(used)})")
@@ -53,9 +59,9 @@ for gm in gltf["materials"]:
 want_keys = gltf["meshes"][0].get("extras", {}).get("targetNames", [])
 keys = [k.name for k in me.shape_keys.key_blocks[1:]] if me.shape_keys else []
 check(keys == want_keys, f"shape keys {keys} == targetNames {want_keys}")
-for k, target in enumerate(prim.get("targets", [])[:len(keys)]):
-    acc = gltf["accessors"][target["POSITION"]]
-    want = max(abs(x) for x in acc["min"] + acc["max"])
+for k in range(len(keys) if prims[0].get("targets") else 0):
+    accs = [gltf["accessors"][p["targets"][k]["POSITION"]] for p in prims]
+    want = max(abs(x) for acc in accs for x in acc["min"] + acc["max"])
     basis, key = me.shape_keys.key_blocks[0].data, me.shape_keys.key_blocks[k + 1].data
     got = max(abs(key[i].co[a] - basis[i].co[a]) for i in range(len(basis)) for a in range(3))
     check(abs(got - want) <= 1e-6 + 1e-4 * want, f"shape key {keys[k]} moves up to {got:.5f} m (glTF {want:.5f})")

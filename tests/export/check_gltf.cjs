@@ -41,8 +41,8 @@ async function validate(path) {
   return report.issues.numErrors === 0 && report.issues.numWarnings === 0;
 }
 
-function decodeDraco(dm, g) {
-  const prim = g.json.meshes[0].primitives[0];
+function decodeDraco(dm, g, pi) {
+  const prim = g.json.meshes[0].primitives[pi];
   const ext = prim.extensions && prim.extensions.KHR_draco_mesh_compression;
   if (!ext) throw new Error('primitive has no KHR_draco_mesh_compression');
   const data = view(g, ext.bufferView);
@@ -115,16 +115,13 @@ function triangleSet(faces, map) {
   return s;
 }
 
-async function main() {
-  const [dracoPath, plainPath, pbits, ubits] = process.argv.slice(2);
-  if (dracoPath === '-') process.exit((await validate(plainPath)) ? 0 : 1);
-  let ok = (await validate(dracoPath)) & (await validate(plainPath));
-  const d = parseGlb(fs.readFileSync(dracoPath)), p = parseGlb(fs.readFileSync(plainPath));
-  const prim = p.json.meshes[0].primitives[0];
+// One primitive: the Draco decoding against the plain file's accessors.
+function checkPrimitive(dm, d, p, pi, pbits, ubits, fail) {
+  const prim = p.json.meshes[0].primitives[pi];
+
   const orig = { pos: accessor(p, prim.attributes.POSITION, Float32Array), uv: accessor(p, prim.attributes.TEXCOORD_0, Float32Array),
     idx: accessor(p, prim.indices, Uint32Array) };
-  const dm = await draco3d.createDecoderModule({});
-  const dec = decodeDraco(dm, d);
+  const dec = decodeDraco(dm, d, pi);
   const pa = p.json.accessors[prim.attributes.POSITION];
   const range = Math.max(...[0, 1, 2].map((k) => pa.max[k] - pa.min[k]));
   const pstep = range / ((1 << Number(pbits)) - 1);
@@ -138,10 +135,9 @@ async function main() {
   const ustep = Math.max(...urange) / ((1 << Number(ubits)) - 1); // Draco's range: the largest component extent
   const m = matchVertices(orig, dec, pstep, ustep);
   const tris = orig.idx.length / 3, dtris = dec.faces.length / 3;
-  console.log(`draco: ${dec.counts.points} points (accessor says ${dec.counts.accessorCount}), ${dtris} triangles ` +
+  console.log(`draco primitive ${pi}: ${dec.counts.points} points (accessor says ${dec.counts.accessorCount}), ${dtris} triangles ` +
     `(original ${tris}); max position error ${m.maxP.toExponential(3)} m (half step ${(pstep / 2).toExponential(3)}), ` +
     `max UV error ${m.maxU.toExponential(3)} (half step ${(ustep / 2).toExponential(3)}), unmatched ${m.unmatched}`);
-  const fail = (cond, msg) => { if (!cond) { console.error('FAIL: ' + msg); ok = false; } };
   fail(dec.counts.points === dec.counts.accessorCount, 'decoded point count differs from the accessor count');
   fail(dec.counts.indexCount === dtris * 3, 'index accessor count differs from decoded triangles');
   fail(dtris === tris, 'triangle count not preserved');
@@ -161,13 +157,25 @@ async function main() {
   for (const [k, n] of a) if (b.get(k) !== n) same = false;
   fail(same, 'decoded triangles (mapped to original vertices) differ from the original triangles');
   // morph targets index the decoded vertices: a Draco file that carries them must decode in the original order
-  const targets = (d.json.meshes[0].primitives[0].targets || []).length;
+  const targets = (d.json.meshes[0].primitives[pi].targets || []).length;
   if (targets) {
     let moved = 0;
     for (let i = 0; i < rep.length; i++) if (m.map[i] < 0 || rep[m.map[i]] !== rep[i]) moved++;
     console.log(`draco: ${targets} morph targets, ${moved} decoded vertices out of the original order`);
     fail(moved === 0 && targets === (prim.targets || []).length, 'morph targets with reordered Draco vertices');
   }
+}
+
+async function main() {
+  const [dracoPath, plainPath, pbits, ubits] = process.argv.slice(2);
+  if (dracoPath === '-') process.exit((await validate(plainPath)) ? 0 : 1);
+  let ok = (await validate(dracoPath)) & (await validate(plainPath));
+  const d = parseGlb(fs.readFileSync(dracoPath)), p = parseGlb(fs.readFileSync(plainPath));
+  const dm = await draco3d.createDecoderModule({});
+  const fail = (cond, msg) => { if (!cond) { console.error('FAIL: ' + msg); ok = false; } };
+  const np = p.json.meshes[0].primitives.length;
+  fail(np === d.json.meshes[0].primitives.length, 'the Draco and plain files have different primitives');
+  for (let pi = 0; pi < np; pi++) checkPrimitive(dm, d, p, pi, pbits, ubits, fail);
   process.exit(ok ? 0 : 1);
 }
 

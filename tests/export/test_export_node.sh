@@ -23,6 +23,7 @@ TMP=$(mktemp -d) || exit 99
 trap 'rm -rf "$TMP"' EXIT
 "$FIXTURE" "$SUNPROBE" fixture "$TMP/face" || exit 99
 "$FIXTURE" "$SUNPROBE" fixture "$TMP/flat" flat || exit 99
+"$FIXTURE" "$SUNPROBE" fixture "$TMP/ict" ict || exit 99 # ICT's eyes and mouth as primitives of their own (generic head without its data)
 draco=1
 "$SUNPROBE" export "$TMP/face" -o "$TMP/x.drc" --format drc >/dev/null 2>&1
 [ $? -eq 4 ] && { draco=0; echo "this build has no Draco (-Ddraco): validating --no-draco files only"; }
@@ -41,6 +42,8 @@ check() { # NAME FACE_DIR [export options]
 }
 check face "$TMP/face"
 check flat "$TMP/flat"
+check ict "$TMP/ict"
+check ict-expressions "$TMP/ict" --draco-expressions # every primitive's decoded vertices in their order
 PBITS=11 UBITS=10 check coarse "$TMP/face" --position-bits 11 --uv-bits 10 --texture-size 32
 check expressions "$TMP/face" --draco-expressions
 if "$SUNPROBE" export "$TMP/face" -o "$TMP/j.glb" --jpeg --no-draco >/dev/null 2>&1; then

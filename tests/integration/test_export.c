@@ -231,6 +231,12 @@ static void check_plain_geometry(const glb *g, const sp_mesh *m)
     CHECK_MSG(bad == 0, "%d corners differ from the face mesh", bad);
 }
 
+static int fit_part(const sp_json *entry)
+{
+    const char *p = sp_json_string(sp_json_get(entry, "part"), "");
+    return strcmp(p, "expressions") && strcmp(p, "eyes") && strcmp(p, "mouth_interior");
+}
+
 static void check_material(const glb *g, int full)
 {
     const sp_json *mat = sp_json_at(sp_json_get(g->json, "materials"), 0);
@@ -240,9 +246,9 @@ static void check_material(const glb *g, int full)
     CHECK(spec != NULL && (sp_json_get(spec, "specularTexture") != NULL) == full);
     const sp_json *left = sp_json_get(sp_json_get(sp_json_get(sp_json_get(g->json, "asset"), "extras"), "sunprobe"),
                                       "left_out");
-    size_t parts = 0; /* the fit's parts; a Draco export also lists its morph targets ("expressions") */
+    size_t parts = 0; /* the fit's parts, not what the face model cannot give (fit_part) */
     for (size_t i = 0; left && i < left->count; i++)
-        parts += strcmp(sp_json_string(sp_json_get(sp_json_at(left, i), "part"), ""), "expressions") != 0;
+        parts += fit_part(sp_json_at(left, i));
     CHECK(left && parts == (full ? 0u : 4u)); /* flat: sun, shadows, specular, displacement */
     const sp_json *lights = sp_json_get(sp_json_get(sp_json_get(g->json, "extensions"), "KHR_lights_punctual"),
                                         "lights");
@@ -278,10 +284,14 @@ static const sp_json *left_entry(const glb *g, const char *part)
     return NULL;
 }
 
+/* The fit's parts in left_out (the generic head adds eyes and mouth_interior, Draco its expressions). */
 static size_t left_count(const glb *g)
 {
     const sp_json *list = sp_json_get(extras(g), "left_out");
-    return list ? list->count : (size_t)-1;
+    size_t n = 0;
+    for (size_t i = 0; list && i < list->count; i++)
+        n += fit_part(sp_json_at(list, i));
+    return list ? n : (size_t)-1;
 }
 
 static int reason_is(const glb *g, const char *part, const char *prefix)
@@ -435,6 +445,8 @@ static void check_formats(const char *tmp, const char *face, const char *flat)
         check_plain_geometry(&g, &a.mesh);
         check_material(&g, 1);
         CHECK(sp_json_get(g.json, "extensionsRequired") == NULL);
+        const sp_json *tx = sp_json_get(extras(&g), "textures"); /* the default 512, and the fitted 64 said */
+        CHECK(sp_json_number(sp_json_get(tx, "fitted_width"), 0) == 64 && sp_json_number(sp_json_get(tx, "width"), 0) == 512);
     }
     glb_free(&g);
     snprintf(out, sizeof(out), "%s/plain.env.hdr", tmp);

@@ -105,22 +105,28 @@ function flatWhite(root) {
 }
 
 // One slider per morph target (the export's ARKit-named expressions, plain .glb only); weights add to
-// the expression the mesh was fitted with. The URL's expr=NAME:W,... sets initial weights.
+// the expression the mesh was fitted with. A slider drives its target in every primitive (skin, eyes,
+// mouth: three.js makes each a mesh of its own). The URL's expr=NAME:W,... sets initial weights.
 function expressionSliders(root, render) {
   const initial = new Map((q.get('expr') || '').split(',').filter(Boolean).map((e) => e.split(':'))
     .map(([n, w]) => [n, Number(w)]));
+  const users = new Map(); // target name -> [[mesh, index], ...]
   root.traverse((o) => {
     if (!o.isMesh || !o.morphTargetDictionary) return;
     for (const [name, k] of Object.entries(o.morphTargetDictionary)) {
-      const label = document.createElement('label'), input = document.createElement('input');
-      Object.assign(input, { type: 'range', min: 0, max: 1, step: 0.01, value: initial.get(name) || 0 });
-      label.append(`${name}: `, input);
-      $('expressions').append(label);
-      const set = () => { o.morphTargetInfluences[k] = Number(input.value); render(); };
-      input.addEventListener('input', set);
-      o.morphTargetInfluences[k] = Number(input.value);
+      if (!users.has(name)) users.set(name, []);
+      users.get(name).push([o, k]);
     }
   });
+  for (const [name, list] of users) {
+    const label = document.createElement('label'), input = document.createElement('input');
+    Object.assign(input, { type: 'range', min: 0, max: 1, step: 0.01, value: initial.get(name) || 0 });
+    label.append(`${name}: `, input);
+    $('expressions').append(label);
+    const apply = () => { for (const [o, k] of list) o.morphTargetInfluences[k] = Number(input.value); };
+    input.addEventListener('input', () => { apply(); render(); });
+    apply();
+  }
 }
 
 async function main() {
