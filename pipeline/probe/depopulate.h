@@ -112,4 +112,15 @@ typedef struct sp_depop_sun {
  * objects. -EINVAL for a bad camera.
  */
 int sp_depop_sun_estimate(const sp_depop_object *objs, size_t n, const sp_depop_camera *cam, sp_depop_sun *out);
+
+/*
+ * The camera's ground geometry, everything in camera heights (the camera one
+ * unit above the ground, looking along +y, x to its right, z up): the ground
+ * point under pixel (u, v) (-1 at or above the horizon); the pixel of world
+ * point p (-1 behind the camera); the height of the point on the vertical
+ * through ground point g that projects to row v (NaN when none does).
+ */
+int sp_depop_ground_point(const sp_depop_camera *cam, double u, double v, double g[2]);
+int sp_depop_project(const sp_depop_camera *cam, const double p[3], double *u, double *v);
+double sp_depop_height_at(const sp_depop_camera *cam, const double g[2], double v);
 #endif
