@@ -165,14 +165,19 @@ static uint64_t next_random(uint64_t *s)
 
 static double uniform(uint64_t *s) { return (double)(next_random(s) >> 11) / 9007199254740992.0; }
 
-/* The shadows the masks found, over the lit ground: the scene's shadow ratio (0.5 when none was seen). */
+/*
+ * The shadows the masks found over the lit ground: the scene's shadow ratio, 0.5 when fewer than 20
+ * pixels are darker than 0.85 of the ground (contact masks on lit ground are no shadow).
+ */
 static void shadow_ratio(const depop_job *j, const double ground[3], double out[3])
 {
-    double sum[3] = { 0, 0, 0 }, n = 0;
-    for (size_t i = 0; i < (size_t)j->w * j->h; i++)
-        if (j->mask[i] == 2)
+    double sum[3] = { 0, 0, 0 }, n = 0, gl = 0.299 * ground[0] + 0.587 * ground[1] + 0.114 * ground[2];
+    for (size_t i = 0; i < (size_t)j->w * j->h; i++) {
+        const uint8_t *p = j->rgb + 3 * i;
+        if (j->mask[i] == 2 && 0.299 * p[0] + 0.587 * p[1] + 0.114 * p[2] < 0.85 * gl)
             for (int c = 0; c < 3; c++)
-                sum[c] += j->rgb[3 * i + c], n += c == 0;
+                sum[c] += p[c], n += c == 0;
+    }
     for (int c = 0; c < 3; c++) {
         double r = n >= 20 && ground[c] > 1 ? sum[c] / n / ground[c] : 0.5;
         out[c] = r < 0.15 ? 0.15 : r > 0.9 ? 0.9 : r;
