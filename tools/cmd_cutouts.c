@@ -66,22 +66,18 @@ enum { OPT_PROBE = 256, OPT_EVERY, OPT_MAX, OPT_MIN_HEIGHT, OPT_CAMERA };
 
 static int parse_option(int c, cut_args *a)
 {
-    double v[4];
     int n;
     switch (c) {
     case OPT_PROBE: a->probe = optarg; return 0;
-    case OPT_EVERY: return sp_opt_int(CMD, "--every", optarg, 1, 1 << 20, &n) ? SP_EXIT_USAGE : (a->every = (unsigned)n, 0);
+    case OPT_EVERY:
+        return sp_opt_int(CMD, "--every", optarg, 1, 1 << 20, &n) ? SP_EXIT_USAGE : (a->every = (unsigned)n, 0);
     case OPT_MAX: return sp_opt_int(CMD, "--max", optarg, 1, 100000, &n) ? SP_EXIT_USAGE : (a->max = (unsigned)n, 0);
     case OPT_MIN_HEIGHT:
-        return sp_opt_int(CMD, "--min-height", optarg, 4, 100000, &n) ? SP_EXIT_USAGE : (a->min_height = (unsigned)n, 0);
+        return sp_opt_int(CMD, "--min-height", optarg, 4, 100000, &n) ? SP_EXIT_USAGE
+                                                                        : (a->min_height = (unsigned)n, 0);
     case OPT_CAMERA:
-        if (sp_opt_numbers(optarg, v, 4) || !(v[0] > 0 && v[0] < 1e6) || !(v[3] >= 0 && v[3] < 89)) {
-            fprintf(stderr, "sunprobe " CMD ": bad --camera (F,CX,CY,PITCH: F > 0, pitch 0..89 degrees): '%s'\n",
-                    optarg);
-            return SP_EXIT_USAGE;
-        }
-        a->cam = (sp_depop_camera){ v[0], v[1], v[2], v[3] }, a->have_cam = 1;
-        return 0;
+        a->have_cam = 1;
+        return depop_camera_option(CMD, optarg, &a->cam);
     case 'o': a->out = optarg; return 0;
     case 'f': a->force = 1; return 0;
     case 'q': a->quiet = 1; return 0;

@@ -74,10 +74,8 @@ static int parse_option(int c, const char *name, depop_args *a)
         return depop_input_option("depopulate", name, optarg, &a->in);
     switch (c) {
     case OPT_CAMERA:
-        if (sp_opt_numbers(optarg, v, 4) || !(v[0] > 0 && v[0] < 1e6) || !(v[3] >= 0 && v[3] < 89))
-            return bad("--camera (F,CX,CY,PITCH: F > 0, pitch 0..89 degrees)", optarg);
-        a->cam = (sp_depop_camera){ v[0], v[1], v[2], v[3] }, a->have_cam = 1;
-        return 0;
+        a->have_cam = 1;
+        return depop_camera_option("depopulate", optarg, &a->cam);
     case OPT_UTC: {
         double t;
         if (sp_utc_parse(optarg, &t))

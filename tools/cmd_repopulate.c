@@ -108,17 +108,16 @@ static int parse_option(int c, const char *name, repop_args *a)
     case OPT_PRIVATE: a->private_mode = 1; return 0;
     case OPT_SEED: return sp_opt_u64("repopulate", "--seed", optarg, 0, UINT64_MAX, &a->seed) ? SP_EXIT_USAGE : 0;
     case OPT_CAMERA:
-        if (sp_opt_numbers(optarg, v, 4) || !(v[0] > 0 && v[0] < 1e6) || !(v[3] >= 0 && v[3] < 89))
-            return bad("--camera (F,CX,CY,PITCH: F > 0, pitch 0..89 degrees)", optarg);
-        a->cam = (sp_depop_camera){ v[0], v[1], v[2], v[3] }, a->have_cam = 1;
-        return 0;
+        a->have_cam = 1;
+        return depop_camera_option("repopulate", optarg, &a->cam);
     case OPT_SUN:
         if (sp_opt_numbers(optarg, v, 2) || fabs(v[0]) > 360 || !(v[1] > 0 && v[1] <= 90))
             return bad("--sun (AZ,EL in degrees, elevation 0..90)", optarg);
         a->sky = (sp_repop_light){ SP_REPOP_SUNNY, v[0], v[1], { 0, 0, 0 } };
         return 0;
     case OPT_OVERCAST: a->sky.sky = SP_REPOP_OVERCAST; return 0;
-    case OPT_MIN_MATCH: return sp_opt_double("repopulate", "--min-match", optarg, -1, 1, &a->min_match) ? SP_EXIT_USAGE : 0;
+    case OPT_MIN_MATCH:
+        return sp_opt_double("repopulate", "--min-match", optarg, -1, 1, &a->min_match) ? SP_EXIT_USAGE : 0;
     case OPT_REPORT: a->report = optarg; return 0;
     case 'o': a->out = optarg; return 0;
     case 'q': a->quiet = 1; return 0;
@@ -215,7 +214,8 @@ static void scene_light(const repop_args *a, const depop_job *j, scene *sc)
 
 static double height_at(const depop_job *j, const scene *sc, double x, double y)
 {
-    double h = j->have_probe ? sp_probe_plane_height(&j->pd.plane, x, y) : sp_repop_height_px(&sc->cam, sc->person_h, x, y);
+    double h = j->have_probe ? sp_probe_plane_height(&j->pd.plane, x, y)
+                             : sp_repop_height_px(&sc->cam, sc->person_h, x, y);
     return h >= 4 && h <= y + 1 ? h : (double)NAN;
 }
 
@@ -347,8 +347,12 @@ static int draw(const depop_job *j, const scene *sc, const cutout *c, target *t,
         if (t[k].ci < 0)
             continue;
         sp_probe_shadow sh = { 0 };
-        if (j->have_probe)
+        if (j->have_probe) {
             sh = j->pd.shadow;
+            double u = t[k].x / j->w, v = t[k].y / j->h; /* the model's offset here, for the report */
+            t[k].shadow_dx = sh.ox[0] + sh.ox[1] * u + sh.ox[2] * v;
+            t[k].shadow_dy = sh.oy[0] + sh.oy[1] * u + sh.oy[2] * v;
+        }
         else if (sc->light.sky == SP_REPOP_SUNNY &&
                  !sp_repop_shadow_offset(&sc->cam, sc->light.sun_az_deg, sc->light.sun_el_deg, t[k].x, t[k].y, t[k].h,
                                          &t[k].shadow_dx, &t[k].shadow_dy)) {
@@ -372,10 +376,14 @@ static int draw(const depop_job *j, const scene *sc, const cutout *c, target *t,
     return 0;
 }
 
+static const char *sky_name(sp_repop_sky s)
+{
+    return s == SP_REPOP_SUNNY ? "sunny" : s == SP_REPOP_OVERCAST ? "overcast" : "unknown";
+}
+
 static void scene_json(const scene *sc, sp_strbuf *b)
 {
-    static const char *const sky[] = { "unknown", "sunny", "overcast" };
-    sp_strbuf_printf(b, "\"scene\":{\"sky\":\"%s\",\"sun_from\":", sky[sc->light.sky]);
+    sp_strbuf_printf(b, "\"scene\":{\"sky\":\"%s\",\"sun_from\":", sky_name(sc->light.sky));
     sp_strbuf_json_string(b, sc->sun_from);
     if (sc->light.sky == SP_REPOP_SUNNY)
         sp_strbuf_printf(b, ",\"sun_azimuth_deg\":%.2f,\"sun_elevation_deg\":%.2f", sc->light.sun_az_deg,
@@ -402,7 +410,10 @@ static void placed_json(const scene *sc, const cutout *c, const target *t, size_
         }
         const cutout *cu = &c[t[k].ci];
         sp_strbuf_json_string(b, cu->name);
-        sp_strbuf_printf(b, ",\"match\":%.4f,\"sun_angle_deg\":", cu->match);
+        sp_strbuf_printf(b, ",\"image\":");
+        sp_strbuf_json_string(b, cu->m.image);
+        sp_strbuf_printf(b, ",\"cutout_sky\":\"%s\",\"match\":%.4f,\"sun_angle_deg\":", sky_name(cu->m.light.sky),
+                         cu->match);
         int both = sc->light.sky == SP_REPOP_SUNNY && cu->m.light.sky == SP_REPOP_SUNNY;
         sp_strbuf_json_number(b, both ? acos(cu->match) * 180 / M_PI : (double)NAN);
         sp_strbuf_printf(b, ",\"gain\":");
@@ -430,7 +441,11 @@ static int write_report(const repop_args *a, const depop_job *j, const scene *sc
     sp_strbuf_printf(&b, ",\"width\":%u,\"height\":%u,\"private\":%s,\"people_found\":%zu,\"objects_from\":", j->w,
                      j->h, a->private_mode ? "true" : "false", j->n);
     sp_strbuf_json_string(&b, j->source);
-    sp_strbuf_printf(&b, ",\"filled_from\":");
+    sp_strbuf_printf(&b, ",\"found\":[");
+    for (size_t i = 0; i < j->n; i++)
+        sp_strbuf_printf(&b, "%s[%d,%d,%d,%d]", i ? "," : "", j->obj[i].x0, j->obj[i].y0,
+                         j->obj[i].x1 - j->obj[i].x0 + 1, j->obj[i].y1 - j->obj[i].y0 + 1);
+    sp_strbuf_printf(&b, "],\"filled_from\":");
     if (j->fill)
         sp_strbuf_json_string(&b, j->fill);
     else
@@ -463,8 +478,7 @@ static int write_outputs(const repop_args *a, const depop_job *j, const scene *s
     if (!code && !a->quiet)
         printf("%s: %llu pixels of people drawn (%llu hidden), %llu shadow pixels; scene %s (%s); report %s\n", a->out,
                (unsigned long long)r->pixels_drawn, (unsigned long long)r->pixels_hidden,
-               (unsigned long long)r->shadow_pixels, sc->light.sky == SP_REPOP_SUNNY ? "sunny" : sc->light.sky ==
-               SP_REPOP_OVERCAST ? "overcast" : "of unknown light", sc->sun_from, rp);
+               (unsigned long long)r->shadow_pixels, sky_name(sc->light.sky), sc->sun_from, rp);
     free(rep);
     return code;
 }
@@ -488,8 +502,7 @@ static int prepare(const repop_args *a, depop_job *j, scene *sc, cutout *c, size
     if (!*usable) {
         fprintf(stderr, "sunprobe repopulate: no usable cut-out in %s: none of its %zu matches the scene's light "
                         "(%s; best match %.2f, --min-match %.2f)\n", a->collection, nc,
-                sc->light.sky == SP_REPOP_SUNNY ? "sunny" : sc->light.sky == SP_REPOP_OVERCAST ? "overcast" : "unknown",
-                best, a->min_match);
+                sky_name(sc->light.sky), best, a->min_match);
         return SP_EXIT_BAD_INPUT;
     }
     return 0;

@@ -56,6 +56,15 @@ int depop_input_option(const char *cmd, const char *opt, const char *arg, depop_
     return 0;
 }
 
+int depop_camera_option(const char *cmd, const char *arg, sp_depop_camera *cam)
+{
+    double v[4];
+    if (sp_opt_numbers(arg, v, 4) || !(v[0] > 0 && v[0] < 1e6) || !(v[3] >= 0 && v[3] < 89))
+        return bad(cmd, "--camera (F,CX,CY,PITCH: F > 0, pitch 0..89 degrees)", arg);
+    *cam = (sp_depop_camera){ v[0], v[1], v[2], v[3] };
+    return 0;
+}
+
 sp_depop_camera depop_assumed_camera(uint32_t w, uint32_t h)
 {
     return (sp_depop_camera){ 0.5 * w / tan(30 * M_PI / 180), 0.5 * w, 0.5 * h, 15 };

@@ -85,6 +85,13 @@ int sp_depop_from_plate(const uint8_t *rgb, const uint8_t *plate, uint32_t width
                         const sp_probe_plane *plane, const double *keep, size_t n_keep, sp_depop_object *objs,
                         size_t cap, size_t *n, size_t *kept, uint8_t *mask);
 
+/*
+ * The lit band of a luma histogram of n pixels: its 70th to 95th percentile
+ * levels (a shadow or a dark road may cover most of the pixels; a bright
+ * stray is rare), into *lo and *hi.
+ */
+void sp_depop_lit_band(const uint32_t hist[256], uint32_t n, int *lo, int *hi);
+
 /* 1 when one of the n_keep points (x, y pairs) lies in the box x0..x1, y0..y1. */
 int sp_depop_keeps(const double *keep, size_t n_keep, int x0, int y0, int x1, int y1);
 

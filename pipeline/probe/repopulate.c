@@ -139,17 +139,8 @@ int sp_repop_ground_light(const uint8_t *rgb, uint32_t width, uint32_t height, c
             hist[luma(rgb + 3 * i)]++, n++;
     if (n < 64)
         return -1;
-    uint32_t acc = 0;
-    int lo = -1, hi = 255;
-    for (int v = 0; v < 256; v++) {
-        acc += hist[v];
-        if (lo < 0 && (uint64_t)acc * 10 >= (uint64_t)n * 7)
-            lo = v;
-        if ((uint64_t)acc * 20 >= (uint64_t)n * 19) {
-            hi = v;
-            break;
-        }
-    }
+    int lo, hi;
+    sp_depop_lit_band(hist, n, &lo, &hi);
     double sum[3] = { 0, 0, 0 }, k = 0;
     for (size_t i = first; i < np; i++) {
         int l = luma(rgb + 3 * i);
