@@ -183,6 +183,28 @@ static void shadow_ratio(const depop_job *j, const double ground[3], double out[
     }
 }
 
+/*
+ * The person in object i's box: HOG's boxes are its 64x128 training window, the person about 96 pixels
+ * tall in it with an eighth above and below (Dalal and Triggs), so they lose those eighths.
+ */
+static sp_depop_object person_box(const depop_job *j, size_t i)
+{
+    sp_depop_object o = j->obj[i];
+    if (!strcmp(j->origin[i], "hog")) {
+        int pad = (o.y1 - o.y0 + 1) / 8;
+        o.y0 += pad, o.y1 -= pad;
+    }
+    return o;
+}
+
+static double people_height(const depop_job *j, const sp_depop_camera *cam)
+{
+    sp_depop_object o[DEPOP_MAX_OBJECTS];
+    for (size_t i = 0; i < j->n; i++)
+        o[i] = person_box(j, i);
+    return sp_repop_people_height(o, j->n, cam);
+}
+
 static void scene_light(const repop_args *a, const depop_job *j, scene *sc)
 {
     sc->cam = a->have_cam ? a->cam : depop_assumed_camera(j->w, j->h);
@@ -209,7 +231,7 @@ static void scene_light(const repop_args *a, const depop_job *j, scene *sc)
         memcpy(sc->shadow_ratio, j->pd.shadow.ratio, sizeof(sc->shadow_ratio));
     else
         shadow_ratio(j, sc->light.ground_rgb, sc->shadow_ratio);
-    sc->person_h = j->have_probe ? (double)NAN : sp_repop_people_height(j->obj, j->n, &sc->cam);
+    sc->person_h = j->have_probe ? (double)NAN : people_height(j, &sc->cam);
 }
 
 static double height_at(const depop_job *j, const scene *sc, double x, double y)
@@ -255,7 +277,8 @@ static int place_targets(const repop_args *a, const depop_job *j, const scene *s
     *n = 0;
     if (a->private_mode) {
         for (size_t i = 0; i < j->n; i++) {
-            double x = floor(0.5 * (j->obj[i].x0 + j->obj[i].x1)), y = j->obj[i].y1;
+            sp_depop_object o = person_box(j, i);
+            double x = floor(0.5 * (o.x0 + o.x1)), y = o.y1;
             t[(*n)++] = (target){ x, y, height_at(j, sc, x, y), -1, 0, 0, 0 };
         }
     } else if (a->n_at) {

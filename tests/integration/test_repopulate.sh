@@ -82,6 +82,27 @@ for p in r["placed"]:
     assert abs(p["height_px"] / s["height"] - 1) < 0.08, (p, s)
 PY
 
+# HOG where OpenCV is built: its boxes are its training window (an eighth above and below the person), and
+# the people it finds give the scale: the inserted heights within 15 % of the truth's
+"$SP" repopulate "$frame" --collection "$dir/c" --detector hog --private --camera $cam -o "$dir/h.png" -q \
+    2>"$dir/e.txt"
+got=$?
+case $got in
+    0) python3 - "$dir/h.json" "$dir/s2.truth.json" <<'PY' || fail "hog: heights" ;;
+import json, sys
+r, t = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+rows = sorted({(s["y"], s["height"]) for s in t["samples"]})
+for p in r["placed"]:
+    for (y0, h0), (y1, h1) in zip(rows, rows[1:]):
+        if y0 <= p["at"][1] <= y1:
+            h = h0 + (h1 - h0) * (p["at"][1] - y0) / (y1 - y0)
+            assert abs(p["height_px"] / h - 1) < 0.15, (p, h, r["scene"])
+PY
+    2) grep -q "nothing to remove" "$dir/e.txt" || fail "hog: exit 2 without the message" ;;
+    4) grep -q -- "-Dopencv" "$dir/e.txt" || fail "hog: exit 4 without naming -Dopencv" ;;
+    *) fail "hog: exit $got" ;;
+esac
+
 bad() { # name args...: exit 2, a message, OUT untouched, no report
     local name=$1
     shift
