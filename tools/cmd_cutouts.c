@@ -115,12 +115,11 @@ static int parse_args(int argc, char **argv, cut_args *a)
 /* Person-shaped: tall and narrow, off the border, and (where the plane answers) about a person's height. */
 static int person_like(const cut_run *r, const sp_depop_object *o)
 {
-    int w = o->x1 - o->x0 + 1, h = o->y1 - o->y0 + 1;
-    if (h < (int)r->a->min_height || h < 1.5 * w || h > 5 * w || o->x0 <= 0 || o->y0 <= 0 ||
+    if (o->y1 - o->y0 + 1 < (int)r->a->min_height || !depop_person_shaped(o) || o->x0 <= 0 || o->y0 <= 0 ||
         o->x1 >= (int)r->pd.width - 1 || o->y1 >= (int)r->pd.height - 1)
         return 0;
     double ph = sp_probe_plane_height(&r->pd.plane, 0.5 * (o->x0 + o->x1), o->y1);
-    return !isfinite(ph) || fabs(h - ph) <= 0.25 * ph;
+    return !isfinite(ph) || fabs(o->y1 - o->y0 + 1 - ph) <= 0.25 * ph;
 }
 
 /* The object's box with one pixel around it as RGBA, alpha 255 on its own pixels (mask 1), 0 elsewhere. */
@@ -139,17 +138,18 @@ static int write_cutout(cut_run *r, const sp_depop_object *o, uint64_t frame, un
         }
     sp_cutout_meta m = { .height_px = o->y1 - o->y0 + 1, .foot_x = 0.5 * (w - 1), .foot_y = h - 2, .light = r->light };
     snprintf(m.image, sizeof(m.image), "person_%06llu_%02u.png", (unsigned long long)frame, k);
-    char *png = sp_path_join_alloc(r->dir, m.image), src[128];
+    char *png = sp_path_join_alloc(r->dir, m.image), src[128], side[sizeof(m.image)];
     int ret = png ? sp_png_write(png, r->crop, (uint32_t)w, (uint32_t)h, (uint32_t)w * 4, 4) : -ENOMEM;
     snprintf(src, sizeof(src), "frame %llu, box %d,%d,%d,%d", (unsigned long long)frame, o->x0, o->y0,
              o->x1 - o->x0 + 1, o->y1 - o->y0 + 1);
+    snprintf(side, sizeof(side), "person_%06llu_%02u.json", (unsigned long long)frame, k);
+    char *json = sp_path_join_alloc(r->dir, side);
     sp_strbuf b = { 0 };
     sp_cutout_meta_json(&m, src, &b);
-    strcpy(strrchr(png ? png : m.image, '.'), ".json");
     if (!ret)
-        ret = b.failed ? -ENOMEM : sp_write_whole_file_atomic(png, b.data, b.len);
+        ret = b.failed || !json ? -ENOMEM : sp_write_whole_file_atomic(json, b.data, b.len);
     sp_strbuf_free(&b);
-    free(png);
+    free(png), free(json);
     r->written += !ret;
     return ret;
 }

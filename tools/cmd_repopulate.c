@@ -276,10 +276,13 @@ static int place_targets(const repop_args *a, const depop_job *j, const scene *s
 {
     *n = 0;
     if (a->private_mode) {
+        /* a probe's objects may be cars or groups: those not shaped like a person are removed, not replaced,
+           and so is anyone the plane gives no height */
         for (size_t i = 0; i < j->n; i++) {
             sp_depop_object o = person_box(j, i);
-            double x = floor(0.5 * (o.x0 + o.x1)), y = o.y1;
-            t[(*n)++] = (target){ x, y, height_at(j, sc, x, y), -1, 0, 0, 0 };
+            double x = floor(0.5 * (o.x0 + o.x1)), y = o.y1, h = height_at(j, sc, x, y);
+            if (isfinite(h) && (strcmp(j->origin[i], "probe") || depop_person_shaped(&o)))
+                t[(*n)++] = (target){ x, y, h, -1, 0, 0, 0 };
         }
     } else if (a->n_at) {
         for (unsigned i = 0; i < a->n_at; i++)
@@ -294,6 +297,11 @@ static int place_targets(const repop_args *a, const depop_job *j, const scene *s
                             "horizon, or under 4 pixels)\n", t[i].x, t[i].y, a->in.in);
             return SP_EXIT_BAD_INPUT;
         }
+    if (!*n && a->private_mode) {
+        fprintf(stderr, "sunprobe repopulate: --private: none of the %zu objects found in %s is shaped like a person "
+                        "with a height from the plane\n", j->n, a->in.in);
+        return SP_EXIT_BAD_INPUT;
+    }
     if (!*n) {
         fprintf(stderr, "sunprobe repopulate: no free ground point in %s for a person of a usable size\n", a->in.in);
         return SP_EXIT_BAD_INPUT;

@@ -65,6 +65,12 @@ int depop_camera_option(const char *cmd, const char *arg, sp_depop_camera *cam)
     return 0;
 }
 
+int depop_person_shaped(const sp_depop_object *o)
+{
+    int w = o->x1 - o->x0 + 1, h = o->y1 - o->y0 + 1;
+    return h >= 1.5 * w && h <= 5.0 * w;
+}
+
 sp_depop_camera depop_assumed_camera(uint32_t w, uint32_t h)
 {
     return (sp_depop_camera){ 0.5 * w / tan(30 * M_PI / 180), 0.5 * w, 0.5 * h, 15 };

@@ -58,6 +58,8 @@ int depop_job_fill(depop_job *j);
 void depop_job_free(depop_job *j);
 /* --camera F,CX,CY,PITCH into *cam: 0, or the usage exit code after a message. */
 int depop_camera_option(const char *cmd, const char *arg, sp_depop_camera *cam);
+/* Shaped like a standing person: 1.5 to 5 times as tall as wide (a car, a group or a pole is not). */
+int depop_person_shaped(const sp_depop_object *o);
 /* The camera assumed without --camera: 60 degrees wide, centred, 15 degrees down. */
 sp_depop_camera depop_assumed_camera(uint32_t w, uint32_t h);
 /* OUT without ".png" + suffix, malloc'd (NULL when out of memory). */

@@ -41,7 +41,7 @@ python3 - "$dir/a.json" "$dir/s2.truth.json" <<'PY' || fail "private: report"
 import json, sys
 r, t = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
 assert r["private"] and r["filled_from"] == "the probe's clean plate" and r["scene"]["sky"] == "sunny", r
-assert r["people_found"] >= 1 and len(r["placed"]) == r["people_found"], r
+assert 1 <= len(r["placed"]) <= r["people_found"], r
 rows = sorted({(s["y"], s["height"]) for s in t["samples"]})
 def true_height(y): # linear between the truth's sample rows (a person's height depends on the row alone)
     for (y0, h0), (y1, h1) in zip(rows, rows[1:]):
