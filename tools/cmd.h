@@ -78,6 +78,8 @@ int sp_cmd_synth_selfie(int argc, char **argv); /* `synth selfie`, called by sp_
 int sp_cmd_probe(int argc, char **argv);
 int sp_cmd_composite(int argc, char **argv);
 int sp_cmd_depopulate(int argc, char **argv);
+int sp_cmd_repopulate(int argc, char **argv);
+int sp_cmd_cutouts(int argc, char **argv);
 int sp_cmd_devices(int argc, char **argv);
 int sp_cmd_record(int argc, char **argv);
 int sp_cmd_fit(int argc, char **argv);

@@ -25,6 +25,8 @@ static const sp_command commands[] = {
     { "probe", "static camera: learn occlusion, lighting, scale and shadow from passers-by", sp_cmd_probe },
     { "composite", "insert cut-outs into a probed scene with size, occlusion, lighting, shadow", sp_cmd_composite },
     { "depopulate", "remove people and their shadows from one street image", sp_cmd_depopulate },
+    { "repopulate", "insert lighting-matched people from a cut-out collection into a street image", sp_cmd_repopulate },
+    { "cutouts", "write the people of a capture as cut-outs for repopulate", sp_cmd_cutouts },
     { "devices", "list cameras (formats, sizes) and IMUs (channels, rates)", sp_cmd_devices },
     { "record", "record a live camera (+ IMU) to a capture until the duration or Ctrl-C", sp_cmd_record },
 };

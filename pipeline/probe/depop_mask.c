@@ -41,6 +41,21 @@ typedef struct grow {
 
 static int clampi(int v, int lo, int hi) { return v < lo ? lo : v > hi ? hi : v; }
 
+void sp_depop_lit_band(const uint32_t hist[256], uint32_t n, int *lo, int *hi)
+{
+    uint64_t acc = 0;
+    *lo = -1, *hi = 255;
+    for (int v = 0; v < 256; v++) {
+        acc += hist[v];
+        if (*lo < 0 && acc * 10 >= (uint64_t)n * 7)
+            *lo = v;
+        if (acc * 20 >= (uint64_t)n * 19) {
+            *hi = v;
+            break;
+        }
+    }
+}
+
 /*
  * The lit ground near the foot: mean colour of the band's pixels between its 70th and 95th luma percentiles
  * (a shadow or a dark road may cover most of the band; a bright stray is rare).
@@ -59,17 +74,8 @@ static int ground_reference(const grow *g, const sp_depop_object *o, uint8_t ref
         }
     if (n < 16)
         return -1;
-    uint32_t acc = 0;
-    int lo = -1, hi = 255;
-    for (int v = 0; v < 256; v++) {
-        acc += hist[v];
-        if (lo < 0 && acc * 10 >= n * 7)
-            lo = v;
-        if (acc * 20 >= n * 19) {
-            hi = v;
-            break;
-        }
-    }
+    int lo, hi;
+    sp_depop_lit_band(hist, n, &lo, &hi);
     double sum[3] = { 0, 0, 0 }, k = 0;
     for (int y = ya; y <= yb; y++)
         for (int x = xa; x <= xb; x++) {

@@ -46,6 +46,30 @@ static double height_at(const sp_depop_camera *cam, const basis *b, const double
     return fabs(den) < 1e-12 ? (double)NAN : (A - k * C) / den;
 }
 
+int sp_depop_ground_point(const sp_depop_camera *cam, double u, double v, double g[2])
+{
+    basis b = camera_basis(cam->pitch_deg * M_PI / 180.0);
+    return ground_point(cam, &b, u, v, g);
+}
+
+int sp_depop_project(const sp_depop_camera *cam, const double p[3], double *u, double *v)
+{
+    basis b = camera_basis(cam->pitch_deg * M_PI / 180.0);
+    double d[3] = { p[0], p[1], p[2] - 1.0 }, a = 0, e = 0, z = 0;
+    for (int k = 0; k < 3; k++)
+        a += d[k] * b.xc[k], e += d[k] * b.yc[k], z += d[k] * b.zc[k];
+    if (!(z > 1e-9))
+        return -1;
+    *u = cam->cx + cam->f * a / z, *v = cam->cy + cam->f * e / z;
+    return 0;
+}
+
+double sp_depop_height_at(const sp_depop_camera *cam, const double g[2], double v)
+{
+    basis b = camera_basis(cam->pitch_deg * M_PI / 180.0);
+    return height_at(cam, &b, g, v);
+}
+
 static int cmp(const void *a, const void *b)
 {
     double x = *(const double *)a, y = *(const double *)b;

@@ -85,6 +85,13 @@ int sp_depop_from_plate(const uint8_t *rgb, const uint8_t *plate, uint32_t width
                         const sp_probe_plane *plane, const double *keep, size_t n_keep, sp_depop_object *objs,
                         size_t cap, size_t *n, size_t *kept, uint8_t *mask);
 
+/*
+ * The lit band of a luma histogram of n pixels: its 70th to 95th percentile
+ * levels (a shadow or a dark road may cover most of the pixels; a bright
+ * stray is rare), into *lo and *hi.
+ */
+void sp_depop_lit_band(const uint32_t hist[256], uint32_t n, int *lo, int *hi);
+
 /* 1 when one of the n_keep points (x, y pairs) lies in the box x0..x1, y0..y1. */
 int sp_depop_keeps(const double *keep, size_t n_keep, int x0, int y0, int x1, int y1);
 
@@ -112,4 +119,15 @@ typedef struct sp_depop_sun {
  * objects. -EINVAL for a bad camera.
  */
 int sp_depop_sun_estimate(const sp_depop_object *objs, size_t n, const sp_depop_camera *cam, sp_depop_sun *out);
+
+/*
+ * The camera's ground geometry, everything in camera heights (the camera one
+ * unit above the ground, looking along +y, x to its right, z up): the ground
+ * point under pixel (u, v) (-1 at or above the horizon); the pixel of world
+ * point p (-1 behind the camera); the height of the point on the vertical
+ * through ground point g that projects to row v (NaN when none does).
+ */
+int sp_depop_ground_point(const sp_depop_camera *cam, double u, double v, double g[2]);
+int sp_depop_project(const sp_depop_camera *cam, const double p[3], double *u, double *v);
+double sp_depop_height_at(const sp_depop_camera *cam, const double g[2], double v);
 #endif

@@ -25,6 +25,7 @@ P=$dir/prev
 "$SP" synth turn -o "$dir/cap.spcap" --width 32 --height 24 --turn-seconds 1 --fps 10 >/dev/null || exit 1
 "$SP" synth street -o "$dir/street.spcap" --width 64 --height 48 --seconds 4 --figures 2 >/dev/null || exit 1
 "$SP" export-video "$dir/cap.spcap" -o "$dir/imgs" --max-frames 3 -q || exit 1
+"$SP" export-video "$dir/street.spcap" -o "$dir/sf" --max-frames 1 -q || exit 1
 cp "$dir/cap.spcap" "$dir/damaged.spcap"
 printf '\xff' | dd of="$dir/damaged.spcap" bs=1 seek=$(($(stat -c %s "$dir/cap.spcap") / 2)) conv=notrunc status=none
 
@@ -38,6 +39,8 @@ cases=(
     "export-video avi|@/v.avi|$SP export-video $dir/cap.spcap -o @/v.avi -f -q"
     "import|@/i.spcap|$SP import $dir/imgs -o @/i.spcap -f --fps 10 -q"
     "probe|@/p|$SP probe $dir/street.spcap -o @/p --force -q"
+    "cutouts|@/c|$SP cutouts $dir/street.spcap --probe $P/p -o @/c -f --min-height 4 --every 5 -q"
+    "repopulate|@/rp.png|$SP repopulate $dir/sf/frame_000000.png --collection $P/c --probe $P/p --at 40,39 -o @/rp.png -q"
     "synth selfie|@/f.spcap|$SP synth selfie -o @/f.spcap --turn-seconds 0.5 --still 0 --width 32 --height 32 --relit 1 --novel 0"
 )
 runnable=()

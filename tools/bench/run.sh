@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: MIT
 # Builds a release tree and runs the benchmarks; each prints medians and the ratio against its
 # named baseline in the same run. Usage: tools/bench/run.sh [replay|record|render|relight|probe|fit|texture ...]
-# (default: all; depopulate is run only when named). Scratch captures are cached in ${SP_BENCH_DIR:-/tmp/sp-bench}.
+# (default: all; depopulate and repopulate are run only when named). Scratch captures are cached in ${SP_BENCH_DIR:-/tmp/sp-bench}.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 build=${SP_BENCH_BUILD:-build-bench}
@@ -13,6 +13,11 @@ mkdir -p "$dir"
 which=("$@")
 [ ${#which[@]} -gt 0 ] || which=(replay record render relight probe fit texture)
 for b in "${which[@]}"; do
+    if [ "$b" = repopulate ]; then # a script over the command's reports (no timing)
+        echo "== repopulate"
+        tools/bench/repopulate.sh "$build" "$dir"
+        continue
+    fi
     exe="$build/tools/bench/bench_$b"
     if [ ! -x "$exe" ]; then
         echo "bench $b: not built in this configuration (missing optional feature?)"
