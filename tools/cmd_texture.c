@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * `sunprobe texture EXEMPLAR.png -o OUT.png --size WxH`: a texture of any size
- * like the exemplar (pipeline/texture/TEXTURE.md), written band by band as the
- * tiles finish, so memory does not grow with the height. The file is made under
+ * like the exemplar (pipeline/texture/TEXTURE.md), written row by row as the
+ * tiles finish, so memory does not grow with the size. The file is made under
  * "OUT.partial" and renamed when complete; on any failure (a full disk: exit 3)
  * the partial file is removed and whatever was at OUT stays.
  */
@@ -34,7 +34,8 @@ static void usage(FILE *out)
     fprintf(out, "usage: sunprobe texture EXEMPLAR.png -o OUT.png|.tif|.exr --size WxH [options]\n\n"
                  "Synthesises a texture of any size that looks like the exemplar: multi-scale patch\n"
                  "optimisation over random crops, each pixel the mean of the patch votes covering it, made\n"
-                 "in tiles and written as they finish (memory grows with the width, not the height).\n"
+                 "in tiles and written as they finish; memory does not grow with the size (the finished\n"
+                 "rows wait in a scratch file in $TMPDIR, else /tmp).\n"
                  "The same seed gives the same image whatever the thread count.\n\n"
                  "options:\n"
                  "  -o, --output FILE     the texture: .png (row by row), or .tif / .exr (tiled, 8-bit / float;\n"
