@@ -77,6 +77,7 @@ int sp_cmd_synth_street(int argc, char **argv); /* `synth street`, called by sp_
 int sp_cmd_synth_selfie(int argc, char **argv); /* `synth selfie`, called by sp_cmd_synth */
 int sp_cmd_probe(int argc, char **argv);
 int sp_cmd_composite(int argc, char **argv);
+int sp_cmd_retexture(int argc, char **argv); /* a new ground texture in a probed scene, shading kept */
 int sp_cmd_depopulate(int argc, char **argv);
 int sp_cmd_devices(int argc, char **argv);
 int sp_cmd_record(int argc, char **argv);

@@ -81,16 +81,16 @@ static int parse_option(int c, texture_args *a)
         a->sized = 1;
         return 0;
     case OPT_SEED:
-        if (sp_opt_u64("texture", "--seed", optarg, 0, UINT64_MAX, &u))
+        if (sp_opt_u64("texture", "seed", optarg, 0, UINT64_MAX, &u))
             return SP_EXIT_USAGE;
         a->s.seed = u;
         return 0;
-    case OPT_PATCH: return sp_opt_int("texture", "--patch", optarg, 4, 32, &a->s.patch) ? SP_EXIT_USAGE : 0;
-    case OPT_TILE: return sp_opt_int("texture", "--tile", optarg, 32, 4096, &a->s.tile) ? SP_EXIT_USAGE : 0;
+    case OPT_PATCH: return sp_opt_int("texture", "patch", optarg, 4, 32, &a->s.patch) ? SP_EXIT_USAGE : 0;
+    case OPT_TILE: return sp_opt_int("texture", "tile", optarg, 32, 4096, &a->s.tile) ? SP_EXIT_USAGE : 0;
     case OPT_TILEABLE: a->s.tileable = 1; return 0;
-    case OPT_ITER: return sp_opt_int("texture", "--iterations", optarg, 1, 16, &a->s.iterations) ? SP_EXIT_USAGE : 0;
-    case OPT_REUSE: return sp_opt_double("texture", "--reuse", optarg, 0, 10, &a->s.reuse) ? SP_EXIT_USAGE : 0;
-    case OPT_THREADS: return sp_opt_int("texture", "--threads", optarg, 1, 256, &a->s.threads) ? SP_EXIT_USAGE : 0;
+    case OPT_ITER: return sp_opt_int("texture", "iterations", optarg, 1, 16, &a->s.iterations) ? SP_EXIT_USAGE : 0;
+    case OPT_REUSE: return sp_opt_double("texture", "reuse", optarg, 0, 10, &a->s.reuse) ? SP_EXIT_USAGE : 0;
+    case OPT_THREADS: return sp_opt_int("texture", "threads", optarg, 1, 256, &a->s.threads) ? SP_EXIT_USAGE : 0;
     case 'o': a->out = optarg; return 0;
     case 'f': a->force = 1; return 0;
     case 'q': a->quiet = 1; return 0;

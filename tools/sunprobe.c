@@ -24,6 +24,7 @@ static const sp_command commands[] = {
     { "export", "fitted face directory to a relightable glTF (Draco), OBJ or Draco asset", sp_cmd_export },
     { "probe", "static camera: learn occlusion, lighting, scale and shadow from passers-by", sp_cmd_probe },
     { "composite", "insert cut-outs into a probed scene with size, occlusion, lighting, shadow", sp_cmd_composite },
+    { "retexture", "replace the ground of a probed scene with a texture, in perspective, shading kept", sp_cmd_retexture },
     { "depopulate", "remove people and their shadows from one street image", sp_cmd_depopulate },
     { "devices", "list cameras (formats, sizes) and IMUs (channels, rates)", sp_cmd_devices },
     { "record", "record a live camera (+ IMU) to a capture until the duration or Ctrl-C", sp_cmd_record },
