@@ -10,7 +10,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "cmd.h"
 #include "common/file_util.h"
@@ -131,10 +130,9 @@ static int region_for(const retexture_args *a, const sp_probe_dir *d, uint8_t *r
 
 static int write_out(const retexture_args *a, const uint8_t *rgb, uint32_t w, uint32_t h)
 {
-    if (!a->force && access(a->out, F_OK) == 0) {
-        fprintf(stderr, "sunprobe retexture: %s exists (use --force to replace it)\n", a->out);
-        return SP_EXIT_IO;
-    }
+    int code = sp_cmd_refuse_existing("retexture", a->out, a->force);
+    if (code)
+        return code;
     sp_partial pf;
     int ret = sp_partial_file_open(&pf, a->out);
     if (!ret && (ret = sp_png_write(pf.path, rgb, w, h, w * 3, 3)) == 0)

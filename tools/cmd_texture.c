@@ -268,10 +268,9 @@ static int keep_extension(sp_partial *pf, const char *out)
 
 static int run(const texture_args *a, const float *ex, uint32_t ew, uint32_t eh)
 {
-    if (!a->force && access(a->out, F_OK) == 0) {
-        fprintf(stderr, "sunprobe texture: %s exists (use --force to replace it)\n", a->out);
-        return SP_EXIT_IO;
-    }
+    int code = sp_cmd_refuse_existing("texture", a->out, a->force);
+    if (code)
+        return code;
     sp_partial pf;
     int ret = sp_partial_file_open(&pf, a->out);
     if (ret)

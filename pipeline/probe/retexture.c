@@ -126,8 +126,8 @@ static void texel(const mip *m, const mapping *mp, int x, int y, double out[3])
     map_uv(mp, x, y, &u, &v);
     if (!map_uv(mp, x + 1, y, &ux, &vx))
         ux = u, vx = v;
-    if (!map_uv(mp, x, y - 1, &uy, &vy)) /* towards the horizon when the pixel below is past it */
-        map_uv(mp, x, y + 1, &uy, &vy);
+    if (!map_uv(mp, x, y - 1, &uy, &vy) && !map_uv(mp, x, y + 1, &uy, &vy)) /* the row above, else below */
+        uy = u, vy = v;
     double fp = fmax(hypot(ux - u, vx - v), hypot(uy - u, vy - v)), lv = fp > 1 ? log2(fp) : 0;
     int l0 = (int)lv < m->n - 1 ? (int)lv : m->n - 1, l1 = l0 + 1 < m->n ? l0 + 1 : l0;
     double a0[3], a1[3], t = lv - l0 < 1 ? lv - l0 : 1;

@@ -104,6 +104,17 @@ int main(void)
     printf("row sd at the horizon %.4f, near %.4f\n", sd_h, sd_n);
     CHECK_MSG(sd_h < 0.1 * sd_n, "aliasing at the horizon: sd %.4f vs %.4f near", sd_h, sd_n);
 
+    /* the extreme scale: 100 texture widths a metre, every pixel covers many stripes: their mean, flat */
+    s.metres = 0.01;
+    CHECK_EQ_INT(sp_retexture(plate, W, H, &pl, region, tex, TW, TW, &s, out, &rep), 0);
+    double mean = 0, want_mean = 0.5 * (sp_srgb_decode(0.9) + sp_srgb_decode(0.2));
+    for (int x = 20; x < 100; x++)
+        mean += lum(out + 3 * (236 * W + x)) / 80; /* a row clear of the shadow's low-pass */
+    printf("at 0.01 m: row mean %.4f (the stripes' %.4f), sd %.4f\n", mean, want_mean, row_sd(out, 236));
+    CHECK_NEAR(mean, want_mean, 0.03 * want_mean);
+    CHECK_MSG(row_sd(out, 236) < 0.01, "aliasing at 0.01 m: sd %.4f", row_sd(out, 236));
+    s.metres = 2;
+
     /* refusals */
     sp_probe_plane line = pl;
     line.status = SP_PROBE_PLANE_LINE;
