@@ -41,6 +41,8 @@ int sp_opt_int(const char *cmd, const char *opt, const char *s, int lo, int hi, 
 int sp_opt_double(const char *cmd, const char *opt, const char *s, double lo, double hi, double *out);
 /* n comma-separated finite numbers ("X,Y", "X,Y,W,H") and nothing else into v: 0, or -1 (no message). */
 int sp_opt_numbers(const char *s, double *v, int n);
+/* SP_EXIT_IO with "PATH exists (use --force to replace it)" when path exists and force is 0; else 0. */
+int sp_cmd_refuse_existing(const char *cmd, const char *path, int force);
 /* A count that may pass INT_MAX (frames, seeds): decimal digits only. */
 int sp_opt_u64(const char *cmd, const char *opt, const char *s, uint64_t lo, uint64_t hi, uint64_t *out);
 /* One of n names: *out is its index; else "expected a, b or c". */
@@ -77,6 +79,7 @@ int sp_cmd_synth_street(int argc, char **argv); /* `synth street`, called by sp_
 int sp_cmd_synth_selfie(int argc, char **argv); /* `synth selfie`, called by sp_cmd_synth */
 int sp_cmd_probe(int argc, char **argv);
 int sp_cmd_composite(int argc, char **argv);
+int sp_cmd_retexture(int argc, char **argv); /* a new ground texture in a probed scene, shading kept */
 int sp_cmd_depopulate(int argc, char **argv);
 int sp_cmd_repopulate(int argc, char **argv);
 int sp_cmd_cutouts(int argc, char **argv);

@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "tools/cmd.h"
 
@@ -96,4 +97,12 @@ int sp_opt_numbers(const char *s, double *v, int n)
         p = end + 1;
     }
     return 0;
+}
+
+int sp_cmd_refuse_existing(const char *cmd, const char *path, int force)
+{
+    if (force || access(path, F_OK) != 0)
+        return 0;
+    fprintf(stderr, "sunprobe %s: %s exists (use --force to replace it)\n", cmd, path);
+    return SP_EXIT_IO;
 }

@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * `sunprobe texture EXEMPLAR.png -o OUT.png --size WxH`: a texture of any size
- * like the exemplar (pipeline/texture/TEXTURE.md), written band by band as the
- * tiles finish, so memory does not grow with the height. The file is made under
+ * like the exemplar (pipeline/texture/TEXTURE.md), written row by row as the
+ * tiles finish, so memory does not grow with the size. The file is made under
  * "OUT.partial" and renamed when complete; on any failure (a full disk: exit 3)
  * the partial file is removed and whatever was at OUT stays.
  */
@@ -34,7 +34,8 @@ static void usage(FILE *out)
     fprintf(out, "usage: sunprobe texture EXEMPLAR.png -o OUT.png|.tif|.exr --size WxH [options]\n\n"
                  "Synthesises a texture of any size that looks like the exemplar: multi-scale patch\n"
                  "optimisation over random crops, each pixel the mean of the patch votes covering it, made\n"
-                 "in tiles and written as they finish (memory grows with the width, not the height).\n"
+                 "in tiles and written as they finish; memory does not grow with the size (the finished\n"
+                 "rows wait in a scratch file in $TMPDIR, else /tmp).\n"
                  "The same seed gives the same image whatever the thread count.\n\n"
                  "options:\n"
                  "  -o, --output FILE     the texture: .png (row by row), or .tif / .exr (tiled, 8-bit / float;\n"
@@ -80,16 +81,16 @@ static int parse_option(int c, texture_args *a)
         a->sized = 1;
         return 0;
     case OPT_SEED:
-        if (sp_opt_u64("texture", "--seed", optarg, 0, UINT64_MAX, &u))
+        if (sp_opt_u64("texture", "seed", optarg, 0, UINT64_MAX, &u))
             return SP_EXIT_USAGE;
         a->s.seed = u;
         return 0;
-    case OPT_PATCH: return sp_opt_int("texture", "--patch", optarg, 4, 32, &a->s.patch) ? SP_EXIT_USAGE : 0;
-    case OPT_TILE: return sp_opt_int("texture", "--tile", optarg, 32, 4096, &a->s.tile) ? SP_EXIT_USAGE : 0;
+    case OPT_PATCH: return sp_opt_int("texture", "patch", optarg, 4, 32, &a->s.patch) ? SP_EXIT_USAGE : 0;
+    case OPT_TILE: return sp_opt_int("texture", "tile", optarg, 32, 4096, &a->s.tile) ? SP_EXIT_USAGE : 0;
     case OPT_TILEABLE: a->s.tileable = 1; return 0;
-    case OPT_ITER: return sp_opt_int("texture", "--iterations", optarg, 1, 16, &a->s.iterations) ? SP_EXIT_USAGE : 0;
-    case OPT_REUSE: return sp_opt_double("texture", "--reuse", optarg, 0, 10, &a->s.reuse) ? SP_EXIT_USAGE : 0;
-    case OPT_THREADS: return sp_opt_int("texture", "--threads", optarg, 1, 256, &a->s.threads) ? SP_EXIT_USAGE : 0;
+    case OPT_ITER: return sp_opt_int("texture", "iterations", optarg, 1, 16, &a->s.iterations) ? SP_EXIT_USAGE : 0;
+    case OPT_REUSE: return sp_opt_double("texture", "reuse", optarg, 0, 10, &a->s.reuse) ? SP_EXIT_USAGE : 0;
+    case OPT_THREADS: return sp_opt_int("texture", "threads", optarg, 1, 256, &a->s.threads) ? SP_EXIT_USAGE : 0;
     case 'o': a->out = optarg; return 0;
     case 'f': a->force = 1; return 0;
     case 'q': a->quiet = 1; return 0;
@@ -267,10 +268,9 @@ static int keep_extension(sp_partial *pf, const char *out)
 
 static int run(const texture_args *a, const float *ex, uint32_t ew, uint32_t eh)
 {
-    if (!a->force && access(a->out, F_OK) == 0) {
-        fprintf(stderr, "sunprobe texture: %s exists (use --force to replace it)\n", a->out);
-        return SP_EXIT_IO;
-    }
+    int code = sp_cmd_refuse_existing("texture", a->out, a->force);
+    if (code)
+        return code;
     sp_partial pf;
     int ret = sp_partial_file_open(&pf, a->out);
     if (ret)

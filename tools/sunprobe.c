@@ -24,6 +24,7 @@ static const sp_command commands[] = {
     { "export", "fitted face directory to a relightable glTF (Draco), OBJ or Draco asset", sp_cmd_export },
     { "probe", "static camera: learn occlusion, lighting, scale and shadow from passers-by", sp_cmd_probe },
     { "composite", "insert cut-outs into a probed scene with size, occlusion, lighting, shadow", sp_cmd_composite },
+    { "retexture", "replace the ground of a probed scene with a texture, in perspective, shading kept", sp_cmd_retexture },
     { "depopulate", "remove people and their shadows from one street image", sp_cmd_depopulate },
     { "repopulate", "insert lighting-matched people from a cut-out collection into a street image", sp_cmd_repopulate },
     { "cutouts", "write the people of a capture as cut-outs for repopulate", sp_cmd_cutouts },

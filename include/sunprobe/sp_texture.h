@@ -48,12 +48,12 @@ typedef int (*sp_texture_sink)(void *ctx, uint32_t y0, uint32_t n_rows, const fl
 
 /*
  * Synthesises a width x height texture like the exemplar (ew x eh pixels,
- * borrowed) and hands it to sink band by band. Memory: a band of width x
- * (tile + 4 patch) pixels plus one tile window and the pyramids, whatever the
- * height. Returns 0, -EINVAL for bad settings or sizes (an exemplar side below
+ * borrowed) and hands it to sink row by row. Memory: one tile window, the
+ * pyramids and one row, whatever the size; the finished rows wait in an unlinked
+ * scratch file in $TMPDIR (else /tmp) of at most width x (tile + 8 patch) x 12 bytes. Returns 0, -EINVAL for bad settings or sizes (an exemplar side below
  * the patch; an output side of 0, below the patch or above SP_TEXTURE_MAX_SIDE;
  * a tileable side below 16 patches; a tile below 8 patches or above 4096),
- * -ENOMEM, or the sink's value.
+ * -ENOMEM, -errno when the scratch file cannot be made or written, or the sink's value.
  */
 SP_API int sp_texture_synthesize(const float *exemplar, uint32_t ew, uint32_t eh, uint32_t width, uint32_t height,
                                  const sp_texture_settings *s, sp_texture_sink sink, void *ctx);

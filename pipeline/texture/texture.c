@@ -5,14 +5,17 @@
  * across the wrap for a tileable output) are held fixed so the tile continues
  * them, except the 2 patches nearest the core that the sink has not had yet:
  * those are synthesised again and cross-faded from the old values to the new.
- * A band of one tile row (plus the halo above) is all that is kept of the
- * output; it goes to the sink when the row is done.
+ * The band of one tile row (plus the halo above) waits in a scratch file, so
+ * memory does not grow with the width; its rows go to the sink one at a time
+ * when the row is done.
  */
 #include "sunprobe/sp_texture.h"
 
 #include <errno.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "texture_internal.h"
 
@@ -42,12 +45,13 @@ static int exemplar_levels(const sp_texture_settings *s, uint32_t ew, uint32_t e
 
 typedef struct tiler {
     const sp_texture_settings *s;
-    int W, H, nx, ny, halo, blend, band_rows;
+    int W, H, nx, ny, halo, blend, rows;
     int *xs, *ys;        /* tile boundaries, nx + 1 and ny + 1 */
-    float *band;         /* rows [ys[j] - halo, ys[j + 1]) of the output */
-    float *first;        /* tileable: rows [0, halo), kept for the last tile row */
-    float *win;
+    int fd;              /* scratch file: output row y of the band at row y % rows; tileable: rows [0, halo) after */
+    float *win, *old;    /* the window; the band's values under it */
     uint8_t *fixed;
+    int8_t *kind;        /* per window row: -1 not in the band, 0 band, 1 the kept first rows */
+    float *line;         /* one output row for the sink */
 } tiler;
 
 static int wrap(int v, int n)
@@ -55,33 +59,75 @@ static int wrap(int v, int n)
     return ((v % n) + n) % n;
 }
 
-/*
- * The finished value at output (x, y) while tile (i, j) runs, or NULL when that
- * pixel is still to make. *pending: not handed to the sink yet (this tile row,
- * and the last rows of the one above), so the tile may still blend into it.
- */
-static float *finished(const tiler *t, int i, int j, int x, int y, int *pending)
+/* Reads (write = 0) or writes n pixels of scratch row frow from column x; bytes never written read as 0. */
+static int store_io(const tiler *t, int write, int frow, int x, int n, float *buf)
 {
-    *pending = 0;
+    size_t len = sizeof(float) * 3 * (size_t)n, done = 0;
+    off_t at = (off_t)(sizeof(float) * 3) * ((off_t)frow * t->W + x);
+    while (done < len) {
+        ssize_t r = write ? pwrite(t->fd, (char *)buf + done, len - done, at + (off_t)done)
+                          : pread(t->fd, (char *)buf + done, len - done, at + (off_t)done);
+        if (r < 0 && errno == EINTR)
+            continue;
+        if (r < 0)
+            return -errno;
+        if (r == 0 && write)
+            return -EIO;
+        if (r == 0) { /* past the end: not written yet */
+            memset((char *)buf + done, 0, len - done);
+            break;
+        }
+        done += (size_t)r;
+    }
+    return 0;
+}
+
+/* One window row's span of columns [x0, x0 + w) (wrapped when tileable) from or to scratch row frow. */
+static int row_io(const tiler *t, int write, int frow, int x0, int w, float *buf)
+{
+    if (!t->s->tileable)
+        return store_io(t, write, frow, x0, w, buf);
+    int a = wrap(x0, t->W), n1 = t->W - a < w ? t->W - a : w, ret = store_io(t, write, frow, a, n1, buf);
+    return ret || n1 == w ? ret : store_io(t, write, frow, 0, w - n1, buf + 3 * (size_t)n1);
+}
+
+/*
+ * Whether output (x, y) is finished while tile (i, j) runs: -1 still to make,
+ * 0 finished, 1 finished but not handed to the sink yet (this tile row, and the
+ * last rows of the one above), so the tile may still blend into it.
+ */
+static int finished(const tiler *t, int i, int j, int x, int y)
+{
     if (t->s->tileable)
         x = wrap(x, t->W), y = wrap(y, t->H);
     if (x < 0 || y < 0 || x >= t->W || y >= t->H)
-        return NULL;
-    int top = t->ys[j] - t->halo;
-    if (y >= top && y < t->ys[j]) { /* the halo rows above: all finished */
-        *pending = j > 0 && y >= t->ys[j] - t->blend;
-        return t->band + 3 * ((size_t)(y - top) * t->W + x);
-    }
+        return -1;
+    if (y >= t->ys[j] - t->halo && y < t->ys[j]) /* the halo rows above: all finished */
+        return j > 0 && y >= t->ys[j] - t->blend;
     if (y >= t->ys[j] && y < t->ys[j + 1]) { /* this tile row: the tiles left of i */
         int col = 0;
         while (x >= t->xs[col + 1])
             col++;
-        *pending = 1;
-        return col < i ? t->band + 3 * ((size_t)(y - top) * t->W + x) : NULL;
+        return col < i ? 1 : -1;
     }
-    if (t->first && j == t->ny - 1 && j > 0 && y < t->halo) /* across the bottom wrap */
-        return t->first + 3 * ((size_t)y * t->W + x);
-    return NULL;
+    if (t->s->tileable && j == t->ny - 1 && j > 0 && y < t->halo) /* across the bottom wrap */
+        return 0;
+    return -1;
+}
+
+/* Scratch row of output row y (wrapped) for tile row j, and its kind (-1 when the band does not hold it). */
+static int scratch_row(const tiler *t, int j, int y, int *kind)
+{
+    if (t->s->tileable)
+        y = wrap(y, t->H);
+    *kind = 0;
+    if (y >= 0 && y >= t->ys[j] - t->halo && y < t->ys[j + 1])
+        return y % t->rows;
+    *kind = 1;
+    if (t->s->tileable && j == t->ny - 1 && j > 0 && y < t->halo)
+        return t->rows + y;
+    *kind = -1;
+    return -1;
 }
 
 /* Chebyshev distance of window pixel (x, y) (output coordinates, unwrapped) from tile (i, j)'s core. */
@@ -103,39 +149,73 @@ static void span(const tiler *t, const int *cuts, int k, int n, int *a, int *b)
 }
 
 /*
- * Marks each window pixel free, blended (finished but pending, within blend of
- * the core: free in the synthesis, started from its value) or fixed, and fills
- * the window with the values there are.
+ * Reads the band under the window, marks each window pixel free, blended
+ * (finished but pending, within blend of the core: free in the synthesis,
+ * started from its value) or fixed, and fills the window with the values there are.
  */
-static void gather(tiler *t, int i, int j, int x0, int y0, int w, int h)
+static int gather(tiler *t, int i, int j, int x0, int y0, int w, int h)
 {
+    for (int y = 0, ret; y < h; y++) {
+        int k, frow = scratch_row(t, j, y0 + y, &k);
+        t->kind[y] = (int8_t)k;
+        if (frow >= 0 && (ret = row_io(t, 0, frow, x0, w, t->old + 3 * (size_t)y * w)))
+            return ret;
+    }
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
-            int pending;
-            const float *v = finished(t, i, j, x0 + x, y0 + y, &pending);
+            int st = finished(t, i, j, x0 + x, y0 + y);
             size_t p = (size_t)y * w + x;
-            t->fixed[p] = !v ? TEX_FREE : pending && core_dist(t, i, j, x0 + x, y0 + y) <= t->blend ? TEX_SOFT : TEX_FIXED;
-            if (v)
-                memcpy(t->win + 3 * p, v, 3 * sizeof(float));
+            t->fixed[p] = st < 0 ? TEX_FREE : st && core_dist(t, i, j, x0 + x, y0 + y) <= t->blend ? TEX_SOFT : TEX_FIXED;
+            if (t->kind[y] == 1) /* the first rows across the wrap: free, started from their values (wrap_ramp) */
+                t->fixed[p] = TEX_SOFT;
+            if (st >= 0)
+                memcpy(t->win + 3 * p, t->old + 3 * p, 3 * sizeof(float));
+        }
+    return 0;
+}
+
+/*
+ * The top-bottom wrap: the first rows went to the sink long ago, so they
+ * cannot be cross-faded. The window synthesised them again (started from their
+ * values); the last rows before the wrap get the difference between the real
+ * first row and its new version, ramped in over the blend, so they run on into it.
+ */
+static void wrap_ramp(tiler *t, int y0, int w, int h)
+{
+    int yw = t->H - y0; /* window row of the first row across the wrap */
+    if (yw <= t->blend || yw >= h || t->kind[yw] != 1)
+        return;
+    for (int x = 0; x < w; x++)
+        for (int c = 0; c < 3; c++) {
+            size_t q = 3 * ((size_t)yw * w + x) + c;
+            float d = t->old[q] - t->win[q];
+            for (int k = 1; k <= t->blend; k++) {
+                float *v = &t->win[3 * ((size_t)(yw - k) * w + x) + c];
+                *v += d * (float)(t->blend + 1 - k) / (float)(t->blend + 1);
+                *v = *v < 0 ? 0 : *v > 1 ? 1 : *v;
+            }
         }
 }
 
 /* The core into the band; blended pixels become a mix of old and new that moves to the new towards the core. */
-static void scatter(tiler *t, int i, int j, int x0, int y0, int w, int h)
+static int scatter(tiler *t, int i, int j, int x0, int y0, int w, int h)
 {
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
             size_t p = (size_t)y * w + x;
-            int pending, d = core_dist(t, i, j, x0 + x, y0 + y);
+            int d = core_dist(t, i, j, x0 + x, y0 + y);
             if (d > 0 && t->fixed[p] != TEX_SOFT)
                 continue;
-            float *v = finished(t, i, j, x0 + x, y0 + y, &pending);
-            if (!v) /* the core: finished() does not count it yet */
-                v = t->band + 3 * ((size_t)(y0 + y - (t->ys[j] - t->halo)) * t->W + (size_t)(x0 + x));
-            float a = (float)(t->blend + 1 - d) / (float)(t->blend + 1);
+            float *v = t->old + 3 * p, a = (float)(t->blend + 1 - d) / (float)(t->blend + 1);
             for (int c = 0; c < 3; c++) /* the core is new: its old band values are not pixels yet */
                 v[c] = d > 0 ? v[c] + a * (t->win[3 * p + c] - v[c]) : t->win[3 * p + c];
         }
+    for (int y = 0, ret; y < h; y++) {
+        int k, frow = scratch_row(t, j, y0 + y, &k);
+        if (k == 0 && (ret = row_io(t, 1, frow, x0, w, t->old + 3 * (size_t)y * w)))
+            return ret;
+    }
+    return 0;
 }
 
 static int run_tile(tiler *t, const tex_exemplar *ex, sp_pool *pool, int i, int j)
@@ -143,13 +223,15 @@ static int run_tile(tiler *t, const tex_exemplar *ex, sp_pool *pool, int i, int 
     int x0, x1, y0, y1;
     span(t, t->xs, i, t->W, &x0, &x1);
     span(t, t->ys, j, t->H, &y0, &y1);
-    int w = x1 - x0, h = y1 - y0;
-    gather(t, i, j, x0, y0, w, h);
+    int w = x1 - x0, h = y1 - y0, ret = gather(t, i, j, x0, y0, w, h);
     tex_job job = { ex, t->s, pool, tex_hash(t->s->seed, ((uint64_t)j << 32) | (uint64_t)i) };
-    int ret = tex_synth_window(&job, t->win, t->fixed, w, h, tex_window_levels(w, h, ex->patch, ex->levels));
     if (!ret)
-        scatter(t, i, j, x0, y0, w, h);
-    return ret;
+        ret = tex_synth_window(&job, t->win, t->fixed, w, h, tex_window_levels(w, h, ex->patch, ex->levels));
+    if (ret)
+        return ret;
+    if (t->s->tileable && j == t->ny - 1)
+        wrap_ramp(t, y0, w, h);
+    return scatter(t, i, j, x0, y0, w, h);
 }
 
 /* n cuts of [0, len) into pieces of nearly equal size. */
@@ -161,44 +243,65 @@ static int *cuts(int len, int n)
     return c;
 }
 
+/* An unlinked scratch file in $TMPDIR (else /tmp); -errno when none can be made. */
+static int scratch_open(void)
+{
+    const char *dir = getenv("TMPDIR");
+    char path[4096];
+    if (snprintf(path, sizeof(path), "%s/sunprobe-texture-XXXXXX", dir && *dir ? dir : "/tmp") >= (int)sizeof(path))
+        return -ENAMETOOLONG;
+    int fd = mkstemp(path);
+    if (fd < 0) {
+        int e = errno;
+        sp_log(SP_LOG_ERROR, "texture", "%s: cannot make the scratch file for the finished rows: %s", path, strerror(e));
+        return -e;
+    }
+    unlink(path);
+    return fd;
+}
+
 static int tiler_open(tiler *t, const sp_texture_settings *s, int W, int H)
 {
     memset(t, 0, sizeof(*t));
+    t->fd = -1;
     t->s = s, t->W = W, t->H = H, t->halo = 4 * s->patch, t->blend = 2 * s->patch;
     int T = s->tile;
     t->nx = (W + T - 1) / T, t->ny = (H + T - 1) / T;
     if (s->tileable) /* a tile never wraps onto itself */
         t->nx = t->nx < 2 ? 2 : t->nx, t->ny = t->ny < 2 ? 2 : t->ny;
     t->xs = cuts(W, t->nx), t->ys = cuts(H, t->ny);
-    t->band_rows = (H + t->ny - 1) / t->ny + t->halo;
+    t->rows = (H + t->ny - 1) / t->ny + t->halo;
     size_t side = (size_t)T + 2 * (size_t)t->halo + 2; /* a core is at most T (or half a tileable side) */
-    t->band = malloc(sizeof(float) * 3 * (size_t)W * (size_t)t->band_rows);
     t->win = malloc(sizeof(float) * 3 * side * side);
+    t->old = malloc(sizeof(float) * 3 * side * side);
     t->fixed = malloc(side * side);
-    if (s->tileable)
-        t->first = malloc(sizeof(float) * 3 * (size_t)W * (size_t)t->halo);
-    return t->xs && t->ys && t->band && t->win && t->fixed && (!s->tileable || t->first) ? 0 : -ENOMEM;
+    t->kind = malloc(side);
+    t->line = malloc(sizeof(float) * 3 * (size_t)W);
+    t->fd = scratch_open();
+    if (t->fd < 0)
+        return t->fd;
+    return t->xs && t->ys && t->win && t->old && t->fixed && t->kind && t->line ? 0 : -ENOMEM;
 }
 
 static void tiler_close(tiler *t)
 {
-    free(t->xs), free(t->ys), free(t->band), free(t->first), free(t->win), free(t->fixed);
+    if (t->fd >= 0)
+        close(t->fd);
+    free(t->xs), free(t->ys), free(t->win), free(t->old), free(t->fixed), free(t->kind), free(t->line);
     memset(t, 0, sizeof(*t));
 }
 
-/* Hands the rows of tile row j that no later tile blends into to the sink; moves the last halo rows to the top. */
+/* Hands the rows of tile row j that no later tile blends into to the sink, one at a time; keeps the first rows. */
 static int finish_row(tiler *t, int j, sp_texture_sink sink, void *ctx)
 {
-    size_t row = 3 * (size_t)t->W;
-    int top = t->ys[j] - t->halo, n = t->ys[j + 1] - t->ys[j];
-    int e0 = j ? t->ys[j] - t->blend : 0, e1 = j < t->ny - 1 ? t->ys[j + 1] - t->blend : t->H;
-    int ret = sink(ctx, (uint32_t)e0, (uint32_t)(e1 - e0), t->band + row * (size_t)(e0 - top));
-    if (ret)
-        return ret;
-    if (t->first && j == 0)
-        memcpy(t->first, t->band + row * (size_t)t->halo, sizeof(float) * row * (size_t)t->halo);
-    memmove(t->band, t->band + row * (size_t)n, sizeof(float) * row * (size_t)t->halo);
-    return 0;
+    int e0 = j ? t->ys[j] - t->blend : 0, e1 = j < t->ny - 1 ? t->ys[j + 1] - t->blend : t->H, ret = 0;
+    for (int y = e0; !ret && y < e1; y++)
+        if (!(ret = store_io(t, 0, y % t->rows, 0, t->W, t->line)))
+            ret = sink(ctx, (uint32_t)y, 1, t->line);
+    for (int y = 0; !ret && t->s->tileable && j == 0 && y < t->halo; y++)
+        if (!(ret = store_io(t, 0, y % t->rows, 0, t->W, t->line)))
+            ret = store_io(t, 1, t->rows + y, 0, t->W, t->line);
+    return ret;
 }
 static int sizes_ok(const sp_texture_settings *s, uint32_t ew, uint32_t eh, uint32_t W, uint32_t H)
 {

@@ -54,10 +54,14 @@ expect 1 "bad size" "$SP" texture "$dir/ex.png" -o "$dir/x.png" --size 64
 contains "$dir/err.txt" "--size '64': expected WxH" "bad size"
 expect 1 "tileable too small" "$SP" texture "$dir/ex.png" -o "$dir/x.png" --size 100x300 --tileable
 contains "$dir/err.txt" "16 patches" "tileable too small"
+expect 1 "patch too small" "$SP" texture "$dir/ex.png" -o "$dir/x.png" --size 64x64 --patch 3
+contains "$dir/err.txt" "texture: --patch '3': expected" "patch too small" # one pair of dashes
 expect 1 "not a PNG name" "$SP" texture "$dir/ex.png" -o "$dir/x.jpg" --size 64x64
 expect 2 "exemplar not a PNG" "$SP" texture "$dir/out.txt" -o "$dir/x.png" --size 64x64
 expect 3 "missing exemplar" "$SP" texture "$dir/none.png" -o "$dir/x.png" --size 64x64
 contains "$dir/err.txt" "none.png" "missing exemplar"
+TMPDIR="$dir/no-such-dir" expect 3 "no scratch directory" "$SP" texture "$dir/ex.png" -o "$dir/x.png" --size 64x64
+contains "$dir/err.txt" "no-such-dir/sunprobe-texture-.*scratch file" "no scratch directory"
 [ -e "$dir/x.png" ] && fail "a refused run left x.png"
 
 # a write limit: the texture does not fit in 64 KiB; the old T stays, nothing partial is left

@@ -10,6 +10,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include "check.h"
 #include "export/png.h"
@@ -102,6 +105,19 @@ static double col_step(const tev_image *im, int x)
     return s / im->h;
 }
 
+/* Mean squared step across row y - 1 -> y (y = h: the wrap back to row 0). */
+static double row_step(const tev_image *im, int y)
+{
+    double s = 0;
+    for (int x = 0; x < im->w; x++)
+        for (int c = 0; c < 3; c++) {
+            double d = (double)im->px[3 * ((size_t)(y % im->h) * im->w + (size_t)x) + c] -
+                       (double)im->px[3 * ((size_t)(y - 1) * im->w + (size_t)x) + c];
+            s += d * d;
+        }
+    return s / im->w;
+}
+
 static void test_tileable(void)
 {
     tev_image ex, out;
@@ -116,6 +132,11 @@ static void test_tileable(void)
         inner += col_step(&out, x) / (out.w / 2 - 1);
     printf("tileable: step across the left-right wrap %.5f, inside %.5f\n", wrap, inner);
     CHECK_MSG(wrap < 2.0 * inner, "a seam at the wrap: %.5f vs %.5f", wrap, inner);
+    double vwrap = row_step(&out, out.h), vinner = 0;
+    for (int y = 2; y < out.h; y += 2)
+        vinner += row_step(&out, y) / (out.h / 2 - 1);
+    printf("tileable: step across the top-bottom wrap %.5f, inside %.5f\n", vwrap, vinner);
+    CHECK_MSG(vwrap < 2.0 * vinner, "a seam at the top-bottom wrap: %.5f vs %.5f", vwrap, vinner);
     s.tileable = 0; /* without --tileable the two sides are unrelated */
     tev_image plain;
     CHECK_EQ_INT(synth(&ex, 200, 160, &s, &plain), 0);
@@ -248,6 +269,45 @@ static void test_png_stream(void)
     free(buf), free(px);
 }
 
+static int discard(void *ctx, uint32_t y0, uint32_t n, const float *rgb)
+{
+    (void)ctx, (void)y0, (void)n, (void)rgb;
+    return 0;
+}
+
+/* Peak RSS (KB) of a child that synthesises w x h from ex; -1 when it fails. */
+static long child_peak_kb(const tev_image *ex, int w, int h, const sp_texture_settings *s)
+{
+    pid_t pid = fork();
+    if (pid == 0)
+        _exit(sp_texture_synthesize(ex->px, (uint32_t)ex->w, (uint32_t)ex->h, (uint32_t)w, (uint32_t)h, s, discard,
+                                    NULL) ? 1 : 0);
+    int status;
+    struct rusage u;
+    if (pid < 0 || wait4(pid, &status, 0, &u) != pid || !WIFEXITED(status) || WEXITSTATUS(status))
+        return -1;
+    return u.ru_maxrss;
+}
+
+/* The finished rows wait in a scratch file: memory does not grow with the width (8x wider: the band was 8x larger). */
+static void test_memory_flat(void)
+{
+    tev_image ex;
+    tev_procedural(&ex, TEV_STONES, 64, 64, 2);
+    sp_texture_settings s;
+    sp_texture_default_settings(&s);
+    s.tile = 64, s.iterations = 1, s.threads = 1;
+    long narrow = child_peak_kb(&ex, 1024, 96, &s), wide = child_peak_kb(&ex, 8192, 96, &s);
+    printf("peak RSS: %ld KB at 1024 x 96, %ld KB at 8192 x 96\n", narrow, wide);
+    CHECK_MSG(narrow > 0 && wide > 0, "a synthesis failed");
+    /* an in-memory band of 8192 x (64 + 32) floats would add 9 MB; one row for the sink is 96 KB */
+    CHECK_MSG(wide - narrow < 2048, "peak RSS grew by %ld KB with the width", wide - narrow);
+    setenv("TMPDIR", "/nonexistent-sunprobe-dir", 1);
+    CHECK_EQ_INT(sp_texture_synthesize(ex.px, 64, 64, 128, 128, &s, discard, NULL), -ENOENT);
+    unsetenv("TMPDIR");
+    tev_free(&ex);
+}
+
 int main(void)
 {
     test_threads_and_seed();
@@ -257,5 +317,6 @@ int main(void)
     test_sink_error();
     test_fill();
     test_png_stream();
+    test_memory_flat();
     return check_exit();
 }
