@@ -411,7 +411,7 @@ static int run(exporter *e, sp_capture_reader *r, sp_progress *bar)
         if (sp_cmd_stop_signal) {
             fprintf(stderr, "sunprobe " CMD ": interrupted after %llu frames; nothing written\n",
                     (unsigned long long)e->written);
-            return sp_cmd_stopped_code(SP_EXIT_OK);
+            return sp_exit_for_error(-ECANCELED);
         }
         if (e->o->max_frames && e->written >= e->o->max_frames)
             return SP_EXIT_OK;

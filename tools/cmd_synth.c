@@ -226,9 +226,7 @@ static int cmd_turn(int argc, char **argv)
     if (ret) {
         unlink(partial);
         free(partial);
-        if (ret == -ECANCELED)
-            fprintf(stderr, "sunprobe synth turn: interrupted; nothing written\n");
-        return ret == -ECANCELED ? sp_cmd_stopped_code(SP_EXIT_INTERNAL) : sp_cmd_fail("synth turn", ret, a.out);
+        return sp_cmd_fail("synth turn", ret, a.out);
     }
     free(partial);
     printf("%s: synthetic turn, %.1f s, %ux%u %s at %.0f fps, IMU at %.0f Hz\n", a.out,
