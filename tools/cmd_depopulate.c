@@ -105,7 +105,7 @@ static int parse_option(int c, depop_args *a)
         return 0;
     case OPT_DETECTOR: {
         static const char *const names[] = { "none", "hog" };
-        return sp_opt_choice("depopulate", "--detector", optarg, names, 2, &a->detector) ? SP_EXIT_USAGE : 0;
+        return sp_opt_choice("depopulate", "detector", optarg, names, 2, &a->detector) ? SP_EXIT_USAGE : 0;
     }
     case OPT_SUN:
         if (sp_opt_numbers(optarg, v, 2) || hypot(v[0], v[1]) < 1e-9)

@@ -80,16 +80,16 @@ static int parse_option(int c, texture_args *a)
         a->sized = 1;
         return 0;
     case OPT_SEED:
-        if (sp_opt_u64("texture", "--seed", optarg, 0, UINT64_MAX, &u))
+        if (sp_opt_u64("texture", "seed", optarg, 0, UINT64_MAX, &u))
             return SP_EXIT_USAGE;
         a->s.seed = u;
         return 0;
-    case OPT_PATCH: return sp_opt_int("texture", "--patch", optarg, 4, 32, &a->s.patch) ? SP_EXIT_USAGE : 0;
-    case OPT_TILE: return sp_opt_int("texture", "--tile", optarg, 32, 4096, &a->s.tile) ? SP_EXIT_USAGE : 0;
+    case OPT_PATCH: return sp_opt_int("texture", "patch", optarg, 4, 32, &a->s.patch) ? SP_EXIT_USAGE : 0;
+    case OPT_TILE: return sp_opt_int("texture", "tile", optarg, 32, 4096, &a->s.tile) ? SP_EXIT_USAGE : 0;
     case OPT_TILEABLE: a->s.tileable = 1; return 0;
-    case OPT_ITER: return sp_opt_int("texture", "--iterations", optarg, 1, 16, &a->s.iterations) ? SP_EXIT_USAGE : 0;
-    case OPT_REUSE: return sp_opt_double("texture", "--reuse", optarg, 0, 10, &a->s.reuse) ? SP_EXIT_USAGE : 0;
-    case OPT_THREADS: return sp_opt_int("texture", "--threads", optarg, 1, 256, &a->s.threads) ? SP_EXIT_USAGE : 0;
+    case OPT_ITER: return sp_opt_int("texture", "iterations", optarg, 1, 16, &a->s.iterations) ? SP_EXIT_USAGE : 0;
+    case OPT_REUSE: return sp_opt_double("texture", "reuse", optarg, 0, 10, &a->s.reuse) ? SP_EXIT_USAGE : 0;
+    case OPT_THREADS: return sp_opt_int("texture", "threads", optarg, 1, 256, &a->s.threads) ? SP_EXIT_USAGE : 0;
     case 'o': a->out = optarg; return 0;
     case 'f': a->force = 1; return 0;
     case 'q': a->quiet = 1; return 0;
@@ -269,7 +269,7 @@ static int run(const texture_args *a, const float *ex, uint32_t ew, uint32_t eh)
 {
     if (!a->force && access(a->out, F_OK) == 0) {
         fprintf(stderr, "sunprobe texture: %s exists (use --force to replace it)\n", a->out);
-        return SP_EXIT_IO;
+        return sp_exit_for_error(-EEXIST);
     }
     sp_partial pf;
     int ret = sp_partial_file_open(&pf, a->out);
@@ -296,8 +296,6 @@ static int run(const texture_args *a, const float *ex, uint32_t ew, uint32_t eh)
         ret = sp_partial_file_commit(&pf, SP_PARTIAL_REPLACE);
     if (ret) {
         sp_partial_file_abort(&pf);
-        if (ret == -EINTR)
-            return sp_cmd_stopped_code(SP_EXIT_IO);
         return sp_cmd_failf("texture", ret, "%s: writing the texture", a->out);
     }
     return SP_EXIT_OK;
