@@ -90,6 +90,18 @@ expect 0 "replay damaged with skip" "$SP" replay "$dir/damaged.spcap" --skip-cor
 expect 0 "recover to copy" "$SP" recover "$dir/damaged.spcap" -o "$dir/recovered.spcap"
 expect 0 "verify recovered" "$SP" verify "$dir/recovered.spcap"
 cmp -s "$dir/damaged.spcap" "$dir/recovered.spcap" && { echo "FAIL: recover copy equals damaged input"; fails=$((fails + 1)); }
+# recover -o onto an existing file: refused without --force, naming the file, which stays as it was
+cp "$dir/recovered.spcap" "$dir/keep.spcap"
+printf 'mine' >"$dir/other.txt"
+expect 1 "recover onto an existing file" "$SP" recover "$dir/damaged.spcap" -o "$dir/other.txt"
+contains "$dir/err.txt" "$dir/other.txt exists \(use --force" "recover names the existing copy"
+[ "$(cat "$dir/other.txt")" = mine ] || { echo "FAIL: recover changed an existing file"; fails=$((fails + 1)); }
+expect 1 "recover onto its own input" "$SP" recover "$dir/keep.spcap" -o "$dir/keep.spcap" --force
+cmp -s "$dir/keep.spcap" "$dir/recovered.spcap" || { echo "FAIL: recover -o CAPTURE changed it"; fails=$((fails + 1)); }
+expect 0 "recover --force" "$SP" recover "$dir/damaged.spcap" -o "$dir/other.txt" --force
+cmp -s "$dir/other.txt" "$dir/recovered.spcap" || { echo "FAIL: recover --force did not write the copy"; fails=$((fails + 1)); }
+ls "$dir" | grep -q "partial" && { echo "FAIL: recover left a partial copy"; fails=$((fails + 1)); }
+
 # torn tail: cut the file mid-chunk, recover in place
 head -c $((size - 100)) "$cap" >"$dir/torn.spcap"
 expect 2 "verify torn" "$SP" verify "$dir/torn.spcap"
