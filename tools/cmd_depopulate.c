@@ -16,6 +16,7 @@
 #include <string.h>
 
 #include "cmd.h"
+#include "common/file_set.h"
 #include "common/file_util.h"
 #include "common/json.h"
 #include "export/png.h"
@@ -418,26 +419,27 @@ static int load_probe(const depop_args *a, job *j)
     return 0;
 }
 
+/* The image, its masks and its report as one file set: all three or, on any failure, the old ones as they were */
 static int write_outputs(const depop_args *a, job *j)
 {
     char *rep = a->report ? NULL : derived(a->out, ".json"), *dbg = a->debug ? NULL : derived(a->out, ".debug.png");
-    const char *rp = a->report ? a->report : rep, *dp = a->debug ? a->debug : dbg;
-    int ret = rp && dp ? 0 : -ENOMEM, code = 0, written = 0;
+    const char *rp = a->report ? a->report : rep, *dp = a->debug ? a->debug : dbg, *tr, *td, *to;
+    sp_file_set fs = { 0 };
+    const char *what = "output names";
+    int ret = rp && dp ? 0 : -ENOMEM;
     draw_debug(j);
-    if (!ret && !(ret = sp_png_write(dp, j->debug, j->im.w, j->im.h, j->im.w * 3, 3)))
-        written++;
-    if (!ret && !(ret = write_report(a, j, rp)))
-        written++;
-    if (!ret)
-        ret = sp_png_write(a->out, j->result, j->im.w, j->im.h, j->im.w * 3, 3);
-    if (ret) {
-        const char *what = !rp || !dp ? "output names" : written == 0 ? dp : written == 1 ? rp : a->out;
-        code = sp_cmd_fail("depopulate", ret, what);
-        if (written >= 1) /* no masks or report of an image that is not there */
-            remove(dp);
-        if (written >= 2)
-            remove(rp);
-    }
+    if (!ret && !(ret = sp_file_set_add(&fs, dp, &td)) && !(ret = sp_file_set_add(&fs, rp, &tr)))
+        ret = sp_file_set_add(&fs, a->out, &to);
+    if (!ret && (what = dp))
+        ret = sp_png_write(td, j->debug, j->im.w, j->im.h, j->im.w * 3, 3);
+    if (!ret && (what = rp))
+        ret = write_report(a, j, tr);
+    if (!ret && (what = a->out))
+        ret = sp_png_write(to, j->result, j->im.w, j->im.h, j->im.w * 3, 3);
+    if (!ret && (what = a->out))
+        ret = sp_file_set_commit(&fs);
+    sp_file_set_abort(&fs);
+    int code = ret ? sp_cmd_fail("depopulate", ret, what) : 0;
     if (!ret && !a->quiet)
         printf("%s: %zu object(s) removed (from %s), %zu kept; filled from %s; report %s, masks %s\n", a->out, j->n,
                j->source, j->kept, j->fill, rp, dp);
