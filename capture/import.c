@@ -408,6 +408,8 @@ static int finish_output(import_ctx *c)
     int rc = sp_capture_writer_close(&c->writer);
     if (rc)
         return FAIL(c, rc, "%s: finishing the capture: %s", c->partial.path, sp_strerror(rc));
+    if (c->s->cancel && *c->s->cancel) /* asked to stop after the last frame: the old OUT stays */
+        return FAIL(c, -ECANCELED, "interrupted after the last frame; %s not replaced", c->s->output);
     rc = sp_partial_file_commit(&c->partial, c->s->overwrite ? SP_PARTIAL_REPLACE : 0);
     if (rc)
         return FAIL(c, rc, "%s: cannot rename to %s: %s", c->partial.path, c->s->output, sp_strerror(rc));

@@ -436,6 +436,8 @@ static int write_outputs(const depop_args *a, job *j)
         ret = write_report(a, j, tr);
     if (!ret && (what = a->out))
         ret = sp_png_write(to, j->result, j->im.w, j->im.h, j->im.w * 3, 3);
+    if (!ret && sp_cmd_stop_signal) /* Ctrl-C: the old set stays */
+        ret = -ECANCELED;
     if (!ret && (what = a->out))
         ret = sp_file_set_commit(&fs);
     sp_file_set_abort(&fs);
@@ -483,5 +485,9 @@ int sp_cmd_depopulate(int argc, char **argv)
     int code = parse_args(argc, argv, &a);
     if (code)
         return code < 0 ? SP_EXIT_OK : code;
-    return depopulate(&a);
+    sp_cmd_signals sig; /* Ctrl-C: the outputs are not put in place, 128+N */
+    sp_cmd_catch_signals(&sig);
+    code = depopulate(&a);
+    sp_cmd_restore_signals(&sig);
+    return code;
 }

@@ -220,6 +220,8 @@ static int cmd_turn(int argc, char **argv)
     sp_cmd_signals sig; /* Ctrl-C ends the frame loop: the partial file is removed */
     sp_cmd_catch_signals(&sig);
     int ret = synth_turn(&a, partial);
+    if (!ret && sp_cmd_stop_signal) /* a signal after the last frame: the old OUT stays */
+        ret = -ECANCELED;
     sp_cmd_restore_signals(&sig);
     if (!ret && rename(partial, a.out) != 0)
         ret = -errno;
