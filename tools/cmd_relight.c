@@ -56,7 +56,8 @@ static void relight_usage(FILE *out)
             "  --view keyframe:N  the view, the face's pose and its light of keyframe N (cameras.json\n"
             "                     \"frames\", 0-based, held-out ones included; default 0)\n"
             "  --orbit AZ,EL      move the camera about the head: AZ degrees about the vertical, EL up\n"
-            "  --fov DEG          horizontal field of view; the camera moves so the head keeps its size\n"
+            "  --fov DEG          horizontal field of view, 0.001..178.999 deg; the camera moves so the head\n"
+            "                     keeps its size\n"
             "  --focal MM         the same as a 35 mm-equivalent focal length\n"
             "  --size WxH         output size (default: the capture's frame size)\n"
             "  --camera FILE      a camera of its own (JSON: width, height, fx, fy, cx, cy, camera_to_world\n"
@@ -230,11 +231,9 @@ static int parse_relight(int argc, char **argv, relight_args *a)
         }
             break;
         case 'f':
-        {
-            double lo = nextafter(0.0, 1.0), hi = nextafter(179.0, 0.0);
-            if (sp_opt_list("relight", "fov", optarg, 1, &lo, &hi, &a->fov_deg, "degrees in (0, 179)"))
+            /* a field of view of a denormal degree makes the focal length infinite */
+            if (sp_opt_double("relight", "fov", optarg, 0.001, 178.999, &a->fov_deg))
                 return -1;
-        }
             break;
         case 'F':
             if (sp_opt_double("relight", "focal", optarg, 0.1, 1e5, &a->focal_mm))

@@ -155,7 +155,7 @@ contains "$dir/err.txt" "--speed '': expected a number" "replay option message"
 for bad in "--scale|4294967297|an integer from 1 to 8" "--supersample|4294967298|an integer from 1 to 4" \
     "--view|keyframe:4294967296|keyframe:N" "--sun|10,20junk|AZ,EL" "--orbit|10,20,30|AZ,EL" \
     "--fill|dir,10,20,1x|dir.point,AZ,EL" "--size|4294967297x64|WxH, each from 1 to 8192" "--intensity| 5|a number" \
-    "--fov|179|degrees in .0, 179." "--specular-scale|nose=1e9|S or NAME=S"; do
+    "--fov|179|a number from 0.001 to 178.999" "--fov|1e-320|a number from 0.001" "--specular-scale|nose=1e9|S or NAME=S"; do
     IFS='|' read -r opt val want <<<"$bad"
     expect 1 "relight $opt '$val'" "$SP" relight "$dir/face" -o "$dir/x.png" "$opt" "$val"
     contains "$dir/err.txt" "relight: $opt '$val': expected $want" "relight $opt message"
