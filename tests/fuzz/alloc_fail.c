@@ -5,9 +5,11 @@
  * once per allocation they make, the Nth one failing, N = 1, 2, ... until a run makes no Nth. Each
  * run must end with 0 or an error code (the failure reported, -ENOMEM for the reader's own
  * allocations), and hold no allocation of its own afterwards (a leak, counted here; ASan's leak
- * checker sees the same under the sanitizer setup). Usage: alloc_fail CAPTURE FACE_PACK
+ * checker sees the same under the sanitizer setup); a reader that logs says "memory" when it ran out of
+ * it. Usage: alloc_fail CAPTURE FACE_PACK
  */
 #include <errno.h>
+#include <fcntl.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -143,9 +145,28 @@ static int read_face(const char *dir)
     return ret;
 }
 
-/* Fails allocation 1, 2, ... of fn(arg) until it completes; returns the number of allocations. */
-static long sweep(const char *what, int (*fn)(const char *), const char *arg)
+/* fn(arg) with what it writes to stderr (sp_log) in log (n bytes) */
+static int run_logged(int (*fn)(const char *), const char *arg, char *log, size_t n)
 {
+    char p[400];
+    fflush(stderr);
+    int saved = dup(2), fd = open(fuzz_path(p, sizeof(p), "log.txt"), O_RDWR | O_CREAT | O_TRUNC, 0600);
+    if (saved < 0 || fd < 0 || dup2(fd, 2) < 0)
+        abort();
+    int ret = fn(arg);
+    fflush(stderr);
+    dup2(saved, 2);
+    close(saved);
+    ssize_t got = pread(fd, log, n - 1, 0);
+    log[got > 0 ? got : 0] = '\0';
+    close(fd);
+    return ret;
+}
+
+/* Fails allocation 1, 2, ... of fn(arg) until it completes; returns the number of allocations. */
+static long sweep(const char *what, int (*fn)(const char *), const char *arg, int logs)
+{
+    static char log[8192];
     fail_at = 0;
     int clean = fn(arg);
     CHECK_MSG(clean == 0, "%s without failures: %s", what, sp_strerror(clean));
@@ -154,7 +175,7 @@ static long sweep(const char *what, int (*fn)(const char *), const char *arg)
         forget_all();
         n_calls = 0;
         fail_at = n;
-        int ret = fn(arg);
+        int ret = run_logged(fn, arg, log, sizeof(log));
         long calls = n_calls;
         fail_at = 0;
         if (calls < n) { /* no Nth allocation: the run above was whole */
@@ -163,6 +184,8 @@ static long sweep(const char *what, int (*fn)(const char *), const char *arg)
         }
         CHECK_MSG(ret < 0, "%s: allocation %ld failed and the reader returned %d", what, n, ret);
         CHECK_MSG(n_live == 0, "%s: allocation %ld failed: %ld allocation(s) never freed", what, n, n_live);
+        CHECK_MSG(!logs || ret != -ENOMEM || strstr(log, "memory"), "%s: allocation %ld failed, and the message "
+                  "does not say out of memory: %s", what, n, log);
     }
     printf("%s: %ld allocations, each failed once: no crash, an error every time, no leak\n", what, n - 1);
     return n - 1;
@@ -188,7 +211,7 @@ int main(int argc, char **argv)
     fuzz_path(face, sizeof(face), "face");
     mkdir(face, 0755);
     face_unpack(buf, n, face);
-    CHECK(sweep("container reader", read_capture, argv[1]) > 0);
-    CHECK(sweep("face-directory reader", read_face, face) > 0);
+    CHECK(sweep("container reader", read_capture, argv[1], 0) > 0); /* returns codes, logs nothing */
+    CHECK(sweep("face-directory reader", read_face, face, 1) > 0);
     return check_exit();
 }
