@@ -80,7 +80,7 @@ static int push_time(import_ctx *c, size_t *cap, int64_t t)
     return 0;
 }
 
-static int load_frame_times(import_ctx *c, const char *path)
+int sp_import_load_frame_times(import_ctx *c, const char *path)
 {
     sp_csv csv;
     int rc = sp_csv_open(&csv, path, c->rep->message, sizeof(c->rep->message));
@@ -411,6 +411,8 @@ static int finish_output(import_ctx *c)
     int rc = sp_capture_writer_close(&c->writer);
     if (rc)
         return FAIL(c, rc, "%s: finishing the capture: %s", c->partial.path, sp_strerror(rc));
+    if (c->s->cancel && *c->s->cancel) /* asked to stop after the last frame: the old OUT stays */
+        return FAIL(c, -ECANCELED, "interrupted after the last frame; %s not replaced", c->s->output);
     rc = sp_partial_file_commit(&c->partial, c->s->overwrite ? SP_PARTIAL_REPLACE : 0);
     if (rc)
         return FAIL(c, rc, "%s: cannot rename to %s: %s", c->partial.path, c->s->output, sp_strerror(rc));
@@ -455,7 +457,7 @@ int sp_import_run(const sp_import_settings *s, sp_import_report *report)
     if (!rc)
         rc = check_output_not_input(&c);
     if (!rc && s->frame_times_csv)
-        rc = load_frame_times(&c, s->frame_times_csv);
+        rc = sp_import_load_frame_times(&c, s->frame_times_csv);
     if (!rc && s->exposure_csv)
         rc = sp_import_exposure_load(&c.expo, s->exposure_csv, report->message, sizeof(report->message));
     if (!rc && s->imu_csv && !c.log_loaded)

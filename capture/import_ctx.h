@@ -72,6 +72,11 @@ int sp_import_open_video(import_ctx *c, const char *path);
 int sp_import_next_frame(import_ctx *c, sp_frame *f);
 
 /* ---- import.c ---- */
+/*
+ * The frame-times CSV at path into c->times (strictly increasing, at least one row) and, unless
+ * c->s->exposure_csv, its exposure columns into c->expo; the message in c->rep. Uses c->s and c->rep.
+ */
+int sp_import_load_frame_times(import_ctx *c, const char *path);
 /* Frame i's time on the frame clock (frame-times CSV, container time or i / fps). */
 int sp_import_frame_time(import_ctx *c, uint64_t i, int64_t *out);
 

@@ -809,6 +809,8 @@ int sp_export_face(const char *face_dir, const char *out_path, const sp_export_s
         if (ret)
             sp_log(SP_LOG_ERROR, MOD, "cannot write %s: %s", out_path, sp_strerror(ret));
     }
+    if (!ret && settings->cancel && *settings->cancel)
+        ret = -ECANCELED;
     if (!ret && (ret = sp_file_set_commit(&c->files)))
         sp_log(SP_LOG_ERROR, MOD, "cannot put %s and its companion files in place: %s", out_path, sp_strerror(ret));
     sp_file_set_abort(&c->files); /* after a failure: no part of the new asset is left */

@@ -25,7 +25,19 @@ typedef struct sp_command {
     int (*run)(int argc, char **argv);
 } sp_command;
 
-/* Maps a library error code to the exit code a user sees. */
+/* One row of the error -> exit code list (cmd_exit.c; README.md, "Exit codes"). */
+typedef struct sp_exit_rule {
+    int err;          /* 0, a negative errno or an SP_E* code */
+    int code;         /* enum sp_exit */
+    const char *name; /* "ENOSPC", "SP_ECORRUPT", "0" */
+    const char *what; /* what it means, as README.md lists it */
+} sp_exit_rule;
+/* The whole list (static storage), *n rows: for the documentation and its test. */
+const sp_exit_rule *sp_exit_rules(size_t *n);
+/*
+ * Maps a library error code to the exit code a user sees: the list's row; -EINTR/-ECANCELED after a stop
+ * signal give 128 + the signal; another errno gives 3, anything else 70.
+ */
 int sp_exit_for_error(int err);
 /* Prints "sunprobe CMD: what: error message" to stderr and returns the exit code for err. */
 int sp_cmd_fail(const char *cmd, int err, const char *what);
@@ -41,7 +53,16 @@ int sp_opt_int(const char *cmd, const char *opt, const char *s, int lo, int hi, 
 int sp_opt_double(const char *cmd, const char *opt, const char *s, double lo, double hi, double *out);
 /* n comma-separated finite numbers ("X,Y", "X,Y,W,H") and nothing else into v: 0, or -1 (no message). */
 int sp_opt_numbers(const char *s, double *v, int n);
-/* SP_EXIT_IO with "PATH exists (use --force to replace it)" when path exists and force is 0; else 0. */
+/* The same, each v[i] in lo[i]..hi[i]; else "sunprobe CMD: --OPT 'VALUE': expected WANT" and -1. */
+int sp_opt_list(const char *cmd, const char *opt, const char *s, int n, const double *lo, const double *hi,
+                double *v, const char *want);
+/* WxH, each an integer from 1 to max; else the message and -1. */
+int sp_opt_size(const char *cmd, const char *opt, const char *s, int max, int *w, int *h);
+/* A value of a shape of its own (keyframe:N, WxH) is bad: the same message, -1. */
+int sp_opt_bad(const char *cmd, const char *opt, const char *s, const char *want);
+/* sp_opt_int without the message, for a number inside a longer value. */
+int sp_opt_int_in(const char *s, int lo, int hi, int *out);
+/* "PATH exists (use --force to replace it)" and the exit code of -EEXIST when path exists and force is 0; else 0. */
 int sp_cmd_refuse_existing(const char *cmd, const char *path, int force);
 /* A count that may pass INT_MAX (frames, seeds): decimal digits only. */
 int sp_opt_u64(const char *cmd, const char *opt, const char *s, uint64_t lo, uint64_t hi, uint64_t *out);

@@ -61,32 +61,38 @@ static int bad(const char *what, const char *v)
 
 enum { OPT_OBJECT = 256, OPT_AT, OPT_HEIGHT, OPT_SCALE, OPT_BACKGROUND, OPT_NO_OCC, OPT_NO_LIGHT, OPT_NO_SHADOW };
 
+/* --at, --height-px and --scale belong to the --object before them */
+static int object_value(int c, cut *o)
+{
+    static const double lo[2] = { -1e6, -1e6 }, hi[2] = { 1e6, 1e6 };
+    double v[2];
+    const char *name = c == OPT_AT ? "at" : c == OPT_HEIGHT ? "height-px" : "scale";
+    if (!o) {
+        fprintf(stderr, "sunprobe composite: --%s '%s': give it after the --object it places\n", name, optarg);
+        return SP_EXIT_USAGE;
+    }
+    if (c == OPT_AT) {
+        if (sp_opt_list("composite", "at", optarg, 2, lo, hi, v, "X,Y in pixels of the background, |X|,|Y| <= 1e6"))
+            return SP_EXIT_USAGE;
+        o->x = v[0], o->y = v[1], o->placed = 1;
+        return 0;
+    }
+    if (c == OPT_HEIGHT)
+        return sp_opt_double("composite", name, optarg, 0.01, 1e5, &o->height_px) ? SP_EXIT_USAGE : 0;
+    return sp_opt_double("composite", name, optarg, 0.001, 100.0, &o->scale) ? SP_EXIT_USAGE : 0;
+}
+
 static int parse_option(int c, composite_args *a)
 {
-    cut *o = a->n ? &a->obj[a->n - 1] : NULL;
-    char *end;
     switch (c) {
     case OPT_OBJECT:
         if (a->n == MAX_OBJECTS)
             return bad("--object (at most 32)", optarg);
         a->obj[a->n++] = (cut){ .path = optarg, .scale = 1.0 };
         return 0;
-    case OPT_AT: {
-        double xy[2];
-        if (!o || sp_opt_numbers(optarg, xy, 2))
-            return bad("--at (X,Y after an --object)", optarg);
-        o->x = xy[0], o->y = xy[1];
-        o->placed = 1;
-        return 0;
-    }
+    case OPT_AT:
     case OPT_HEIGHT:
-        if (!o || (o->height_px = strtod(optarg, &end), *end) || !(o->height_px > 0 && o->height_px < 1e5))
-            return bad("--height-px (after an --object)", optarg);
-        return 0;
-    case OPT_SCALE:
-        if (!o || (o->scale = strtod(optarg, &end), *end) || !(o->scale > 0 && o->scale < 100))
-            return bad("--scale (after an --object)", optarg);
-        return 0;
+    case OPT_SCALE: return object_value(c, a->n ? &a->obj[a->n - 1] : NULL);
     case OPT_BACKGROUND: a->background = optarg; return 0;
     case OPT_NO_OCC: a->s.occlusion = 0; return 0;
     case OPT_NO_LIGHT: a->s.lighting = 0; return 0;

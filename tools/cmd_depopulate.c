@@ -16,6 +16,7 @@
 #include <string.h>
 
 #include "cmd.h"
+#include "common/file_set.h"
 #include "common/file_util.h"
 #include "common/json.h"
 #include "export/png.h"
@@ -219,29 +220,32 @@ static int write_report(const depop_args *a, const depop_job *j, const char *pat
     return ret;
 }
 
+/* The image, its masks and its report as one file set: all three or, on any failure, the old ones as they were */
 static int write_outputs(const depop_args *a, depop_job *j)
 {
     char *rep = a->report ? NULL : depop_derived_name(a->out, ".json"), *dbg = a->debug ? NULL : depop_derived_name(a->out, ".debug.png");
-    const char *rp = a->report ? a->report : rep, *dp = a->debug ? a->debug : dbg;
-    int ret = rp && dp ? 0 : -ENOMEM, code = 0, written = 0;
+    const char *rp = a->report ? a->report : rep, *dp = a->debug ? a->debug : dbg, *tr, *td, *to;
+    sp_file_set fs = { 0 };
+    const char *what = "output names";
+    int ret = rp && dp ? 0 : -ENOMEM;
     uint8_t *debug = malloc((size_t)j->w * j->h * 3);
     ret = ret ? ret : debug ? 0 : -ENOMEM;
     if (!ret)
         draw_debug(j, debug);
-    if (!ret && !(ret = sp_png_write(dp, debug, j->w, j->h, j->w * 3, 3)))
-        written++;
-    if (!ret && !(ret = write_report(a, j, rp)))
-        written++;
-    if (!ret)
-        ret = sp_png_write(a->out, j->result, j->w, j->h, j->w * 3, 3);
-    if (ret) {
-        const char *what = !rp || !dp ? "output names" : written == 0 ? dp : written == 1 ? rp : a->out;
-        code = sp_cmd_fail("depopulate", ret, what);
-        if (written >= 1) /* no masks or report of an image that is not there */
-            remove(dp);
-        if (written >= 2)
-            remove(rp);
-    }
+    if (!ret && !(ret = sp_file_set_add(&fs, dp, &td)) && !(ret = sp_file_set_add(&fs, rp, &tr)))
+        ret = sp_file_set_add(&fs, a->out, &to);
+    if (!ret && (what = dp))
+        ret = sp_png_write(td, debug, j->w, j->h, j->w * 3, 3);
+    if (!ret && (what = rp))
+        ret = write_report(a, j, tr);
+    if (!ret && (what = a->out))
+        ret = sp_png_write(to, j->result, j->w, j->h, j->w * 3, 3);
+    if (!ret && sp_cmd_stop_signal) /* Ctrl-C: the old set stays */
+        ret = -ECANCELED;
+    if (!ret && (what = a->out))
+        ret = sp_file_set_commit(&fs);
+    sp_file_set_abort(&fs);
+    int code = ret ? sp_cmd_fail("depopulate", ret, what) : 0;
     if (!ret && !a->quiet)
         printf("%s: %zu object(s) removed (from %s), %zu kept; filled from %s; report %s, masks %s\n", a->out, j->n,
                j->source, j->kept, j->fill, rp, dp);
@@ -273,5 +277,9 @@ int sp_cmd_depopulate(int argc, char **argv)
     int code = parse_args(argc, argv, &a);
     if (code)
         return code < 0 ? SP_EXIT_OK : code;
-    return depopulate(&a);
+    sp_cmd_signals sig; /* Ctrl-C: the outputs are not put in place, 128+N */
+    sp_cmd_catch_signals(&sig);
+    code = depopulate(&a);
+    sp_cmd_restore_signals(&sig);
+    return code;
 }

@@ -91,7 +91,11 @@ int sp_cmd_export(int argc, char **argv)
     if (p)
         return p > 0 ? SP_EXIT_OK : SP_EXIT_USAGE;
     sp_export_stats st;
+    sp_cmd_signals sig; /* Ctrl-C before the files are put in place: none of them is, 128+N */
+    sp_cmd_catch_signals(&sig);
+    s.cancel = &sp_cmd_stop_signal;
     int ret = sp_export_face(dir, out, &s, &st);
+    sp_cmd_restore_signals(&sig);
     if (ret) /* bad input names the face directory, anything else the output */
         return sp_cmd_fail("export", ret, sp_exit_for_error(ret) == SP_EXIT_BAD_INPUT ? dir : out);
     if (stats)

@@ -411,7 +411,7 @@ static int run(exporter *e, sp_capture_reader *r, sp_progress *bar)
         if (sp_cmd_stop_signal) {
             fprintf(stderr, "sunprobe " CMD ": interrupted after %llu frames; nothing written\n",
                     (unsigned long long)e->written);
-            return sp_cmd_stopped_code(SP_EXIT_OK);
+            return sp_exit_for_error(-ECANCELED);
         }
         if (e->o->max_frames && e->written >= e->o->max_frames)
             return SP_EXIT_OK;
@@ -452,6 +452,8 @@ int sp_cmd_export_video(int argc, char **argv)
         fprintf(stderr, "sunprobe " CMD ": %s: no frames in stream %u\n", o.capture, o.stream);
         code = sp_exit_for_error(SP_ENODATA);
     }
+    if (code == SP_EXIT_OK && sp_cmd_stop_signal) /* a signal after the last frame: nothing is put in place */
+        code = sp_cmd_fail(CMD, -ECANCELED, o.out);
     rc = finish_video(&e, code == SP_EXIT_OK ? 0 : -EIO);
     if (rc && code == SP_EXIT_OK) {
         fprintf(stderr, "sunprobe " CMD ": %s: writing the video: %s\n", o.out, sp_strerror(rc));

@@ -159,7 +159,7 @@ static int on_progress(void *user, const sp_sunstage_progress *p)
     snprintf(detail, sizeof(detail), "%s loss %.4g", p->stage, p->loss);
     c->bar->total = (uint64_t)(p->total > 0 ? p->total : 1);
     sp_progress_update(c->bar, (uint64_t)p->iteration, detail);
-    return 0;
+    return sp_cmd_stop_signal != 0; /* Ctrl-C: the fit ends early and nothing is written */
 }
 
 static void find_truth(fit_args *a, const char *rel)
@@ -203,8 +203,11 @@ static int stream(fit_args *a, const sp_stage *stage)
     sp_run_settings rs;
     sp_run_default_settings(&rs);
     rs.progress = a->progress ? -1 : 0;
+    rs.stop = &sp_cmd_stop_signal;
     sp_run_stats st;
     int ret = sp_stage_run(a->capture, stage, &rs, &st);
+    if (sp_cmd_stop_signal) /* a read cut short by the signal is no capture error */
+        return -ECANCELED;
     if (st.meta.ground_truth[0]) /* relative to the capture's directory */
         find_truth(a, st.meta.ground_truth);
     if (ret && st.failed_in == SP_RUN_FAILED_OPEN)
@@ -217,6 +220,8 @@ static int stream(fit_args *a, const sp_stage *stage)
 static int write_output(fit_args *a, const sp_sunstage *ss)
 {
     int ret = sp_face_dir_write_all(ss, a->pd.path);
+    if (!ret && sp_cmd_stop_signal) /* the last moment a signal can keep the face directory out */
+        ret = -ECANCELED;
     if (!ret)
         ret = sp_partial_dir_commit(&a->pd, 0);
     return ret;
@@ -266,7 +271,7 @@ static int run_fit(fit_args *a, const sp_face_model *model)
         goto done;
     }
     if ((ret = stream(a, &stage))) {
-        code = sp_exit_for_error(ret);
+        code = ret == -ECANCELED ? sp_cmd_fail("fit", ret, a->out) : sp_exit_for_error(ret);
         goto done;
     }
     fit_cb_ctx cb = { .ss = ss };
@@ -278,6 +283,12 @@ static int run_fit(fit_args *a, const sp_face_model *model)
     cb.bar = &bar;
     ret = sp_sunstage_fit(ss, on_progress, &cb);
     sp_progress_finish(&bar);
+    if (!ret && sp_cmd_stop_signal)
+        ret = -ECANCELED;
+    if (ret == -ECANCELED) {
+        code = sp_cmd_fail("fit", ret, a->out);
+        goto done;
+    }
     if (ret) {
         code = sp_cmd_fail("fit", ret, "nothing to fit (see the message above)");
         goto done;
@@ -309,8 +320,11 @@ int sp_cmd_fit(int argc, char **argv)
         fprintf(stderr, "sunprobe fit: %s exists; remove it or choose another FACE_DIR\n", a.out);
         return SP_EXIT_USAGE;
     }
+    sp_cmd_signals sig; /* Ctrl-C/SIGTERM from here on: the partial directory is removed, 128+N */
+    sp_cmd_catch_signals(&sig);
     int ret = sp_partial_dir_open(&a.pd, a.out);
     if (ret) {
+        sp_cmd_restore_signals(&sig);
         return sp_cmd_failf("fit", ret, "cannot create the face directory %s", a.out);
     }
     sp_face_model model;
@@ -328,12 +342,10 @@ int sp_cmd_fit(int argc, char **argv)
     } else {
         ret = sp_face_model_load_default(&model);
     }
-    if (ret) {
-        sp_partial_dir_abort(&a.pd);
-        return sp_cmd_fail("fit", ret, "loading the face model");
-    }
-    int code = run_fit(&a, &model);
-    sp_face_model_free(&model);
+    int code = ret ? sp_cmd_fail("fit", ret, "loading the face model") : run_fit(&a, &model);
+    if (!ret)
+        sp_face_model_free(&model);
     sp_partial_dir_abort(&a.pd); /* a no-op once committed */
+    sp_cmd_restore_signals(&sig);
     return code;
 }

@@ -166,7 +166,7 @@ int sp_cmd_import(int argc, char **argv)
     sp_progress_finish(&bar);
     if (rc) {
         fprintf(stderr, "sunprobe import: %s\n", report.message);
-        return rc == -ECANCELED ? sp_cmd_stopped_code(sp_exit_for_error(rc)) : sp_exit_for_error(rc);
+        return sp_exit_for_error(rc);
     }
     if (!quiet)
         print_summary(&s, &report);

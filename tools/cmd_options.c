@@ -2,6 +2,7 @@
 /* Option values shared by the commands: one parser, one message that names the option and its range. */
 #include <errno.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,17 +16,29 @@ static int blank_start(const char *s)
     return !s || !*s || *s == ' ' || *s == '\t' || *s == '\n';
 }
 
-int sp_opt_int(const char *cmd, const char *opt, const char *s, int lo, int hi, int *out)
+int sp_opt_bad(const char *cmd, const char *opt, const char *s, const char *want)
+{
+    fprintf(stderr, "sunprobe %s: --%s '%s': expected %s\n", cmd, opt, s ? s : "", want);
+    return -1;
+}
+
+int sp_opt_int_in(const char *s, int lo, int hi, int *out)
 {
     char *end = NULL;
     errno = 0;
     long v = blank_start(s) ? 0 : strtol(s, &end, 10);
-    if (blank_start(s) || *end || errno == ERANGE || v < lo || v > hi) {
-        fprintf(stderr, "sunprobe %s: --%s '%s': expected an integer from %d to %d\n", cmd, opt, s ? s : "", lo, hi);
+    if (blank_start(s) || *end || errno == ERANGE || v < lo || v > hi)
         return -1;
-    }
     *out = (int)v;
     return 0;
+}
+
+int sp_opt_int(const char *cmd, const char *opt, const char *s, int lo, int hi, int *out)
+{
+    if (!sp_opt_int_in(s, lo, hi, out))
+        return 0;
+    fprintf(stderr, "sunprobe %s: --%s '%s': expected an integer from %d to %d\n", cmd, opt, s ? s : "", lo, hi);
+    return -1;
 }
 
 int sp_opt_double(const char *cmd, const char *opt, const char *s, double lo, double hi, double *out)
@@ -86,6 +99,28 @@ const char *sp_cmd_printable(const char *s, char *buf, size_t n)
     return buf;
 }
 
+int sp_opt_size(const char *cmd, const char *opt, const char *s, int max, int *w, int *h)
+{
+    const char *x = s ? strpbrk(s, "xX") : NULL;
+    char first[16];
+    if (x && x - s < (ptrdiff_t)sizeof(first)) {
+        snprintf(first, sizeof(first), "%.*s", (int)(x - s), s);
+        if (!sp_opt_int_in(first, 1, max, w) && !sp_opt_int_in(x + 1, 1, max, h))
+            return 0;
+    }
+    fprintf(stderr, "sunprobe %s: --%s '%s': expected WxH, each from 1 to %d\n", cmd, opt, s ? s : "", max);
+    return -1;
+}
+
+int sp_opt_list(const char *cmd, const char *opt, const char *s, int n, const double *lo, const double *hi,
+                double *v, const char *want)
+{
+    int ok = !blank_start(s) && !sp_opt_numbers(s, v, n);
+    for (int i = 0; ok && i < n; i++)
+        ok = v[i] >= lo[i] && v[i] <= hi[i];
+    return ok ? 0 : sp_opt_bad(cmd, opt, s, want);
+}
+
 int sp_opt_numbers(const char *s, double *v, int n)
 {
     const char *p = s;
@@ -104,5 +139,5 @@ int sp_cmd_refuse_existing(const char *cmd, const char *path, int force)
     if (force || access(path, F_OK) != 0)
         return 0;
     fprintf(stderr, "sunprobe %s: %s exists (use --force to replace it)\n", cmd, path);
-    return SP_EXIT_IO;
+    return sp_exit_for_error(-EEXIST);
 }

@@ -267,7 +267,7 @@ static int check_output(const probe_args *a)
     if (a->force && S_ISDIR(st.st_mode))
         return 0;
     fprintf(stderr, "sunprobe probe: %s exists (use --force to replace it)\n", a->out);
-    return SP_EXIT_USAGE;
+    return sp_exit_for_error(-EEXIST);
 }
 
 /* ---- streaming ---- */
@@ -390,7 +390,7 @@ static int run(probe_args *a, const capture_facts *facts, const char *dir)
     int code = SP_EXIT_OK;
     if (sp_cmd_stop_signal) { /* a read cut short by the signal is no capture error */
         fprintf(stderr, "sunprobe probe: interrupted after %" PRIu64 " frames; nothing written\n", st.frames);
-        code = sp_cmd_stopped_code(code);
+        code = sp_exit_for_error(-ECANCELED);
     } else if (rs.objects_err) {
         code = sp_cmd_fail("probe", rs.objects_err, "writing objects.csv in the probe directory");
     } else if (ret == SP_ENODATA) {

@@ -59,14 +59,10 @@ static void usage(FILE *out)
 
 static int parse_size(const char *s, uint32_t *w, uint32_t *h)
 {
-    unsigned a, b;
-    char tail;
-    if (sscanf(s, "%ux%u%c", &a, &b, &tail) != 2 || a == 0 || b == 0 || a > 16384 || b > 16384) {
-        fprintf(stderr, "sunprobe " CMD ": --size '%s': expected WxH, each from 1 to 16384\n", s);
+    int a, b;
+    if (sp_opt_size(CMD, "size", s, 16384, &a, &b))
         return -1;
-    }
-    *w = a;
-    *h = b;
+    *w = (uint32_t)a, *h = (uint32_t)b;
     return 0;
 }
 

@@ -11,6 +11,7 @@
 #include <dirent.h>
 #include <errno.h>
 #include <getopt.h>
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -55,7 +56,8 @@ static void relight_usage(FILE *out)
             "  --view keyframe:N  the view, the face's pose and its light of keyframe N (cameras.json\n"
             "                     \"frames\", 0-based, held-out ones included; default 0)\n"
             "  --orbit AZ,EL      move the camera about the head: AZ degrees about the vertical, EL up\n"
-            "  --fov DEG          horizontal field of view; the camera moves so the head keeps its size\n"
+            "  --fov DEG          horizontal field of view, 0.001..178.999 deg; the camera moves so the head\n"
+            "                     keeps its size\n"
             "  --focal MM         the same as a 35 mm-equivalent focal length\n"
             "  --size WxH         output size (default: the capture's frame size)\n"
             "  --camera FILE      a camera of its own (JSON: width, height, fx, fy, cx, cy, camera_to_world\n"
@@ -90,31 +92,18 @@ static void relight_usage(FILE *out)
             "                     lists them)\n");
 }
 
-static int parse_size(const char *s, int *w, int *h)
+static int bad_option(const char *opt, const char *val, const char *want)
 {
-    char *end;
-    long a = strtol(s, &end, 10);
-    if (end == s || (*end != 'x' && *end != 'X'))
-        return -1;
-    const char *p = end + 1;
-    long b = strtol(p, &end, 10);
-    if (end == p || *end || a < 1 || b < 1 || a > MAX_SIZE || b > MAX_SIZE)
-        return -1;
-    *w = (int)a;
-    *h = (int)b;
-    return 0;
+    return sp_opt_bad("relight", opt, val, want);
 }
 
 /* S or NAME=S into a->spec_scale; -1 with a message naming the option when bad. */
 static int parse_specular(const char *s, relight_args *a)
 {
     const char *eq = strchr(s, '=');
-    char *end;
-    double v = strtod(eq ? eq + 1 : s, &end);
-    if (end == (eq ? eq + 1 : s) || *end || !(v >= 0.0 && v <= 1000.0)) {
-        fprintf(stderr, "sunprobe relight: --specular-scale %s: expected S or NAME=S with S in [0, 1000]\n", s);
-        return -1;
-    }
+    double v;
+    if (sp_opt_numbers(eq ? eq + 1 : s, &v, 1) || !(v >= 0.0 && v <= 1000.0))
+        return bad_option("specular-scale", s, "S or NAME=S with S in [0, 1000]");
     if (!eq) {
         for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
             a->spec_scale[k] *= v;
@@ -130,10 +119,32 @@ static int parse_specular(const char *s, relight_args *a)
     return -1;
 }
 
-static int bad_option(const char *opt, const char *val, const char *want)
+/* --fill dir|point,AZ,EL,INTENSITY[,R,G,B] */
+static int parse_fill(const char *s, relight_args *a)
 {
-    fprintf(stderr, "sunprobe relight: %s %s: expected %s\n", opt, val, want);
-    return -1;
+    static const double lo[6] = { -720, -90, 0, 0, 0, 0 }, hi[6] = { 720, 90, 1e6, 1e3, 1e3, 1e3 };
+    fill_light *f = &a->fill[a->n_fill];
+    f->point = !strncmp(s, "point,", 6);
+    const char *vals = f->point ? s + 6 : (!strncmp(s, "dir,", 4) ? s + 4 : NULL);
+    double v[6] = { 0, 0, 0, 1, 1, 1 };
+    int ok = a->n_fill < MAX_FILLS && vals && (!sp_opt_numbers(vals, v, 6) || !sp_opt_numbers(vals, v, 3));
+    for (int k = 0; ok && k < 6; k++)
+        ok = v[k] >= lo[k] && v[k] <= hi[k];
+    if (!ok)
+        return bad_option("fill", s, "dir|point,AZ,EL,INTENSITY[,R,G,B] (|AZ| <= 720, EL in [-90, 90], intensity "
+                                     "in [0, 1e6], R,G,B in [0, 1000], at most 8 fills)");
+    f->az = v[0], f->el = v[1], f->intensity = v[2];
+    for (int k = 0; k < 3; k++)
+        f->rgb[k] = v[3 + k];
+    a->n_fill++;
+    return 0;
+}
+
+/* NAME:N (keyframe:N, capture:N) with N a keyframe number */
+static int parse_keyframe(const char *s, const char *prefix, int *out)
+{
+    size_t n = strlen(prefix);
+    return strncmp(s, prefix, n) || sp_opt_int_in(s + n, 0, INT_MAX, out) ? -1 : 0;
 }
 
 static int parse_relight(int argc, char **argv, relight_args *a)
@@ -153,37 +164,34 @@ static int parse_relight(int argc, char **argv, relight_args *a)
         { "albedo-paint-image", required_argument, NULL, 'I' }, { "passes", required_argument, NULL, 'P' },  { "albedo-paint", required_argument, NULL, 'p' }, { 0 },
     };
     int c;
-    char *end;
     while ((c = getopt_long(argc, argv, "ho:", opts, NULL)) != -1) {
         switch (c) {
         case 'h': relight_usage(stdout); return 1;
         case 'o': a->out = optarg; break;
         case 's':
-            if (sscanf(optarg, "%lf,%lf", &a->az, &a->el) != 2 || !(fabs(a->az) <= 720.0) ||
-                !(a->el >= -90.0 && a->el <= 90.0))
-                return bad_option("--sun", optarg, "AZ,EL in degrees, |AZ| <= 720, EL in [-90, 90]");
-            a->have_sun = 1;
+        {
+            double v[2], lo[2] = { -720, -90 }, hi[2] = { 720, 90 };
+            if (sp_opt_list("relight", "sun", optarg, 2, lo, hi, v, "AZ,EL in degrees, |AZ| <= 720, EL in [-90, 90]"))
+                return -1;
+            a->az = v[0], a->el = v[1], a->have_sun = 1;
+        }
             break;
         case 'e': a->env = optarg; break;
         case 'i':
-            a->intensity = strtod(optarg, &end);
-            if (end == optarg || *end || !(a->intensity >= 0.0 && a->intensity <= 1e6))
-                return bad_option("--intensity", optarg, "a number in [0, 1e6]");
+            if (sp_opt_double("relight", "intensity", optarg, 0.0, 1e6, &a->intensity))
+                return -1;
             break;
         case 'x':
-            a->exposure = strtod(optarg, &end);
-            if (end == optarg || *end || !(a->exposure >= 0.0 && a->exposure <= 1e6))
-                return bad_option("--exposure", optarg, "a number in [0, 1e6]");
+            if (sp_opt_double("relight", "exposure", optarg, 0.0, 1e6, &a->exposure))
+                return -1;
             break;
         case 'S':
-            a->scale = (int)strtol(optarg, &end, 10);
-            if (end == optarg || *end || a->scale < 1 || a->scale > 8)
-                return bad_option("--scale", optarg, "an integer 1..8");
+            if (sp_opt_int("relight", "scale", optarg, 1, 8, &a->scale))
+                return -1;
             break;
         case 'v':
-            if (strncmp(optarg, "keyframe:", 9) || !optarg[9] || (a->keyframe = (int)strtol(optarg + 9, &end, 10)) < 0 ||
-                *end)
-                return bad_option("--view", optarg, "keyframe:N with N >= 0");
+            if (parse_keyframe(optarg, "keyframe:", &a->keyframe))
+                return bad_option("view", optarg, "keyframe:N with N from 0 to 2147483647");
             a->have_view = 1;
             break;
         case 'g':
@@ -191,84 +199,67 @@ static int parse_relight(int argc, char **argv, relight_args *a)
                 a->background_file = optarg;
                 break;
             }
-            if (!optarg[8] || (a->background_keyframe = (int)strtol(optarg + 8, &end, 10)) < 0 || *end)
-                return bad_option("--background", optarg, "capture:N with N >= 0 (and --capture FILE), or FILE");
+            if (parse_keyframe(optarg, "capture:", &a->background_keyframe))
+                return bad_option("background", optarg, "capture:N with N from 0 to 2147483647 (and --capture FILE), "
+                                                         "or FILE");
             break;
         case 'P': a->passes_dir = optarg; break;
         case 'N': a->panel = 1; break;
         case 'I': {
             const char *comma = strrchr(optarg, ',');
-            a->paint_keyframe = comma && comma[1] ? (int)strtol(comma + 1, &end, 10) : -1;
-            if (!comma || comma == optarg || *end || a->paint_keyframe < 0)
-                return bad_option("--albedo-paint-image", optarg, "PNG,KEYFRAME (an RGBA PNG of keyframe N's frame)");
+            if (!comma || comma == optarg || sp_opt_int_in(comma + 1, 0, INT_MAX, &a->paint_keyframe))
+                return bad_option("albedo-paint-image", optarg, "PNG,N (an RGBA PNG of keyframe N's frame)");
             static char png[4096];
             snprintf(png, sizeof(png), "%.*s", (int)(comma - optarg), optarg);
             a->paint_image = png;
             break;
         }
         case 'u':
-            a->supersample = (int)strtol(optarg, &end, 10);
-            if (end == optarg || *end || a->supersample < 1 || a->supersample > 4)
-                return bad_option("--supersample", optarg, "an integer 1..4");
+            if (sp_opt_int("relight", "supersample", optarg, 1, 4, &a->supersample))
+                return -1;
             break;
         case 'p': a->paint = optarg; break;
         case 'c': a->capture = optarg; break;
         case 'C': a->camera_in = optarg; break;
         case 'W': a->camera_out = optarg; break;
         case 'b':
-            if (sscanf(optarg, "%lf,%lf", &a->orbit_az, &a->orbit_el) != 2 || !(fabs(a->orbit_az) <= 360.0) ||
-                !(fabs(a->orbit_el) < 90.0))
-                return bad_option("--orbit", optarg, "AZ,EL in degrees, |AZ| <= 360, |EL| < 90");
-            a->have_orbit = 1;
+        {
+            double v[2], lo[2] = { -360, -nextafter(90.0, 0.0) }, hi[2] = { 360, nextafter(90.0, 0.0) };
+            if (sp_opt_list("relight", "orbit", optarg, 2, lo, hi, v, "AZ,EL in degrees, |AZ| <= 360, |EL| < 90"))
+                return -1;
+            a->orbit_az = v[0], a->orbit_el = v[1], a->have_orbit = 1;
+        }
             break;
         case 'f':
-            a->fov_deg = strtod(optarg, &end);
-            if (end == optarg || *end || !(a->fov_deg > 0.0 && a->fov_deg < 179.0))
-                return bad_option("--fov", optarg, "degrees in (0, 179)");
+            /* a field of view of a denormal degree makes the focal length infinite */
+            if (sp_opt_double("relight", "fov", optarg, 0.001, 178.999, &a->fov_deg))
+                return -1;
             break;
         case 'F':
-            a->focal_mm = strtod(optarg, &end);
-            if (end == optarg || *end || !(a->focal_mm >= 0.1 && a->focal_mm <= 1e5))
-                return bad_option("--focal", optarg, "millimetres in [0.1, 100000]");
+            if (sp_opt_double("relight", "focal", optarg, 0.1, 1e5, &a->focal_mm))
+                return -1;
             a->fov_deg = 2.0 * atan(FILM_HALF_WIDTH_MM / a->focal_mm) * 180.0 / M_PI;
             break;
         case 'z':
-            if (parse_size(optarg, &a->width, &a->height))
-                return bad_option("--size", optarg, "WxH, each 1.." "8192");
+            if (sp_opt_size("relight", "size", optarg, MAX_SIZE, &a->width, &a->height))
+                return -1;
             break;
         case 'k':
             if (parse_specular(optarg, a))
                 return -1;
             break;
         case 'r':
-            a->env_rotate = strtod(optarg, &end);
-            if (end == optarg || *end || !(fabs(a->env_rotate) <= 720.0))
-                return bad_option("--env-rotate", optarg, "degrees, |DEG| <= 720");
+            if (sp_opt_double("relight", "env-rotate", optarg, -720.0, 720.0, &a->env_rotate))
+                return -1;
             break;
         case 'a':
-            a->sun_size = strtod(optarg, &end);
-            if (end == optarg || *end || !(a->sun_size >= 0.0 && a->sun_size <= 180.0))
-                return bad_option("--sun-size", optarg, "degrees in [0, 180]");
+            if (sp_opt_double("relight", "sun-size", optarg, 0.0, 180.0, &a->sun_size))
+                return -1;
             break;
-        case 'l': {
-            fill_light *f = &a->fill[a->n_fill];
-            f->rgb[0] = f->rgb[1] = f->rgb[2] = 1.0;
-            f->point = !strncmp(optarg, "point,", 6);
-            const char *vals = f->point ? optarg + 6 : (!strncmp(optarg, "dir,", 4) ? optarg + 4 : NULL);
-            int got = a->n_fill < MAX_FILLS && vals ? sscanf(vals, "%lf,%lf,%lf,%lf,%lf,%lf", &f->az, &f->el,
-                                                             &f->intensity, &f->rgb[0], &f->rgb[1], &f->rgb[2])
-                                                    : 0;
-            int ok = (got == 3 || got == 6) && fabs(f->az) <= 720.0 && f->el >= -90.0 && f->el <= 90.0 &&
-                     f->intensity >= 0.0 && f->intensity <= 1e6;
-            for (int k = 0; ok && k < 3; k++)
-                ok = f->rgb[k] >= 0.0 && f->rgb[k] <= 1e3;
-            if (!ok)
-                return bad_option("--fill", optarg,
-                                  "dir|point,AZ,EL,INTENSITY[,R,G,B] (degrees, intensity in [0, 1e6], at most 8 "
-                                  "fills)");
-            a->n_fill++;
+        case 'l':
+            if (parse_fill(optarg, a))
+                return -1;
             break;
-        }
         default: return -1;
         }
     }
@@ -867,7 +858,7 @@ static int commit_passes(sp_partial *pd)
         sp_cmd_failf("relight", ret, "--passes %s", final);
     free(old);
     free(final);
-    return ret == -EEXIST ? SP_EXIT_USAGE : (ret ? sp_exit_for_error(ret) : 0);
+    return sp_exit_for_error(ret);
 }
 
 /* The view and light of c->a (and --save-camera written); 0 or an exit code (message printed). */

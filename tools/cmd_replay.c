@@ -123,7 +123,7 @@ static int run_stage(const replay_args *a, const sp_stage_ops *ops, const sp_run
     if (sp_cmd_stop_signal) {
         fprintf(stderr, "sunprobe replay: interrupted after %" PRIu64 " frames%s\n", st.frames,
                 a->output ? "; output not written" : "");
-        code = sp_cmd_stopped_code(code);
+        code = sp_exit_for_error(-ECANCELED);
     } else if (ret == -EAGAIN && st.failed_in == SP_RUN_FAILED_SOURCE)
         code = sp_cmd_fail("replay", ret, "stage holds every frame");
     else if (st.failed_in == SP_RUN_FAILED_FINISH && a->output) {

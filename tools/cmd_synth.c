@@ -220,15 +220,15 @@ static int cmd_turn(int argc, char **argv)
     sp_cmd_signals sig; /* Ctrl-C ends the frame loop: the partial file is removed */
     sp_cmd_catch_signals(&sig);
     int ret = synth_turn(&a, partial);
+    if (!ret && sp_cmd_stop_signal) /* a signal after the last frame: the old OUT stays */
+        ret = -ECANCELED;
     sp_cmd_restore_signals(&sig);
     if (!ret && rename(partial, a.out) != 0)
         ret = -errno;
     if (ret) {
         unlink(partial);
         free(partial);
-        if (ret == -ECANCELED)
-            fprintf(stderr, "sunprobe synth turn: interrupted; nothing written\n");
-        return ret == -ECANCELED ? sp_cmd_stopped_code(SP_EXIT_INTERNAL) : sp_cmd_fail("synth turn", ret, a.out);
+        return sp_cmd_fail("synth turn", ret, a.out);
     }
     free(partial);
     printf("%s: synthetic turn, %.1f s, %ux%u %s at %.0f fps, IMU at %.0f Hz\n", a.out,

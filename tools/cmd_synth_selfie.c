@@ -364,10 +364,7 @@ static int run(selfie_args *a)
     if (ret) {
         sp_synth_selfie_close(&g);
         int code;
-        if (ret == -ECANCELED && sp_cmd_stop_signal) {
-            fprintf(stderr, "sunprobe " CMD ": interrupted; nothing written\n");
-            code = sp_cmd_stopped_code(SP_EXIT_INTERNAL);
-        } else if (ret == -ENOMEM) {
+        if (ret == -ENOMEM) {
             code = out_of_memory(a, "rendering");
         } else if (ret == -EEXIST && truth)
             code = sp_cmd_failf(CMD, ret, "%s is not empty and holds no truth.json: choose another --truth DIR",

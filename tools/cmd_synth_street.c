@@ -794,10 +794,7 @@ int sp_cmd_synth_street(int argc, char **argv)
     sp_cmd_restore_signals(&sig);
     scene_free(s);
     if (ret) {
-        if (ret == -ECANCELED)
-            fprintf(stderr, "sunprobe synth street: interrupted; nothing written\n");
-        code = ret == -ECANCELED ? sp_cmd_stopped_code(SP_EXIT_INTERNAL)
-                                 : sp_cmd_fail("synth street", ret, s->a.out);
+        code = sp_cmd_fail("synth street", ret, s->a.out);
         free(s);
         return code;
     }

@@ -292,12 +292,12 @@ static int run(const texture_args *a, const float *ex, uint32_t ew, uint32_t eh)
         ret = sp_write_error();
     if (fclose(f) && !ret)
         ret = sp_write_error();
+    if (!ret && sp_cmd_stop_signal) /* a signal after the last band: the old OUT stays */
+        ret = -EINTR;
     if (!ret)
         ret = sp_partial_file_commit(&pf, SP_PARTIAL_REPLACE);
     if (ret) {
         sp_partial_file_abort(&pf);
-        if (ret == -EINTR)
-            return sp_cmd_stopped_code(SP_EXIT_IO);
         return sp_cmd_failf("texture", ret, "%s: writing the texture", a->out);
     }
     return SP_EXIT_OK;

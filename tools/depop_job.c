@@ -43,7 +43,7 @@ int depop_input_option(const char *cmd, const char *opt, const char *arg, depop_
         a->n_keep++;
     } else if (!strcmp(opt, "detector")) {
         static const char *const names[] = { "none", "hog" };
-        return sp_opt_choice(cmd, "--detector", arg, names, 2, &a->detector) ? SP_EXIT_USAGE : 0;
+        return sp_opt_choice(cmd, "detector", arg, names, 2, &a->detector) ? SP_EXIT_USAGE : 0;
     } else if (!strcmp(opt, "sun-dir")) {
         if (sp_opt_numbers(arg, v, 2) || hypot(v[0], v[1]) < 1e-9)
             return bad(cmd, "--sun-dir (DX,DY, not both 0)", arg);

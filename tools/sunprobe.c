@@ -1,7 +1,5 @@
 /* SPDX-License-Identifier: MIT */
 /* Entry point: dispatches `sunprobe COMMAND ...` to one subcommand. */
-#include <errno.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -33,45 +31,6 @@ static const sp_command commands[] = {
 };
 #define N_COMMANDS (sizeof(commands) / sizeof(commands[0]))
 
-int sp_exit_for_error(int err)
-{
-    switch (err) {
-    case 0:
-        return SP_EXIT_OK;
-    case -EINVAL:
-        return SP_EXIT_USAGE;
-    case SP_ECORRUPT:
-    case SP_EVERSION:
-    case SP_EFORMAT:
-    case SP_ETRUNCATED:
-    case SP_EUNSUPPORTED:
-    case SP_ENODATA:
-    case SP_EOS:
-        return SP_EXIT_BAD_INPUT;
-    case SP_EDISABLED:
-        return SP_EXIT_DISABLED;
-    default:
-        return err < 0 && err > -4096 ? SP_EXIT_IO : SP_EXIT_INTERNAL;
-    }
-}
-
-int sp_cmd_fail(const char *cmd, int err, const char *what)
-{
-    fprintf(stderr, "sunprobe %s: %s: %s\n", cmd, what, sp_strerror(err));
-    int code = sp_exit_for_error(err);
-    return code == SP_EXIT_OK ? SP_EXIT_INTERNAL : code;
-}
-
-int sp_cmd_failf(const char *cmd, int err, const char *fmt, ...)
-{
-    char what[4200];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(what, sizeof(what), fmt, ap);
-    va_end(ap);
-    return sp_cmd_fail(cmd, err, what);
-}
-
 static void usage(FILE *out)
 {
     fprintf(out, "usage: sunprobe COMMAND [OPTIONS] ...\n"
@@ -79,7 +38,8 @@ static void usage(FILE *out)
     for (size_t i = 0; i < N_COMMANDS; i++)
         fprintf(out, "  %-14s %s\n", commands[i].name, commands[i].summary);
     fprintf(out, "\nexit codes: 0 ok, 1 usage, 2 bad input, 3 device or I/O error,\n"
-                 "            4 optional feature not built, 70 internal error\n"
+                 "            4 optional feature not built, 70 internal error,\n"
+                 "            128+N stopped by signal N (Ctrl-C: 130); which error gives which: README.md\n"
                  "environment: SP_LOG=error|warn|info|debug sets the log level\n");
 }
 

@@ -7,6 +7,7 @@
 #ifndef SUNPROBE_SP_EXPORT_H
 #define SUNPROBE_SP_EXPORT_H
 
+#include <signal.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -35,6 +36,9 @@ typedef struct sp_export_settings {
     int draco_expressions; /* GLB + Draco: keep the vertex order (sequential encoding, larger) and write the
                               expressions' morph targets (default 0: Draco leaves them out) */
     int reorder;        /* triangles in vertex-cache order, vertices in fetch order (default 0; needs meshoptimizer) */
+    /* when not NULL and non-zero (a signal handler sets it) before the files are put in place, the export
+       stops with -ECANCELED and leaves nothing of its own (borrowed; default NULL) */
+    const volatile sig_atomic_t *cancel;
 } sp_export_settings;
 
 /* What was written; filled by sp_export_face when not NULL. */

@@ -39,7 +39,7 @@ static int read_file(const char *dir, const char *name, size_t want, char **out,
         return -EIO;
     }
     if (ret) {
-        sp_log(SP_LOG_ERROR, MOD, "cannot open %s", path);
+        sp_log(SP_LOG_ERROR, MOD, "cannot read %s: %s", path, sp_strerror(ret));
         return ret;
     }
     if (want && len != want) {
@@ -70,6 +70,8 @@ static int read_mesh(sp_face_asset *a, const char *dir)
     if (c[0] > 10000000 || c[1] > 10000000 || c[2] > 10000000 || need != size ||
         (ret = sp_mesh_alloc(&a->mesh, c[0], c[1], c[2]))) {
         free(buf);
+        if (ret)
+            sp_log(SP_LOG_ERROR, MOD, "%s/mesh.bin: %s", dir, sp_strerror(ret));
         return ret ? ret : SP_ECORRUPT;
     }
     const char *p = buf + 20;
@@ -121,7 +123,7 @@ static int read_maps(sp_face_asset *a, const char *dir, const sp_json *tex)
 
 static int read_camera(sp_face_asset *a, const char *dir)
 {
-    char *buf, err[128];
+    char *buf, err[128] = "";
     size_t size;
     int ret = read_file(dir, "cameras.json", 0, &buf, &size);
     if (ret)
@@ -129,8 +131,10 @@ static int read_camera(sp_face_asset *a, const char *dir)
     sp_json *root = NULL;
     ret = sp_json_parse(buf, size, &root, err, sizeof(err));
     free(buf);
-    if (ret)
+    if (ret) {
+        sp_log(SP_LOG_ERROR, MOD, "%s/cameras.json: %s", dir, err[0] ? err : sp_strerror(ret));
         return ret;
+    }
     const sp_json *f = sp_json_at(sp_json_get(root, "frames"), 0);
     double k[4], q[4];
     if (!f || sp_json_numbers(sp_json_get(f, "intrinsics"), k, 4) != 4 ||
@@ -165,15 +169,15 @@ static int read_camera(sp_face_asset *a, const char *dir)
 
 static int read_manifest(sp_face_asset *a, const char *dir, sp_json **root)
 {
-    char *buf, err[128];
+    char *buf, err[128] = "";
     size_t size;
     int ret = read_file(dir, "manifest.json", 0, &buf, &size);
     if (ret)
         return ret;
     ret = sp_json_parse(buf, size, root, err, sizeof(err));
     free(buf);
-    if (ret) {
-        sp_log(SP_LOG_ERROR, MOD, "%s/manifest.json: %s", dir, err);
+    if (ret) { /* out of memory leaves err empty */
+        sp_log(SP_LOG_ERROR, MOD, "%s/manifest.json: %s", dir, err[0] ? err : sp_strerror(ret));
         return ret;
     }
     if (strcmp(sp_json_string(sp_json_get(*root, "format"), ""), "sunprobe-face"))

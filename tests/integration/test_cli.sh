@@ -90,6 +90,17 @@ expect 0 "replay damaged with skip" "$SP" replay "$dir/damaged.spcap" --skip-cor
 expect 0 "recover to copy" "$SP" recover "$dir/damaged.spcap" -o "$dir/recovered.spcap"
 expect 0 "verify recovered" "$SP" verify "$dir/recovered.spcap"
 cmp -s "$dir/damaged.spcap" "$dir/recovered.spcap" && { echo "FAIL: recover copy equals damaged input"; fails=$((fails + 1)); }
+# recover -o onto an existing file: refused without --force, naming the file, which stays as it was
+cp "$dir/recovered.spcap" "$dir/keep.spcap"
+printf 'mine' >"$dir/other.txt"
+expect 1 "recover onto an existing file" "$SP" recover "$dir/damaged.spcap" -o "$dir/other.txt"
+contains "$dir/err.txt" "$dir/other.txt exists \(use --force" "recover names the existing copy"
+[ "$(cat "$dir/other.txt")" = mine ] || { echo "FAIL: recover changed an existing file"; fails=$((fails + 1)); }
+expect 1 "recover onto its own input" "$SP" recover "$dir/keep.spcap" -o "$dir/keep.spcap" --force
+cmp -s "$dir/keep.spcap" "$dir/recovered.spcap" || { echo "FAIL: recover -o CAPTURE changed it"; fails=$((fails + 1)); }
+expect 0 "recover --force" "$SP" recover "$dir/damaged.spcap" -o "$dir/other.txt" --force
+cmp -s "$dir/other.txt" "$dir/recovered.spcap" || { echo "FAIL: recover --force did not write the copy"; fails=$((fails + 1)); }
+ls "$dir" | grep -q "partial" && { echo "FAIL: recover left a partial copy"; fails=$((fails + 1)); }
 
 # torn tail: cut the file mid-chunk, recover in place
 head -c $((size - 100)) "$cap" >"$dir/torn.spcap"
@@ -140,6 +151,27 @@ contains "$dir/err.txt" "--face 'nope': expected auto, generic or ict" "synth se
 [ -e "$dir/x.spcap" ] || [ -e "$dir/x" ] && { echo "FAIL: a refused option left an output"; fails=$((fails + 1)); }
 expect 1 "replay --speed ''" "$SP" replay "$cap" --speed ""
 contains "$dir/err.txt" "--speed '': expected a number" "replay option message"
+# relight and composite read numbers through the same parser: no wrap-around, no trailing junk
+for bad in "--scale|4294967297|an integer from 1 to 8" "--supersample|4294967298|an integer from 1 to 4" \
+    "--view|keyframe:4294967296|keyframe:N" "--sun|10,20junk|AZ,EL" "--orbit|10,20,30|AZ,EL" \
+    "--fill|dir,10,20,1x|dir.point,AZ,EL" "--size|4294967297x64|WxH, each from 1 to 8192" "--intensity| 5|a number" \
+    "--fov|179|a number from 0.001 to 178.999" "--fov|1e-320|a number from 0.001" "--specular-scale|nose=1e9|S or NAME=S"; do
+    IFS='|' read -r opt val want <<<"$bad"
+    expect 1 "relight $opt '$val'" "$SP" relight "$dir/face" -o "$dir/x.png" "$opt" "$val"
+    contains "$dir/err.txt" "relight: $opt '$val': expected $want" "relight $opt message"
+done
+for bad in "--at|5|X,Y" "--at|1e300,5|X,Y" "--height-px| 9|a number from" "--scale|1e3|a number from 0.001 to 100"; do
+    IFS='|' read -r opt val want <<<"$bad"
+    expect 1 "composite $opt '$val'" "$SP" composite "$dir" --object "$dir/x.png" "$opt" "$val" -o "$dir/x.png"
+    contains "$dir/err.txt" "composite: $opt '$val': expected $want" "composite $opt message"
+done
+expect 1 "composite --at before --object" "$SP" composite "$dir" --at 5,5 --object "$dir/x.png" -o "$dir/x.png"
+contains "$dir/err.txt" "--at '5,5': give it after the --object" "composite --at order message"
+expect 1 "record --size 4294967297x5" "$SP" record -o "$dir/r.spcap" --size 4294967297x5
+contains "$dir/err.txt" "--size '4294967297x5': expected WxH" "record size wrap-around"
+expect 1 "texture --patch 99" "$SP" texture "$dir/x.png" -o "$dir/y.png" --size 8x8 --patch 99
+contains "$dir/err.txt" "texture: --patch '99': expected an integer" "texture option named once"
+[ -e "$dir/x.png" ] || [ -e "$dir/y.png" ] && { echo "FAIL: a refused option left an output"; fails=$((fails + 1)); }
 # synth selfie's memory follows its options: out of memory is the usage code naming them (it was 3, "I/O")
 if (ulimit -v 1000000 && "$SP" --version) >/dev/null 2>&1; then
     expect 1 "synth selfie out of memory" bash -c 'ulimit -v 1000000; exec "$0" synth selfie -o "$1" --width 4096 \

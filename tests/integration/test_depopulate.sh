@@ -30,6 +30,15 @@ assert r["object_pixels"] >= 30 * 80 + 20 * 40 and r["inpainted_patches"] > 0, r
 EOF
 cmp -s "$frame" "$dir/a.png" && fail "boxes: nothing changed"
 
+# the image, its report and its masks are one set: a report that cannot be written leaves the old three as
+# they were (the masks were replaced and then deleted)
+cp "$dir/a.png" "$dir/a0.png"; cp "$dir/a.json" "$dir/a0.json"; cp "$dir/a.debug.png" "$dir/a0.debug.png"
+"$SP" depopulate "$frame" -o "$dir/a.png" --detector none --box 50,60,30,80 --report "$dir/no/such/r.json" -q \
+    2>"$dir/err.txt" && fail "report into a missing directory: exit 0"
+grep -q "no/such/r.json" "$dir/err.txt" || fail "report into a missing directory: the path not named"
+for f in a.png a.json a.debug.png; do cmp -s "$dir/$f" "$dir/${f/a/a0}" || fail "a failed report changed $f"; done
+ls "$dir" | grep -E "\.new\.|\.tmp" && fail "a failed report left temporaries"
+
 # --keep drops the box that holds the point; named report and debug paths
 "$SP" depopulate "$frame" -o "$dir/k.png" --detector none --box 100,60,30,80 --box 10,10,20,40 --keep 15,20 \
     --report "$dir/k-report.json" --debug "$dir/k-masks.png" -q || fail "keep: exit $?"

@@ -28,6 +28,14 @@ P=$dir/prev
 "$SP" export-video "$dir/street.spcap" -o "$dir/sf" --max-frames 1 -q || exit 1
 cp "$dir/cap.spcap" "$dir/damaged.spcap"
 printf '\xff' | dd of="$dir/damaged.spcap" bs=1 seek=$(($(stat -c %s "$dir/cap.spcap") / 2)) conv=notrunc status=none
+# a fitted face, its render as a cut-out, a street frame and a probe (what fit ... depopulate read); a build
+# that cannot make them (no JPEG encoder for the selfie) leaves their cases out below
+FIT="--keyframes 4 --heldout 1 --texture 16 --refine 0 --face generic --no-dlib --no-progress --threads 1"
+"$SP" synth selfie -o "$dir/sel.spcap" --turn-seconds 4 --width 64 --height 64 --relit 1 --novel 0 >/dev/null 2>&1 &&
+    "$SP" fit "$dir/sel.spcap" -o "$dir/face" $FIT >/dev/null 2>&1 &&
+    "$SP" relight "$dir/face" -o "$dir/cut.png" --supersample 1 >/dev/null 2>&1
+"$SP" export-video "$dir/street.spcap" -o "$dir/simgs" --max-frames 1 -q
+"$SP" probe "$dir/street.spcap" -o "$dir/probe" -q
 
 # name: output(s) kept from before | command with @ for the tmpfs (run once into $P first, for the old output)
 cases=(
@@ -42,6 +50,12 @@ cases=(
     "cutouts|@/c|$SP cutouts $dir/street.spcap --probe $P/p -o @/c -f --min-height 4 --every 5 -q"
     "repopulate|@/rp.png|$SP repopulate $dir/sf/frame_000000.png --collection $P/c --probe $P/p --at 40,39 -o @/rp.png -q"
     "synth selfie|@/f.spcap|$SP synth selfie -o @/f.spcap --turn-seconds 0.5 --still 0 --width 32 --height 32 --relit 1 --novel 0"
+    "fit|@/face|$SP fit $dir/sel.spcap -o @/face $FIT"
+    "relight|@/r.png|$SP relight $dir/face -o @/r.png --supersample 1"
+    "export|@/f.glb|$SP export $dir/face -o @/f.glb"
+    "composite|@/c.png|$SP composite $dir/probe --object $dir/cut.png --at 30,40 --height-px 20 -o @/c.png -q"
+    "depopulate|@/d.png|$SP depopulate $dir/simgs/frame_000000.png -o @/d.png --detector none --box 10,10,8,16 -q"
+    "texture|@/t.png|$SP texture $dir/imgs/frame_000000.png -o @/t.png --size 40x40 -f -q"
 )
 runnable=()
 for c in "${cases[@]}"; do
@@ -55,8 +69,8 @@ for c in "${cases[@]}"; do
         echo "note: SKIP $name: $(head -1 "$dir/err.txt")"
     fi
 done
-# export-video PNG makes its directory and recover -o its copy: neither replaces an old one
-rm -rf "$P/frames" "$P/r.spcap"
+# export-video PNG makes its directory, recover -o its copy and fit its face directory: none replaces an old one
+rm -rf "$P/frames" "$P/r.spcap" "$P/face"
 
 check() { # how expected-message
     local how=$1 want=$2

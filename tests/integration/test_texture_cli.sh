@@ -42,7 +42,7 @@ else
     contains "$dir/err.txt" "-Dopenimageio" "TIFF without OpenImageIO"
 fi
 
-expect 3 "existing output" "$SP" texture "$dir/ex.png" -o "$T" --size 64x64
+expect 1 "existing output" "$SP" texture "$dir/ex.png" -o "$T" --size 64x64
 contains "$dir/err.txt" "exists.*--force" "existing output"
 expect 2 "exemplar smaller than the patch" "$SP" texture "$dir/thin.png" -o "$dir/x.png" --size 64x64
 contains "$dir/err.txt" "thin.png: 6x40 is smaller than the 8x8 patch" "exemplar < patch"
