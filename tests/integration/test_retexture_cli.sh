@@ -15,7 +15,7 @@ O="$dir/out.png"
 expect 0 "retexture" "$SP" retexture "$dir/probe" --texture "$dir/tex.png" -o "$O" --metres 2
 contains "$dir/out.txt" "ground pixels retextured" "summary"
 cmp -s "$O" "$dir/probe/clean_plate.png" && fail "the output is the plate"
-expect 3 "existing output" "$SP" retexture "$dir/probe" --texture "$dir/tex.png" -o "$O"
+expect 1 "existing output" "$SP" retexture "$dir/probe" --texture "$dir/tex.png" -o "$O"
 contains "$dir/err.txt" "exists.*--force" "existing output"
 expect 0 "--force, a mask" "$SP" retexture "$dir/probe" --texture "$dir/tex.png" -o "$O" -f -q \
     --mask "$dir/probe/clean_plate.png"

@@ -16,9 +16,12 @@ I=$dir/in
 mkdir -p "$I" "$dir/w"
 q() { "$@" >/dev/null 2>"$dir/setup-err.txt"; }
 
-# inputs: a long turn and its frames, a long street, a big street frame, a selfie and its face
+# inputs: a long turn and its frames, VGA frames, a long street, a big street frame, a selfie and its face
 q "$SP" synth turn -o "$I/long.spcap" --width 64 --height 48 --turn-seconds 120 --fps 30 || exit 1
 q "$SP" export-video "$I/long.spcap" -o "$I/frames" --max-frames 1500 -q || exit 1
+# import's frames: VGA, so decoding them takes seconds even on an idle machine (1,500 small ones took 0.4 s)
+q "$SP" synth turn -o "$I/vga.spcap" --width 640 --height 480 --turn-seconds 40 --fps 30 || exit 1
+q "$SP" export-video "$I/vga.spcap" -o "$I/vga" --max-frames 1200 -q || exit 1
 q "$SP" synth street -o "$I/street.spcap" --width 160 --height 120 --fps 25 --seconds 300 || exit 1
 q "$SP" synth street -o "$I/big.spcap" --width 1280 --height 720 --seconds 0.2 --figures 1 || exit 1
 q "$SP" export-video "$I/big.spcap" -o "$I/big" --max-frames 1 -q || exit 1
@@ -32,7 +35,7 @@ q "$SP" synth selfie -o "$I/sel.spcap" --turn-seconds 10 --width 96 --height 96 
 cases=(
     "synth turn|$SP synth turn -o t.spcap --width 16 --height 16 --turn-seconds 1|$SP synth turn -o t.spcap --width 64 --height 64 --turn-seconds 3600 --fps 240"
     "export-video|$SP export-video $I/long.spcap -o old-frames --max-frames 2 -q|$SP export-video $I/long.spcap -o frames -q"
-    "import|$SP import $I/frames -o i.spcap --fps 30 --max-frames 3 -q|$SP import $I/frames -o i.spcap -f --fps 30 -q"
+    "import|$SP import $I/vga -o i.spcap --fps 30 --max-frames 3 -q|$SP import $I/vga -o i.spcap -f --fps 30 -q"
     "probe|$SP probe $I/street.spcap -o p -q --max-frames 1500|$SP probe $I/street.spcap -o p --force -q"
     "texture|$SP texture $I/frames/frame_000000.png -o t.png --size 32x32|$SP texture $I/frames/frame_000000.png -o t.png --size 6000x6000 -f -q"
     "depopulate|$SP depopulate $I/frames/frame_000000.png -o d.png --detector none --box 4,4,8,8 -q|$SP depopulate $I/big/frame_000000.png -o d.png --detector none --box 300,100,300,300 -q"
