@@ -23,6 +23,7 @@ typedef struct sp_stage_ops {
     const char *name;
     const char *description;
     int wants_tags; /* 1: frames must come through the orientation tagger (ev->tags set) */
+    int writes_output; /* 1: sp_stage_options.output_path names a file it writes; 0: it has none */
     /* settings: the stage's own struct, named beside its ops in stages/stages.h; borrowed for the call */
     int (*open)(void **ctx, const void *settings);
     /* One step; the event is borrowed (take a frame reference to keep it). */

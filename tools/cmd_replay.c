@@ -162,6 +162,11 @@ int sp_cmd_replay(int argc, char **argv)
         fprintf(stderr, "sunprobe replay: unknown stage '%s' (see --list-stages)\n", a.stage);
         return SP_EXIT_USAGE;
     }
+    if (a.output && !ops->writes_output) { /* it would be ignored, and the user left without the file */
+        fprintf(stderr, "sunprobe replay: stage '%s' writes no output file: -o %s needs a stage that does "
+                        "(stats, orientation, landmarks)\n", a.stage, a.output);
+        return SP_EXIT_USAGE;
+    }
     sp_run_settings run;
     sp_run_default_settings(&run);
     run.progress_label = "replay";

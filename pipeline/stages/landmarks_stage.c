@@ -121,6 +121,7 @@ static int lm_finish(void *ctx, FILE *summary)
 
 const sp_stage_ops sp_stage_landmarks = {
     .name = "landmarks",
+    .writes_output = 1,
     .description = "68 face landmarks per frame, tracked, with their confidence (CSV with -o)",
     .wants_tags = 0,
     .open = lm_open,

@@ -129,6 +129,7 @@ static void orient_close(void *ctx)
 
 const sp_stage_ops sp_stage_orientation = {
     .name = "orientation",
+    .writes_output = 1,
     .description = "IMU-fused camera orientation per frame (CSV with -o; error when ground truth is present)",
     .wants_tags = 1,
     .open = orient_open,

@@ -145,6 +145,7 @@ static void stats_close(void *ctx)
 
 const sp_stage_ops sp_stage_stats = {
     .name = "stats",
+    .writes_output = 1,
     .description = "per-frame luma, black/saturated fractions and sharpness (CSV with -o)",
     .open = stats_open,
     .push = stats_process,

@@ -49,6 +49,10 @@ expect 2 "evaluate a non-face directory" "$SP" evaluate "$dir" "$dir"
 expect 1 "info without file" "$SP" info
 expect 1 "replay bad speed" "$SP" replay "$cap" --speed -1
 expect 1 "replay unknown stage" "$SP" replay "$cap" --stage nope
+# -o with a stage that writes nothing was ignored (exit 0, no file): now refused, nothing written
+expect 1 "replay -o with null" "$SP" replay "$cap" -o "$dir/null.csv"
+contains "$dir/err.txt" "writes no output file" "replay -o with null"
+[ ! -e "$dir/null.csv" ] || { echo "FAIL: replay -o with null wrote $dir/null.csv"; fails=$((fails + 1)); }
 
 # bad input: missing, not a capture, truncated header, newer version
 expect 3 "missing file" "$SP" info "$dir/nope.spcap"
