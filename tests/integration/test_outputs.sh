@@ -7,18 +7,8 @@
 # that no temporary file is left.
 set -u
 SP=$1
-dir=$(mktemp -d "${TMPDIR:-/tmp}/sp-outputs.XXXXXX")
-trap 'rm -rf "$dir"' EXIT
-fails=0
-
-fail() { echo "FAIL: $*"; fails=$((fails + 1)); }
-expect() { # expected-exit-code description command...
-    local want=$1 what=$2; shift 2
-    "$@" >"$dir/out.txt" 2>"$dir/err.txt"
-    local got=$?
-    [ "$got" -eq "$want" ] || { fail "$what: exit $got, expected $want"; sed 's/^/  | /' "$dir/out.txt" "$dir/err.txt"; }
-}
-contains() { # file pattern description (case-insensitive)
+. "$(dirname "$0")/cli_lib.sh" outputs
+contains() { # file pattern description: as cli_lib.sh's, case-insensitive (messages start with a capital or not)
     grep -qiE -- "$2" "$1" || { fail "$3: no /$2/ in output"; sed 's/^/  | /' "$1"; }
 }
 same() { # file copy description
