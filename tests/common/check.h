@@ -3,6 +3,19 @@
 #ifndef SUNPROBE_TESTS_CHECK_H
 #define SUNPROBE_TESTS_CHECK_H
 
+/* SANITIZED: 1 when built with AddressSanitizer (its quarantine and shadow memory make RSS and timing
+ * figures the sanitizer's, not the code's) */
+#if defined(__SANITIZE_ADDRESS__)
+#define SANITIZED 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define SANITIZED 1
+#endif
+#endif
+#ifndef SANITIZED
+#define SANITIZED 0
+#endif
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>

@@ -38,17 +38,6 @@
 
 #define VTEST "/usr/share/doc/opencv-doc/examples/data/vtest.avi"
 
-#if defined(__SANITIZE_ADDRESS__)
-#define SANITIZED 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define SANITIZED 1
-#endif
-#endif
-#ifndef SANITIZED
-#define SANITIZED 0
-#endif
-
 static const char *sunprobe;
 static char tmp[256];
 

@@ -300,8 +300,12 @@ static void test_memory_flat(void)
     long narrow = child_peak_kb(&ex, 1024, 96, &s), wide = child_peak_kb(&ex, 8192, 96, &s);
     printf("peak RSS: %ld KB at 1024 x 96, %ld KB at 8192 x 96\n", narrow, wide);
     CHECK_MSG(narrow > 0 && wide > 0, "a synthesis failed");
-    /* an in-memory band of 8192 x (64 + 32) floats would add 9 MB; one row for the sink is 96 KB */
-    CHECK_MSG(wide - narrow < 2048, "peak RSS grew by %ld KB with the width", wide - narrow);
+    /* an in-memory band of 8192 x (64 + 32) floats would add 9 MB; one row for the sink is 96 KB. Under
+     * AddressSanitizer freed blocks stay in its quarantine, so RSS measures the sanitizer, not the code */
+    if (SANITIZED)
+        printf("peak RSS not judged: built with AddressSanitizer\n");
+    else
+        CHECK_MSG(wide - narrow < 2048, "peak RSS grew by %ld KB with the width", wide - narrow);
     setenv("TMPDIR", "/nonexistent-sunprobe-dir", 1);
     CHECK_EQ_INT(sp_texture_synthesize(ex.px, 64, 64, 128, 128, &s, discard, NULL), -ENOENT);
     unsetenv("TMPDIR");
