@@ -237,7 +237,7 @@ static int cutouts(const cut_args *a)
     }
     if (!code && (ret = sp_partial_dir_commit(&pd, a->force ? SP_PARTIAL_REPLACE : 0)))
         code = ret == -EEXIST ? (fprintf(stderr, "sunprobe " CMD ": %s exists (use --force to replace it)\n", a->out),
-                                 SP_EXIT_USAGE)
+                                 sp_exit_for_error(ret))
                               : sp_cmd_fail(CMD, ret, a->out);
     if (code)
         sp_partial_dir_abort(&pd);
