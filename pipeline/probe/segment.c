@@ -210,13 +210,17 @@ static void classify(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate
             continue;
         uint8_t *co = sg->cell_obj + (size_t)(y / sg->block) * sg->gw;
         uint8_t *cs = sg->cell_sh + (size_t)(y / sg->block) * sg->gw;
-        for (uint32_t x = 0; x < sg->width; x++) {
-            uint8_t c = sg->cls[row + x];
-            unsigned o = c == PROBE_CLS_OBJECT, h = c == PROBE_CLS_SHADOW;
-            co[x / sg->block] = (uint8_t)(co[x / sg->block] + o); /* block <= 15: at most 225 per cell */
-            cs[x / sg->block] = (uint8_t)(cs[x / sg->block] + h);
-            fg += o;
-            sh += h;
+        for (uint32_t gx = 0, x = 0; gx < sg->gw; gx++) {
+            uint32_t xe = x + sg->block < sg->width ? x + sg->block : sg->width;
+            unsigned no = 0, ns = 0;
+            for (; x < xe; x++) {
+                no += sg->cls[row + x] == PROBE_CLS_OBJECT;
+                ns += sg->cls[row + x] == PROBE_CLS_SHADOW;
+            }
+            co[gx] = (uint8_t)(co[gx] + no); /* block <= 15: at most 225 per cell */
+            cs[gx] = (uint8_t)(cs[gx] + ns);
+            fg += no;
+            sh += ns;
         }
     }
     sg->fg_pixels = fg;
