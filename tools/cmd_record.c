@@ -36,13 +36,14 @@ static void on_signal(int sig)
 static void usage(FILE *out)
 {
     fprintf(out,
-            "usage: sunprobe record [--camera NAME|/dev/videoN|fake[:opts]] [--imu NAME|fake|none]\n"
+            "usage: sunprobe record [--camera NAME|/dev/videoN[:fourcc=XXXX]|fake[:opts]] [--imu NAME|fake|none]\n"
             "                       [--mode selfie|static] [--duration S] [--format F] [--size WxH] [--fps F]\n"
             "                       [--lock-exposure] [--overwrite] -o CAPTURE.spcap\n\n"
             "Records frames (and IMU samples) to a capture until the duration passes or SIGINT/SIGTERM;\n"
             "the file is valid however it ends (device unplugged, disk full). `sunprobe devices` lists ids.\n"
             "  --camera D        camera id or name; default the first found (fake options: bars, panorama,\n"
-            "                    unpaced, prerender, frames=N, e.g. fake:panorama)\n"
+            "                    unpaced, prerender, frames=N, e.g. fake:panorama); a V4L2 node may pick the\n"
+            "                    device's layout, e.g. /dev/video0:fourcc=NM21 (4:2:0 layouts are stored as nv12)\n"
             "  --backend B       camera backend: v4l2, libcamera or fake; default the one that knows D\n"
             "  --imu D           IIO device id (iio:deviceN) or name, fake, or none (default)\n"
             "  --mode M          selfie (default) or static, written to the metadata\n"
