@@ -36,7 +36,8 @@ static void on_signal(int sig)
 static void usage(FILE *out)
 {
     fprintf(out,
-            "usage: sunprobe record [--camera NAME|/dev/videoN[:fourcc=XXXX]|fake[:opts]] [--imu NAME|fake|none]\n"
+            "usage: sunprobe record [--camera NAME|/dev/videoN[:fourcc=XXXX]|fake[:opts]]\n"
+            "                       [--imu NAME[+NAME..]|fake|none]\n"
             "                       [--mode selfie|static] [--duration S] [--format F] [--size WxH] [--fps F]\n"
             "                       [--lock-exposure] [--overwrite] -o CAPTURE.spcap\n\n"
             "Records frames (and IMU samples) to a capture until the duration passes or SIGINT/SIGTERM;\n"
@@ -45,7 +46,8 @@ static void usage(FILE *out)
             "                    unpaced, prerender, frames=N, e.g. fake:panorama); a V4L2 node may pick the\n"
             "                    device's layout, e.g. /dev/video0:fourcc=NM21 (4:2:0 layouts are stored as nv12)\n"
             "  --backend B       camera backend: v4l2, libcamera or fake; default the one that knows D\n"
-            "  --imu D           IIO device id (iio:deviceN) or name, fake, or none (default)\n"
+            "  --imu D           IIO device id (iio:deviceN) or name, fake, or none (default); an IMU split\n"
+            "                    over devices as A+B[+C], e.g. lsm6dsm_accel+lsm6dsm_gyro (one clock)\n"
             "  --mode M          selfie (default) or static, written to the metadata\n"
             "  --duration S      seconds; default: until interrupted\n"
             "  --format F        yuyv, nv12, mjpeg, rgb24, gray8; default the first the camera has\n"
