@@ -574,7 +574,7 @@ static int same_clock(const iio_group *g)
                    "current_timestamp_clock, or poll both with the polling mode)",
                    a->label, a->has_ts ? "the kernel's " : "", a->clock, a->has_ts ? " clock" : "", b->label,
                    b->has_ts ? "the kernel's " : "", b->clock, b->has_ts ? " clock" : "");
-            return SP_EUNSUPPORTED;
+            return -EINVAL; /* the combination asked for: `record` exits 1, naming both */
         }
     return 0;
 }

@@ -388,9 +388,9 @@ static void test_split_refused(void)
     CHECK_MSG(strstr(log, "'lsm6dsm_gyrox'") != NULL, "%s", log);
     CHECK_EQ_INT(open_logged("bmi160+lsm6dsm_gyro", 0, &imu, log, sizeof(log)), -EINVAL);
     CHECK_MSG(strstr(log, "bmi160") && strstr(log, "lsm6dsm_gyro"), "%s", log);
-    CHECK_EQ_INT(open_logged("lsm6dsm_gyro+lis3mdl", 0, &imu, log, sizeof(log)), SP_EUNSUPPORTED);
+    CHECK_EQ_INT(open_logged("lsm6dsm_gyro+lis3mdl", 0, &imu, log, sizeof(log)), -EINVAL);
     CHECK_MSG(strstr(log, "lsm6dsm_gyro is stamped by the kernel's monotonic clock, lis3mdl by read time"), "%s", log);
-    CHECK_EQ_INT(open_logged("lsm6dsm_accel+old_gyro", 0, &imu, log, sizeof(log)), SP_EUNSUPPORTED);
+    CHECK_EQ_INT(open_logged("lsm6dsm_accel+old_gyro", 0, &imu, log, sizeof(log)), -EINVAL);
     CHECK_MSG(strstr(log, "old_gyro by the kernel's realtime clock"), "%s", log);
     CHECK_EQ_INT(open_logged("lsm6dsm_accel+lsm6dsm_gyro+ak8975", 1, &imu, log, sizeof(log)), -ENOTSUP);
     CHECK_MSG(strstr(log, "ak8975 (iio:device1) has no kernel buffer"), "%s", log);
