@@ -46,6 +46,8 @@ struct sp_check_scan {
     ss_lm_tracker *tracker; /* NULL: landmarks from side data only */
     size_t faces, face_looked;
     double face_interval_s, last_face_t; /* the tracker runs on frames at least this far apart */
+    int faces_paused;
+    size_t face_skipped;
 };
 typedef struct sp_check_scan scan;
 
@@ -117,9 +119,13 @@ static int finish_face(scan *s)
         lm = s->side_lm;
     } else if (s->tracker) {
         double t = s->f[s->nf - 1].t;
-        if (s->face_looked && t - s->last_face_t < s->face_interval_s)
+        if ((s->face_looked || s->face_skipped) && t - s->last_face_t < s->face_interval_s)
             return 0; /* live: not every frame, so the check keeps up with the camera */
         s->last_face_t = t;
+        if (s->faces_paused) {
+            s->face_skipped++;
+            return 0;
+        }
         int rc = ss_lm_tracker_frame(s->tracker, s->rgb, (int)s->pw, (int)s->ph, &res);
         if (rc)
             return rc;
@@ -334,6 +340,7 @@ static void summarise(scan *s, sp_check_report *r)
 {
     r->frames = s->nf;
     r->face_share = s->face_looked ? (double)s->faces / (double)s->face_looked : (double)NAN;
+    r->face_skipped = s->face_skipped;
     r->undecodable = s->undecodable;
     r->gyro_samples = s->ng;
     if (s->nf < 2)
@@ -417,6 +424,11 @@ int sp_check_scan_report(sp_check_scan *s, sp_check_report *r)
     if (!rc)
         summarise(s, r);
     return rc;
+}
+
+void sp_check_scan_pause_faces(sp_check_scan *s, int paused)
+{
+    s->faces_paused = paused;
 }
 
 void sp_check_scan_close(sp_check_scan **sp)

@@ -22,6 +22,7 @@ typedef struct sp_check_report {
     double light_modulation;            /* the face's (else the centre's) brightness: first harmonic over yaw / mean; NaN unknown */
     int light_from_face;                /* 1: measured in the landmarks' box (faces on most frames), 0: the frame's centre */
     double face_share;                  /* frames with landmarks (side data, else dlib), NaN when not looked for */
+    size_t face_skipped;                /* live: sampled frames whose face was not looked for, the check being behind */
 } sp_check_report;
 
 /*
@@ -40,6 +41,9 @@ typedef struct sp_check_scan sp_check_scan;
 int sp_check_scan_open(sp_check_scan **out, int find_faces, double face_interval_s);
 int sp_check_scan_chunk(sp_check_scan *s, const sp_chunk *ch);
 int sp_check_scan_report(sp_check_scan *s, sp_check_report *r);
+/* While paused, frames due for the landmark tracker are counted as skipped instead (a live check
+ * that has fallen behind the camera catches up); side data is still used. */
+void sp_check_scan_pause_faces(sp_check_scan *s, int paused);
 void sp_check_scan_close(sp_check_scan **s);
 
 /* The verdict on a report, one line per item ("ok  ", "warn" or "FAIL", the item, what to re-shoot) to

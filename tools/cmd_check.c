@@ -71,13 +71,19 @@ static void judge(const sp_check_report *r, verdicts *v)
         say(v, 1, "frames", "%zu frames do not decode; the fit skips them", r->undecodable);
     if (r->fps > 0 && r->max_gap_s > 5 / r->fps)
         say(v, 1, "gaps", "a gap of %.2f s between frames: frames were dropped", r->max_gap_s);
-    if (!isfinite(r->face_share))
+    char skipped[96] = ""; /* only a live check skips */
+    if (r->face_skipped)
+        snprintf(skipped, sizeof(skipped), " (%zu sampled frames skipped: the check was behind the camera)",
+                 r->face_skipped);
+    if (!isfinite(r->face_share) && r->face_skipped)
+        say(v, 1, "face", "not looked for%s: run `sunprobe check` on the capture", skipped);
+    else if (!isfinite(r->face_share))
         say(v, 1, "face", "not looked for: no landmark side data, and %s", "no dlib tracker (build with -Ddlib, "
             "install its model, or drop --no-face)");
     else
-        say(v, r->face_share < MIN_FACES ? 2 : r->face_share < GOOD_FACES ? 1 : 0, "face", "found on %.0f %% of frames%s",
-            100 * r->face_share, r->face_share < GOOD_FACES ? ": keep the whole face in the frame, lit, at arm's length"
-                                                             : "");
+        say(v, r->face_share < MIN_FACES ? 2 : r->face_share < GOOD_FACES ? 1 : 0, "face", "found on %.0f %% of frames%s%s",
+            100 * r->face_share, skipped,
+            r->face_share < GOOD_FACES ? ": keep the whole face in the frame, lit, at arm's length" : "");
     if (!r->gyro_samples) {
         say(v, 2, "imu", "no gyroscope samples: the fit needs the IMU's orientation (import one with --imu)");
         return;

@@ -24,10 +24,12 @@ typedef struct record_args {
     int quiet;
     int live_check; /* selfie mode: `sunprobe check` on the capture while it is recorded */
     int live_faces; /* ... with the landmark tracker */
+    double live_max_lag_s;
 } record_args;
 
 #define LIVE_FACE_INTERVAL_S 0.25 /* the landmark tracker on four frames a second keeps up on a small board */
 #define LIVE_LINE_PERIOD 10       /* off a terminal, a live check line every this many 0.2 s ticks */
+#define LIVE_MAX_LAG_S 1.0        /* frames older than this when the tracker's turn comes are skipped */
 
 static sp_recorder *volatile g_recorder;
 
@@ -58,6 +60,7 @@ static void usage(FILE *out)
             "                    capture as it is recorded (turn so far, face found, clipping; `sunprobe check`)\n"
             "                    and prints the check's verdict at the end\n"
             "  --no-live-check   selfie without that check;  --no-face  the check without the landmark tracker\n"
+            "  --live-max-lag S  the check skips the tracker on frames older than S when it is behind (default 1)\n"
             "  --duration S      seconds; default: until interrupted\n"
             "  --format F        yuyv, nv12, mjpeg, rgb24, gray8; default the first the camera has\n"
             "  --size WxH        default 640x480;  --fps F  default the camera's\n"
@@ -104,6 +107,7 @@ static int apply_option(record_args *a, int c, const char *v)
     case 'q': a->quiet = 1; return 0;
     case 'L': a->live_check = 0; return 0;
     case 'F': a->live_faces = 0; return 0;
+    case 'G': return sp_opt_double(CMD, "live-max-lag", v, 0, 1e6, &a->live_max_lag_s);
     case 'R': return sp_opt_double(CMD, "imu-rate", v, 0.001, 100000, &a->imu.rate_hz);
     case 'Q': bad = sp_opt_u64(CMD, "queue", v, 1, 4096, &n); a->rec.frame_queue = (unsigned)n; return bad;
     case 'D':
@@ -127,7 +131,7 @@ static int parse_args(int argc, char **argv, record_args *a)
         { "imu-rate", required_argument, NULL, 'R' }, { "queue", required_argument, NULL, 'Q' },
         { "writer-delay-us", required_argument, NULL, 'D' }, { "sync", required_argument, NULL, 'S' },
         { "backend", required_argument, NULL, 'b' }, { "no-live-check", no_argument, NULL, 'L' },
-        { "no-face", no_argument, NULL, 'F' },
+        { "no-face", no_argument, NULL, 'F' }, { "live-max-lag", required_argument, NULL, 'G' },
         { 0 } };
     int c;
     while ((c = getopt_long(argc, argv, "ho:q", opts, NULL)) != -1) {
@@ -228,6 +232,7 @@ int sp_cmd_record(int argc, char **argv)
     sp_imu_device_default_settings(&a.imu);
     sp_recorder_default_settings(&a.rec);
     a.live_check = a.live_faces = 1;
+    a.live_max_lag_s = LIVE_MAX_LAG_S;
     int err = parse_args(argc, argv, &a);
     if (err)
         return err > 0 ? SP_EXIT_OK : SP_EXIT_USAGE;
@@ -250,7 +255,7 @@ int sp_cmd_record(int argc, char **argv)
     } else {
         sp_live_check *check = NULL;
         if (a.live_check && !strcmp(a.rec.kind, "selfie") &&
-            (err = sp_live_check_start(&check, a.rec.path, a.live_faces, LIVE_FACE_INTERVAL_S)) < 0)
+            (err = sp_live_check_start(&check, a.rec.path, a.live_faces, LIVE_FACE_INTERVAL_S, a.live_max_lag_s)) < 0)
             fprintf(stderr, "sunprobe " CMD ": no live check: %s\n", sp_strerror(err));
         err = run(rec, &a, check, &st);
         if (st.end != SP_RECORDER_RUNNING)

@@ -27,6 +27,7 @@ struct sp_live_check {
     char path[4096];
     int find_faces;
     double face_interval_s;
+    int64_t max_lag_ns;
     sp_check_scan *scan;           /* opened in the thread: loading the landmark model takes a while */
     sp_capture_reader *reader;
     pthread_t thread;
@@ -83,6 +84,8 @@ static int follow(sp_live_check *lc)
         sp_chunk ch;
         int rc = sp_capture_reader_next(lc->reader, &ch);
         if (rc == 0) {
+            if (ch.type == SP_CHUNK_FRAME) /* frames carry the camera's monotonic time */
+                sp_check_scan_pause_faces(lc->scan, sp_clock_monotonic_ns() - ch.timestamp_ns > lc->max_lag_ns);
             if ((rc = sp_check_scan_chunk(lc->scan, &ch)) != 0)
                 return rc;
         } else if (rc == SP_EOS && sp_capture_reader_saw_end(lc->reader)) {
@@ -111,7 +114,8 @@ static void *run(void *arg)
     return NULL;
 }
 
-int sp_live_check_start(sp_live_check **out, const char *path, int find_faces, double face_interval_s)
+int sp_live_check_start(sp_live_check **out, const char *path, int find_faces, double face_interval_s,
+                        double max_lag_s)
 {
     sp_live_check *lc = calloc(1, sizeof(*lc));
     if (!lc)
@@ -123,6 +127,7 @@ int sp_live_check_start(sp_live_check **out, const char *path, int find_faces, d
     strcpy(lc->path, path);
     lc->find_faces = find_faces;
     lc->face_interval_s = face_interval_s;
+    lc->max_lag_ns = (int64_t)(max_lag_s * 1e9);
     pthread_mutex_init(&lc->lock, NULL);
     int rc = -pthread_create(&lc->thread, NULL, run, lc);
     if (rc) {

@@ -12,9 +12,11 @@ typedef struct sp_live_check sp_live_check;
  * Starts a thread that follows the capture at path (borrowed until finish) as the recorder appends to
  * it, feeding each chunk to the check's measurements (check_capture.h) and refreshing a one-line
  * status. It reads behind the writer and never slows it; find_faces as for `sunprobe check`, with
- * the landmark tracker on frames at least face_interval_s apart.
+ * the landmark tracker on frames at least face_interval_s apart, and skipped (counted) on frames
+ * older than max_lag_s when their turn comes, so that a slow tracker lets the check catch up.
  */
-int sp_live_check_start(sp_live_check **out, const char *path, int find_faces, double face_interval_s);
+int sp_live_check_start(sp_live_check **out, const char *path, int find_faces, double face_interval_s,
+                        double max_lag_s);
 /* The latest status ("turn 140 deg of 300 | face 92 % | clipped 0 % | gyro 200 Hz"); "" before the
  * first frames. Safe to call from another thread than the check's. */
 void sp_live_check_status(sp_live_check *lc, char *buf, size_t size);
