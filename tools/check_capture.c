@@ -26,7 +26,7 @@ typedef struct frame_rec {
     uint32_t width;
 } frame_rec;
 
-typedef struct scan {
+struct sp_check_scan {
     frame_rec *f;
     size_t nf, capf;
     double *gt, *gv; /* gyro times (s) and 3-vectors */
@@ -45,7 +45,11 @@ typedef struct scan {
     double side_lm[136];
     ss_lm_tracker *tracker; /* NULL: landmarks from side data only */
     size_t faces, face_looked;
-} scan;
+    double face_interval_s, last_face_t; /* the tracker runs on frames at least this far apart */
+    int faces_paused;
+    size_t face_skipped;
+};
+typedef struct sp_check_scan scan;
 
 static int grow(void **p, size_t *cap, size_t n, size_t elem)
 {
@@ -114,6 +118,14 @@ static int finish_face(scan *s)
     if (s->have_side) {
         lm = s->side_lm;
     } else if (s->tracker) {
+        double t = s->f[s->nf - 1].t;
+        if ((s->face_looked || s->face_skipped) && t - s->last_face_t < s->face_interval_s)
+            return 0; /* live: not every frame, so the check keeps up with the camera */
+        s->last_face_t = t;
+        if (s->faces_paused) {
+            s->face_skipped++;
+            return 0;
+        }
         int rc = ss_lm_tracker_frame(s->tracker, s->rgb, (int)s->pw, (int)s->ph, &res);
         if (rc)
             return rc;
@@ -328,6 +340,7 @@ static void summarise(scan *s, sp_check_report *r)
 {
     r->frames = s->nf;
     r->face_share = s->face_looked ? (double)s->faces / (double)s->face_looked : (double)NAN;
+    r->face_skipped = s->face_skipped;
     r->undecodable = s->undecodable;
     r->gyro_samples = s->ng;
     if (s->nf < 2)
@@ -368,6 +381,71 @@ static void summarise(scan *s, sp_check_report *r)
     free(yaw);
 }
 
+int sp_check_scan_open(sp_check_scan **out, int find_faces, double face_interval_s)
+{
+    scan *s = calloc(1, sizeof(*s));
+    if (!s)
+        return -ENOMEM;
+    s->fx = NAN;
+    s->face_interval_s = face_interval_s;
+    if (find_faces) { /* without dlib (or its model) faces come from side data only */
+        ss_lm_settings ls;
+        ss_lm_default_settings(&ls);
+        if (ss_lm_tracker_open(&s->tracker, &ls) != 0)
+            s->tracker = NULL;
+    }
+    *out = s;
+    return 0;
+}
+
+int sp_check_scan_chunk(sp_check_scan *s, const sp_chunk *ch)
+{
+    if (ch->type == SP_CHUNK_META) {
+        sp_capture_meta m;
+        sp_capture_meta_init(&m);
+        if (sp_capture_meta_merge(&m, (const char *)ch->payload, ch->payload_size) == 0 && isfinite(m.fx))
+            s->fx = m.fx;
+    } else if (ch->type == SP_CHUNK_FRAME) {
+        return take_frame(s, ch);
+    } else if (ch->type == SP_CHUNK_IMU) {
+        return take_imu(s, ch);
+    } else if (ch->type == SP_CHUNK_SIDE) {
+        take_side(s, ch);
+    }
+    return 0;
+}
+
+int sp_check_scan_report(sp_check_scan *s, sp_check_report *r)
+{
+    memset(r, 0, sizeof(*r));
+    r->light_modulation = NAN;
+    r->blurred_share = NAN;
+    int rc = finish_face(s);
+    if (!rc)
+        summarise(s, r);
+    return rc;
+}
+
+void sp_check_scan_pause_faces(sp_check_scan *s, int paused)
+{
+    s->faces_paused = paused;
+}
+
+void sp_check_scan_close(sp_check_scan **sp)
+{
+    scan *s = sp ? *sp : NULL;
+    if (!s)
+        return;
+    ss_lm_tracker_close(&s->tracker);
+    free(s->f);
+    free(s->gt);
+    free(s->gv);
+    free(s->gray);
+    free(s->rgb);
+    free(s);
+    *sp = NULL;
+}
+
 int sp_check_capture(const char *path, int find_faces, sp_check_report *r)
 {
     memset(r, 0, sizeof(*r));
@@ -377,37 +455,17 @@ int sp_check_capture(const char *path, int find_faces, sp_check_report *r)
     int rc = sp_capture_reader_open(&rd, path, NULL);
     if (rc)
         return rc;
-    scan s = { .fx = NAN };
-    if (find_faces) { /* without dlib (or its model) faces come from side data only */
-        ss_lm_settings ls;
-        ss_lm_default_settings(&ls);
-        if (ss_lm_tracker_open(&s.tracker, &ls) != 0)
-            s.tracker = NULL;
+    scan *s = NULL;
+    if ((rc = sp_check_scan_open(&s, find_faces, 0)) != 0) {
+        sp_capture_reader_close(&rd);
+        return rc;
     }
     sp_chunk ch;
-    while (!rc && (rc = sp_capture_reader_next(rd, &ch)) == 0) {
-        if (ch.type == SP_CHUNK_META) {
-            sp_capture_meta m;
-            sp_capture_meta_init(&m);
-            if (sp_capture_meta_merge(&m, (const char *)ch.payload, ch.payload_size) == 0 && isfinite(m.fx))
-                s.fx = m.fx;
-        } else if (ch.type == SP_CHUNK_FRAME)
-            rc = take_frame(&s, &ch);
-        else if (ch.type == SP_CHUNK_IMU)
-            rc = take_imu(&s, &ch);
-        else if (ch.type == SP_CHUNK_SIDE)
-            take_side(&s, &ch);
-    }
+    while (!rc && (rc = sp_capture_reader_next(rd, &ch)) == 0)
+        rc = sp_check_scan_chunk(s, &ch);
     sp_capture_reader_close(&rd);
     if (rc == SP_EOS)
-        rc = finish_face(&s);
-    if (!rc)
-        summarise(&s, r);
-    ss_lm_tracker_close(&s.tracker);
-    free(s.f);
-    free(s.gt);
-    free(s.gv);
-    free(s.gray);
-    free(s.rgb);
+        rc = sp_check_scan_report(s, r);
+    sp_check_scan_close(&s);
     return rc;
 }

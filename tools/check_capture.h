@@ -4,6 +4,12 @@
 #define SUNPROBE_TOOLS_CHECK_CAPTURE_H
 
 #include <stddef.h>
+#include <stdio.h>
+
+#include "sunprobe/sp_capture.h"
+
+/* The turn `sunprobe check` asks for before it says ok (README "check"). */
+#define SP_CHECK_GOOD_TURN_DEG 300
 
 typedef struct sp_check_report {
     size_t frames, undecodable, gyro_samples;
@@ -16,6 +22,7 @@ typedef struct sp_check_report {
     double light_modulation;            /* the face's (else the centre's) brightness: first harmonic over yaw / mean; NaN unknown */
     int light_from_face;                /* 1: measured in the landmarks' box (faces on most frames), 0: the frame's centre */
     double face_share;                  /* frames with landmarks (side data, else dlib), NaN when not looked for */
+    size_t face_skipped;                /* live: sampled frames whose face was not looked for, the check being behind */
 } sp_check_report;
 
 /*
@@ -23,5 +30,27 @@ typedef struct sp_check_report {
  * frames without landmark side data. 0, or a negative error (the file, not the verdict).
  */
 int sp_check_capture(const char *path, int find_faces, sp_check_report *r);
+
+/*
+ * The same measurements chunk by chunk, for a capture still being written (`record`'s live check):
+ * open, feed every chunk in file order, ask for the report over what was fed so far as often as
+ * wanted. face_interval_s: the landmark tracker runs on frames at least this many seconds apart (0:
+ * every frame), so a live check keeps up with the camera.
+ */
+typedef struct sp_check_scan sp_check_scan;
+int sp_check_scan_open(sp_check_scan **out, int find_faces, double face_interval_s);
+int sp_check_scan_chunk(sp_check_scan *s, const sp_chunk *ch);
+int sp_check_scan_report(sp_check_scan *s, sp_check_report *r);
+/* While paused, frames due for the landmark tracker are counted as skipped instead (a live check
+ * that has fallen behind the camera catches up); side data is still used. */
+void sp_check_scan_pause_faces(sp_check_scan *s, int paused);
+void sp_check_scan_close(sp_check_scan **s);
+
+/* The verdict on a report, one line per item ("ok  ", "warn" or "FAIL", the item, what to re-shoot) to
+ * out; counts fails and warnings. */
+typedef struct sp_check_verdicts {
+    int fails, warns;
+} sp_check_verdicts;
+void sp_check_judge(const sp_check_report *r, FILE *out, sp_check_verdicts *v);
 
 #endif

@@ -18,7 +18,7 @@
 #define MIN_COVERAGE 0.9
 #define MIN_GYRO_HZ 50
 #define MIN_TURN_DEG 180
-#define GOOD_TURN_DEG 300
+#define GOOD_TURN_DEG SP_CHECK_GOOD_TURN_DEG
 #define MAX_CLIPPED 0.2
 #define MAX_BLURRED 0.25
 #define MIN_MODULATION 0.1
@@ -37,21 +37,30 @@ static void usage(FILE *out)
 }
 
 typedef struct verdicts {
-    int fails, warns;
+    sp_check_verdicts *count;
+    FILE *out;
 } verdicts;
 
 static void say(verdicts *v, int level, const char *what, const char *fmt, ...) SP_PRINTF(4, 5);
 static void say(verdicts *v, int level, const char *what, const char *fmt, ...)
 {
     static const char *const tag[] = { "ok  ", "warn", "FAIL" };
-    v->warns += level == 1;
-    v->fails += level == 2;
-    printf("%s %-9s ", tag[level], what);
+    v->count->warns += level == 1;
+    v->count->fails += level == 2;
+    fprintf(v->out, "%s %-9s ", tag[level], what);
     va_list ap;
     va_start(ap, fmt);
-    vprintf(fmt, ap);
+    vfprintf(v->out, fmt, ap);
     va_end(ap);
-    printf("\n");
+    fprintf(v->out, "\n");
+}
+
+static void judge(const sp_check_report *r, verdicts *v);
+
+void sp_check_judge(const sp_check_report *r, FILE *out, sp_check_verdicts *count)
+{
+    verdicts v = { count, out };
+    judge(r, &v);
 }
 
 static void judge(const sp_check_report *r, verdicts *v)
@@ -62,13 +71,19 @@ static void judge(const sp_check_report *r, verdicts *v)
         say(v, 1, "frames", "%zu frames do not decode; the fit skips them", r->undecodable);
     if (r->fps > 0 && r->max_gap_s > 5 / r->fps)
         say(v, 1, "gaps", "a gap of %.2f s between frames: frames were dropped", r->max_gap_s);
-    if (!isfinite(r->face_share))
+    char skipped[96] = ""; /* only a live check skips */
+    if (r->face_skipped)
+        snprintf(skipped, sizeof(skipped), " (%zu sampled frames skipped: the check was behind the camera)",
+                 r->face_skipped);
+    if (!isfinite(r->face_share) && r->face_skipped)
+        say(v, 1, "face", "not looked for%s: run `sunprobe check` on the capture", skipped);
+    else if (!isfinite(r->face_share))
         say(v, 1, "face", "not looked for: no landmark side data, and %s", "no dlib tracker (build with -Ddlib, "
             "install its model, or drop --no-face)");
     else
-        say(v, r->face_share < MIN_FACES ? 2 : r->face_share < GOOD_FACES ? 1 : 0, "face", "found on %.0f %% of frames%s",
-            100 * r->face_share, r->face_share < GOOD_FACES ? ": keep the whole face in the frame, lit, at arm's length"
-                                                             : "");
+        say(v, r->face_share < MIN_FACES ? 2 : r->face_share < GOOD_FACES ? 1 : 0, "face", "found on %.0f %% of frames%s%s",
+            100 * r->face_share, skipped,
+            r->face_share < GOOD_FACES ? ": keep the whole face in the frame, lit, at arm's length" : "");
     if (!r->gyro_samples) {
         say(v, 2, "imu", "no gyroscope samples: the fit needs the IMU's orientation (import one with --imu)");
         return;
@@ -100,7 +115,7 @@ static void judge(const sp_check_report *r, verdicts *v)
                                                  : "lighting observable");
 }
 
-static int write_json(const char *path, const sp_check_report *r, const verdicts *v)
+static int write_json(const char *path, const sp_check_report *r, const sp_check_verdicts *v)
 {
     sp_atomic_file f;
     int rc = sp_atomic_file_open(&f, path);
@@ -159,8 +174,8 @@ int sp_cmd_check(int argc, char **argv)
                 rc == SP_EDISABLED ? " (decoding MJPEG frames needs libjpeg: rebuild with -Djpeg=enabled)" : "");
         return sp_exit_for_error(rc);
     }
-    verdicts v = { 0 };
-    judge(&r, &v);
+    sp_check_verdicts v = { 0 };
+    sp_check_judge(&r, stdout, &v);
     printf("%s: %s\n", path, v.fails ? "this capture cannot work: re-shoot as said above"
                        : v.warns ? "usable, with the warnings above" : "good to fit");
     if (json && (rc = write_json(json, &r, &v)) != 0) {

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "cmd.h"
+#include "live_check.h"
 #include "sunprobe/sp_recorder.h"
 
 #define CMD "record"
@@ -21,7 +22,14 @@ typedef struct record_args {
     sp_recorder_settings rec;
     const char *imu_name;
     int quiet;
+    int live_check; /* selfie mode: `sunprobe check` on the capture while it is recorded */
+    int live_faces; /* ... with the landmark tracker */
+    double live_max_lag_s;
 } record_args;
+
+#define LIVE_FACE_INTERVAL_S 0.25 /* the landmark tracker on four frames a second keeps up on a small board */
+#define LIVE_LINE_PERIOD 10       /* off a terminal, a live check line every this many 0.2 s ticks */
+#define LIVE_MAX_LAG_S 1.0        /* frames older than this when the tracker's turn comes are skipped */
 
 static sp_recorder *volatile g_recorder;
 
@@ -36,16 +44,23 @@ static void on_signal(int sig)
 static void usage(FILE *out)
 {
     fprintf(out,
-            "usage: sunprobe record [--camera NAME|/dev/videoN|fake[:opts]] [--imu NAME|fake|none]\n"
+            "usage: sunprobe record [--camera NAME|/dev/videoN[:fourcc=XXXX]|fake[:opts]]\n"
+            "                       [--imu NAME[+NAME..]|fake|none]\n"
             "                       [--mode selfie|static] [--duration S] [--format F] [--size WxH] [--fps F]\n"
             "                       [--lock-exposure] [--overwrite] -o CAPTURE.spcap\n\n"
             "Records frames (and IMU samples) to a capture until the duration passes or SIGINT/SIGTERM;\n"
             "the file is valid however it ends (device unplugged, disk full). `sunprobe devices` lists ids.\n"
             "  --camera D        camera id or name; default the first found (fake options: bars, panorama,\n"
-            "                    unpaced, prerender, frames=N, e.g. fake:panorama)\n"
+            "                    unpaced, prerender, frames=N, e.g. fake:panorama); a V4L2 node may pick the\n"
+            "                    device's layout, e.g. /dev/video0:fourcc=NM21 (4:2:0 layouts are stored as nv12)\n"
             "  --backend B       camera backend: v4l2, libcamera or fake; default the one that knows D\n"
-            "  --imu D           IIO device id (iio:deviceN) or name, fake, or none (default)\n"
-            "  --mode M          selfie (default) or static, written to the metadata\n"
+            "  --imu D           IIO device id (iio:deviceN) or name, fake, or none (default); an IMU split\n"
+            "                    over devices as A+B[+C], e.g. lsm6dsm_accel+lsm6dsm_gyro (one clock)\n"
+            "  --mode M          selfie (default) or static, written to the metadata; selfie checks the\n"
+            "                    capture as it is recorded (turn so far, face found, clipping; `sunprobe check`)\n"
+            "                    and prints the check's verdict at the end\n"
+            "  --no-live-check   selfie without that check;  --no-face  the check without the landmark tracker\n"
+            "  --live-max-lag S  the check skips the tracker on frames older than S when it is behind (default 1)\n"
             "  --duration S      seconds; default: until interrupted\n"
             "  --format F        yuyv, nv12, mjpeg, rgb24, gray8; default the first the camera has\n"
             "  --size WxH        default 640x480;  --fps F  default the camera's\n"
@@ -90,6 +105,9 @@ static int apply_option(record_args *a, int c, const char *v)
     case 'o': a->rec.path = v; return 0;
     case 'w': a->rec.writer.overwrite = 1; return 0;
     case 'q': a->quiet = 1; return 0;
+    case 'L': a->live_check = 0; return 0;
+    case 'F': a->live_faces = 0; return 0;
+    case 'G': return sp_opt_double(CMD, "live-max-lag", v, 0, 1e6, &a->live_max_lag_s);
     case 'R': return sp_opt_double(CMD, "imu-rate", v, 0.001, 100000, &a->imu.rate_hz);
     case 'Q': bad = sp_opt_u64(CMD, "queue", v, 1, 4096, &n); a->rec.frame_queue = (unsigned)n; return bad;
     case 'D':
@@ -112,7 +130,8 @@ static int parse_args(int argc, char **argv, record_args *a)
         { "overwrite", no_argument, NULL, 'w' },   { "quiet", no_argument, NULL, 'q' },
         { "imu-rate", required_argument, NULL, 'R' }, { "queue", required_argument, NULL, 'Q' },
         { "writer-delay-us", required_argument, NULL, 'D' }, { "sync", required_argument, NULL, 'S' },
-        { "backend", required_argument, NULL, 'b' },
+        { "backend", required_argument, NULL, 'b' }, { "no-live-check", no_argument, NULL, 'L' },
+        { "no-face", no_argument, NULL, 'F' }, { "live-max-lag", required_argument, NULL, 'G' },
         { 0 } };
     int c;
     while ((c = getopt_long(argc, argv, "ho:q", opts, NULL)) != -1) {
@@ -136,13 +155,13 @@ static int parse_args(int argc, char **argv, record_args *a)
     return 0;
 }
 
-static void print_progress(sp_recorder *rec)
+static void print_progress(sp_recorder *rec, const char *check)
 {
     sp_recorder_stats st;
     sp_recorder_get_stats(rec, &st);
-    fprintf(stderr, "\r%" PRIu64 " frames, %" PRIu64 " dropped, %" PRIu64 " imu samples, %.1f MB   ",
+    fprintf(stderr, "\r%" PRIu64 " frames, %" PRIu64 " dropped, %" PRIu64 " imu samples, %.1f MB%s%s   ",
             st.frames_written, st.frames_dropped + st.device_dropped, st.imu_samples_written,
-            (double)st.bytes_written / 1e6);
+            (double)st.bytes_written / 1e6, check[0] ? " | " : "", check);
 }
 
 static void print_summary(const char *path, const sp_camera_info *ci, const sp_recorder_stats *st)
@@ -156,8 +175,9 @@ static void print_summary(const char *path, const sp_camera_info *ci, const sp_r
         printf("%" PRIu64 " queued frames were not written after the write error\n", st->frames_discarded);
 }
 
-/* Runs an opened recorder to its end, with SIGINT/SIGTERM asking it to stop. */
-static int run(sp_recorder *rec, const record_args *a, sp_recorder_stats *st)
+/* Runs an opened recorder to its end, with SIGINT/SIGTERM asking it to stop; the live check's status on
+ * the progress line of a terminal, else on a line of its own every two seconds. */
+static int run(sp_recorder *rec, const record_args *a, sp_live_check *check, sp_recorder_stats *st)
 {
     struct sigaction sa, old_int, old_term;
     memset(&sa, 0, sizeof(sa));
@@ -168,10 +188,15 @@ static int run(sp_recorder *rec, const record_args *a, sp_recorder_stats *st)
     sigaction(SIGTERM, &sa, &old_term);
     int err = sp_recorder_start(rec);
     int tty = !a->quiet && isatty(STDERR_FILENO);
-    while (err == 0 && !sp_recorder_finished(rec)) {
+    char status[192] = "";
+    for (unsigned tick = 1; err == 0 && !sp_recorder_finished(rec); tick++) {
         nanosleep(&(struct timespec){ 0, 200000000 }, NULL);
+        if (check)
+            sp_live_check_status(check, status, sizeof(status));
         if (tty)
-            print_progress(rec);
+            print_progress(rec, status);
+        else if (check && !a->quiet && status[0] && tick % LIVE_LINE_PERIOD == 0)
+            fprintf(stderr, "live check: %s\n", status);
     }
     if (tty)
         fputc('\n', stderr);
@@ -206,6 +231,8 @@ int sp_cmd_record(int argc, char **argv)
     sp_camera_default_settings(&a.cam);
     sp_imu_device_default_settings(&a.imu);
     sp_recorder_default_settings(&a.rec);
+    a.live_check = a.live_faces = 1;
+    a.live_max_lag_s = LIVE_MAX_LAG_S;
     int err = parse_args(argc, argv, &a);
     if (err)
         return err > 0 ? SP_EXIT_OK : SP_EXIT_USAGE;
@@ -226,9 +253,16 @@ int sp_cmd_record(int argc, char **argv)
     if (err < 0) {
         code = sp_cmd_fail("record", err, a.rec.path);
     } else {
-        err = run(rec, &a, &st);
+        sp_live_check *check = NULL;
+        if (a.live_check && !strcmp(a.rec.kind, "selfie") &&
+            (err = sp_live_check_start(&check, a.rec.path, a.live_faces, LIVE_FACE_INTERVAL_S, a.live_max_lag_s)) < 0)
+            fprintf(stderr, "sunprobe " CMD ": no live check: %s\n", sp_strerror(err));
+        err = run(rec, &a, check, &st);
         if (st.end != SP_RECORDER_RUNNING)
             print_summary(a.rec.path, sp_camera_get_info(cam), &st);
+        int check_err = sp_live_check_finish(&check, stdout);
+        if (check_err < 0)
+            fprintf(stderr, "sunprobe " CMD ": live check: %s: %s\n", a.rec.path, sp_strerror(check_err));
         if (err < 0)
             code = sp_cmd_fail("record", err, st.end == SP_RECORDER_DEVICE_LOST ? "device lost (capture kept)"
                                               : st.end == SP_RECORDER_DISK_FULL ? "disk full (capture kept)"

@@ -6,6 +6,12 @@
  * either from the kernel buffer /dev/iio:deviceN (scan elements, with the
  * kernel's timestamp channel switched to CLOCK_MONOTONIC) or, where there is no
  * buffer, by polling the sysfs raw values. libiio is not needed.
+ *
+ * An IMU whose sensors are separate IIO devices (LSM6DSx, BMI2xx: one device for
+ * the accelerometer, one for the gyroscope, often a third for a magnetometer) is
+ * opened as a group, "NAME+NAME[+NAME]": each member by id or name, all read
+ * together and their samples merged in time order. They must share one clock:
+ * all kernel-stamped on the same clock, or all polled and stamped at read.
  */
 #include "device/backends.h"
 
@@ -27,6 +33,7 @@
 #define MAX_DEVICES 32
 #define N_KINDS 3
 #define RECORD_MAX 256 /* bytes of one scan record at most */
+#define GROUP_SEP '+'  /* between the members of a split IMU's device string */
 
 static const struct {
     const char *prefix; /* channel type in attribute names */
@@ -60,8 +67,18 @@ typedef struct iio_ctx {
     uint8_t rec[RECORD_MAX * 32]; /* whole records read at once, plus a partial one */
     size_t rec_fill;
     double rate_hz;
-    int64_t next_poll_ns;
+    char clock[32];          /* what stamps the samples: the kernel clock's name, or "read time" */
+    char label[64];          /* the device's name for messages */
 } iio_ctx;
+
+/* What an open device string is: one IIO device or several read as one IMU. */
+typedef struct iio_group {
+    iio_ctx *member[N_KINDS];
+    size_t n;
+    int buffered;            /* all members from their kernel buffers, else all polled */
+    double rate_hz;          /* polling: the fastest member's rate */
+    int64_t next_poll_ns;
+} iio_group;
 
 /* ---- small sysfs helpers ---- */
 
@@ -226,9 +243,39 @@ static int resolve(const char *device, sp_imu_desc *found)
     return -ENODEV;
 }
 
+#define MAX_NAMES (N_KINDS + 1) /* one more than a group may have, to say so */
+
+/* Splits a group's device string at '+' into member names; 0 when it is no group (or a name is empty,
+ * too long, or there are more than MAX_NAMES). */
+static size_t split_group(const char *device, char names[MAX_NAMES][64])
+{
+    if (!device || !strchr(device, GROUP_SEP))
+        return 0;
+    size_t n = 0;
+    for (const char *p = device; n < MAX_NAMES; n++) {
+        size_t len = strcspn(p, "+");
+        if (len == 0 || len >= 64)
+            return 0;
+        memcpy(names[n], p, len);
+        names[n][len] = '\0';
+        if (!p[len])
+            return n + 1;
+        p += len + 1;
+    }
+    return 0;
+}
+
 static int iio_claims(const char *device)
 {
     sp_imu_desc d;
+    char names[MAX_NAMES][64];
+    size_t n = split_group(device, names);
+    if (n > 0) { /* a group when any member is an IIO device: open then names the missing ones */
+        for (size_t i = 0; i < n; i++)
+            if (!strncmp(names[i], "iio:device", 10) || resolve(names[i], &d) == 0)
+                return 1;
+        return 0;
+    }
     if (device && !strncmp(device, "iio:device", 10))
         return 1;
     return resolve(device, &d) == 0;
@@ -246,15 +293,24 @@ static void close_raw_fds(iio_ctx *c)
             }
 }
 
-static void iio_close(void *ctx)
+static void close_member(iio_ctx *c)
 {
-    iio_ctx *c = ctx;
     if (!c)
         return;
     close_raw_fds(c);
     if (c->fd >= 0)
         close(c->fd);
     free(c);
+}
+
+static void iio_close(void *ctx)
+{
+    iio_group *g = ctx;
+    if (!g)
+        return;
+    for (size_t i = 0; i < g->n; i++)
+        close_member(g->member[i]);
+    free(g);
 }
 
 /* Scale and offset of every present channel; a channel without a scale is unusable. */
@@ -325,7 +381,8 @@ static void choose_clock(iio_ctx *c)
             snprintf(clk, sizeof(clk), "realtime");
     }
     c->ts_correction = 0;
-    if (strcmp(clk, "monotonic") != 0) {
+    sp_dev_copy_string(c->clock, sizeof(c->clock), c->has_ts ? clk : "read time");
+    if (c->has_ts && strcmp(clk, "monotonic") != 0) {
         sp_log(SP_LOG_WARN, "iio", "%s: timestamps on the %s clock; shifting them to monotonic", c->dir, clk);
         c->ts_correction = sp_clock_monotonic_ns() - sp_clock_realtime_ns();
     }
@@ -442,17 +499,13 @@ static int setup_polling(iio_ctx *c)
         }
     if (!(c->rate_hz > 0))
         c->rate_hz = 100.0; /* the device does not say: poll at a rate any IMU reaches */
+    sp_dev_copy_string(c->clock, sizeof(c->clock), "read time");
     return 0;
 }
 
-static int iio_open(void **out, const sp_imu_device_settings *s, sp_imu_device_info *info)
+/* Opens one IIO device, from its kernel buffer when `buffered`, else polled. */
+static int open_member(const sp_imu_desc *d, const sp_imu_device_settings *s, int buffered, iio_ctx **out)
 {
-    sp_imu_desc d;
-    int err = resolve(s->device, &d);
-    if (err < 0) {
-        sp_log(SP_LOG_ERROR, "iio", "no IIO motion sensor '%s'", s->device ? s->device : "(any)");
-        return err;
-    }
     iio_ctx *c = calloc(1, sizeof(*c));
     if (!c)
         return -ENOMEM;
@@ -460,49 +513,180 @@ static int iio_open(void **out, const sp_imu_device_settings *s, sp_imu_device_i
     for (int k = 0; k < N_KINDS; k++)
         for (int a = 0; a < 3; a++)
             c->ch[k][a].raw_fd = -1;
-    snprintf(c->dir, sizeof(c->dir), SYSFS_ROOT "/%s", d.id);
-    snprintf(c->devnode, sizeof(c->devnode), "/dev/%s", d.id);
-    err = read_channels(c);
+    snprintf(c->dir, sizeof(c->dir), SYSFS_ROOT "/%s", d->id);
+    snprintf(c->devnode, sizeof(c->devnode), "/dev/%s", d->id);
+    sp_dev_copy_string(c->label, sizeof(c->label), d->name[0] ? d->name : d->id);
+    int err = read_channels(c);
     if (err == 0 && s->rate_hz > 0)
         set_rate(c, s->rate_hz);
     c->rate_hz = device_rate(c->dir);
-    c->buffered = s->mode != 2 && d.buffered;
-    if (err == 0 && s->mode == 1 && !c->buffered) {
-        sp_log(SP_LOG_ERROR, "iio", "%s has no kernel buffer (scan_elements + %s)", d.id, c->devnode);
-        err = -ENOTSUP;
-    }
+    c->buffered = buffered;
     if (err == 0)
-        err = c->buffered ? setup_buffered(c, &d) : setup_polling(c);
+        err = c->buffered ? setup_buffered(c, d) : setup_polling(c);
     if (err < 0) {
-        iio_close(c);
+        close_member(c);
         return err;
     }
-    memset(info, 0, sizeof(*info));
-    info->desc = d;
-    info->rate_hz = c->rate_hz;
-    info->buffered = c->buffered;
-    info->kernel_timestamps = c->buffered && c->has_ts;
     *out = c;
     return 0;
 }
 
+/* Finds each member of the device string (one, or a '+' group); logs which one is missing. */
+static int resolve_members(const char *device, sp_imu_desc *d, size_t *n)
+{
+    char names[MAX_NAMES][64];
+    *n = split_group(device, names);
+    if (*n > N_KINDS) {
+        sp_log(SP_LOG_ERROR, "iio", "'%s': a split IMU has at most %d members (accelerometer, gyroscope, "
+               "magnetometer)", device, N_KINDS);
+        return -EINVAL;
+    }
+    if (*n == 0) {
+        *n = 1;
+        if (resolve(device, &d[0]) == 0)
+            return 0;
+        sp_log(SP_LOG_ERROR, "iio", "no IIO motion sensor '%s'", device ? device : "(any)");
+        return -ENODEV;
+    }
+    for (size_t i = 0; i < *n; i++)
+        if (resolve(names[i], &d[i]) < 0) {
+            sp_log(SP_LOG_ERROR, "iio", "no IIO motion sensor '%s' (member %zu of '%s')", names[i], i + 1, device);
+            return -ENODEV;
+        }
+    for (size_t i = 0; i < *n; i++)
+        for (size_t k = 0; k < i; k++)
+            if (d[i].sensors & d[k].sensors || !strcmp(d[i].id, d[k].id)) {
+                sp_log(SP_LOG_ERROR, "iio", "'%s': %s and %s both have the same kind of sensor; name each once",
+                       device, d[k].name, d[i].name);
+                return -EINVAL;
+            }
+    return 0;
+}
+
+/* One clock for every member, else the message names the two that differ. */
+static int same_clock(const iio_group *g)
+{
+    for (size_t i = 1; i < g->n; i++)
+        if (strcmp(g->member[i]->clock, g->member[0]->clock)) {
+            const iio_ctx *a = g->member[0], *b = g->member[i];
+            sp_log(SP_LOG_ERROR, "iio",
+                   "%s is stamped by %s%s%s, %s by %s%s%s: not one clock (set both devices' "
+                   "current_timestamp_clock, or poll both with the polling mode)",
+                   a->label, a->has_ts ? "the kernel's " : "", a->clock, a->has_ts ? " clock" : "", b->label,
+                   b->has_ts ? "the kernel's " : "", b->clock, b->has_ts ? " clock" : "");
+            return -EINVAL; /* the combination asked for: `record` exits 1, naming both */
+        }
+    return 0;
+}
+
+/* Buffered when every member has a kernel buffer (and the mode allows it); a member without one makes
+ * the whole group polled, so that all samples are stamped alike. */
+static int group_buffered(const sp_imu_desc *d, size_t n, int mode)
+{
+    for (size_t i = 0; i < n; i++)
+        if (!d[i].buffered) {
+            if (mode == 1)
+                sp_log(SP_LOG_ERROR, "iio", "%s (%s) has no kernel buffer (scan_elements + /dev/%s)", d[i].name,
+                       d[i].id, d[i].id);
+            else if (mode == 0 && n > 1)
+                sp_log(SP_LOG_WARN, "iio", "%s has no kernel buffer: polling every member of the group",
+                       d[i].name);
+            return mode == 1 ? -ENOTSUP : 0;
+        }
+    return mode != 2;
+}
+
+static void describe_group(const iio_group *g, const sp_imu_desc *d, const char *device, sp_imu_device_info *info)
+{
+    memset(info, 0, sizeof(*info));
+    info->desc = d[0];
+    info->rate_hz = g->n > 1 ? (g->buffered ? 0 : g->rate_hz) : g->member[0]->rate_hz;
+    info->buffered = g->buffered;
+    info->kernel_timestamps = g->buffered && g->member[0]->has_ts;
+    if (g->n == 1)
+        return;
+    sp_dev_copy_string(info->desc.id, sizeof(info->desc.id), device);
+    info->desc.name[0] = info->desc.channels[0] = '\0';
+    for (size_t i = 0; i < g->n; i++) {
+        append_word(info->desc.name, sizeof(info->desc.name), d[i].name);
+        append_word(info->desc.channels, sizeof(info->desc.channels), d[i].channels);
+        info->desc.sensors |= d[i].sensors;
+        if (d[i].sensors & SP_IMU_SENSOR_BIT(SP_IMU_GYRO)) /* the rate that matters for orientation */
+            info->rate_hz = g->member[i]->rate_hz;
+    }
+    for (char *p = info->desc.name; *p; p++)
+        if (*p == ' ')
+            *p = GROUP_SEP;
+    info->desc.buffered = g->buffered;
+    info->desc.rate_hz = info->rate_hz;
+    info->desc.rates[0] = '\0';
+}
+
+static int iio_open(void **out, const sp_imu_device_settings *s, sp_imu_device_info *info)
+{
+    sp_imu_desc d[N_KINDS];
+    size_t n = 0;
+    int err = resolve_members(s->device, d, &n);
+    if (err < 0)
+        return err;
+    int buffered = group_buffered(d, n, s->mode);
+    if (buffered < 0)
+        return buffered;
+    iio_group *g = calloc(1, sizeof(*g));
+    if (!g)
+        return -ENOMEM;
+    g->buffered = buffered;
+    for (size_t i = 0; i < n && err == 0; i++)
+        if ((err = open_member(&d[i], s, buffered, &g->member[i])) == 0) {
+            g->n = i + 1;
+            g->rate_hz = fmax(g->rate_hz, g->member[i]->rate_hz);
+        } else if (n > 1) {
+            sp_log(SP_LOG_ERROR, "iio", "%s (%s): %s", d[i].name, d[i].id, sp_strerror(err));
+        }
+    if (err == 0)
+        err = same_clock(g);
+    if (err < 0) {
+        iio_close(g);
+        return err;
+    }
+    describe_group(g, d, s->device, info);
+    *out = g;
+    return 0;
+}
+
+static int iio_stop(void *ctx);
+
 static int iio_start(void *ctx)
 {
-    iio_ctx *c = ctx;
-    c->rec_fill = 0;
-    c->next_poll_ns = sp_clock_monotonic_ns();
-    if (!c->buffered || !attr_exists(c->dir, "buffer/enable"))
-        return 0;
-    return write_attr(c->dir, "buffer/enable", "1");
+    iio_group *g = ctx;
+    g->next_poll_ns = sp_clock_monotonic_ns();
+    for (size_t i = 0; i < g->n; i++) {
+        iio_ctx *c = g->member[i];
+        c->rec_fill = 0;
+        if (!c->buffered || !attr_exists(c->dir, "buffer/enable"))
+            continue;
+        int err = write_attr(c->dir, "buffer/enable", "1");
+        if (err < 0) {
+            (void)iio_stop(g); /* members started before this one */
+            return err;
+        }
+    }
+    return 0;
 }
 
 static int iio_stop(void *ctx)
 {
-    iio_ctx *c = ctx;
-    if (!c->buffered || !attr_exists(c->dir, "buffer/enable"))
-        return 0;
-    int err = write_attr(c->dir, "buffer/enable", "0");
-    return err == -ENODEV || err == -ENOENT ? 0 : err;
+    iio_group *g = ctx;
+    int result = 0;
+    for (size_t i = 0; i < g->n; i++) {
+        iio_ctx *c = g->member[i];
+        if (!c->buffered || !attr_exists(c->dir, "buffer/enable"))
+            continue;
+        int err = write_attr(c->dir, "buffer/enable", "0");
+        if (err < 0 && err != -ENODEV && err != -ENOENT && result == 0)
+            result = err;
+    }
+    return result;
 }
 
 /* ---- streaming ---- */
@@ -545,20 +729,16 @@ static size_t decode_record(const iio_ctx *c, const uint8_t *rec, sp_imu_sample 
     return emit(c, ts, v, out, room);
 }
 
-static int read_buffered(iio_ctx *c, sp_imu_sample *out, size_t max, int timeout_ms, size_t *count)
+/* Reads what the kernel buffer holds, as many whole records as fit in `max` samples. */
+static int drain_buffered(iio_ctx *c, sp_imu_sample *out, size_t max, size_t *count)
 {
     size_t per = sensors_present(c), n = 0;
     size_t want = per ? max / per : 0;
+    *count = 0;
     if (want == 0)
-        return -EINVAL; /* room for not even one record */
+        return 0; /* no room left this time: the records wait in the kernel */
     if (want > sizeof(c->rec) / c->record_size)
         want = sizeof(c->rec) / c->record_size;
-    struct pollfd p = { .fd = c->fd, .events = POLLIN };
-    int r = poll(&p, 1, timeout_ms);
-    if (r < 0)
-        return errno == EINTR ? 0 : -errno;
-    if (r == 0)
-        return 0;
     size_t space = want * c->record_size - c->rec_fill;
     ssize_t got = read(c->fd, c->rec + c->rec_fill, space);
     if (got < 0)
@@ -586,18 +766,10 @@ static int read_raw(int fd, long long *out)
     return end == buf ? -EIO : 0;
 }
 
-static int read_polled(iio_ctx *c, sp_imu_sample *out, size_t max, int timeout_ms, size_t *count)
+/* Samples every channel of one device now, stamped `ts`. */
+static int sample_polled(iio_ctx *c, int64_t ts, sp_imu_sample *out, size_t max, size_t *count)
 {
-    int64_t now = sp_clock_monotonic_ns();
-    if (c->next_poll_ns > now) {
-        if (c->next_poll_ns - now > (int64_t)timeout_ms * 1000000) {
-            sp_clock_sleep_until(now + (int64_t)timeout_ms * 1000000);
-            return 0;
-        }
-        sp_clock_sleep_until(c->next_poll_ns);
-    }
     double v[N_KINDS][3] = { { 0 } };
-    int64_t ts = sp_clock_monotonic_ns();
     for (int k = 0; k < N_KINDS; k++)
         for (int a = 0; a < 3; a++) {
             const channel *ch = &c->ch[k][a];
@@ -609,19 +781,79 @@ static int read_polled(iio_ctx *c, sp_imu_sample *out, size_t max, int timeout_m
                 return err;
             v[k][a] = ((double)raw + ch->offset) * ch->scale * kinds[k].to_si;
         }
-    int64_t period = (int64_t)(1e9 / c->rate_hz);
-    c->next_poll_ns += period;
-    if (c->next_poll_ns < ts) /* fell behind: do not burst to catch up */
-        c->next_poll_ns = ts + period;
     *count = emit(c, ts, v, out, max);
+    return 0;
+}
+
+/* Every member sampled at the group's rate, all with one read-time stamp. */
+static int read_polled(iio_group *g, sp_imu_sample *out, size_t max, int timeout_ms, size_t *count)
+{
+    int64_t now = sp_clock_monotonic_ns();
+    if (g->next_poll_ns > now) {
+        if (g->next_poll_ns - now > (int64_t)timeout_ms * 1000000) {
+            sp_clock_sleep_until(now + (int64_t)timeout_ms * 1000000);
+            return 0;
+        }
+        sp_clock_sleep_until(g->next_poll_ns);
+    }
+    int64_t ts = sp_clock_monotonic_ns();
+    for (size_t i = 0; i < g->n; i++) {
+        size_t got = 0;
+        int err = sample_polled(g->member[i], ts, out + *count, max - *count, &got);
+        if (err < 0)
+            return err;
+        *count += got;
+    }
+    int64_t period = (int64_t)(1e9 / g->rate_hz);
+    g->next_poll_ns += period;
+    if (g->next_poll_ns < ts) /* fell behind: do not burst to catch up */
+        g->next_poll_ns = ts + period;
+    return 0;
+}
+
+/* Samples of several members in time order (each member's own already are: a merge by insertion). */
+static void sort_by_time(sp_imu_sample *s, size_t n)
+{
+    for (size_t i = 1; i < n; i++) {
+        sp_imu_sample v = s[i];
+        size_t j = i;
+        for (; j > 0 && s[j - 1].timestamp_ns > v.timestamp_ns; j--)
+            s[j] = s[j - 1];
+        s[j] = v;
+    }
+}
+
+/* Waits for any member's kernel buffer, then drains every member that has records. */
+static int read_buffered(iio_group *g, sp_imu_sample *out, size_t max, int timeout_ms, size_t *count)
+{
+    struct pollfd p[N_KINDS];
+    for (size_t i = 0; i < g->n; i++) {
+        if (max < sensors_present(g->member[i]))
+            return -EINVAL; /* room for not even one record */
+        p[i] = (struct pollfd){ .fd = g->member[i]->fd, .events = POLLIN };
+    }
+    int r = poll(p, g->n, timeout_ms);
+    if (r < 0)
+        return errno == EINTR ? 0 : -errno;
+    for (size_t i = 0; i < g->n && r > 0; i++) {
+        if (!p[i].revents)
+            continue;
+        size_t got = 0;
+        int err = drain_buffered(g->member[i], out + *count, max - *count, &got);
+        if (err < 0)
+            return err;
+        *count += got;
+    }
+    if (g->n > 1)
+        sort_by_time(out, *count);
     return 0;
 }
 
 static int iio_read(void *ctx, sp_imu_sample *out, size_t max, int timeout_ms, size_t *count)
 {
-    iio_ctx *c = ctx;
+    iio_group *g = ctx;
     *count = 0;
-    int err = c->buffered ? read_buffered(c, out, max, timeout_ms, count) : read_polled(c, out, max, timeout_ms, count);
+    int err = g->buffered ? read_buffered(g, out, max, timeout_ms, count) : read_polled(g, out, max, timeout_ms, count);
     return err == -ENXIO ? -ENODEV : err;
 }
 

@@ -4,7 +4,10 @@
  * their formats, sizes and rates; negotiates a format; streams through a small
  * ring of mmap buffers. Each dequeued buffer is copied into a pooled sp_frame and
  * handed straight back to the driver, so a slow consumer costs pooled frames
- * (counted drops), never the device's ring.
+ * (counted drops), never the device's ring. Single- and multi-planar nodes alike
+ * (most ARM ISPs are multi-planar); the 4:2:0 layouts other than one-plane NV12
+ * (NV21, YUV420, the two- and three-buffer "M" formats) are repacked into NV12
+ * while copying.
  */
 #include "device/backends.h"
 
@@ -32,11 +35,17 @@
 typedef struct v4l2_ctx {
     int fd;
     char path[64];
+    uint32_t buf_type; /* V4L2_BUF_TYPE_VIDEO_CAPTURE or its _MPLANE twin */
     struct {
-        void *start;
-        size_t length;
+        struct {
+            void *start;
+            size_t length;
+        } mem[VIDEO_MAX_PLANES];
     } bufs[MAX_BUFFERS];
-    unsigned n_bufs;
+    unsigned n_bufs, n_mem;          /* buffers, and memory planes in each */
+    uint32_t mem_stride[VIDEO_MAX_PLANES]; /* the driver's bytesperline of each memory plane */
+    const sp_v4l2_layout *layout;    /* what the device delivers */
+    int repack;                      /* the layout is turned into NV12 while copying */
     sp_frame_pool *pool;
     enum sp_pixfmt format;
     uint32_t width, height, stride, sizeimage;
@@ -70,7 +79,19 @@ static int is_capture_node(int fd, struct v4l2_capability *cap)
     if (xioctl(fd, VIDIOC_QUERYCAP, cap) < 0)
         return 0;
     uint32_t c = caps_of(cap);
-    return (c & V4L2_CAP_VIDEO_CAPTURE) && (c & V4L2_CAP_STREAMING);
+    return (c & (V4L2_CAP_VIDEO_CAPTURE | V4L2_CAP_VIDEO_CAPTURE_MPLANE)) && (c & V4L2_CAP_STREAMING);
+}
+
+static int is_mplane(uint32_t buf_type)
+{
+    return buf_type == V4L2_BUF_TYPE_VIDEO_CAPTURE_MPLANE;
+}
+
+/* The buffer type to talk to a capture node with: single-planar when it offers both. */
+static uint32_t buf_type_of(const struct v4l2_capability *cap)
+{
+    return (caps_of(cap) & V4L2_CAP_VIDEO_CAPTURE) ? V4L2_BUF_TYPE_VIDEO_CAPTURE
+                                                   : V4L2_BUF_TYPE_VIDEO_CAPTURE_MPLANE;
 }
 
 /* Numbers N of /dev/videoN, sorted. */
@@ -128,6 +149,9 @@ static double max_fps_of(int fd, uint32_t fourcc, uint32_t w, uint32_t h)
 static void add_mode(int fd, uint32_t fourcc, enum sp_pixfmt fmt, uint32_t w, uint32_t h, sp_camera_mode *out,
                      size_t max, size_t *n)
 {
+    for (size_t i = 0; i < *n && i < max; i++) /* several layouts of one format (NV12, NV21M, ...) list once */
+        if (out[i].format == fmt && out[i].width == w && out[i].height == h)
+            return;
     if (*n < max)
         out[*n] = (sp_camera_mode){ fmt, w, h, max_fps_of(fd, fourcc, w, h) };
     (*n)++;
@@ -153,8 +177,13 @@ static int v4l2_modes(const char *id, sp_camera_mode *out, size_t max, size_t *c
     int fd = open(id, O_RDWR | O_NONBLOCK | O_CLOEXEC);
     if (fd < 0)
         return -errno;
+    struct v4l2_capability cap;
+    if (!is_capture_node(fd, &cap)) {
+        close(fd);
+        return -ENODEV;
+    }
     size_t n = 0;
-    struct v4l2_fmtdesc fd_desc = { .type = V4L2_BUF_TYPE_VIDEO_CAPTURE };
+    struct v4l2_fmtdesc fd_desc = { .type = buf_type_of(&cap) };
     for (fd_desc.index = 0; xioctl(fd, VIDIOC_ENUM_FMT, &fd_desc) == 0; fd_desc.index++) {
         enum sp_pixfmt fmt = sp_v4l2_to_pixfmt(fd_desc.pixelformat);
         if (fmt != SP_PIXFMT_NONE)
@@ -180,11 +209,32 @@ static int v4l2_claims(const char *device)
     return 0;
 }
 
-/* Maps the device string (path, card name, NULL = first) to a node path. */
-static int resolve_path(const char *device, char *path, size_t size)
+/*
+ * Maps the device string (path, card name, NULL = first) to a node path. A path may carry
+ * ":fourcc=XXXX" (as v4l2-ctl --list-formats prints it) to pick the device's layout of a format,
+ * e.g. "/dev/video0:fourcc=NM21"; *fourcc is 0 when it does not.
+ */
+static int resolve_path(const char *device, char *path, size_t size, uint32_t *fourcc)
 {
+    *fourcc = 0;
     if (device && !strncmp(device, "/dev/", 5)) {
-        sp_dev_copy_string(path, size, device);
+        const char *opt = strchr(device, ':');
+        size_t len = opt ? (size_t)(opt - device) : strlen(device);
+        if (len >= size)
+            return -ENAMETOOLONG;
+        memcpy(path, device, len);
+        path[len] = '\0';
+        if (!opt)
+            return 0;
+        if (strncmp(opt, ":fourcc=", 8) || !(*fourcc = sp_v4l2_fourcc_from_string(opt + 8))) {
+            sp_log(SP_LOG_ERROR, "v4l2", "'%s': the only option after the node is ':fourcc=XXXX' (1-4 characters)",
+                   device);
+            return -EINVAL;
+        }
+        if (!sp_v4l2_layout_of(*fourcc)) {
+            sp_log(SP_LOG_ERROR, "v4l2", "'%s': sunprobe cannot store fourcc '%s'", device, opt + 8);
+            return -EINVAL;
+        }
         return 0;
     }
     sp_camera_desc d[16];
@@ -198,27 +248,38 @@ static int resolve_path(const char *device, char *path, size_t size)
     return -ENODEV;
 }
 
-static int supports_fourcc(int fd, uint32_t fourcc)
+static int supports_fourcc(int fd, uint32_t buf_type, uint32_t fourcc)
 {
-    struct v4l2_fmtdesc d = { .type = V4L2_BUF_TYPE_VIDEO_CAPTURE };
+    struct v4l2_fmtdesc d = { .type = buf_type };
     for (d.index = 0; xioctl(fd, VIDIOC_ENUM_FMT, &d) == 0; d.index++)
         if (d.pixelformat == fourcc)
             return 1;
     return 0;
 }
 
-/* The fourcc to ask for: the requested format, else the first of the preference list the device has. */
-static int choose_fourcc(int fd, enum sp_pixfmt want, uint32_t *fourcc)
+/* The fourcc to ask for: the one forced through the device string, else the requested format's best
+ * layout the device has, else the first of the preference list the device has. */
+static int choose_fourcc(v4l2_ctx *c, enum sp_pixfmt want, uint32_t forced, uint32_t *fourcc)
 {
+    if (forced) {
+        const sp_v4l2_layout *l = sp_v4l2_layout_of(forced);
+        if (!supports_fourcc(c->fd, c->buf_type, forced) || (want && l->format != want)) {
+            sp_log(SP_LOG_ERROR, "v4l2", "%s: fourcc %.4s %s", c->path, (const char *)&forced,
+                   want && l->format != want ? "does not carry the requested format" : "is not offered by the device");
+            return SP_EUNSUPPORTED;
+        }
+        *fourcc = forced;
+        return 0;
+    }
     static const enum sp_pixfmt prefs[] = { SP_PIXFMT_YUYV, SP_PIXFMT_NV12, SP_PIXFMT_MJPEG, SP_PIXFMT_RGB24,
                                             SP_PIXFMT_GRAY8 };
     for (size_t i = 0; i < sizeof(prefs) / sizeof(prefs[0]); i++) {
         if (want != SP_PIXFMT_NONE && prefs[i] != want)
             continue;
-        uint32_t cands[2];
-        size_t nc = sp_v4l2_from_pixfmt(prefs[i], cands, 2);
+        uint32_t cands[16];
+        size_t nc = sp_v4l2_from_pixfmt(prefs[i], cands, 16);
         for (size_t k = 0; k < nc; k++)
-            if (supports_fourcc(fd, cands[k])) {
+            if (supports_fourcc(c->fd, c->buf_type, cands[k])) {
                 *fourcc = cands[k];
                 return 0;
             }
@@ -227,28 +288,73 @@ static int choose_fourcc(int fd, enum sp_pixfmt want, uint32_t *fourcc)
     return SP_EUNSUPPORTED;
 }
 
-static int negotiate_format(v4l2_ctx *c, const sp_camera_settings *s)
+/* Sets the format and reads back what the driver chose: fourcc, size and each memory plane's stride. */
+static int set_format(v4l2_ctx *c, uint32_t fourcc, uint32_t width, uint32_t height, uint32_t *got)
 {
-    uint32_t fourcc = 0;
-    int err = choose_fourcc(c->fd, s->format, &fourcc);
+    struct v4l2_format f = { .type = c->buf_type };
+    if (is_mplane(c->buf_type)) {
+        f.fmt.pix_mp.pixelformat = fourcc;
+        f.fmt.pix_mp.width = width;
+        f.fmt.pix_mp.height = height;
+        f.fmt.pix_mp.field = V4L2_FIELD_NONE;
+        f.fmt.pix_mp.num_planes = (uint8_t)sp_v4l2_layout_of(fourcc)->buffers;
+    } else {
+        f.fmt.pix.pixelformat = fourcc;
+        f.fmt.pix.width = width;
+        f.fmt.pix.height = height;
+        f.fmt.pix.field = V4L2_FIELD_NONE;
+    }
+    int err = xioctl(c->fd, VIDIOC_S_FMT, &f);
     if (err < 0)
         return err;
-    struct v4l2_format f = { .type = V4L2_BUF_TYPE_VIDEO_CAPTURE };
-    f.fmt.pix.pixelformat = fourcc;
-    f.fmt.pix.width = s->width ? s->width : 640;
-    f.fmt.pix.height = s->height ? s->height : 480;
-    f.fmt.pix.field = V4L2_FIELD_NONE;
-    if ((err = xioctl(c->fd, VIDIOC_S_FMT, &f)) < 0)
+    if (!is_mplane(c->buf_type)) {
+        *got = f.fmt.pix.pixelformat;
+        c->width = f.fmt.pix.width;
+        c->height = f.fmt.pix.height;
+        c->n_mem = 1;
+        c->mem_stride[0] = f.fmt.pix.bytesperline;
+        c->sizeimage = f.fmt.pix.sizeimage;
+        return 0;
+    }
+    *got = f.fmt.pix_mp.pixelformat;
+    c->width = f.fmt.pix_mp.width;
+    c->height = f.fmt.pix_mp.height;
+    c->n_mem = f.fmt.pix_mp.num_planes;
+    if (c->n_mem == 0 || c->n_mem > VIDEO_MAX_PLANES)
+        return SP_EUNSUPPORTED;
+    c->sizeimage = 0;
+    for (unsigned p = 0; p < c->n_mem; p++) {
+        c->mem_stride[p] = f.fmt.pix_mp.plane_fmt[p].bytesperline;
+        c->sizeimage += f.fmt.pix_mp.plane_fmt[p].sizeimage;
+    }
+    return 0;
+}
+
+static int negotiate_format(v4l2_ctx *c, const sp_camera_settings *s, uint32_t forced_fourcc)
+{
+    uint32_t fourcc = 0, got = 0;
+    int err = choose_fourcc(c, s->format, forced_fourcc, &fourcc);
+    if (err < 0)
         return err;
-    c->format = sp_v4l2_to_pixfmt(f.fmt.pix.pixelformat);
-    if (c->format == SP_PIXFMT_NONE || (s->format && c->format != s->format)) {
-        sp_log(SP_LOG_ERROR, "v4l2", "driver answered with an unusable format %.4s", (const char *)&f.fmt.pix.pixelformat);
+    if ((err = set_format(c, fourcc, s->width ? s->width : 640, s->height ? s->height : 480, &got)) < 0)
+        return err;
+    c->layout = sp_v4l2_layout_of(got);
+    c->format = c->layout ? c->layout->format : SP_PIXFMT_NONE;
+    if (c->format == SP_PIXFMT_NONE || (s->format && c->format != s->format) || c->n_mem != c->layout->buffers ||
+        (forced_fourcc && got != forced_fourcc)) {
+        sp_log(SP_LOG_ERROR, "v4l2", "driver answered with an unusable format %.4s in %u memory planes",
+               (const char *)&got, c->n_mem);
         return SP_EUNSUPPORTED;
     }
-    c->width = f.fmt.pix.width;
-    c->height = f.fmt.pix.height;
-    c->stride = c->format == SP_PIXFMT_MJPEG ? 0 : f.fmt.pix.bytesperline;
-    c->sizeimage = f.fmt.pix.sizeimage;
+    c->repack = c->format == SP_PIXFMT_NV12 && got != V4L2_PIX_FMT_NV12;
+    if (c->repack) {
+        c->stride = sp_pixfmt_min_stride(SP_PIXFMT_NV12, c->width);
+        c->sizeimage = (uint32_t)sp_pixfmt_image_size(SP_PIXFMT_NV12, c->width, c->height, c->stride);
+        sp_log(SP_LOG_INFO, "v4l2", "%s: %.4s in %u memory plane%s, repacked into nv12", c->path, (const char *)&got,
+               c->n_mem, c->n_mem == 1 ? "" : "s");
+    } else {
+        c->stride = c->format == SP_PIXFMT_MJPEG ? 0 : c->mem_stride[0];
+    }
     if (c->format != SP_PIXFMT_MJPEG) {
         if (c->stride < sp_pixfmt_min_stride(c->format, c->width))
             c->stride = sp_pixfmt_min_stride(c->format, c->width);
@@ -269,7 +375,7 @@ static int negotiate_format(v4l2_ctx *c, const sp_camera_settings *s)
 /* Sets the frame rate when asked and reads back the rate in force (0 when the driver does not say). */
 static double negotiate_rate(v4l2_ctx *c, double fps)
 {
-    struct v4l2_streamparm p = { .type = V4L2_BUF_TYPE_VIDEO_CAPTURE };
+    struct v4l2_streamparm p = { .type = c->buf_type };
     if (fps > 0) {
         p.parm.capture.timeperframe.numerator = 1000;
         p.parm.capture.timeperframe.denominator = (uint32_t)lround(fps * 1000.0);
@@ -277,7 +383,7 @@ static double negotiate_rate(v4l2_ctx *c, double fps)
             sp_log(SP_LOG_WARN, "v4l2", "%s: cannot set %.3g fps", c->path, fps);
     }
     memset(&p, 0, sizeof(p));
-    p.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    p.type = c->buf_type;
     if (xioctl(c->fd, VIDIOC_G_PARM, &p) < 0 || !(p.parm.capture.capability & V4L2_CAP_TIMEPERFRAME))
         return 0;
     const struct v4l2_fract *t = &p.parm.capture.timeperframe;
@@ -323,25 +429,41 @@ static int lock_exposure(v4l2_ctx *c)
     return ok;
 }
 
+/* A buffer description for QUERYBUF/QBUF/DQBUF; multi-planar ones point at `planes`. */
+static struct v4l2_buffer buffer_desc(const v4l2_ctx *c, unsigned index, struct v4l2_plane *planes)
+{
+    struct v4l2_buffer b = { .type = c->buf_type, .memory = V4L2_MEMORY_MMAP, .index = index };
+    if (is_mplane(c->buf_type)) {
+        memset(planes, 0, sizeof(*planes) * VIDEO_MAX_PLANES);
+        b.m.planes = planes;
+        b.length = c->n_mem;
+    }
+    return b;
+}
+
 static int setup_buffers(v4l2_ctx *c, unsigned count)
 {
-    struct v4l2_requestbuffers rb = { .count = count, .type = V4L2_BUF_TYPE_VIDEO_CAPTURE,
-                                      .memory = V4L2_MEMORY_MMAP };
+    struct v4l2_requestbuffers rb = { .count = count, .type = c->buf_type, .memory = V4L2_MEMORY_MMAP };
     int err = xioctl(c->fd, VIDIOC_REQBUFS, &rb);
     if (err < 0)
         return err;
     if (rb.count < 2 || rb.count > MAX_BUFFERS)
         return -ENOMEM;
     for (unsigned i = 0; i < rb.count; i++) {
-        struct v4l2_buffer b = { .type = V4L2_BUF_TYPE_VIDEO_CAPTURE, .memory = V4L2_MEMORY_MMAP, .index = i };
+        struct v4l2_plane planes[VIDEO_MAX_PLANES];
+        struct v4l2_buffer b = buffer_desc(c, i, planes);
         if ((err = xioctl(c->fd, VIDIOC_QUERYBUF, &b)) < 0)
             return err;
-        void *p = mmap(NULL, b.length, PROT_READ | PROT_WRITE, MAP_SHARED, c->fd, b.m.offset);
-        if (p == MAP_FAILED)
-            return -errno;
-        c->bufs[i].start = p;
-        c->bufs[i].length = b.length;
-        c->n_bufs = i + 1;
+        c->n_bufs = i + 1; /* from here close() unmaps what this buffer has mapped */
+        for (unsigned p = 0; p < c->n_mem; p++) {
+            size_t length = is_mplane(c->buf_type) ? planes[p].length : b.length;
+            off_t offset = is_mplane(c->buf_type) ? planes[p].m.mem_offset : b.m.offset;
+            void *start = mmap(NULL, length, PROT_READ | PROT_WRITE, MAP_SHARED, c->fd, offset);
+            if (start == MAP_FAILED)
+                return -errno;
+            c->bufs[i].mem[p].start = start;
+            c->bufs[i].mem[p].length = length;
+        }
     }
     return 0;
 }
@@ -352,10 +474,11 @@ static void v4l2_close(void *ctx)
     if (!c)
         return;
     for (unsigned i = 0; i < c->n_bufs; i++)
-        munmap(c->bufs[i].start, c->bufs[i].length);
+        for (unsigned p = 0; p < c->n_mem; p++)
+            if (c->bufs[i].mem[p].start)
+                munmap(c->bufs[i].mem[p].start, c->bufs[i].mem[p].length);
     if (c->fd >= 0) {
-        struct v4l2_requestbuffers rb = { .count = 0, .type = V4L2_BUF_TYPE_VIDEO_CAPTURE,
-                                          .memory = V4L2_MEMORY_MMAP };
+        struct v4l2_requestbuffers rb = { .count = 0, .type = c->buf_type, .memory = V4L2_MEMORY_MMAP };
         (void)xioctl(c->fd, VIDIOC_REQBUFS, &rb);
         close(c->fd);
     }
@@ -385,7 +508,8 @@ static int v4l2_open(void **out, const sp_camera_settings *s, sp_camera_info *in
         return -ENOMEM;
     c->fd = -1;
     struct v4l2_capability cap;
-    int err = resolve_path(s->device, c->path, sizeof(c->path));
+    uint32_t forced_fourcc = 0;
+    int err = resolve_path(s->device, c->path, sizeof(c->path), &forced_fourcc);
     if (err == 0) {
         c->fd = open(c->path, O_RDWR | O_NONBLOCK | O_CLOEXEC);
         err = c->fd < 0 ? -errno : 0;
@@ -394,8 +518,10 @@ static int v4l2_open(void **out, const sp_camera_settings *s, sp_camera_info *in
         sp_log(SP_LOG_ERROR, "v4l2", "%s is not a streaming video capture device", c->path);
         err = -ENODEV;
     }
-    if (err == 0)
-        err = negotiate_format(c, s);
+    if (err == 0) {
+        c->buf_type = buf_type_of(&cap);
+        err = negotiate_format(c, s, forced_fourcc);
+    }
     double fps = err == 0 ? negotiate_rate(c, s->fps) : 0;
     if (err == 0)
         err = setup_buffers(c, s->buffers);
@@ -420,7 +546,8 @@ static int v4l2_open(void **out, const sp_camera_settings *s, sp_camera_info *in
 
 static int queue_buffer(v4l2_ctx *c, unsigned index)
 {
-    struct v4l2_buffer b = { .type = V4L2_BUF_TYPE_VIDEO_CAPTURE, .memory = V4L2_MEMORY_MMAP, .index = index };
+    struct v4l2_plane planes[VIDEO_MAX_PLANES];
+    struct v4l2_buffer b = buffer_desc(c, index, planes);
     return xioctl(c->fd, VIDIOC_QBUF, &b);
 }
 
@@ -432,7 +559,8 @@ static int settle_and_lock(v4l2_ctx *c)
         struct pollfd p = { .fd = c->fd, .events = POLLIN };
         if (poll(&p, 1, 100) <= 0)
             continue;
-        struct v4l2_buffer b = { .type = V4L2_BUF_TYPE_VIDEO_CAPTURE, .memory = V4L2_MEMORY_MMAP };
+        struct v4l2_plane planes[VIDEO_MAX_PLANES];
+        struct v4l2_buffer b = buffer_desc(c, 0, planes);
         int err = xioctl(c->fd, VIDIOC_DQBUF, &b);
         if (err == -ENODEV || err == -EPIPE || err == -ENXIO)
             return -ENODEV;
@@ -452,7 +580,7 @@ static int v4l2_start(void *ctx)
         if (err < 0)
             return err;
     }
-    int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    int type = (int)c->buf_type;
     int err = xioctl(c->fd, VIDIOC_STREAMON, &type);
     if (err < 0)
         return err;
@@ -467,7 +595,7 @@ static int v4l2_stop(void *ctx)
     if (!c->streaming)
         return 0;
     c->streaming = 0;
-    int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    int type = (int)c->buf_type;
     int err = xioctl(c->fd, VIDIOC_STREAMOFF, &type);
     return err == -ENODEV ? 0 : err; /* a vanished device is stopped already */
 }
@@ -503,13 +631,48 @@ static int64_t buffer_time(v4l2_ctx *c, const struct v4l2_buffer *b)
     return sp_clock_monotonic_ns();
 }
 
+/*
+ * The image bytes of each memory plane of a dequeued buffer: past the plane's data_offset, up to what
+ * the driver filled (its whole length when it does not say). 0 when a plane's numbers do not fit it.
+ */
+static int filled_planes(const v4l2_ctx *c, const struct v4l2_buffer *b, sp_v4l2_plane *mem)
+{
+    for (unsigned p = 0; p < c->n_mem; p++) {
+        size_t length = c->bufs[b->index].mem[p].length, used, offset = 0;
+        if (is_mplane(c->buf_type)) {
+            used = b->m.planes[p].bytesused ? b->m.planes[p].bytesused : length;
+            offset = b->m.planes[p].data_offset; /* counted in bytesused */
+        } else {
+            used = b->bytesused ? b->bytesused : length;
+        }
+        if (used > length || offset >= used)
+            return 0;
+        mem[p] = (sp_v4l2_plane){ (const uint8_t *)c->bufs[b->index].mem[p].start + offset, c->mem_stride[p],
+                                  used - offset };
+    }
+    return 1;
+}
+
+/* Repacks a 4:2:0 layout into NV12 at dst; 0 when the buffer is too small for the negotiated size. */
+static int repack_into(const v4l2_ctx *c, const sp_v4l2_plane *mem, uint8_t *dst)
+{
+    sp_v4l2_plane colour[3];
+    const sp_v4l2_plane *planes = mem;
+    if (c->layout->buffers == 1) {
+        if (!sp_v4l2_split_planes(c->layout, mem[0].data, mem[0].size, mem[0].stride, c->height, colour))
+            return 0;
+        planes = colour;
+    }
+    return sp_v4l2_to_nv12(c->layout, planes, c->width, c->height, dst, c->stride) == 0;
+}
+
 /* Copies a dequeued buffer into a pooled frame; -EAGAIN (counted) when the buffer is unusable or the pool is empty. */
 static int copy_out(v4l2_ctx *c, const struct v4l2_buffer *b, sp_frame **out)
 {
     uint64_t seq = track_sequence(c, b->sequence);
-    size_t used = b->bytesused ? b->bytesused : c->sizeimage;
+    sp_v4l2_plane mem[VIDEO_MAX_PLANES];
     size_t need = c->format == SP_PIXFMT_MJPEG ? 1 : sp_pixfmt_image_size(c->format, c->width, c->height, c->stride);
-    if ((b->flags & V4L2_BUF_FLAG_ERROR) || used < need || used > c->bufs[b->index].length) {
+    if ((b->flags & V4L2_BUF_FLAG_ERROR) || !filled_planes(c, b, mem) || (!c->repack && mem[0].size < need)) {
         c->dropped++;
         return -EAGAIN;
     }
@@ -518,10 +681,16 @@ static int copy_out(v4l2_ctx *c, const struct v4l2_buffer *b, sp_frame **out)
         c->dropped++;
         return -EAGAIN;
     }
-    size_t n = c->format == SP_PIXFMT_MJPEG ? used : need;
+    size_t n = c->format == SP_PIXFMT_MJPEG ? mem[0].size : need;
     if (n > f->capacity)
         n = f->capacity;
-    memcpy(f->data, c->bufs[b->index].start, n);
+    if (!c->repack) {
+        memcpy(f->data, mem[0].data, n);
+    } else if (!repack_into(c, mem, f->data)) {
+        sp_frame_unref(&f);
+        c->dropped++;
+        return -EAGAIN;
+    }
     f->bytes_used = n;
     f->format = c->format;
     f->width = c->width;
@@ -546,7 +715,8 @@ static int v4l2_next(void *ctx, int timeout_ms, sp_frame **out)
     if (r == 0)
         return -EAGAIN;
     /* on POLLERR the dequeue below tells why (ENODEV when the device went away) */
-    struct v4l2_buffer b = { .type = V4L2_BUF_TYPE_VIDEO_CAPTURE, .memory = V4L2_MEMORY_MMAP };
+    struct v4l2_plane planes[VIDEO_MAX_PLANES];
+    struct v4l2_buffer b = buffer_desc(c, 0, planes);
     int err = xioctl(c->fd, VIDIOC_DQBUF, &b);
     if (err == -EAGAIN && (p.revents & (POLLERR | POLLHUP)))
         return -ENODEV;

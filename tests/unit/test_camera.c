@@ -2,7 +2,8 @@
 /*
  * Camera and IMU registries and the device-free backends: the fake camera's
  * negotiation, pacing, timestamps, drops and end; the fake IMU's real-time
- * release; V4L2 format mapping and missing-device errors; libcamera enumeration
+ * release; V4L2 format mapping, the 4:2:0 layouts' repacking into NV12 and
+ * missing-device errors; libcamera enumeration
  * with no cameras present.
  */
 #include "sunprobe/sp_camera.h"
@@ -184,14 +185,165 @@ static void test_v4l2_mapping(void)
     CHECK_EQ_INT(sp_v4l2_to_pixfmt(V4L2_PIX_FMT_SRGGB10), SP_PIXFMT_NONE);
     uint32_t cc[4];
     CHECK_EQ_INT(sp_v4l2_from_pixfmt(SP_PIXFMT_MJPEG, cc, 4), 2);
-    CHECK_EQ_INT(sp_v4l2_from_pixfmt(SP_PIXFMT_NV12, cc, 4), 1);
-    CHECK_EQ_INT(cc[0], V4L2_PIX_FMT_NV12);
+    CHECK_EQ_INT(sp_v4l2_from_pixfmt(SP_PIXFMT_NV12, cc, 4), 4); /* the first four of its eight layouts */
+    CHECK_EQ_INT(cc[0], V4L2_PIX_FMT_NV12); /* stored as it comes, so asked for first */
+    CHECK_EQ_INT(sp_v4l2_to_pixfmt(V4L2_PIX_FMT_YVU420M), SP_PIXFMT_NV12);
     CHECK_EQ_INT(sp_v4l2_from_pixfmt(SP_PIXFMT_NONE, cc, 4), 0);
 #else
     CHECK_EQ_INT(err, SP_EDISABLED); /* says which meson option would have built it */
 #endif
     CHECK(cam == NULL);
 }
+
+#if HAVE_V4L2
+/* Known samples of a w x h 4:2:0 image: luma and each chroma sample distinct, so a swapped, shifted or
+ * dropped sample shows. */
+static uint8_t luma_at(size_t x, size_t y)
+{
+    return (uint8_t)(16 + 13 * y + x);
+}
+static uint8_t cb_at(size_t x, size_t y)
+{
+    return (uint8_t)(60 + 7 * y + x);
+}
+static uint8_t cr_at(size_t x, size_t y)
+{
+    return (uint8_t)(240 - 7 * y - x);
+}
+
+/* Writes the image in one V4L2 layout: colour planes in `buf` at `stride` (luma) and `cstride`
+ * (chroma), each colour plane starting where `plane_at` says; fills strides' padding with 0xEE. */
+static void write_layout(const sp_v4l2_layout *l, uint32_t w, uint32_t h, uint8_t *const plane_at[3],
+                         size_t stride, size_t cstride)
+{
+    size_t cw = (w + 1) / 2, ch = (h + 1) / 2;
+    memset(plane_at[0], 0xEE, stride * h);
+    for (size_t y = 0; y < h; y++)
+        for (size_t x = 0; x < w; x++)
+            plane_at[0][y * stride + x] = luma_at(x, y);
+    for (unsigned p = 1; p < l->planes; p++)
+        memset(plane_at[p], 0xEE, cstride * ch);
+    for (size_t y = 0; y < ch; y++)
+        for (size_t x = 0; x < cw; x++) {
+            uint8_t first = l->cr_first ? cr_at(x, y) : cb_at(x, y);
+            uint8_t second = l->cr_first ? cb_at(x, y) : cr_at(x, y);
+            if (l->planes == 2) {
+                plane_at[1][y * cstride + 2 * x] = first;
+                plane_at[1][y * cstride + 2 * x + 1] = second;
+            } else {
+                plane_at[1][y * cstride + x] = first;
+                plane_at[2][y * cstride + x] = second;
+            }
+        }
+}
+
+/* 0 when dst is the image as NV12 at dst_stride with zeroed padding; else the first wrong byte + 1. */
+static size_t first_wrong_nv12(const uint8_t *dst, uint32_t w, uint32_t h, size_t dst_stride)
+{
+    size_t cw = (w + 1) / 2, ch = (h + 1) / 2;
+    for (size_t y = 0; y < h; y++)
+        for (size_t x = 0; x < dst_stride; x++)
+            if (dst[y * dst_stride + x] != (x < w ? luma_at(x, y) : 0))
+                return y * dst_stride + x + 1;
+    const uint8_t *uv = dst + h * dst_stride;
+    for (size_t y = 0; y < ch; y++)
+        for (size_t x = 0; x < dst_stride; x++) {
+            uint8_t want = x >= 2 * cw ? 0 : x % 2 ? cr_at(x / 2, y) : cb_at(x / 2, y);
+            if (uv[y * dst_stride + x] != want)
+                return (h + y) * dst_stride + x + 1;
+        }
+    return 0;
+}
+
+/* Every 4:2:0 layout, one buffer or several, even and odd sizes, padded strides: repacked into NV12
+ * sample for sample; buffers too small for the size are refused, never read past. */
+static void test_v4l2_repack(void)
+{
+    static const uint32_t fourccs[] = { V4L2_PIX_FMT_NV12,  V4L2_PIX_FMT_NV21,   V4L2_PIX_FMT_YUV420,
+                                        V4L2_PIX_FMT_YVU420, V4L2_PIX_FMT_NV12M, V4L2_PIX_FMT_NV21M,
+                                        V4L2_PIX_FMT_YUV420M, V4L2_PIX_FMT_YVU420M };
+    static const uint32_t sizes[][2] = { { 1, 1 }, { 2, 2 }, { 5, 3 }, { 8, 6 }, { 33, 17 } };
+    for (size_t f = 0; f < sizeof(fourccs) / sizeof(fourccs[0]); f++) {
+        const sp_v4l2_layout *l = sp_v4l2_layout_of(fourccs[f]);
+        CHECK(l && l->format == SP_PIXFMT_NV12);
+        if (!l)
+            continue;
+        for (size_t z = 0; z < sizeof(sizes) / sizeof(sizes[0]); z++) {
+            uint32_t w = sizes[z][0], h = sizes[z][1];
+            size_t cw = (w + 1) / 2, ch = (h + 1) / 2;
+            /* one buffer: chroma stride as V4L2 defines it; several: strides of their own */
+            size_t stride = 2 * cw + 6;
+            size_t cstride = l->buffers == 1 ? (l->planes == 3 ? stride / 2 : stride) : (l->planes == 3 ? cw + 3 : 2 * cw + 10);
+            size_t size = stride * h + (l->planes - 1) * cstride * ch;
+            uint8_t *buf = malloc(size), *plane_at[3];
+            size_t dst_stride = sp_pixfmt_min_stride(SP_PIXFMT_NV12, w);
+            size_t dst_size = sp_pixfmt_image_size(SP_PIXFMT_NV12, w, h, (uint32_t)dst_stride);
+            uint8_t *dst = malloc(dst_size);
+            if (!buf || !dst)
+                abort();
+            plane_at[0] = buf;
+            plane_at[1] = buf + stride * h;
+            plane_at[2] = plane_at[1] + cstride * ch;
+            write_layout(l, w, h, plane_at, stride, cstride);
+            sp_v4l2_plane planes[3];
+            if (l->buffers == 1) {
+                CHECK_EQ_INT(sp_v4l2_split_planes(l, buf, size, stride, h, planes), l->planes);
+                CHECK_EQ_INT(sp_v4l2_split_planes(l, buf, size - 1, stride, h, planes), 0);
+                CHECK_EQ_INT(sp_v4l2_split_planes(l, buf, size, stride, h, planes), l->planes);
+            } else {
+                planes[0] = (sp_v4l2_plane){ plane_at[0], stride, stride * h };
+                for (unsigned p = 1; p < l->planes; p++)
+                    planes[p] = (sp_v4l2_plane){ plane_at[p], cstride, cstride * ch };
+            }
+            memset(dst, 0xAA, dst_size);
+            CHECK_EQ_INT(sp_v4l2_to_nv12(l, planes, w, h, dst, dst_stride), 0);
+            size_t wrong = first_wrong_nv12(dst, w, h, dst_stride);
+            CHECK_MSG(wrong == 0, "%.4s %ux%u: byte %zu of the NV12 image", (const char *)&fourccs[f], w, h, wrong - 1);
+            /* the last chroma row one byte short, the luma plane one row short, dst too narrow: refused */
+            sp_v4l2_plane short_planes[3] = { planes[0], planes[1], planes[2] };
+            short_planes[l->planes - 1].size = (ch - 1) * short_planes[l->planes - 1].stride +
+                                               (l->planes == 2 ? 2 * cw : cw) - 1;
+            CHECK_EQ_INT(sp_v4l2_to_nv12(l, short_planes, w, h, dst, dst_stride), -EINVAL);
+            short_planes[l->planes - 1] = planes[l->planes - 1];
+            short_planes[0].size = stride * (h - 1);
+            CHECK_EQ_INT(sp_v4l2_to_nv12(l, short_planes, w, h, dst, dst_stride), -EINVAL);
+            CHECK_EQ_INT(sp_v4l2_to_nv12(l, planes, w, h, dst, dst_stride - 1), -EINVAL);
+            CHECK_EQ_INT(sp_v4l2_to_nv12(l, planes, 0, h, dst, dst_stride), -EINVAL);
+            free(buf);
+            free(dst);
+        }
+    }
+    /* packed and compressed layouts are not 4:2:0 planes */
+    sp_v4l2_plane planes[3];
+    uint8_t byte = 0;
+    CHECK_EQ_INT(sp_v4l2_split_planes(sp_v4l2_layout_of(V4L2_PIX_FMT_YUYV), &byte, 1, 1, 1, planes), 0);
+    CHECK_EQ_INT(sp_v4l2_fourcc_from_string("NM21"), V4L2_PIX_FMT_NV21M);
+    CHECK_EQ_INT(sp_v4l2_fourcc_from_string("GREY"), V4L2_PIX_FMT_GREY);
+    CHECK_EQ_INT(sp_v4l2_fourcc_from_string("NV12X"), 0);
+    CHECK_EQ_INT(sp_v4l2_fourcc_from_string(""), 0);
+}
+
+/* A device string's ":fourcc=" option: a path with a bad option or an unknown fourcc fails before any
+ * device is touched, naming the string. */
+static void test_v4l2_device_options(void)
+{
+    static const char *const bad[] = { "/dev/video-sunprobe-missing:fourcc=", "/dev/video-sunprobe-missing:fps=30",
+                                       "/dev/video-sunprobe-missing:fourcc=BA81" };
+    for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
+        sp_camera_settings s;
+        sp_camera_default_settings(&s);
+        s.device = bad[i];
+        sp_camera *cam = NULL;
+        CHECK_MSG(sp_camera_open(&cam, &s) == -EINVAL, "%s", bad[i]);
+        CHECK(cam == NULL);
+    }
+    sp_camera_settings s;
+    sp_camera_default_settings(&s);
+    s.device = "/dev/video-sunprobe-missing:fourcc=NM12";
+    sp_camera *cam = NULL;
+    CHECK_EQ_INT(sp_camera_open(&cam, &s), -ENOENT); /* a good option: the node itself is what is missing */
+}
+#endif
 
 static void test_libcamera_enumerate(void)
 {
@@ -255,6 +407,10 @@ int main(void)
     test_fake_drops();
     test_fake_options();
     test_v4l2_mapping();
+#if HAVE_V4L2
+    test_v4l2_repack();
+    test_v4l2_device_options();
+#endif
     test_libcamera_enumerate();
     test_fake_imu();
     return check_exit();

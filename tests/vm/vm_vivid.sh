@@ -3,8 +3,12 @@
 # vm suite: boots Debian's kernel under qemu (TCG) with an initramfs holding busybox, the vivid module
 # (and its dependencies, plus virtio-blk to carry results out) and a static sunprobe, records from
 # /dev/video0 inside the VM, then checks the capture on the host with `sunprobe info/verify`.
-#   usage: vm_vivid.sh record|unbind|hidgyro SUNPROBE CACHE_DIR [UHID_GYRO]
+#   usage: vm_vivid.sh record|unbind|hidgyro|mplane SUNPROBE CACHE_DIR [UHID_GYRO]
 # record: 4 s of YUYV 320x180 @ 30 fps; frame count near the rate, timestamps monotonic, format as asked.
+# mplane: vivid as a multi-planar device (multiplanar=2); 2 s of each 4:2:0 layout, one memory plane
+#         (NV12, NV21, YU12) and two or three (NM12, NM21, YM12), forced through /dev/video0:fourcc=;
+#         each stored as NV12 with vivid's colour bars in their colours (a swapped or misplaced chroma
+#         plane shows as a wrong bar).
 # unbind: the vivid platform device is unbound mid-stream; the capture must stay valid and say so.
 # hidgyro: as record, plus a kernel IIO gyro (hid-sensor-gyro-3d behind a sensor hub made through
 #          /dev/uhid by UHID_GYRO): samples scaled right, in order, on the frames' clock.
@@ -14,7 +18,7 @@ set -euo pipefail
 
 scenario=${1:?scenario}; sunprobe=${2:?sunprobe binary}; cache=${3:?cache dir}; uhid_gyro=${4:-}
 here=$(cd "$(dirname "$0")" && pwd)
-fps=30; size=320x180; width=320; height=180; duration=4
+fps=30; size=320x180; width=320; height=180; duration=4; mplane_duration=2
 
 fail() { echo "FAIL: $*" >&2; exit 1; }
 skip() { echo "SKIP: $*" >&2; exit 77; }
@@ -74,6 +78,9 @@ add_module() { # path relative to moddir
     order+=("$path")
 }
 modules=(virtio_blk virtio_pci vivid)
+declare -A module_args=()
+[ "$scenario" = mplane ] && module_args[vivid]="multiplanar=2"
+mplane_fourccs=(NV12 NV21 YU12 NM12 NM21 YM12)
 [ "$scenario" = hidgyro ] && modules+=(uhid hid-sensor-hub hid-sensor-gyro-3d)
 for m in "${modules[@]}"; do
     line=$(dep_line "$m")
@@ -100,7 +107,8 @@ for path in "${order[@]}"; do
     *.zst) zstd -qdc "$moddir/$path" >"$root/lib/modules/${name%.zst}"; name=${name%.zst} ;;
     *) cp "$moddir/$path" "$root/lib/modules/$name" ;;
     esac
-    echo "$name" >>"$root/modules.order"
+    stem=${name%.ko}
+    echo "$name ${module_args[$stem]:-}" >>"$root/modules.order"
 done
 
 rec_args="--camera /dev/video0 --format yuyv --size $size --fps $fps --lock-exposure"
@@ -111,6 +119,13 @@ pid=\$!
 sleep 3
 echo vivid.0 >/sys/bus/platform/drivers/vivid/unbind && echo unbound >>/out/events.txt
 wait \$pid; echo \$? >/out/rc" ;;
+mplane) run=""
+    for cc in "${mplane_fourccs[@]}"; do
+        run+="SP_LOG=info sunprobe record --camera /dev/video0:fourcc=$cc --format nv12 --size $size --fps $fps --lock-exposure \
+--mode static --duration $mplane_duration -o /out/cap-$cc.spcap >/out/log-$cc.txt 2>&1; echo \$? >/out/rc-$cc
+cat /out/log-$cc.txt >>/out/log.txt
+"
+    done ;;
 hidgyro) run="uhid_gyro 60 &
 i=0; while [ ! -e /sys/bus/iio/devices/iio:device0 ] && [ \$i -lt 100 ]; do sleep 0.1; i=\$((i+1)); done
 ls /sys/bus/iio/devices/iio:device0 >/out/iio.txt 2>&1
@@ -126,7 +141,7 @@ export PATH=/bin
 mount -t proc proc /proc
 mount -t sysfs sys /sys
 mount -t devtmpfs dev /dev
-for m in \$(cat /modules.order); do insmod /lib/modules/\$m || echo "SP-VM: insmod \$m failed"; done
+while read -r m args; do insmod /lib/modules/\$m \$args || echo "SP-VM: insmod \$m failed"; done </modules.order
 i=0
 while { [ ! -e /dev/video0 ] || [ ! -e /dev/vda ]; } && [ \$i -lt 100 ]; do sleep 0.1; i=\$((i+1)); done
 echo "SP-VM: \$(ls /dev/video* /dev/vda 2>&1 | tr '\n' ' ')"
@@ -167,36 +182,56 @@ mkdir -p "$work/out"
 tar -xf "$work/out.img" -C "$work/out" 2>/dev/null || fail "no results on the VM's disk"
 cat "$work/out/devices.txt" || true
 cat "$work/out/log.txt" || true
-cap="$work/out/cap.spcap"
-[ -f "$cap" ] || fail "no capture came out of the VM"
-cp "$cap" "$cache/last-$scenario.spcap"
+within() { awk -v v="$1" -v lo="$2" -v hi="$3" 'BEGIN { exit !(v >= lo && v <= hi) }'; }
+
+# Checks one capture made in the VM: verify, info, format and size as negotiated, clean close, the v4l2
+# backend named, a rate near the negotiated one, the gain locked. Sets frames and info.
+check_capture() { # CAPTURE FORMAT
+    local cap=$1 want_fmt=$2 line fmt wxh secs rate
+    [ -f "$cap" ] || fail "no capture $(basename "$cap") came out of the VM"
+    cp "$cap" "$cache/last-$scenario-$(basename "$cap")"
+    "$sunprobe" verify "$cap" || fail "sunprobe verify rejected $(basename "$cap")"
+    info=$("$sunprobe" info "$cap") || fail "sunprobe info failed"
+    echo "$info"
+    line=$(echo "$info" | grep '^frames\[0\]:') || fail "no frames in the capture"
+    read -r frames fmt wxh secs rate <<<"$(echo "$line" |
+        sed -E 's/^frames\[0\]: +([0-9]+) ([a-z0-9]+) ([0-9]+x[0-9]+)[^,]*, ([0-9.]+) s, ([0-9.]+) fps.*/\1 \2 \3 \4 \5/')"
+    echo "vm: $(basename "$cap"): $frames frames $fmt $wxh over $secs s at $rate fps"
+    [ "$fmt" = "$want_fmt" ] && [ "$wxh" = "${width}x${height}" ] || fail "format $fmt $wxh, negotiated $want_fmt ${width}x${height}"
+    echo "$info" | grep -q "mixed formats" && fail "frames changed format mid-stream"
+    echo "$info" | grep -q "timestamps go backwards" && fail "frame timestamps are not monotonic"
+    echo "$info" | grep -q "^end: *closed cleanly" || fail "the capture was not closed cleanly"
+    echo "$info" | grep -q '^camera: .*(v4l2)' || fail "META does not name the v4l2 backend"
+    # the timestamps' rate is what the driver delivered; vivid paces itself on the kernel clock
+    within "$rate" "$(awk -v f=$fps 'BEGIN{print 0.6*f}')" "$(awk -v f=$fps 'BEGIN{print 1.05*f}')" ||
+        fail "frame rate $rate fps is not near the negotiated $fps fps"
+    python3 "$here/check_capture.py" --gain "$cap" || fail "per-frame gain missing or not locked"
+}
+# frames cover a recording of $1 s: count near duration x rate (the first frame arrives after stream start)
+check_frame_count() {
+    within "$frames" "$(awk -v f=$fps -v d="$1" 'BEGIN{print 0.5*f*d}')" "$(awk -v f=$fps -v d="$1" 'BEGIN{print 1.05*f*d+2}')" ||
+        fail "$frames frames in $1 s at $fps fps"
+}
 
 # ---- checks on the host ----
-"$sunprobe" verify "$cap" || fail "sunprobe verify rejected the capture"
-info=$("$sunprobe" info "$cap") || fail "sunprobe info failed"
-echo "$info"
+if [ "$scenario" = mplane ]; then
+    for cc in "${mplane_fourccs[@]}"; do
+        rc=$(cat "$work/out/rc-$cc" 2>/dev/null || echo none)
+        [ "$rc" = 0 ] || fail "sunprobe record with fourcc $cc exited $rc"
+        grep -q "memory plane" "$work/out/log-$cc.txt" || [ "$cc" = NV12 ] || fail "the log does not say $cc was repacked"
+        check_capture "$work/out/cap-$cc.spcap" nv12
+        check_frame_count "$mplane_duration"
+        python3 "$here/check_capture.py" --bars "$work/out/cap-$cc.spcap" || fail "$cc: colour bars wrong after repacking"
+    done
+    echo "vm: $scenario OK"
+    exit 0
+fi
+check_capture "$work/out/cap.spcap" yuyv
 rc=$(cat "$work/out/rc")
-line=$(echo "$info" | grep '^frames\[0\]:') || fail "no frames in the capture"
-read -r frames fmt wxh secs rate <<<"$(echo "$line" |
-    sed -E 's/^frames\[0\]: +([0-9]+) ([a-z0-9]+) ([0-9]+x[0-9]+)[^,]*, ([0-9.]+) s, ([0-9.]+) fps.*/\1 \2 \3 \4 \5/')"
-echo "vm: $frames frames $fmt $wxh over $secs s at $rate fps (exit $rc)"
-[ "$fmt" = yuyv ] && [ "$wxh" = "${width}x${height}" ] || fail "format $fmt $wxh, negotiated yuyv ${width}x${height}"
-echo "$info" | grep -q "mixed formats" && fail "frames changed format mid-stream"
-echo "$info" | grep -q "timestamps go backwards" && fail "frame timestamps are not monotonic"
-echo "$info" | grep -q "^end: *closed cleanly" || fail "the capture was not closed cleanly"
-echo "$info" | grep -q '^camera: .*(v4l2)' || fail "META does not name the v4l2 backend"
-
-within() { awk -v v="$1" -v lo="$2" -v hi="$3" 'BEGIN { exit !(v >= lo && v <= hi) }'; }
-# the timestamps' rate is what the driver delivered; vivid paces itself on the kernel clock
-within "$rate" "$(awk -v f=$fps 'BEGIN{print 0.6*f}')" "$(awk -v f=$fps 'BEGIN{print 1.05*f}')" ||
-    fail "frame rate $rate fps is not near the negotiated $fps fps"
-python3 "$here/check_capture.py" --gain "$cap" || fail "per-frame gain missing or not locked"
 case "$scenario" in
 record | hidgyro)
     [ "$rc" = 0 ] || fail "sunprobe record exited $rc"
-    # frames cover the recording: count near duration x rate (the first frame arrives after stream start)
-    within "$frames" "$(awk -v f=$fps -v d=$duration 'BEGIN{print 0.5*f*d}')" "$(awk -v f=$fps -v d=$duration 'BEGIN{print 1.05*f*d+2}')" ||
-        fail "$frames frames in $duration s at $fps fps"
+    check_frame_count "$duration"
     ;;
 unbind)
     grep -q unbound "$work/out/events.txt" 2>/dev/null || fail "the vivid device was not unbound"
@@ -208,6 +243,6 @@ esac
 if [ "$scenario" = hidgyro ]; then
     echo "$info" | grep -q '^imu: *gyro_3d' || fail "META does not name the gyro_3d IIO device"
     echo "$info" | grep -q '^imu gyro' || fail "no gyro samples in the capture"
-    python3 "$here/check_capture.py" --gyro "$cap" || fail "gyro samples wrong (values, order or clock)"
+    python3 "$here/check_capture.py" --gyro "$work/out/cap.spcap" || fail "gyro samples wrong (values, order or clock)"
 fi
 echo "vm: $scenario OK"
