@@ -402,9 +402,10 @@ void maps_add_template(probe_maps *m, const probe_segment *sg, const probe_objec
     uint8_t cut_col[PROBE_TMPL_W], cut_row[PROBE_TMPL_H];
     interior_cuts(col_on, col_miss, k->tw, 3, cut_col);
     interior_cuts(row_on, row_miss, k->th, 2, cut_row);
+    int upper_rows = (int)(0.55 * k->th); /* a walker's legs change between views: their columns cut nothing */
     for (int ty = 0; ty < k->th; ty++)
         for (int tx = 0; tx < k->tw; tx++)
-            if ((cut_col[tx] || cut_row[ty]) && template_missing(m, sg, k, x0, y0, tx, ty) == 1)
+            if (((cut_col[tx] && ty < upper_rows) || cut_row[ty]) && template_missing(m, sg, k, x0, y0, tx, ty) == 1)
                 seen_hidden(m, (size_t)(y0 + ty) * m->width + (size_t)(x0 + tx), (int16_t)c->y);
     (void)o;
 }

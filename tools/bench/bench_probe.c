@@ -4,7 +4,9 @@
  * (1) Throughput: probing the first N frames single-threaded, median of 5
  *     runs, frames/s of the probe alone (decoding is timed apart), against
  *     OpenCV's MOG2 background subtractor on the same decoded frames in the
- *     same run (the ratio: probe frames/s over MOG2 frames/s).
+ *     same run (the ratio: probe frames/s over MOG2 frames/s), by the wall
+ *     clock and by this thread's CPU time (the ratio a shared machine's load
+ *     does not move).
  * (2) Memory: peak RSS of a child process probing the capture once, and of
  *     one probing it 5 times in a row (one long stream), which should match.
  * Usage: bench_probe [--frames N] [WORKDIR]  (default 300 frames, /tmp/sp-bench)
@@ -19,6 +21,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "bench_util.h"
 #include "common/clock.h"
 #include "common/pixconv.h"
 #include "sp_config.h"
@@ -113,7 +116,7 @@ typedef struct timing {
     sp_probe *probe;
     void *mog;
     uint8_t *rgb;
-    double probe_s, mog_s, decode_s;
+    double probe_s, mog_s, decode_s, probe_cpu_s, mog_cpu_s;
     uint64_t frames;
 } timing;
 
@@ -124,10 +127,10 @@ static int time_frame(void *user, const sp_frame *f, uint64_t index)
     timing *t = user;
     int64_t a = sp_clock_monotonic_ns();
     int ret = sp_pixconv_frame_to_rgb24(f, t->rgb, (size_t)f->width * f->height * 3, f->width * 3);
-    int64_t b = sp_clock_monotonic_ns();
+    int64_t b = sp_clock_monotonic_ns(), b_cpu = bench_thread_cpu_ns();
     if (!ret)
         ret = sp_probe_push_rgb(t->probe, t->rgb, f->width * 3, f->timestamp_ns);
-    int64_t c = sp_clock_monotonic_ns();
+    int64_t c = sp_clock_monotonic_ns(), c_cpu = bench_thread_cpu_ns();
 #if HAVE_OPENCV
     static uint8_t *mask;
     if (!mask)
@@ -135,31 +138,26 @@ static int time_frame(void *user, const sp_frame *f, uint64_t index)
     if (!ret && mask)
         ret = sp_cv_mog2_apply(t->mog, t->rgb, f->width, f->height, f->width * 3, mask, f->width);
 #endif
-    int64_t d = sp_clock_monotonic_ns();
+    int64_t d = sp_clock_monotonic_ns(), d_cpu = bench_thread_cpu_ns();
     if (index < WARMUP)
         return ret;
     t->decode_s += (double)(b - a) * 1e-9;
     t->probe_s += (double)(c - b) * 1e-9;
     t->mog_s += (double)(d - c) * 1e-9;
+    t->probe_cpu_s += (double)(c_cpu - b_cpu) * 1e-9;
+    t->mog_cpu_s += (double)(d_cpu - c_cpu) * 1e-9;
     t->frames++;
     return ret;
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
 static double median5(double *v)
 {
-    qsort(v, RUNS, sizeof(double), cmp_double);
-    return v[RUNS / 2];
+    return bench_median(v, RUNS);
 }
 
 static int throughput(const char *path, uint64_t frames)
 {
-    double probe_fps[RUNS], mog_fps[RUNS], ratio[RUNS], decode_fps[RUNS], finish_ms[RUNS];
+    double probe_fps[RUNS], mog_fps[RUNS], ratio[RUNS], decode_fps[RUNS], finish_ms[RUNS], cpu_ratio[RUNS];
     timing t = { 0 };
     t.rgb = malloc(768 * 576 * 3);
 #if HAVE_OPENCV
@@ -173,7 +171,7 @@ static int throughput(const char *path, uint64_t frames)
         if (!ret)
             ret = sp_cv_mog2_open((sp_cv_mog2 **)&t.mog, 500, 16, 1);
 #endif
-        t.probe_s = t.mog_s = t.decode_s = 0;
+        t.probe_s = t.mog_s = t.decode_s = t.probe_cpu_s = t.mog_cpu_s = 0;
         t.frames = 0;
         if (!ret)
             ret = stream(path, 1, frames, time_frame, &t);
@@ -194,6 +192,7 @@ static int throughput(const char *path, uint64_t frames)
         decode_fps[r] = (double)t.frames / t.decode_s;
         mog_fps[r] = t.mog_s > 0 ? (double)t.frames / t.mog_s : (double)NAN;
         ratio[r] = probe_fps[r] / mog_fps[r];
+        cpu_ratio[r] = t.probe_cpu_s > 0 ? t.mog_cpu_s / t.probe_cpu_s : (double)NAN; /* speed: time inverted */
     }
     free(t.rgb);
     printf("probe 768x576, %llu frames after %d of warm-up, single thread, median of %d:\n",
@@ -202,10 +201,13 @@ static int throughput(const char *path, uint64_t frames)
     printf("  MJPEG decode %8.1f frames/s  (not included above)\n", median5(decode_fps));
 #if HAVE_OPENCV
     printf("  OpenCV MOG2  %8.1f frames/s  (same frames, same run, 1 thread)\n", median5(mog_fps));
-    printf("  ratio probe / MOG2: %.2f\n", median5(ratio));
+    printf("  ratio probe / MOG2: %.2f (wall clock), %.2f (thread CPU time; each run: ", median5(ratio),
+           median5((double[RUNS]){ cpu_ratio[0], cpu_ratio[1], cpu_ratio[2], cpu_ratio[3], cpu_ratio[4] }));
+    for (int r = 0; r < RUNS; r++)
+        printf("%.2f%s", cpu_ratio[r], r + 1 < RUNS ? " " : ")\n");
 #else
     printf("  OpenCV MOG2: not built (-Dopencv=enabled)\n");
-    (void)ratio, (void)mog_fps;
+    (void)ratio, (void)mog_fps, (void)cpu_ratio;
 #endif
     return 0;
 }
