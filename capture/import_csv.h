@@ -12,6 +12,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
+#include "common/private_api.h"
 
 typedef struct sp_csv {
     FILE *file;
@@ -33,7 +34,7 @@ typedef struct sp_csv {
  * -ENOENT/-EACCES etc. when it cannot be opened, SP_ENODATA when there is no
  * header, SP_ECORRUPT for an empty or duplicate column name.
  */
-int sp_csv_open(sp_csv *c, const char *path, char *err, size_t err_size);
+SP_PRIVATE int sp_csv_open(sp_csv *c, const char *path, char *err, size_t err_size);
 /*
  * The same for an open stream (ownership moves to c, closed by sp_csv_close, also on failure), whose
  * first lines_before lines were already read by the caller (messages count them). header 0: no header
@@ -41,23 +42,23 @@ int sp_csv_open(sp_csv *c, const char *path, char *err, size_t err_size);
  */
 int sp_csv_open_stream(sp_csv *c, FILE *f, const char *path, unsigned long lines_before, int header, char *err,
                        size_t err_size);
-void sp_csv_close(sp_csv *c);
+SP_PRIVATE void sp_csv_close(sp_csv *c);
 /* Column index of name, or -1. */
-int sp_csv_column(const sp_csv *c, const char *name);
+SP_PRIVATE int sp_csv_column(const sp_csv *c, const char *name);
 /* Reads the next data row: 0, SP_EOS at the end, SP_ECORRUPT for a wrong field count. */
-int sp_csv_next(sp_csv *c);
+SP_PRIVATE int sp_csv_next(sp_csv *c);
 /* 1 when field col of the current row is empty. */
 int sp_csv_empty(const sp_csv *c, int col);
 /* A finite number from field col; SP_ECORRUPT (NaN, Inf, empty, junk) with a message naming line and column. */
-int sp_csv_double(sp_csv *c, int col, double *out);
+SP_PRIVATE int sp_csv_double(sp_csv *c, int col, double *out);
 /* A decimal integer from field col; SP_ECORRUPT when malformed or out of range. */
-int sp_csv_int64(sp_csv *c, int col, int64_t *out);
+SP_PRIVATE int sp_csv_int64(sp_csv *c, int col, int64_t *out);
 /* Finds the time column: exactly one of `t` (seconds) and `t_ns` (nanoseconds), the other -1. */
 int sp_csv_time_columns(sp_csv *c, int *col_t, int *col_tns);
 /* A time in ns from a `t` (seconds) or `t_ns` column, whichever exists (col_t/col_tns, -1 if absent). */
 int sp_csv_time_ns(sp_csv *c, int col_t, int col_tns, int64_t *out);
 /* Formats "PATH:LINE: " + message into err and returns rc (for callers' own checks). */
-int sp_csv_fail(sp_csv *c, int rc, const char *fmt, ...)
+SP_PRIVATE int sp_csv_fail(sp_csv *c, int rc, const char *fmt, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 3, 4)))
 #endif

@@ -10,6 +10,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include "common/private_api.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -27,19 +28,19 @@ typedef struct sp_cv_video_info {
  * Opens a video file; `path` is borrowed. Returns 0, -ENOENT when the file is
  * missing, SP_EFORMAT when OpenCV cannot open or decode it.
  */
-int sp_cv_video_open(sp_cv_video_reader **out, const char *path, sp_cv_video_info *info);
+SP_PRIVATE int sp_cv_video_open(sp_cv_video_reader **out, const char *path, sp_cv_video_info *info);
 /*
  * Decodes the next frame into dst as RGB24 (rows dst_stride apart, dst_size
  * bytes). SP_EOS after the last frame; SP_ECORRUPT if the size changes mid-stream.
  */
-int sp_cv_video_read(sp_cv_video_reader *r, uint8_t *dst, size_t dst_size, uint32_t dst_stride);
+SP_PRIVATE int sp_cv_video_read(sp_cv_video_reader *r, uint8_t *dst, size_t dst_size, uint32_t dst_stride);
 /*
  * The presentation time of the frame the last sp_cv_video_read returned, in ns from the stream's start
  * (the container's timestamps: a variable frame rate keeps its timing). SP_ENODATA when the container
  * gives none.
  */
 int sp_cv_video_time_ns(sp_cv_video_reader *r, int64_t *out);
-void sp_cv_video_close(sp_cv_video_reader **r);
+SP_PRIVATE void sp_cv_video_close(sp_cv_video_reader **r);
 
 /*
  * Decodes an image file (PNG, JPEG, BMP, ...; 16-bit and alpha are reduced to
@@ -57,12 +58,12 @@ typedef struct sp_cv_video_writer sp_cv_video_writer;
  * Creates a video file: the codec follows the extension (".avi": MJPG, ".mp4": mp4v).
  * -EINVAL for another extension or bad sizes; -EIO when OpenCV cannot open it.
  */
-int sp_cv_video_writer_open(sp_cv_video_writer **out, const char *path, uint32_t width, uint32_t height,
+SP_PRIVATE int sp_cv_video_writer_open(sp_cv_video_writer **out, const char *path, uint32_t width, uint32_t height,
                             double fps);
 /* Appends one RGB24 frame of the size given at open (rows `stride` bytes apart, borrowed). */
-int sp_cv_video_write(sp_cv_video_writer *w, const uint8_t *rgb, uint32_t stride);
+SP_PRIVATE int sp_cv_video_write(sp_cv_video_writer *w, const uint8_t *rgb, uint32_t stride);
 /* Finishes the file; *w becomes NULL. */
-int sp_cv_video_writer_close(sp_cv_video_writer **w);
+SP_PRIVATE int sp_cv_video_writer_close(sp_cv_video_writer **w);
 
 #ifdef __cplusplus
 }

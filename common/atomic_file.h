@@ -4,6 +4,7 @@
 #define SUNPROBE_COMMON_ATOMIC_FILE_H
 
 #include <stdio.h>
+#include "common/private_api.h"
 
 typedef struct sp_atomic_file {
     FILE *file;      /* write here */
@@ -16,11 +17,11 @@ typedef struct sp_atomic_file {
  * regular file nor a directory (a device such as /dev/stdout, a FIFO) is
  * opened and written in place instead: temp_path is then NULL.
  */
-int sp_atomic_file_open(sp_atomic_file *af, const char *path);
+SP_PRIVATE int sp_atomic_file_open(sp_atomic_file *af, const char *path);
 /*
  * status 0: flush, fsync and rename into place; otherwise (or if any of those
  * fail) remove the temporary. Returns status, or the first error of finishing.
  */
-int sp_atomic_file_finish(sp_atomic_file *af, int status);
+SP_PRIVATE int sp_atomic_file_finish(sp_atomic_file *af, int status);
 
 #endif

@@ -4,8 +4,9 @@
 #define SUNPROBE_COMMON_CLOCK_H
 
 #include <stdint.h>
+#include "common/private_api.h"
 
-int64_t sp_clock_monotonic_ns(void);
+SP_PRIVATE int64_t sp_clock_monotonic_ns(void);
 int64_t sp_clock_realtime_ns(void);
 /* Sleeps until the monotonic clock reads deadline_ns (returns at once if it has passed). */
 void sp_clock_sleep_until(int64_t deadline_ns);

@@ -9,6 +9,7 @@
 #define SUNPROBE_COMMON_DATA_PATH_H
 
 #include <stddef.h>
+#include "common/private_api.h"
 
 typedef struct sp_data_location {
     char path[4096];
@@ -25,7 +26,7 @@ void sp_data_locate(const char *env, const char *rel, const char *probe, const c
                     sp_data_location *out);
 
 /* The two data sets sunprobe reads (defined beside their readers). */
-void sp_face_ict_locate(sp_data_location *out);   /* pipeline/face/face_ict.c */
-void sp_dlib_model_locate(sp_data_location *out); /* pipeline/sunstage/landmarks.c */
+SP_PRIVATE void sp_face_ict_locate(sp_data_location *out);   /* pipeline/face/face_ict.c */
+SP_PRIVATE void sp_dlib_model_locate(sp_data_location *out); /* pipeline/sunstage/landmarks.c */
 
 #endif

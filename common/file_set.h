@@ -10,6 +10,7 @@
 #define SUNPROBE_COMMON_FILE_SET_H
 
 #include <stddef.h>
+#include "common/private_api.h"
 
 typedef struct sp_file_set_entry {
     char *final_path, *temp_path;
@@ -28,15 +29,15 @@ typedef struct sp_file_set {
  * commit or abort; final_path itself for an existing device or FIFO). The
  * caller creates, fills, syncs and closes that file.
  */
-int sp_file_set_add(sp_file_set *fs, const char *final_path, const char **temp_path);
+SP_PRIVATE int sp_file_set_add(sp_file_set *fs, const char *final_path, const char **temp_path);
 /*
  * Renames every temporary to its final name and syncs the parent directories.
  * Existing final files are kept as hard links until every rename succeeded,
  * and put back if one fails. Every temporary is gone afterwards and fs is
  * reset, on success and on failure alike.
  */
-int sp_file_set_commit(sp_file_set *fs);
+SP_PRIVATE int sp_file_set_commit(sp_file_set *fs);
 /* Removes every temporary (missing ones are fine) and resets fs. Safe on a zeroed or committed set. */
-void sp_file_set_abort(sp_file_set *fs);
+SP_PRIVATE void sp_file_set_abort(sp_file_set *fs);
 
 #endif

@@ -11,6 +11,7 @@
 #include <errno.h>
 #include <stddef.h>
 #include <sys/types.h>
+#include "common/private_api.h"
 
 /*
  * The error of the write that just failed: -errno (a full disk is -ENOSPC, a size limit -EFBIG), or -EIO
@@ -28,19 +29,19 @@ static inline int sp_write_error(void)
  * Errors: -errno from open/read (e.g. -ENOENT, -EISDIR), -EFBIG when the file
  * holds more than max_size bytes, -ENOMEM. On error *data and *size are untouched.
  */
-int sp_read_whole_file(const char *path, size_t max_size, void **data, size_t *size);
+SP_PRIVATE int sp_read_whole_file(const char *path, size_t max_size, void **data, size_t *size);
 
 /* Writes size bytes to path through a temporary name + fsync + rename (atomic_file.h); data borrowed. */
-int sp_write_whole_file_atomic(const char *path, const void *data, size_t size);
+SP_PRIVATE int sp_write_whole_file_atomic(const char *path, const void *data, size_t size);
 
 /* "dir/name" into buf of n bytes; -ENAMETOOLONG when it does not fit. */
 int sp_path_join(char *buf, size_t n, const char *dir, const char *name);
 /* "dir/name" in a new string the caller frees, or NULL when out of memory. */
-char *sp_path_join_alloc(const char *dir, const char *name);
+SP_PRIVATE char *sp_path_join_alloc(const char *dir, const char *name);
 /* 1 when path names a regular file (symlinks followed), else 0. */
-int sp_is_regular_file(const char *path);
+SP_PRIVATE int sp_is_regular_file(const char *path);
 /* Creates dir and its missing parents with mode; existing directories are fine (-ENOTDIR if a file is in the way). */
-int sp_mkdir_p(const char *dir, mode_t mode);
+SP_PRIVATE int sp_mkdir_p(const char *dir, mode_t mode);
 /* Removes path and, for a directory, everything below it (symlinks are removed, never followed). */
 int sp_remove_tree(const char *path);
 /* fsyncs the directory holding path, so a rename or create in it is durable. */
@@ -62,33 +63,33 @@ typedef struct sp_partial {
  * removes the user's own "<final_dir>.partial.<pid>" directories whose process
  * no longer runs (left by a crash or SIGKILL; logged).
  */
-int sp_partial_dir_open(sp_partial *pd, const char *final_dir);
+SP_PRIVATE int sp_partial_dir_open(sp_partial *pd, const char *final_dir);
 /*
  * fsyncs every file and directory below pd->path, renames it to the final
  * name and syncs the parent. An existing empty final directory is replaced; a
  * non-empty one (or a file) only with SP_PARTIAL_REPLACE, else -EEXIST. On
  * success pd is reset; on failure the partial directory is kept (call abort).
  */
-int sp_partial_dir_commit(sp_partial *pd, int flags);
+SP_PRIVATE int sp_partial_dir_commit(sp_partial *pd, int flags);
 /* Removes the partial directory and all it holds; resets pd. Safe on a zeroed or committed pd. */
-void sp_partial_dir_abort(sp_partial *pd);
+SP_PRIVATE void sp_partial_dir_abort(sp_partial *pd);
 
 /*
  * Sets pf->path to "<final_path>.partial" without creating anything: the caller
  * creates and fills the file. The name has no pid on purpose, so a file left by
  * an interrupted run is simply overwritten by the next one.
  */
-int sp_partial_file_open(sp_partial *pf, const char *final_path);
+SP_PRIVATE int sp_partial_file_open(sp_partial *pf, const char *final_path);
 /*
  * Renames the finished file (which the caller has written, synced and closed)
  * to the final name, then syncs the parent directory (a failure there is only
  * logged: the file is complete). Without SP_PARTIAL_REPLACE an existing final
  * file is kept and -EEXIST returned. On success pf is reset.
  */
-int sp_partial_file_commit(sp_partial *pf, int flags);
+SP_PRIVATE int sp_partial_file_commit(sp_partial *pf, int flags);
 /* Releases pf's names without touching the file system (the partial file was never ours). */
-void sp_partial_forget(sp_partial *p);
+SP_PRIVATE void sp_partial_forget(sp_partial *p);
 /* Unlinks the partial file if present (a failure is logged) and resets pf. Safe on a zeroed or committed pf. */
-void sp_partial_file_abort(sp_partial *pf);
+SP_PRIVATE void sp_partial_file_abort(sp_partial *pf);
 
 #endif

@@ -10,10 +10,11 @@
 #define SUNPROBE_COMMON_IMAGE_METRICS_H
 
 #include <stdint.h>
+#include "common/private_api.h"
 
 /* PSNR in dB over pixels with mask != 0 (mask NULL: all); +inf for identical images, NaN for an empty mask. */
-double sp_psnr_masked(const float *a, const float *b, const uint8_t *mask, int width, int height);
+SP_PRIVATE double sp_psnr_masked(const float *a, const float *b, const uint8_t *mask, int width, int height);
 /* Mean SSIM over pixels with mask != 0 (mask NULL: all); NaN for an empty mask or no memory. */
-double sp_ssim_masked(const float *a, const float *b, const uint8_t *mask, int width, int height);
+SP_PRIVATE double sp_ssim_masked(const float *a, const float *b, const uint8_t *mask, int width, int height);
 
 #endif

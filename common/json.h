@@ -6,6 +6,7 @@
 #include <stddef.h>
 
 #include "sunprobe/sp_common.h"
+#include "common/private_api.h"
 
 typedef enum sp_json_type {
     SP_JSON_NULL,
@@ -30,18 +31,18 @@ struct sp_json {
  * Parses len bytes (need not be NUL-terminated). Returns 0 and a tree the caller
  * frees with sp_json_free, or SP_ECORRUPT with a message naming the byte offset in err.
  */
-int sp_json_parse(const char *text, size_t len, sp_json **out, char *err, size_t err_size);
-void sp_json_free(sp_json *root);
+SP_PRIVATE int sp_json_parse(const char *text, size_t len, sp_json **out, char *err, size_t err_size);
+SP_PRIVATE void sp_json_free(sp_json *root);
 
 /* Member of an object by key, NULL if absent or not an object. */
-const sp_json *sp_json_get(const sp_json *obj, const char *key);
+SP_PRIVATE const sp_json *sp_json_get(const sp_json *obj, const char *key);
 /* Element i of an array, NULL if out of range. */
-const sp_json *sp_json_at(const sp_json *arr, size_t i);
+SP_PRIVATE const sp_json *sp_json_at(const sp_json *arr, size_t i);
 /* Value or fallback when v is NULL or of another type. */
-double sp_json_number(const sp_json *v, double fallback);
-const char *sp_json_string(const sp_json *v, const char *fallback);
+SP_PRIVATE double sp_json_number(const sp_json *v, double fallback);
+SP_PRIVATE const char *sp_json_string(const sp_json *v, const char *fallback);
 /* Reads up to n numbers of an array into out; returns how many were numbers. */
-size_t sp_json_numbers(const sp_json *arr, double *out, size_t n);
+SP_PRIVATE size_t sp_json_numbers(const sp_json *arr, double *out, size_t n);
 
 /* A growing string; `failed` latches on allocation failure so writers check once at the end. */
 typedef struct sp_strbuf {
@@ -50,14 +51,14 @@ typedef struct sp_strbuf {
     int failed;
 } sp_strbuf;
 
-void sp_strbuf_printf(sp_strbuf *b, const char *fmt, ...) SP_PRINTF(2, 3);
+SP_PRIVATE void sp_strbuf_printf(sp_strbuf *b, const char *fmt, ...) SP_PRINTF(2, 3);
 void sp_strbuf_append(sp_strbuf *b, const char *s, size_t n);
 /* Appends a quoted, escaped JSON string. */
-void sp_strbuf_json_string(sp_strbuf *b, const char *s);
+SP_PRIVATE void sp_strbuf_json_string(sp_strbuf *b, const char *s);
 /* Appends a number, or null when it is not finite (JSON has no NaN). */
-void sp_strbuf_json_number(sp_strbuf *b, double v);
+SP_PRIVATE void sp_strbuf_json_number(sp_strbuf *b, double v);
 /* Appends a JSON array of n numbers (non-finite ones as null). */
-void sp_strbuf_json_numbers(sp_strbuf *b, const double *v, int n);
-void sp_strbuf_free(sp_strbuf *b);
+SP_PRIVATE void sp_strbuf_json_numbers(sp_strbuf *b, const double *v, int n);
+SP_PRIVATE void sp_strbuf_free(sp_strbuf *b);
 
 #endif

@@ -15,6 +15,7 @@
 #define SUNPROBE_COMMON_MODULE_H
 
 #include "sunprobe/sp_common.h"
+#include "common/private_api.h"
 
 #define SP_MODULE_ABI 1
 
@@ -37,10 +38,10 @@ typedef struct sp_module {
 } sp_module;
 
 /* The modules this program can load (one per shim; `sunprobe --version --verbose` lists them). */
-extern const sp_module sp_module_opencv_import, sp_module_opencv_probe, sp_module_oiio;
+extern SP_PRIVATE const sp_module sp_module_opencv_import, sp_module_opencv_probe, sp_module_oiio;
 
 /* Where m is looked for (the order above) into path; 1 when a file is there. */
-int sp_module_locate(const sp_module *m, char *path, size_t size);
+SP_PRIVATE int sp_module_locate(const sp_module *m, char *path, size_t size);
 
 /* Any function pointer; forwarders cast it back to the function's real type. */
 typedef void (*sp_module_fn)(void);

@@ -21,6 +21,7 @@
 #include <stdint.h>
 
 #include "sunprobe/sp_frame.h"
+#include "common/private_api.h"
 
 /* A borrowed image to convert. */
 typedef struct sp_pixconv_src {
@@ -46,11 +47,11 @@ size_t sp_pixconv_src_min_size(const sp_pixconv_src *src);
  * short; SP_EUNSUPPORTED for an unknown format; for MJPEG SP_ECORRUPT when the
  * JPEG is damaged or not src->width x src->height, SP_EDISABLED without libjpeg.
  */
-int sp_pixconv_to_rgb24(const sp_pixconv_src *src, uint8_t *dst, size_t dst_size, uint32_t dst_stride);
+SP_PRIVATE int sp_pixconv_to_rgb24(const sp_pixconv_src *src, uint8_t *dst, size_t dst_size, uint32_t dst_stride);
 int sp_pixconv_to_gray8(const sp_pixconv_src *src, uint8_t *dst, size_t dst_size, uint32_t dst_stride);
 
 /* The same for a frame (its bytes_used bytes); the frame is borrowed for the call. */
-int sp_pixconv_frame_to_rgb24(const sp_frame *frame, uint8_t *dst, size_t dst_size, uint32_t dst_stride);
+SP_PRIVATE int sp_pixconv_frame_to_rgb24(const sp_frame *frame, uint8_t *dst, size_t dst_size, uint32_t dst_stride);
 int sp_pixconv_frame_to_gray8(const sp_frame *frame, uint8_t *dst, size_t dst_size, uint32_t dst_stride);
 
 #endif

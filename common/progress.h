@@ -4,6 +4,7 @@
 #define SUNPROBE_COMMON_PROGRESS_H
 
 #include <stdint.h>
+#include "common/private_api.h"
 
 typedef struct sp_progress {
     const char *label;
@@ -13,9 +14,9 @@ typedef struct sp_progress {
 } sp_progress;
 
 /* enabled: 1 force, 0 off, -1 auto (on when stderr is a terminal). */
-void sp_progress_start(sp_progress *p, const char *label, uint64_t total, int enabled);
+SP_PRIVATE void sp_progress_start(sp_progress *p, const char *label, uint64_t total, int enabled);
 /* Redraws at most ten times a second; `detail` (may be NULL) is shown after the bar. */
-void sp_progress_update(sp_progress *p, uint64_t done, const char *detail);
-void sp_progress_finish(sp_progress *p);
+SP_PRIVATE void sp_progress_update(sp_progress *p, uint64_t done, const char *detail);
+SP_PRIVATE void sp_progress_finish(sp_progress *p);
 
 #endif

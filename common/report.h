@@ -8,6 +8,7 @@
 #define SUNPROBE_COMMON_REPORT_H
 
 #include <stddef.h>
+#include "common/private_api.h"
 
 #define SP_REPORT_MAX_SERIES 12
 
@@ -18,12 +19,12 @@ typedef struct sp_report sp_report;
  * are the metric column names (borrowed for the call), `log_scale` draws the y
  * axis logarithmically (non-positive values are skipped in the plot).
  */
-int sp_report_open(sp_report **out, const char *prefix, const char *title, const char *const *names,
+SP_PRIVATE int sp_report_open(sp_report **out, const char *prefix, const char *title, const char *const *names,
                    size_t n_series, int log_scale);
 /* Appends one row; NaN marks a value not measured at this time (empty CSV cell, gap in the plot). */
-int sp_report_add(sp_report *r, double seconds, const double *values);
+SP_PRIVATE int sp_report_add(sp_report *r, double seconds, const double *values);
 /* Writes the SVG, closes the CSV; *r becomes NULL. Returns the first write error, if any. */
-int sp_report_close(sp_report **r);
+SP_PRIVATE int sp_report_close(sp_report **r);
 
 /*
  * Draws n_rows x n_series values against x as an SVG of stacked panels, one per series with its own

@@ -8,8 +8,9 @@
 #define SUNPROBE_EXPORT_FACE_DIR_H
 
 #include "sunprobe/sp_sunstage.h"
+#include "common/private_api.h"
 
 /* Writes every file of a fitted face into `dir` (which must exist; borrowed). */
-int sp_face_dir_write_all(const sp_sunstage *ss, const char *dir);
+SP_PRIVATE int sp_face_dir_write_all(const sp_sunstage *ss, const char *dir);
 
 #endif

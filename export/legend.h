@@ -9,6 +9,7 @@
 #define SUNPROBE_EXPORT_LEGEND_H
 
 #include <stdint.h>
+#include "common/private_api.h"
 
 typedef struct sp_legend {
     const char *title;          /* one line: the quantity and its unit */
@@ -23,7 +24,7 @@ typedef struct sp_legend {
 
 /* Draws text (lower case is drawn upper case; unknown characters as blanks) with its top-left corner at
  * (x, y), each font pixel scale x scale, clipped to the image. Returns the width in pixels it took. */
-int sp_legend_text(uint8_t *rgb, uint32_t width, uint32_t height, int x, int y, int scale, const char *text,
+SP_PRIVATE int sp_legend_text(uint8_t *rgb, uint32_t width, uint32_t height, int x, int y, int scale, const char *text,
                    const uint8_t colour[3]);
 /* Height of the legend strip for an image this wide. */
 uint32_t sp_legend_height(uint32_t width);

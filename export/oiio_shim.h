@@ -9,6 +9,7 @@
 #define SUNPROBE_EXPORT_OIIO_SHIM_H
 
 #include <stdint.h>
+#include "common/private_api.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -19,14 +20,14 @@ extern "C" {
  * first, borrowed) as a 32-bit float OpenEXR file, atomically (a temporary
  * beside `path`, then rename). Returns 0, -EINVAL, or -EIO with the reason logged.
  */
-int sp_exr_write(const char *path, const float *pixels, uint32_t width, uint32_t height, int channels);
+SP_PRIVATE int sp_exr_write(const char *path, const float *pixels, uint32_t width, uint32_t height, int channels);
 
 /*
  * Reads the first subimage of `path` as RGB floats (*rgb malloc'd, width x height x 3, top row first;
  * one channel is replicated, a fourth dropped), linear as the file stores it. Returns 0, -ENOENT,
  * SP_EFORMAT (no reader for it, or not an image: the reason logged), -ENOMEM or -EIO.
  */
-int sp_image_read_rgb(const char *path, float **rgb, uint32_t *width, uint32_t *height);
+SP_PRIVATE int sp_image_read_rgb(const char *path, float **rgb, uint32_t *width, uint32_t *height);
 
 /*
  * A tiled image (TIFF or OpenEXR, by the extension of `path`) written a row of
@@ -36,11 +37,11 @@ int sp_image_read_rgb(const char *path, float **rgb, uint32_t *width, uint32_t *
  * temporary and renames it). Errors: -EINVAL, -ENOMEM, -EIO (the reason logged).
  */
 typedef struct sp_tiled_image sp_tiled_image;
-int sp_tiled_open(sp_tiled_image **out, const char *path, uint32_t width, uint32_t height, uint32_t tile);
+SP_PRIVATE int sp_tiled_open(sp_tiled_image **out, const char *path, uint32_t width, uint32_t height, uint32_t tile);
 /* n RGB float rows (width x 3 each, borrowed) continuing the image. */
-int sp_tiled_rows(sp_tiled_image *t, uint32_t n, const float *rgb);
+SP_PRIVATE int sp_tiled_rows(sp_tiled_image *t, uint32_t n, const float *rgb);
 /* Writes what is left, closes and frees *t (accepts NULL); 0 only when every row came and the file closed well. */
-int sp_tiled_close(sp_tiled_image **t);
+SP_PRIVATE int sp_tiled_close(sp_tiled_image **t);
 
 #ifdef __cplusplus
 }

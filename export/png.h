@@ -6,12 +6,13 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
+#include "common/private_api.h"
 
 /*
  * Writes `path` atomically (temporary file, then rename). channels: 1, 3 or 4;
  * stride in bytes. Returns 0 or a negative errno.
  */
-int sp_png_write(const char *path, const uint8_t *pixels, uint32_t width, uint32_t height,
+SP_PRIVATE int sp_png_write(const char *path, const uint8_t *pixels, uint32_t width, uint32_t height,
                  uint32_t stride, int channels);
 /* The same PNG into a malloc'd buffer (*out, caller frees); 0, -EINVAL or -ENOMEM. */
 int sp_png_encode(const uint8_t *pixels, uint32_t width, uint32_t height, uint32_t stride, int channels,
@@ -24,10 +25,10 @@ int sp_png_encode(const uint8_t *pixels, uint32_t width, uint32_t height, uint32
  */
 typedef struct sp_png_stream sp_png_stream;
 /* Writes the signature and header to f (borrowed until finish). 0, -EINVAL, -ENOMEM or a write error. */
-int sp_png_stream_open(sp_png_stream **out, FILE *f, uint32_t width, uint32_t height, int channels);
+SP_PRIVATE int sp_png_stream_open(sp_png_stream **out, FILE *f, uint32_t width, uint32_t height, int channels);
 /* Appends n rows (stride bytes apart, borrowed). -EINVAL past the height; a write error (-ENOSPC...) as is. */
-int sp_png_stream_rows(sp_png_stream *s, const uint8_t *rows, uint32_t n, uint32_t stride);
+SP_PRIVATE int sp_png_stream_rows(sp_png_stream *s, const uint8_t *rows, uint32_t n, uint32_t stride);
 /* Ends the stream (every row written: 0; else -EINVAL) and frees *s; accepts NULL. */
-int sp_png_stream_finish(sp_png_stream **s);
+SP_PRIVATE int sp_png_stream_finish(sp_png_stream **s);
 
 #endif

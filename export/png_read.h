@@ -11,6 +11,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include "common/private_api.h"
 
 /*
  * Decodes `size` bytes (borrowed) into *rgba (malloc'd, width*height*4 bytes,
@@ -19,16 +20,16 @@
  * ends early; SP_EUNSUPPORTED for interlaced images; -E2BIG beyond 16384 pixels
  * a side or 2^28 pixels; SP_EDISABLED as above.
  */
-int sp_png_decode_rgba(const uint8_t *data, size_t size, uint8_t **rgba, uint32_t *width, uint32_t *height);
+SP_PRIVATE int sp_png_decode_rgba(const uint8_t *data, size_t size, uint8_t **rgba, uint32_t *width, uint32_t *height);
 /* Reads and decodes a file (`path` borrowed); -errno when it cannot be read. */
-int sp_png_read_rgba(const char *path, uint8_t **rgba, uint32_t *width, uint32_t *height);
+SP_PRIVATE int sp_png_read_rgba(const char *path, uint8_t **rgba, uint32_t *width, uint32_t *height);
 /* 1 when the PNG carries alpha (gray + alpha, RGBA, or a tRNS chunk), 0 when not, SP_EFORMAT when not a PNG. */
-int sp_png_has_alpha(const uint8_t *data, size_t size);
+SP_PRIVATE int sp_png_has_alpha(const uint8_t *data, size_t size);
 
 /*
  * A PNG or (where libjpeg is built) JPEG file, told apart by content, as RGB24 into *rgb (malloc'd,
  * width*height*3 bytes, the caller frees); alpha is dropped. The PNG reader's errors, the JPEG
  * decoder's (SP_EDISABLED without libjpeg), or -errno.
  */
-int sp_image_read_rgb8(const char *path, uint8_t **rgb, uint32_t *width, uint32_t *height);
+SP_PRIVATE int sp_image_read_rgb8(const char *path, uint8_t **rgb, uint32_t *width, uint32_t *height);
 #endif

@@ -13,9 +13,10 @@
 #include <stdint.h>
 
 #include "sunprobe/sp_probe.h"
+#include "common/private_api.h"
 
 /* Writes a finished probe's outputs into `dir` (which must exist); every file atomically, probe.json last. */
-int sp_probe_dir_write(const char *dir, const sp_probe *p);
+SP_PRIVATE int sp_probe_dir_write(const char *dir, const sp_probe *p);
 
 typedef struct sp_probe_dir {
     uint32_t width, height;
@@ -26,13 +27,13 @@ typedef struct sp_probe_dir {
 } sp_probe_dir;
 
 /* Loads a probe directory (everything owned by *out; free with sp_probe_dir_free). */
-int sp_probe_dir_load(const char *dir, sp_probe_dir *out);
-void sp_probe_dir_free(sp_probe_dir *d);
+SP_PRIVATE int sp_probe_dir_load(const char *dir, sp_probe_dir *out);
+SP_PRIVATE void sp_probe_dir_free(sp_probe_dir *d);
 /* The maps of a loaded directory as borrowed views. */
-sp_probe_maps sp_probe_dir_maps(const sp_probe_dir *d);
+SP_PRIVATE sp_probe_maps sp_probe_dir_maps(const sp_probe_dir *d);
 
 /* PFM with 1 or 3 channels; values row-major top to bottom in memory. */
-int sp_pfm_write(const char *path, const float *v, uint32_t width, uint32_t height, int channels);
+SP_PRIVATE int sp_pfm_write(const char *path, const float *v, uint32_t width, uint32_t height, int channels);
 /* *v is malloc'd; SP_EFORMAT when not a PFM, SP_ECORRUPT/SP_ETRUNCATED when damaged. */
 int sp_pfm_read(const char *path, float **v, uint32_t *width, uint32_t *height, int *channels);
 

@@ -18,6 +18,7 @@
 #include "sunprobe/sp_replay.h"
 #include "sunprobe/sp_source.h"
 #include "sunprobe/sp_tagger.h"
+#include "common/private_api.h"
 
 typedef struct sp_stage_ops {
     const char *name;
@@ -39,13 +40,13 @@ typedef struct sp_stage {
     void *ctx;
 } sp_stage;
 
-int sp_stage_open(sp_stage *st, const sp_stage_ops *ops, const void *settings);
+SP_PRIVATE int sp_stage_open(sp_stage *st, const sp_stage_ops *ops, const void *settings);
 /* Closes an open (or never opened, zeroed) stage. */
-void sp_stage_close(sp_stage *st);
+SP_PRIVATE void sp_stage_close(sp_stage *st);
 
 /* NULL-terminated registry of the stages `sunprobe replay --stage` runs. */
-const sp_stage_ops *const *sp_stage_registry(void);
-const sp_stage_ops *sp_stage_find(const char *name);
+SP_PRIVATE const sp_stage_ops *const *sp_stage_registry(void);
+SP_PRIVATE const sp_stage_ops *sp_stage_find(const char *name);
 
 typedef struct sp_run_settings {
     sp_replay_settings replay;   /* with a tagger, the pool gets tagger.max_waiting frames more */
@@ -79,12 +80,12 @@ typedef struct sp_run_stats {
     sp_capture_meta meta;        /* the metadata as the last META event left it */
 } sp_run_stats;
 
-void sp_run_default_settings(sp_run_settings *s);
+SP_PRIVATE void sp_run_default_settings(sp_run_settings *s);
 /*
  * Streams the capture at `path` (borrowed) through the open stage. Returns 0 at
  * the end of the stream (or when stopped), else the first error; out (may be
  * NULL) says where it failed and what was read.
  */
-int sp_stage_run(const char *path, const sp_stage *stage, const sp_run_settings *s, sp_run_stats *out);
+SP_PRIVATE int sp_stage_run(const char *path, const sp_stage *stage, const sp_run_settings *s, sp_run_stats *out);
 
 #endif

@@ -58,6 +58,8 @@ int sp_opt_list(const char *cmd, const char *opt, const char *s, int n, const do
                 double *v, const char *want);
 /* WxH, each an integer from 1 to max; else the message and -1. */
 int sp_opt_size(const char *cmd, const char *opt, const char *s, int max, int *w, int *h);
+/* WxH, each from lo to hi (a command that explains a side's own limits after parsing); else the message, -1. */
+int sp_opt_size_in(const char *cmd, const char *opt, const char *s, int lo, int hi, int *w, int *h);
 /* A value of a shape of its own (keyframe:N, WxH) is bad: the same message, -1. */
 int sp_opt_bad(const char *cmd, const char *opt, const char *s, const char *want);
 /* sp_opt_int without the message, for a number inside a longer value. */

@@ -70,6 +70,7 @@ enum { OPT_PROBE = 256, OPT_BOX, OPT_KEEP, OPT_DETECTOR, OPT_SUN, OPT_NO_SHADOWS
 
 static int parse_option(int c, const char *name, depop_args *a)
 {
+    static const double location_lo[2] = { -90, -360 }, location_hi[2] = { 90, 360 };
     double v[4];
     if (c >= OPT_PROBE && c <= OPT_NO_SHADOWS)
         return depop_input_option("depopulate", name, optarg, &a->in);
@@ -85,14 +86,15 @@ static int parse_option(int c, const char *name, depop_args *a)
         return 0;
     }
     case OPT_LOCATION:
-        if (sp_opt_numbers(optarg, v, 2) || fabs(v[0]) > 90 || fabs(v[1]) > 360)
-            return bad("--location (LAT,LON in degrees)", optarg);
+        if (sp_opt_list("depopulate", name, optarg, 2, location_lo, location_hi, v,
+                        "LAT,LON in degrees, latitude -90..90, longitude -360..360"))
+            return SP_EXIT_USAGE;
         a->lat = v[0], a->lon = v[1], a->have_location = 1;
         return 0;
-    case OPT_HEADING:
-        if (sp_opt_numbers(optarg, v, 1) || fabs(v[0]) > 360)
-            return bad("--heading (degrees clockwise from true north)", optarg);
-        a->heading = v[0], a->have_heading = 1;
+    case OPT_HEADING: /* degrees clockwise from true north */
+        if (sp_opt_double("depopulate", name, optarg, -360, 360, &a->heading))
+            return SP_EXIT_USAGE;
+        a->have_heading = 1;
         return 0;
     case OPT_REPORT: a->report = optarg; return 0;
     case OPT_DEBUG: a->debug = optarg; return 0;

@@ -37,7 +37,8 @@ static int parse_export(int argc, char **argv, sp_export_settings *s, const char
         { "stats", no_argument, NULL, 's' }, { "draco-expressions", no_argument, NULL, 'X' },
         { "reorder", no_argument, NULL, 'R' }, { 0 },
     };
-    int c, bad = 0, li = -1;
+    static const char *const formats[] = { "glb", "obj", "drc" };
+    int c, bad = 0, li = -1, fi = 0;
     while (!bad && (c = getopt_long(argc, argv, "ho:", opts, &li)) != -1) {
         const char *on = li >= 0 ? opts[li].name : "";
         li = -1;
@@ -45,16 +46,8 @@ static int parse_export(int argc, char **argv, sp_export_settings *s, const char
         case 'h': export_usage(stdout); return 1;
         case 'o': *out = optarg; break;
         case 'f':
-            if (!strcmp(optarg, "glb"))
-                s->format = SP_EXPORT_GLB;
-            else if (!strcmp(optarg, "obj"))
-                s->format = SP_EXPORT_OBJ;
-            else if (!strcmp(optarg, "drc"))
-                s->format = SP_EXPORT_DRC;
-            else
-                bad = 1;
-            if (bad)
-                fprintf(stderr, "sunprobe export: --format '%s': expected glb, obj or drc\n", optarg);
+            bad = sp_opt_choice("export", on, optarg, formats, 3, &fi);
+            s->format = bad ? s->format : fi == 0 ? SP_EXPORT_GLB : fi == 1 ? SP_EXPORT_OBJ : SP_EXPORT_DRC;
             break;
         case 'D': s->draco = 0; break;
         case 'j': s->jpeg = 1; bad = optarg && sp_opt_int("export", on, optarg, 1, 100, &s->jpeg_quality); break;

@@ -75,7 +75,8 @@ static int parse_fit(int argc, char **argv, fit_args *a)
         { "threads", required_argument, NULL, 'T' },
         { 0 },
     };
-    int c, bad = 0, li = -1;
+    static const char *const solvers[] = { "fast", "adam" }, *const faces[] = { "auto", "generic", "ict" };
+    int c, bad = 0, li = -1, choice = 0;
     while (!bad && (c = getopt_long(argc, argv, "ho:", opts, &li)) != -1) {
         const char *on = li >= 0 ? opts[li].name : "";
         li = -1;
@@ -83,9 +84,8 @@ static int parse_fit(int argc, char **argv, fit_args *a)
         case 'h': fit_usage(stdout); return 1;
         case 'o': a->out = optarg; break;
         case 's':
-            if ((bad = strcmp(optarg, "fast") && strcmp(optarg, "adam")))
-                fprintf(stderr, "sunprobe fit: --solver '%s': expected fast or adam\n", optarg);
-            a->set.solver = strcmp(optarg, "adam") ? SP_SUNSTAGE_SOLVER_FAST : SP_SUNSTAGE_SOLVER_ADAM;
+            bad = sp_opt_choice("fit", on, optarg, solvers, 2, &choice);
+            a->set.solver = choice == 1 ? SP_SUNSTAGE_SOLVER_ADAM : SP_SUNSTAGE_SOLVER_FAST;
             break;
         case 'k': bad = sp_opt_int("fit", on, optarg, 2, 64, &a->set.keyframes); break;
         case 'H': bad = sp_opt_int("fit", on, optarg, 0, 16, &a->set.heldout); break;
@@ -109,8 +109,7 @@ static int parse_fit(int argc, char **argv, fit_args *a)
         case 'P': a->progress = 0; break;
         case 'f':
             a->face = optarg;
-            if ((bad = strcmp(optarg, "auto") && strcmp(optarg, "generic") && strcmp(optarg, "ict")))
-                fprintf(stderr, "sunprobe fit: --face '%s': expected auto, generic or ict\n", optarg);
+            bad = sp_opt_choice("fit", on, optarg, faces, 3, &choice);
             break;
         default: bad = 1; /* getopt has said which option */
         }

@@ -101,14 +101,19 @@ const char *sp_cmd_printable(const char *s, char *buf, size_t n)
 
 int sp_opt_size(const char *cmd, const char *opt, const char *s, int max, int *w, int *h)
 {
+    return sp_opt_size_in(cmd, opt, s, 1, max, w, h);
+}
+
+int sp_opt_size_in(const char *cmd, const char *opt, const char *s, int lo, int hi, int *w, int *h)
+{
     const char *x = s ? strpbrk(s, "xX") : NULL;
     char first[16];
     if (x && x - s < (ptrdiff_t)sizeof(first)) {
         snprintf(first, sizeof(first), "%.*s", (int)(x - s), s);
-        if (!sp_opt_int_in(first, 1, max, w) && !sp_opt_int_in(x + 1, 1, max, h))
+        if (!sp_opt_int_in(first, lo, hi, w) && !sp_opt_int_in(x + 1, lo, hi, h))
             return 0;
     }
-    fprintf(stderr, "sunprobe %s: --%s '%s': expected WxH, each from 1 to %d\n", cmd, opt, s ? s : "", max);
+    fprintf(stderr, "sunprobe %s: --%s '%s': expected WxH, each from %d to %d\n", cmd, opt, s ? s : "", lo, hi);
     return -1;
 }
 

@@ -8,6 +8,7 @@
  */
 #include <errno.h>
 #include <getopt.h>
+#include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -53,32 +54,17 @@ static void usage(FILE *out)
             4, SP_TEXTURE_MAX_SIDE);
 }
 
-static int parse_size(const char *s, uint32_t *w, uint32_t *h)
-{
-    char *end;
-    unsigned long long a = strtoull(s, &end, 10);
-    if (end == s || *end != 'x' || s[0] == '-')
-        return -1;
-    const char *t = end + 1;
-    unsigned long long b = strtoull(t, &end, 10);
-    if (end == t || *end || t[0] == '-' || a > 0xffffffffull || b > 0xffffffffull)
-        return -1;
-    *w = (uint32_t)a, *h = (uint32_t)b;
-    return 0;
-}
-
 enum { OPT_SIZE = 256, OPT_SEED, OPT_PATCH, OPT_TILE, OPT_TILEABLE, OPT_ITER, OPT_REUSE, OPT_THREADS };
 
 static int parse_option(int c, texture_args *a)
 {
     uint64_t u;
+    int w, h;
     switch (c) {
-    case OPT_SIZE:
-        if (parse_size(optarg, &a->width, &a->height)) {
-            fprintf(stderr, "sunprobe texture: --size '%s': expected WxH, such as 2304x2304\n", optarg);
+    case OPT_SIZE: /* 0 and sides over the limit are explained by check_sizes */
+        if (sp_opt_size_in("texture", "size", optarg, 0, INT_MAX, &w, &h))
             return SP_EXIT_USAGE;
-        }
-        a->sized = 1;
+        a->width = (uint32_t)w, a->height = (uint32_t)h, a->sized = 1;
         return 0;
     case OPT_SEED:
         if (sp_opt_u64("texture", "seed", optarg, 0, UINT64_MAX, &u))

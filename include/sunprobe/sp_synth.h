@@ -21,6 +21,7 @@
 
 #include "sp_common.h"
 #include "sp_face_model.h"
+#include "sp_fake_camera.h"
 #include "sp_fake_imu.h"
 #include "sp_math.h"
 #include "sp_render.h"
@@ -182,6 +183,70 @@ SP_API int sp_synth_selfie_write(sp_synth_selfie *g, const char *capture_path, c
 SP_API int sp_synth_selfie_contact_sheet(sp_synth_selfie *g, const char *capture_path, int n_frames,
                                          uint64_t component_frame, int columns, uint8_t **rgb,
                                          uint32_t *width, uint32_t *height);
+
+/* ---- street: a static camera watching people walk past occluders (`sunprobe synth street`) ---- */
+
+#define SP_SYNTH_STREET_MAX_FIGURES 64
+
+/*
+ * A pinhole camera above a ground plane, static occluders at known depths, an unseen wall whose shadow is
+ * pre-existing shadow, walking figures of known height, a sun casting shadows (or an overcast sky).
+ * Ground truth beside the capture (PREFIX = the capture path without ".spcap"): PREFIX.truth.json,
+ * PREFIX.background.png (.ppm without an image writer) and 16-bit PGMs PREFIX.hidden-far / hidden-near /
+ * seen-far / hidden-count.pgm (pipeline/synth/SYNTH.md). Deterministic for the settings (seed included).
+ */
+typedef struct sp_synth_street_settings {
+    uint32_t width, height;   /* frame size; default 320 x 240 (32..4096) */
+    double fps;               /* default 10 (1..240) */
+    double seconds;           /* duration; default 40 (0.01..36000) */
+    unsigned figures;         /* walking figures; default 10 (0..SP_SYNTH_STREET_MAX_FIGURES) */
+    uint64_t seed;            /* default 1 */
+    int overcast;             /* 1: no sun, no shadows; default 0 */
+    double sun_azimuth_deg;   /* from the view direction towards the right; default -30 (front left) */
+    double sun_elevation_deg; /* default 40 (5..85) */
+    double pan_deg_s;         /* camera turn rate (a moving camera, for bad-input tests); default 0 (-90..90) */
+    double camera_height_m;   /* default 4 (0.5..50) */
+    double pitch_deg;         /* downwards; default 15 (0..60) */
+    double hfov_deg;          /* horizontal field of view; default 45 (10..120) */
+    double linger_s;          /* every other figure stops once for 5 s up to this long; default 0: nobody */
+    double noise;             /* sensor noise, standard deviation in 8-bit levels; default 0 (0..64) */
+    sp_synth_image_writer write_image; /* the background PNG (tools pass sp_png_write); NULL: binary PPM */
+    int progress;             /* progress bar on stderr: 1 on, 0 off (default), -1 when a terminal */
+    /* Polled between frames: non-zero stops sp_synth_street_write with -ECANCELED, nothing left. */
+    const volatile sig_atomic_t *cancel;
+} sp_synth_street_settings;
+
+typedef struct sp_synth_street_report {
+    uint64_t frames;
+    unsigned figures;
+} sp_synth_street_report;
+
+SP_API void sp_synth_street_default_settings(sp_synth_street_settings *s);
+/*
+ * Writes the capture and its truth files as one set: all of them replace any previous ones, or none
+ * does. -EINVAL for bad settings (a log line names the field), -ECANCELED, -errno for file errors.
+ */
+SP_API int sp_synth_street_write(const sp_synth_street_settings *s, const char *capture_path,
+                                 sp_synth_street_report *report);
+
+/* ---- turn: a person turning in place, fake camera + fake IMU (`sunprobe synth turn`) ---- */
+
+typedef struct sp_synth_turn_settings {
+    sp_fake_camera_settings camera; /* default: sp_fake_camera_default_settings, panorama pattern */
+    sp_fake_imu_settings imu;       /* default: sp_fake_imu_default_settings (its seed sets the noise) */
+    int sync_every_chunk;           /* 1: fdatasync after every chunk; default 0 (periodic) */
+    int progress;                   /* progress bar on stderr: 1 on, 0 off (default), -1 when a terminal */
+    /* Polled between frames: non-zero stops sp_synth_turn_write with -ECANCELED, nothing left. */
+    const volatile sig_atomic_t *cancel;
+} sp_synth_turn_settings;
+
+SP_API void sp_synth_turn_default_settings(sp_synth_turn_settings *s);
+/*
+ * Writes the capture: frames of a panorama at the true heading, the IMU samples between them and the
+ * true camera orientation of every frame as side data (SP_SIDE_TRUE_ORIENTATION), through
+ * "<capture_path>.partial" renamed when complete (an existing file is replaced; kept on any error).
+ */
+SP_API int sp_synth_turn_write(const sp_synth_turn_settings *s, const char *capture_path);
 
 #ifdef __cplusplus
 }

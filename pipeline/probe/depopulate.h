@@ -12,6 +12,7 @@
 #include <stdint.h>
 
 #include "sunprobe/sp_probe.h"
+#include "common/private_api.h"
 
 /* ---- exemplar inpainting (inpaint.c) ---- */
 
@@ -35,7 +36,7 @@ void sp_inpaint_default_settings(sp_inpaint_settings *s);
  * SP_ENODATA when no whole patch outside the hole exists to copy from (the
  * image is left as it was).
  */
-int sp_inpaint_exemplar(uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, const uint8_t *mask,
+SP_PRIVATE int sp_inpaint_exemplar(uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, const uint8_t *mask,
                         const sp_inpaint_settings *s, sp_inpaint_report *report);
 
 /* ---- removal masks (depop_mask.c) ---- */
@@ -61,7 +62,7 @@ typedef struct sp_depop_settings {
     int shadows;             /* grow masks by cast and contact shadows, default 1 */
 } sp_depop_settings;
 
-void sp_depop_default_settings(sp_depop_settings *s);
+SP_PRIVATE void sp_depop_default_settings(sp_depop_settings *s);
 /*
  * The removal mask of n objects in an RGB24 image: each object's mask (or
  * box), a pixel of dilation for its anti-aliased edge, its contact shadow
@@ -70,7 +71,7 @@ void sp_depop_default_settings(sp_depop_settings *s);
  * Writes mask (width x height; 1 object, 2 shadow) and each object's shadow
  * figures. -EINVAL for bad arguments, -ENOMEM.
  */
-int sp_depop_mask(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, sp_depop_object *objs,
+SP_PRIVATE int sp_depop_mask(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, sp_depop_object *objs,
                   size_t n, const sp_depop_settings *s, uint8_t *mask);
 
 /*
@@ -81,7 +82,7 @@ int sp_depop_mask(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t 
  * mask gets 1 on their pixels and 2 on their shadows, a pixel of dilation
  * included; *n is how many there are, *kept how many stayed. -EINVAL, -ENOMEM.
  */
-int sp_depop_from_plate(const uint8_t *rgb, const uint8_t *plate, uint32_t width, uint32_t height,
+SP_PRIVATE int sp_depop_from_plate(const uint8_t *rgb, const uint8_t *plate, uint32_t width, uint32_t height,
                         const sp_probe_plane *plane, const double *keep, size_t n_keep, sp_depop_object *objs,
                         size_t cap, size_t *n, size_t *kept, uint8_t *mask);
 
@@ -93,7 +94,7 @@ int sp_depop_from_plate(const uint8_t *rgb, const uint8_t *plate, uint32_t width
 void sp_depop_lit_band(const uint32_t hist[256], uint32_t n, int *lo, int *hi);
 
 /* 1 when one of the n_keep points (x, y pairs) lies in the box x0..x1, y0..y1. */
-int sp_depop_keeps(const double *keep, size_t n_keep, int x0, int y0, int x1, int y1);
+SP_PRIVATE int sp_depop_keeps(const double *keep, size_t n_keep, int x0, int y0, int x1, int y1);
 
 /* ---- the sun from one image (depop_sun.c) ---- */
 
@@ -118,7 +119,7 @@ typedef struct sp_depop_sun {
  * shadow's direction, elevation from height over length; medians over the
  * objects. -EINVAL for a bad camera.
  */
-int sp_depop_sun_estimate(const sp_depop_object *objs, size_t n, const sp_depop_camera *cam, sp_depop_sun *out);
+SP_PRIVATE int sp_depop_sun_estimate(const sp_depop_object *objs, size_t n, const sp_depop_camera *cam, sp_depop_sun *out);
 
 /*
  * The camera's ground geometry, everything in camera heights (the camera one

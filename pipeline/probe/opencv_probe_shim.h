@@ -10,6 +10,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include "common/private_api.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -18,7 +19,7 @@ extern "C" {
 typedef struct sp_cv_hog sp_cv_hog;
 
 /* OpenCV's default 64x128 people detector (Dalal-Triggs HOG + linear SVM). */
-int sp_cv_hog_open(sp_cv_hog **out);
+SP_PRIVATE int sp_cv_hog_open(sp_cv_hog **out);
 /*
  * SVM margin of one detection window fitted around the box x0..x1, y0..y1
  * (inclusive pixels) of an RGB24 image (borrowed): the box is padded by an
@@ -27,13 +28,13 @@ int sp_cv_hog_open(sp_cv_hog **out);
  */
 int sp_cv_hog_score(sp_cv_hog *hog, const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, int x0,
                     int y0, int x1, int y1, double *score);
-void sp_cv_hog_close(sp_cv_hog **hog);
+SP_PRIVATE void sp_cv_hog_close(sp_cv_hog **hog);
 /*
  * Whole-image detection with the same detector (detectMultiScale, grouped): up to `cap` boxes as
  * x0, y0, x1, y1 (inclusive pixels) into boxes (4 ints each); *n is how many were found. The image is
  * upscaled by `upscale` (1..4) first, so people shorter than the 128-px window are found.
  */
-int sp_cv_hog_detect(sp_cv_hog *hog, const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride,
+SP_PRIVATE int sp_cv_hog_detect(sp_cv_hog *hog, const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride,
                      double upscale, int *boxes, unsigned cap, unsigned *n);
 
 /* OpenCV's Telea inpainting (photo module) of the pixels where mask != 0, in place: a baseline. */

@@ -11,6 +11,7 @@
 #include <stdint.h>
 
 #include "sunprobe/sp_probe.h"
+#include "common/private_api.h"
 
 #define SP_RETEXTURE_PERSON_M 1.7 /* the nominal person height the plane model's pixel heights stand for */
 
@@ -27,7 +28,7 @@ typedef struct sp_retexture_report {
     double far_px_per_m;
 } sp_retexture_report;
 
-void sp_retexture_default_settings(sp_retexture_settings *s);
+SP_PRIVATE void sp_retexture_default_settings(sp_retexture_settings *s);
 
 /*
  * The default ground: pixels where the plane gives a person at least 2 pixels
@@ -35,7 +36,7 @@ void sp_retexture_default_settings(sp_retexture_settings *s);
  * hidden (Z < 0). region (w x h) is written 1 / 0. SP_ENODATA when the plane is
  * not a full plane (plane->note says why).
  */
-int sp_retexture_ground(const sp_probe_plane *plane, const float *occlusion, uint32_t w, uint32_t h,
+SP_PRIVATE int sp_retexture_ground(const sp_probe_plane *plane, const float *occlusion, uint32_t w, uint32_t h,
                         uint8_t *region);
 
 /*
@@ -44,7 +45,7 @@ int sp_retexture_ground(const sp_probe_plane *plane, const float *occlusion, uin
  * the plate's shading there. All buffers borrowed. 0, -EINVAL, -ENOMEM, or
  * SP_ENODATA when the plane is not a full plane or region holds no ground.
  */
-int sp_retexture(const uint8_t *plate, uint32_t w, uint32_t h, const sp_probe_plane *plane, const uint8_t *region,
+SP_PRIVATE int sp_retexture(const uint8_t *plate, uint32_t w, uint32_t h, const sp_probe_plane *plane, const uint8_t *region,
                  const float *tex, uint32_t tw, uint32_t th, const sp_retexture_settings *s, uint8_t *out,
                  sp_retexture_report *rep);
 

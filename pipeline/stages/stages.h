@@ -9,6 +9,7 @@
 #include "sunprobe/sp_face_model.h"
 #include "sunprobe/sp_probe.h"
 #include "sunprobe/sp_sunstage.h"
+#include "common/private_api.h"
 
 /* Settings of the replay stages (null, stats, orientation, landmarks). */
 typedef struct sp_stage_options {
@@ -26,7 +27,7 @@ typedef struct sp_fit_stage_settings {
     sp_sunstage_settings fit;
     const sp_face_model *model; /* borrowed; must outlive the stage */
 } sp_fit_stage_settings;
-extern const sp_stage_ops sp_stage_fit;
+extern SP_PRIVATE const sp_stage_ops sp_stage_fit;
 
 /* "probe": People as Scene Probes on the frames of stream 0 (untagged: a static camera needs no orientation). */
 typedef struct sp_probe_stage_settings {
@@ -36,8 +37,8 @@ typedef struct sp_probe_stage_settings {
     int (*on_frame)(void *user, const sp_probe *probe, const sp_frame *frame, uint64_t index);
     void *user;
 } sp_probe_stage_settings;
-extern const sp_stage_ops sp_stage_probe;
+extern SP_PRIVATE const sp_stage_ops sp_stage_probe;
 /* The probe of an open "probe" stage (borrowed from the stage). */
-sp_probe *sp_probe_stage_probe(const sp_stage *st);
+SP_PRIVATE sp_probe *sp_probe_stage_probe(const sp_stage *st);
 
 #endif

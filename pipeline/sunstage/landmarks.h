@@ -9,6 +9,7 @@
 #define SUNPROBE_SUNSTAGE_LANDMARKS_H
 
 #include <stdint.h>
+#include "common/private_api.h"
 
 typedef enum ss_lm_source {
     SS_LM_NONE = 0,     /* no landmarks for this frame */
@@ -35,12 +36,12 @@ typedef struct ss_lm_settings {
 
 typedef struct ss_lm_tracker ss_lm_tracker;
 
-void ss_lm_default_settings(ss_lm_settings *s);
+SP_PRIVATE void ss_lm_default_settings(ss_lm_settings *s);
 /* 0; -ENOENT / SP_ECORRUPT for the model file (named in the log); SP_EDISABLED in a build without dlib. */
-int ss_lm_tracker_open(ss_lm_tracker **t, const ss_lm_settings *s);
-void ss_lm_tracker_close(ss_lm_tracker **t);
+SP_PRIVATE int ss_lm_tracker_open(ss_lm_tracker **t, const ss_lm_settings *s);
+SP_PRIVATE void ss_lm_tracker_close(ss_lm_tracker **t);
 /* Landmarks on one w x h RGB24 frame (borrowed); frames in capture order. 0 (found or not: out->source), or an error. */
-int ss_lm_tracker_frame(ss_lm_tracker *t, const uint8_t *rgb24, int w, int h, ss_lm_result *out);
+SP_PRIVATE int ss_lm_tracker_frame(ss_lm_tracker *t, const uint8_t *rgb24, int w, int h, ss_lm_result *out);
 /*
  * dlib places the 300-W annotation's points; the fit aligns the face model's
  * landmark vertices, which differ (a jaw contour against fixed jaw vertices,

@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: MIT
 # meson install into a DESTDIR, then a user's program (use_libsunprobe.c) built with nothing but the
 # installed headers, libsunprobe and its pkg-config file reads a capture and renders a fitted face; the
-# man page and bash completion are installed too.
+# man page and bash completion are installed too, and the installed command runs against the installed library.
 # Usage: test_install.sh BUILD_ROOT SUNPROBE SOURCE_DIR
 set -u
 build=$1; sp=$2; src=$3
@@ -31,3 +31,10 @@ cc -std=c11 -Wall -Werror -o "$tmp/use" "$src/tests/install/use_libsunprobe.c" $
 LD_LIBRARY_PATH=$libdir "$tmp/use" "$tmp/s.spcap" "$tmp/face" || fail "the program against the installed library"
 # it ran the installed library, not the build tree's
 LD_LIBRARY_PATH=$libdir ldd "$tmp/use" | grep -q "$tmp/root" || fail "not linked to the installed libsunprobe"
+# the installed command runs from the DESTDIR with no LD_LIBRARY_PATH (meson test sets one to the build
+# tree): it finds the installed libsunprobe beside itself (an $ORIGIN run path), unless linked statically
+cmd="$tmp/root$prefix/bin/sunprobe"
+env -u LD_LIBRARY_PATH "$cmd" --version >"$tmp/version.txt" 2>&1 || { cat "$tmp/version.txt"; fail "the installed sunprobe --version"; }
+grep -q "^sunprobe " "$tmp/version.txt" || fail "the installed sunprobe --version says: $(head -1 "$tmp/version.txt")"
+loaded=$(env -u LD_LIBRARY_PATH ldd "$cmd" | grep libsunprobe)
+[ -z "$loaded" ] || echo "$loaded" | grep -q "$tmp/root" || fail "the installed sunprobe loads $loaded"

@@ -86,6 +86,10 @@ grep -q -- "--box" "$dir/e.txt" || fail "box outside: message does not name --bo
 bad "bad box" 1 "$frame" --box 1,2,3
 bad "utc without a zone" 1 "$frame" --box 1,1,5,5 --utc 2026-06-21T12:00:00 --location 1,2 --heading 0
 bad "utc alone" 1 "$frame" --box 1,1,5,5 --utc 2026-06-21T12:00:00Z
+bad "latitude past 90" 1 "$frame" --box 1,1,5,5 --utc 2026-06-21T12:00:00Z --location 90.5,2 --heading 0
+grep -q -- "--location '90.5,2': expected LAT,LON in degrees, latitude -90..90" "$dir/e.txt" || fail "latitude past 90: message"
+bad "empty heading" 1 "$frame" --box 1,1,5,5 --utc 2026-06-21T12:00:00Z --location 1,2 --heading ""
+grep -q -- "--heading '': expected a number from -360 to 360" "$dir/e.txt" || fail "empty heading: message"
 bad "bad camera" 1 "$frame" --box 1,1,5,5 --camera 0,1,1,10
 "$SP" synth street --width 160 --height 120 --seconds 1 -o "$dir/small.spcap" >/dev/null 2>&1 &&
     "$SP" export-video "$dir/small.spcap" -o "$dir/sf" >/dev/null 2>&1 || fail "small synth"

@@ -3,10 +3,12 @@
  * The selfie generator (pipeline/synth): a short small capture read back chunk
  * by chunk (frame and IMU counts, landmark and orientation side data for every
  * frame, META), the truth directory, determinism for a seed, noise-free frames
- * agreeing with the renderer, overcast, bad settings and lighting extremes.
+ * agreeing with the renderer, overcast, bad settings and lighting extremes; the street and turn
+ * generators' captures, truth files, determinism, bad settings and cancelling.
  */
 #include <errno.h>
 #include <math.h>
+#include <signal.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -536,6 +538,86 @@ static void test_relative_truth(void)
     sp_json_free(meta);
 }
 
+/* The street generator (synth_street.c): frames as promised, the truth set beside the capture (a PPM
+   background without an image writer), the same bytes for a seed, bad settings and a cancel leaving nothing. */
+static void test_street(void)
+{
+    sp_synth_street_settings s;
+    sp_synth_street_default_settings(&s);
+    s.width = 64, s.height = 48, s.fps = 4, s.seconds = 2, s.figures = 3, s.seed = 5;
+    char cap[512];
+    path_in(cap, sizeof(cap), "street.spcap");
+    sp_synth_street_report rep = { 0 };
+    CHECK_EQ_INT(sp_synth_street_write(&s, cap, &rep), 0);
+    CHECK_EQ_INT(rep.frames, 8);
+    CHECK_EQ_INT(rep.figures, 3);
+    scan a, b;
+    CHECK_EQ_INT(scan_capture(cap, 64, 48, &a), 0);
+    CHECK_EQ_INT(a.frames, 8);
+    CHECK(a.ts_order_ok && a.meta == 1 && strstr(a.meta_json, "street.truth.json"));
+    CHECK(file_exists(tmpdir, "street.truth.json") && file_exists(tmpdir, "street.background.ppm"));
+    CHECK(file_exists(tmpdir, "street.hidden-far.pgm") && file_exists(tmpdir, "street.hidden-count.pgm"));
+    CHECK(!file_exists(tmpdir, "street.background.png"));
+    CHECK_EQ_INT(sp_synth_street_write(&s, cap, NULL), 0); /* replaced: the same chunks again */
+    CHECK_EQ_INT(scan_capture(cap, 64, 48, &b), 0);
+    CHECK(a.payload_crc == b.payload_crc);
+    s.seed = 6;
+    CHECK_EQ_INT(sp_synth_street_write(&s, cap, NULL), 0);
+    CHECK_EQ_INT(scan_capture(cap, 64, 48, &b), 0);
+    CHECK(a.payload_crc != b.payload_crc);
+    s.seed = 5;
+    CHECK_EQ_INT(sp_synth_street_write(&s, cap, NULL), 0);
+
+    char none[512];
+    path_in(none, sizeof(none), "street-bad.spcap");
+    sp_synth_street_settings bad = s;
+    bad.width = 31;
+    CHECK_EQ_INT(sp_synth_street_write(&bad, none, NULL), -EINVAL);
+    bad = s, bad.fps = NAN;
+    CHECK_EQ_INT(sp_synth_street_write(&bad, none, NULL), -EINVAL);
+    bad = s, bad.figures = SP_SYNTH_STREET_MAX_FIGURES + 1;
+    CHECK_EQ_INT(sp_synth_street_write(&bad, none, NULL), -EINVAL);
+    bad = s, bad.sun_elevation_deg = 85.001;
+    CHECK_EQ_INT(sp_synth_street_write(&bad, none, NULL), -EINVAL);
+    CHECK_EQ_INT(sp_synth_street_write(NULL, none, NULL), -EINVAL);
+    CHECK_EQ_INT(sp_synth_street_write(&s, "", NULL), -EINVAL);
+    volatile sig_atomic_t stop = 1;
+    bad = s, bad.cancel = &stop;
+    CHECK_EQ_INT(sp_synth_street_write(&bad, none, NULL), -ECANCELED);
+    CHECK(!file_exists(tmpdir, "street-bad.spcap") && !file_exists(tmpdir, "street-bad.truth.json"));
+    /* a cancelled rewrite keeps the earlier set whole */
+    CHECK_EQ_INT(sp_synth_street_write(&bad, cap, NULL), -ECANCELED);
+    CHECK_EQ_INT(scan_capture(cap, 64, 48, &b), 0);
+    CHECK(a.payload_crc == b.payload_crc && file_exists(tmpdir, "street.truth.json"));
+}
+
+/* The turn generator (synth_turn.c): one frame per 1/fps over the fake IMU's profile, IMU samples and a true
+   orientation for every frame, no partial file left; a cancel leaves nothing. */
+static void test_turn(void)
+{
+    sp_synth_turn_settings s;
+    sp_synth_turn_default_settings(&s);
+    s.camera.width = 64, s.camera.height = 48, s.camera.fps = 10;
+    s.imu.turn_duration_s = 1;
+    char cap[512];
+    path_in(cap, sizeof(cap), "turn.spcap");
+    CHECK_EQ_INT(sp_synth_turn_write(&s, cap), 0);
+    scan a;
+    CHECK_EQ_INT(scan_capture(cap, 64, 48, &a), 0);
+    uint64_t want = (uint64_t)floor(sp_fake_imu_duration_s(&s.imu) * s.camera.fps) + 1;
+    CHECK_EQ_INT(a.frames, want);
+    CHECK_EQ_INT(a.ori_chunks, want);
+    CHECK(a.gyro > 0 && a.accel > 0 && a.ts_order_ok && strstr(a.meta_json, "synth turn"));
+    CHECK(!file_exists(tmpdir, "turn.spcap.partial"));
+    volatile sig_atomic_t stop = 1;
+    s.cancel = &stop;
+    char other[512];
+    path_in(other, sizeof(other), "turn-stopped.spcap");
+    CHECK_EQ_INT(sp_synth_turn_write(&s, other), -ECANCELED);
+    CHECK(!file_exists(tmpdir, "turn-stopped.spcap") && !file_exists(tmpdir, "turn-stopped.spcap.partial"));
+    CHECK_EQ_INT(sp_synth_turn_write(NULL, other), -EINVAL);
+}
+
 int main(void)
 {
     const char *base = getenv("TMPDIR");
@@ -551,6 +633,8 @@ int main(void)
     test_bad_settings();
     test_extremes();
     test_relative_truth();
+    test_street();
+    test_turn();
     char cmd[400];
     snprintf(cmd, sizeof(cmd), "rm -rf '%s'", tmpdir);
     if (system(cmd) != 0)
