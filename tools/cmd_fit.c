@@ -55,7 +55,7 @@ static void fit_usage(FILE *out)
                  "                         depend on it)\n"
                  "  --no-dlib              never run the dlib detector\n"
                  "  --dlib-model PATH      shape_predictor_68_face_landmarks.dat location\n"
-                 "  --report PREFIX        error against run time: PREFIX.csv and PREFIX.svg\n"
+                 "  --report PREFIX        error against run time: PREFIX.csv and PREFIX.svg (when the fit succeeds)\n"
                  "  --face auto|generic|ict  face model (default auto: ICT when its data exists)\n"
                  "  --no-progress          no progress bar\n");
 }
@@ -301,9 +301,11 @@ static int run_fit(fit_args *a, const sp_face_model *model)
     else
         printf("fit: wrote %s\n", a->out);
 done:
-    if (rep && (ret = sp_report_close(&rep)) && code == SP_EXIT_OK) {
+    /* the report of a failed or interrupted fit is dropped with the face directory: nothing half-written stays */
+    if (code != SP_EXIT_OK)
+        sp_report_abort(&rep);
+    else if (rep && (ret = sp_report_close(&rep)))
         code = sp_cmd_failf("fit", ret, "writing the report %s", a->report);
-    }
     sp_stage_close(&stage);
     return code;
 }
