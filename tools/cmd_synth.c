@@ -222,9 +222,11 @@ static int cmd_turn(int argc, char **argv)
     int ret = synth_turn(&a, partial);
     if (!ret && sp_cmd_stop_signal) /* a signal after the last frame: the old OUT stays */
         ret = -ECANCELED;
-    sp_cmd_restore_signals(&sig);
     if (!ret && rename(partial, a.out) != 0)
         ret = -errno;
+    /* restored only now: a signal between the check above and the rename must not kill the run with the
+       partial file left behind; one after the rename is too late to matter (OUT is whole, exit 0) */
+    sp_cmd_restore_signals(&sig);
     if (ret) {
         unlink(partial);
         free(partial);
