@@ -186,7 +186,8 @@ static int run(cut_run *r, sp_capture_reader *cr)
     int ret;
     while (r->written < r->a->max && (ret = sp_capture_reader_next(cr, &ch)) == 0) {
         if (ch.type == SP_CHUNK_FRAME && (ret = frame_cutouts(r, &ch)))
-            return ret == SP_EFORMAT ? SP_EXIT_BAD_INPUT : sp_cmd_fail(CMD, ret, r->a->capture);
+            return ret == SP_EFORMAT ? SP_EXIT_BAD_INPUT
+                                     : sp_cmd_fail(CMD, ret, sp_err_is_write(ret) ? r->a->out : r->a->capture);
         if (sp_cmd_stop_signal)
             return sp_cmd_stopped_code(SP_EXIT_OK);
     }

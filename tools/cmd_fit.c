@@ -13,6 +13,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "capture_open.h"
 #include "cmd.h"
 #include "common/clock.h"
 #include "common/file_util.h"
@@ -212,6 +213,8 @@ static int stream(fit_args *a, const sp_stage *stage)
         find_truth(a, st.meta.ground_truth);
     if (ret && st.failed_in == SP_RUN_FAILED_OPEN)
         fprintf(stderr, "sunprobe fit: cannot read capture %s: %s\n", a->capture, sp_strerror(ret));
+    else if (ret && st.failed_in == SP_RUN_FAILED_SOURCE) /* the chunk's offset, as probe and replay say it */
+        sp_tool_capture_error("fit", a->capture, ret, st.replay.error_offset);
     else if (ret)
         fprintf(stderr, "sunprobe fit: reading %s: %s\n", a->capture, sp_strerror(ret));
     return ret;

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: MIT
-# Every writing command (tools/sunprobe.c) against a full file system and a read-only one (a small tmpfs in a private mount
-# namespace; skipped with 77 where mounting is not permitted): exit code 3, a message naming the cause and
-# the output, the previous output byte for byte, and nothing of the run left behind.
+# Every writing command (tools/sunprobe.c) against a full file system and a read-only one (a small tmpfs in
+# a private mount namespace; skipped with 77 where mounting is not permitted): exit code 3, a message naming
+# the cause and the output's path, the previous output byte for byte, and nothing of the run left behind.
 set -u
 SP=$1
 if [ -z "${SP_FULL_FS_NS:-}" ]; then
@@ -88,6 +88,7 @@ check() { # how expected-message
         local rc=$?
         [ $rc = 3 ] || { fail "$name on a $how file system: exit $rc, expected 3"; sed 's/^/  | /' "$dir/err.txt"; }
         grep -qi "$want" "$dir/err.txt" || { fail "$name on a $how file system: no '$want'"; sed 's/^/  | /' "$dir/err.txt"; }
+        grep -q "$M/" "$dir/err.txt" || { fail "$name on a $how file system: the message names no output"; sed 's/^/  | /' "$dir/err.txt"; }
         [ "$(snapshot)" = "$before" ] || { fail "$name on a $how file system: outputs changed or left";
                                            diff <(echo "$before") <(snapshot) | head; }
     done
