@@ -11,7 +11,6 @@
 # capture that verifies. The points come from a seed, printed: SP_SIGNAL_SEED=N re-runs the same points.
 # Usage: test_signal_anywhere.sh SUNPROBE [POINTS_PER_COMMAND (default 4)]
 set -u
-set -m # background runs get SIGINT's default action, as from a terminal (not ignored as in a script)
 SP=$(cd "$(dirname "$1")" && pwd)/$(basename "$1") # the runs below start in another directory
 points=${2:-4}
 seed=${SP_SIGNAL_SEED:-$(($(date +%s%N) % 1000000))}
@@ -100,8 +99,10 @@ run() { # name signal cmd
     before=$(snapshot "$dir/w")
     want=$((128 + $(kill -l "$sig")))
     delay_ms=$(((RANDOM * 32768 + RANDOM) % (ref_ms + 1)))
+    set -m # the run gets SIGINT's default action, as from a terminal (a script's background jobs ignore it)
     (cd "$dir/w" && exec $cmd) >"$dir/out.txt" 2>"$dir/err.txt" &
     pid=$!
+    set +m # no job-control notices in the log
     sleep "$(printf '%d.%03d' $((delay_ms / 1000)) $((delay_ms % 1000)))"
     kill "-$sig" "$pid" 2>/dev/null
     for _ in $(seq 1 6000); do kill -0 "$pid" 2>/dev/null || break; sleep 0.01; done
