@@ -7,11 +7,15 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <unistd.h>
+
 #include "atomic_file.h"
+#include "file_set.h"
 #include "file_util.h"
 
 struct sp_report {
-    FILE *csv;
+    FILE *csv;                   /* the CSV's temporary, written as rows arrive */
+    sp_file_set files;           /* PREFIX.csv (and PREFIX.svg), renamed into place together at close */
     char *svg_path, *title;
     char *names[SP_REPORT_MAX_SERIES];
     size_t n_series;
@@ -39,16 +43,17 @@ int sp_report_open(sp_report **out, const char *prefix, const char *title, const
             ret = -ENOMEM;
     r->n_series = n_series;
     r->log_scale = log_scale;
+    const char *csv_temp = NULL;
     if (!ret) {
         snprintf(csv_path, n, "%s.csv", prefix);
         snprintf(r->svg_path, n, "%s.svg", prefix);
-        r->csv = fopen(csv_path, "w");
-        if (!r->csv)
-            ret = -errno;
+        ret = sp_file_set_add(&r->files, csv_path, &csv_temp);
     }
+    if (!ret && !(r->csv = fopen(csv_temp, "w")))
+        ret = -errno;
     free(csv_path);
     if (ret) {
-        sp_report_close(&r);
+        sp_report_abort(&r);
         return ret;
     }
     fprintf(r->csv, "seconds");
@@ -91,20 +96,8 @@ int sp_report_add(sp_report *r, double seconds, const double *values)
     return r->error;
 }
 
-int sp_report_close(sp_report **rp)
+static void report_free(sp_report *r)
 {
-    if (!rp || !*rp)
-        return 0;
-    sp_report *r = *rp;
-    int ret = r->error;
-    if (r->csv && fclose(r->csv) != 0 && !ret)
-        ret = sp_write_error();
-    if (r->csv && r->n_rows) {
-        int plot = sp_svg_plot_write(r->svg_path, r->title, "wall time (s)", r->x, r->v, r->n_rows,
-                                     (const char *const *)r->names, r->n_series, r->log_scale);
-        if (!ret)
-            ret = plot;
-    }
     for (size_t i = 0; i < SP_REPORT_MAX_SERIES; i++)
         free(r->names[i]);
     free(r->svg_path);
@@ -112,8 +105,42 @@ int sp_report_close(sp_report **rp)
     free(r->x);
     free(r->v);
     free(r);
+}
+
+int sp_report_close(sp_report **rp)
+{
+    if (!rp || !*rp)
+        return 0;
+    sp_report *r = *rp;
+    int ret = r->error;
+    if (fflush(r->csv) != 0 || fsync(fileno(r->csv)) != 0)
+        ret = ret ? ret : sp_write_error();
+    if (fclose(r->csv) != 0 && !ret)
+        ret = sp_write_error();
+    r->csv = NULL;
+    const char *svg_temp = NULL;
+    if (!ret && r->n_rows && !(ret = sp_file_set_add(&r->files, r->svg_path, &svg_temp)))
+        ret = sp_svg_plot_write(svg_temp, r->title, "wall time (s)", r->x, r->v, r->n_rows,
+                                (const char *const *)r->names, r->n_series, r->log_scale);
+    if (!ret)
+        ret = sp_file_set_commit(&r->files);
+    else
+        sp_file_set_abort(&r->files);
+    report_free(r);
     *rp = NULL;
     return ret;
+}
+
+void sp_report_abort(sp_report **rp)
+{
+    if (!rp || !*rp)
+        return;
+    sp_report *r = *rp;
+    if (r->csv)
+        fclose(r->csv);
+    sp_file_set_abort(&r->files);
+    report_free(r);
+    *rp = NULL;
 }
 
 /* ---- SVG ---- */

@@ -39,6 +39,8 @@ const sp_exit_rule *sp_exit_rules(size_t *n);
  * signal give 128 + the signal; another errno gives 3, anything else 70.
  */
 int sp_exit_for_error(int err);
+/* 1 when err is one only a write gives (no space, quota, size limit, read-only): the output's fault, not the input's. */
+int sp_err_is_write(int err);
 /* Prints "sunprobe CMD: what: error message" to stderr and returns the exit code for err. */
 int sp_cmd_fail(const char *cmd, int err, const char *what);
 /* The same with what formatted (a path in it, say). */

@@ -138,7 +138,8 @@ static int write_json(const char *path, const sp_check_report *r, const sp_check
             r->imu_coverage, r->turn_deg, r->turn_range_deg, r->clipped_share,
             blur, r->blur_max_px, r->sharpness, light,
             r->light_from_face, face, v->fails, v->warns);
-    return sp_atomic_file_finish(&f, ferror(f.file) ? -EIO : 0);
+    /* a stop signal before the rename: FILE as it was */
+    return sp_atomic_file_finish(&f, ferror(f.file) ? -EIO : sp_cmd_stop_signal ? -ECANCELED : 0);
 }
 
 int sp_cmd_check(int argc, char **argv)
@@ -168,7 +169,11 @@ int sp_cmd_check(int argc, char **argv)
     }
     const char *path = argv[optind];
     sp_check_report r;
+    sp_cmd_signals sig; /* a stop signal is acted on before --json is written; once it is, the run ends */
+    sp_cmd_catch_signals(&sig);
     int rc = sp_check_capture(path, faces, &r);
+    if (!rc && sp_cmd_stop_signal)
+        return sp_cmd_fail(CMD, -ECANCELED, path);
     if (rc) {
         fprintf(stderr, "sunprobe " CMD ": %s: %s%s\n", path, sp_strerror(rc),
                 rc == SP_EDISABLED ? " (decoding MJPEG frames needs libjpeg: rebuild with -Djpeg=enabled)" : "");
@@ -178,9 +183,7 @@ int sp_cmd_check(int argc, char **argv)
     sp_check_judge(&r, stdout, &v);
     printf("%s: %s\n", path, v.fails ? "this capture cannot work: re-shoot as said above"
                        : v.warns ? "usable, with the warnings above" : "good to fit");
-    if (json && (rc = write_json(json, &r, &v)) != 0) {
-        fprintf(stderr, "sunprobe " CMD ": %s: %s\n", json, sp_strerror(rc));
-        return sp_exit_for_error(rc);
-    }
+    if (json && (rc = write_json(json, &r, &v)) != 0)
+        return sp_cmd_fail(CMD, rc, json);
     return v.fails ? SP_EXIT_BAD_INPUT : SP_EXIT_OK;
 }

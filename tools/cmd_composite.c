@@ -179,6 +179,8 @@ static int composite(composite_args *a, const sp_probe_dir *d, uint8_t *rgb)
     }
     if (ret)
         return sp_cmd_fail("composite", ret, "compositing");
+    if (sp_cmd_stop_signal) /* Ctrl-C while compositing: OUT as it was */
+        return sp_cmd_fail("composite", -ECANCELED, a->out);
     if ((ret = sp_png_write(a->out, rgb, d->width, d->height, d->width * 3, 3)))
         return sp_cmd_fail("composite", ret, a->out);
     if (!a->quiet)
@@ -196,10 +198,14 @@ int sp_cmd_composite(int argc, char **argv)
     int code = parse_args(argc, argv, &a);
     if (code)
         return code < 0 ? SP_EXIT_OK : code;
+    sp_cmd_signals sig; /* a stop signal is acted on before OUT is written; once it is, the run ends with 0 */
+    sp_cmd_catch_signals(&sig);
     sp_probe_dir d;
     int ret = sp_probe_dir_load(a.dir, &d);
-    if (ret)
+    if (ret) {
+        sp_cmd_restore_signals(&sig);
         return sp_cmd_fail("composite", ret, a.dir);
+    }
     uint8_t *rgb = NULL;
     ret = load_background(&a, &d, &rgb);
     code = ret ? sp_cmd_fail("composite", ret, a.background ? a.background : a.dir) : composite(&a, &d, rgb);
@@ -207,5 +213,6 @@ int sp_cmd_composite(int argc, char **argv)
         free(a.obj[i].rgba);
     free(rgb);
     sp_probe_dir_free(&d);
+    sp_cmd_restore_signals(&sig);
     return code;
 }

@@ -186,7 +186,8 @@ static int run(cut_run *r, sp_capture_reader *cr)
     int ret;
     while (r->written < r->a->max && (ret = sp_capture_reader_next(cr, &ch)) == 0) {
         if (ch.type == SP_CHUNK_FRAME && (ret = frame_cutouts(r, &ch)))
-            return ret == SP_EFORMAT ? SP_EXIT_BAD_INPUT : sp_cmd_fail(CMD, ret, r->a->capture);
+            return ret == SP_EFORMAT ? SP_EXIT_BAD_INPUT
+                                     : sp_cmd_fail(CMD, ret, sp_err_is_write(ret) ? r->a->out : r->a->capture);
         if (sp_cmd_stop_signal)
             return sp_cmd_stopped_code(SP_EXIT_OK);
     }
@@ -216,6 +217,8 @@ static int cutouts(const cut_args *a)
     cut_run r = { .a = a };
     sp_capture_reader *cr = NULL;
     sp_partial pd = { 0 };
+    sp_cmd_signals sig;
+    int caught = 0;
     int ret = sp_probe_dir_load(a->probe, &r.pd), code = ret ? sp_cmd_fail(CMD, ret, a->probe) : 0;
     if (!code)
         code = sp_tool_open_capture(CMD, a->capture, 0, &cr);
@@ -230,11 +233,12 @@ static int cutouts(const cut_args *a)
     if (!code) {
         r.dir = pd.path;
         scene_light(&r);
-        sp_cmd_signals sig;
-        sp_cmd_catch_signals(&sig);
+        sp_cmd_catch_signals(&sig); /* held through the commit: a signal before it removes the partial dir */
+        caught = 1;
         code = run(&r, cr);
-        sp_cmd_restore_signals(&sig);
     }
+    if (!code && sp_cmd_stop_signal)
+        code = sp_cmd_fail(CMD, -ECANCELED, a->out);
     if (!code && (ret = sp_partial_dir_commit(&pd, a->force ? SP_PARTIAL_REPLACE : 0)))
         code = ret == -EEXIST ? (fprintf(stderr, "sunprobe " CMD ": %s exists (use --force to replace it)\n", a->out),
                                  sp_exit_for_error(ret))
@@ -244,6 +248,8 @@ static int cutouts(const cut_args *a)
     else if (!a->quiet)
         printf("%s: %u cut-out(s) from %u frames segmented; light %s\n", a->out, r.written, r.segmented,
                r.light.sky == SP_REPOP_SUNNY ? "sunny (the probe's shadow model)" : "overcast (no shadow model)");
+    if (caught) /* after the commit: a late signal no longer matters */
+        sp_cmd_restore_signals(&sig);
     sp_capture_reader_close(&cr);
     if (r.pd.clean_plate)
         sp_probe_dir_free(&r.pd);

@@ -68,6 +68,11 @@ int sp_exit_for_error(int err)
     return err < 0 && err > -4096 ? SP_EXIT_IO : SP_EXIT_INTERNAL;
 }
 
+int sp_err_is_write(int err)
+{
+    return err == -ENOSPC || err == -EDQUOT || err == -EFBIG || err == -EROFS;
+}
+
 int sp_cmd_fail(const char *cmd, int err, const char *what)
 {
     int code = sp_exit_for_error(err);

@@ -13,6 +13,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "capture_open.h"
 #include "cmd.h"
 #include "common/clock.h"
 #include "common/file_util.h"
@@ -55,7 +56,7 @@ static void fit_usage(FILE *out)
                  "                         depend on it)\n"
                  "  --no-dlib              never run the dlib detector\n"
                  "  --dlib-model PATH      shape_predictor_68_face_landmarks.dat location\n"
-                 "  --report PREFIX        error against run time: PREFIX.csv and PREFIX.svg\n"
+                 "  --report PREFIX        error against run time: PREFIX.csv and PREFIX.svg (when the fit succeeds)\n"
                  "  --face auto|generic|ict  face model (default auto: ICT when its data exists)\n"
                  "  --no-progress          no progress bar\n");
 }
@@ -211,6 +212,8 @@ static int stream(fit_args *a, const sp_stage *stage)
         find_truth(a, st.meta.ground_truth);
     if (ret && st.failed_in == SP_RUN_FAILED_OPEN)
         fprintf(stderr, "sunprobe fit: cannot read capture %s: %s\n", a->capture, sp_strerror(ret));
+    else if (ret && st.failed_in == SP_RUN_FAILED_SOURCE) /* the chunk's offset, as probe and replay say it */
+        sp_tool_capture_error("fit", a->capture, ret, st.replay.error_offset);
     else if (ret)
         fprintf(stderr, "sunprobe fit: reading %s: %s\n", a->capture, sp_strerror(ret));
     return ret;
@@ -300,9 +303,11 @@ static int run_fit(fit_args *a, const sp_face_model *model)
     else
         printf("fit: wrote %s\n", a->out);
 done:
-    if (rep && (ret = sp_report_close(&rep)) && code == SP_EXIT_OK) {
+    /* the report of a failed or interrupted fit is dropped with the face directory: nothing half-written stays */
+    if (code != SP_EXIT_OK)
+        sp_report_abort(&rep);
+    else if (rep && (ret = sp_report_close(&rep)))
         code = sp_cmd_failf("fit", ret, "writing the report %s", a->report);
-    }
     sp_stage_close(&stage);
     return code;
 }

@@ -396,10 +396,13 @@ static int run(probe_args *a, const capture_facts *facts, const char *dir)
     } else if (ret == SP_ENODATA) {
         fprintf(stderr, "sunprobe probe: %s: %s\n", a->capture, sp_probe_message(probe));
         code = SP_EXIT_BAD_INPUT;
+    } else if (sp_err_is_write(ret)) {
+        /* only a write fails so (the convergence report, as frames stream): the output's fault, not the capture's */
+        code = sp_cmd_failf("probe", ret, "writing the probe directory %s", a->out);
     } else if (ret) {
         code = sp_tool_capture_error("probe", a->capture, ret, st.replay.error_offset);
     } else if ((ret = sp_probe_dir_write(dir, probe))) {
-        code = sp_cmd_fail("probe", ret, "writing the probe directory");
+        code = sp_cmd_failf("probe", ret, "writing the probe directory %s", a->out);
     } else if (!a->quiet) {
         summary(a, probe, (double)(sp_clock_monotonic_ns() - t0) * 1e-9);
     }

@@ -48,6 +48,8 @@ static int recover_copy(const char *path, const char *out, int force, sp_recover
         return ret;
     unlink(pf.path); /* an interrupted run's: the recovery makes it anew */
     ret = sp_capture_recover(path, pf.path, rep);
+    if (!ret && sp_cmd_stop_signal) /* a stop signal: COPY as it was */
+        ret = -ECANCELED;
     if (!ret)
         ret = sp_partial_file_commit(&pf, force ? SP_PARTIAL_REPLACE : 0);
     if (ret)
@@ -85,7 +87,14 @@ int sp_cmd_recover(int argc, char **argv)
     if (code)
         return code;
     sp_recover_report rep = { 0 };
+    sp_cmd_signals sig; /* caught for the copy only: in place, the capture is cut by one truncate */
+    if (out)
+        sp_cmd_catch_signals(&sig);
     int ret = out ? recover_copy(path, out, force, &rep) : sp_capture_recover(path, NULL, &rep);
+    if (out)
+        sp_cmd_restore_signals(&sig);
+    if (ret == -ECANCELED)
+        return sp_cmd_fail("recover", ret, out);
     if (ret == -EEXIST && out) {
         fprintf(stderr, "sunprobe recover: %s exists (use --force to replace it)\n", out);
         return sp_exit_for_error(ret);

@@ -792,6 +792,8 @@ static int render_and_write(relight_ctx *c, sp_face_view *v, const sp_partial *p
         for (size_t i = 0; i < n; i++)
             ls.cover[i] = 1.0f; /* a photograph: opaque */
     }
+    if (!ret && sp_cmd_stop_signal) /* Ctrl-C while rendering: OUT as it was, the passes' partial dir removed */
+        ret = -ECANCELED;
     if (!ret)
         ret = relight_write_image(c, ls.sum[PASS_BEAUTY], ls.cover, v->width, v->height, v->exposure);
     free_sums(&ls);
@@ -967,7 +969,10 @@ int sp_cmd_relight(int argc, char **argv)
         return p > 0 ? SP_EXIT_OK : SP_EXIT_USAGE;
     relight_ctx c = { .a = &a };
     sp_partial pd = { 0 };
+    sp_cmd_signals sig; /* a stop signal is acted on before OUT is written; once it is, the run ends with 0 */
+    sp_cmd_catch_signals(&sig);
     int ret = run_relight(&c, &pd);
+    sp_cmd_restore_signals(&sig);
     sp_partial_dir_abort(&pd); /* nothing once committed */
     sp_face_asset_free(&c.fa);
     sp_json_free(c.cams);

@@ -112,7 +112,9 @@ static int run_stage(const replay_args *a, const sp_stage_ops *ops, const sp_run
     sp_stage_options so = { .output_path = a->output };
     int ret = sp_stage_open(&stage, ops, &so);
     if (ret)
-        return sp_cmd_fail("replay", ret, "opening the stage");
+        return a->output && sp_exit_for_error(ret) == SP_EXIT_IO
+                   ? sp_cmd_failf("replay", ret, "opening the stage's output %s", a->output)
+                   : sp_cmd_fail("replay", ret, "opening the stage");
     sp_run_stats st;
     /* Ctrl-C stops before the next event, without finish: a stage output is not committed */
     sp_cmd_signals sig;

@@ -15,6 +15,7 @@
 #include <string.h>
 
 #include "cmd.h"
+#include "common/file_set.h"
 #include "common/file_util.h"
 #include "common/json.h"
 #include "cutout_collection.h"
@@ -498,14 +499,22 @@ static int write_outputs(const repop_args *a, const depop_job *j, const scene *s
                          size_t usable, const target *t, size_t nt, const sp_composite_report *r, const uint8_t *img)
 {
     char *rep = a->report ? NULL : depop_derived_name(a->out, ".json");
-    const char *rp = a->report ? a->report : rep;
-    int ret = rp ? write_report(a, j, sc, c, nc, usable, t, nt, r, rp) : -ENOMEM, code = 0;
-    if (ret)
-        code = sp_cmd_fail("repopulate", ret, rp ? rp : "output names");
-    else if ((ret = sp_png_write(a->out, img, j->w, j->h, j->w * 3, 3))) {
-        code = sp_cmd_fail("repopulate", ret, a->out);
-        remove(rp); /* no report of an image that is not there */
-    }
+    const char *rp = a->report ? a->report : rep, *tr, *to, *what = "output names";
+    /* the image and its report as one file set: both or, on a failure or a stop signal, the old ones as they were */
+    sp_file_set fs = { 0 };
+    int ret = rp ? sp_file_set_add(&fs, rp, &tr) : -ENOMEM;
+    if (!ret)
+        ret = sp_file_set_add(&fs, a->out, &to);
+    if (!ret && (what = rp))
+        ret = write_report(a, j, sc, c, nc, usable, t, nt, r, tr);
+    if (!ret && (what = a->out))
+        ret = sp_png_write(to, img, j->w, j->h, j->w * 3, 3);
+    if (!ret && sp_cmd_stop_signal)
+        ret = -ECANCELED;
+    if (!ret)
+        ret = sp_file_set_commit(&fs);
+    sp_file_set_abort(&fs);
+    int code = ret ? sp_cmd_fail("repopulate", ret, what) : 0;
     if (!code && !a->quiet)
         printf("%s: %llu pixels of people drawn (%llu hidden), %llu shadow pixels; scene %s (%s); report %s\n", a->out,
                (unsigned long long)r->pixels_drawn, (unsigned long long)r->pixels_hidden,
@@ -580,5 +589,9 @@ int sp_cmd_repopulate(int argc, char **argv)
     int code = parse_args(argc, argv, &a);
     if (code)
         return code < 0 ? SP_EXIT_OK : code;
-    return repopulate(&a);
+    sp_cmd_signals sig; /* a stop signal is acted on before the outputs are committed; once they are, exit 0 */
+    sp_cmd_catch_signals(&sig);
+    code = repopulate(&a);
+    sp_cmd_restore_signals(&sig);
+    return code;
 }

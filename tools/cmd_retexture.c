@@ -136,7 +136,7 @@ static int write_out(const retexture_args *a, const uint8_t *rgb, uint32_t w, ui
     sp_partial pf;
     int ret = sp_partial_file_open(&pf, a->out);
     if (!ret && (ret = sp_png_write(pf.path, rgb, w, h, w * 3, 3)) == 0)
-        ret = sp_partial_file_commit(&pf, SP_PARTIAL_REPLACE);
+        ret = sp_cmd_stop_signal ? -ECANCELED : sp_partial_file_commit(&pf, SP_PARTIAL_REPLACE);
     if (ret) {
         sp_partial_file_abort(&pf);
         return sp_cmd_fail("retexture", ret, a->out);
@@ -174,10 +174,14 @@ int sp_cmd_retexture(int argc, char **argv)
     int code = parse_args(argc, argv, &a);
     if (code)
         return code < 0 ? SP_EXIT_OK : code;
+    sp_cmd_signals sig; /* a stop signal is acted on before OUT is committed; once it is, the run ends with 0 */
+    sp_cmd_catch_signals(&sig);
     sp_probe_dir d;
     int ret = sp_probe_dir_load(a.dir, &d);
-    if (ret)
+    if (ret) {
+        sp_cmd_restore_signals(&sig);
         return sp_cmd_fail("retexture", ret, a.dir);
+    }
     float *tex = NULL;
     uint32_t tw = 0, th = 0;
     if ((ret = load_texture(a.texture, &tex, &tw, &th)))
@@ -186,5 +190,6 @@ int sp_cmd_retexture(int argc, char **argv)
         code = run(&a, &d, tex, tw, th);
     free(tex);
     sp_probe_dir_free(&d);
+    sp_cmd_restore_signals(&sig);
     return code;
 }

@@ -15,12 +15,13 @@ build=${BUILD:-$root/build-fuzz}
 command -v clang >/dev/null 2>&1 || { echo "SKIP: clang not found (install clang and libclang-rt-14-dev)"; exit 77; }
 targets=${*:-"frame_times meta_json png face_dir gltf capture_reader imu_logs"}
 if [ ! -f "$build/build.ninja" ]; then
-    printf "[binaries]\nc = 'clang'\ncpp = 'clang++'\n" >"$root/build-fuzz.ini"
-    nice -n 19 meson setup "$build" "$root" --native-file "$root/build-fuzz.ini" -Dbuildtype=debugoptimized \
+    # the native file stays in the build tree: meson reads it again whenever it regenerates build.ninja
+    mkdir -p "$build"
+    printf "[binaries]\nc = 'clang'\ncpp = 'clang++'\n" >"$build/clang.ini"
+    nice -n 19 meson setup "$build" "$root" --native-file "$build/clang.ini" -Dbuildtype=debugoptimized \
         -Dauto_features=disabled -Dzlib=enabled -Dfuzzer=enabled -Db_sanitize=address,undefined -Db_lundef=false \
         -Dc_args="-fsanitize=fuzzer-no-link -fno-sanitize-recover=undefined" -Dcpp_args=-fsanitize=fuzzer-no-link \
         >/dev/null || exit 1
-    rm -f "$root/build-fuzz.ini"
 fi
 exes=""
 for t in $targets; do exes="$exes tests/fuzz/libfuzzer_$t"; done

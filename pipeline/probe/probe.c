@@ -221,8 +221,7 @@ void sp_probe_close(sp_probe **pp)
     if (!pp || !*pp)
         return;
     sp_probe *p = *pp;
-    if (p->report)
-        sp_report_close(&p->report);
+    sp_report_abort(&p->report); /* still open: the probe did not finish */
     plate_close(&p->plate);
     segment_close(&p->seg);
     maps_close(&p->maps);

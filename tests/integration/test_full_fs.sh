@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: MIT
-# Every writing command against a full file system and a read-only one (a small tmpfs in a private mount
-# namespace; skipped with 77 where mounting is not permitted): exit code 3, a message naming the cause and
-# the output, the previous output byte for byte, and nothing of the run left behind.
+# Every writing command (tools/sunprobe.c) against a full file system and a read-only one (a small tmpfs in
+# a private mount namespace; skipped with 77 where mounting is not permitted): exit code 3, a message naming
+# the cause and the output's path, the previous output byte for byte, and nothing of the run left behind.
 set -u
 SP=$1
 if [ -z "${SP_FULL_FS_NS:-}" ]; then
@@ -36,6 +36,8 @@ FIT="--keyframes 4 --heldout 1 --texture 16 --refine 0 --face generic --no-dlib 
     "$SP" relight "$dir/face" -o "$dir/cut.png" --supersample 1 >/dev/null 2>&1
 "$SP" export-video "$dir/street.spcap" -o "$dir/simgs" --max-frames 1 -q
 "$SP" probe "$dir/street.spcap" -o "$dir/probe" -q
+# a street long enough for a ground plane (what retexture replaces)
+"$SP" synth street -o "$dir/ground.spcap" --seconds 20 >/dev/null && "$SP" probe "$dir/ground.spcap" -o "$dir/gprobe" -q
 
 # name: output(s) kept from before | command with @ for the tmpfs (run once into $P first, for the old output)
 cases=(
@@ -56,6 +58,9 @@ cases=(
     "composite|@/c.png|$SP composite $dir/probe --object $dir/cut.png --at 30,40 --height-px 20 -o @/c.png -q"
     "depopulate|@/d.png|$SP depopulate $dir/simgs/frame_000000.png -o @/d.png --detector none --box 10,10,8,16 -q"
     "texture|@/t.png|$SP texture $dir/imgs/frame_000000.png -o @/t.png --size 40x40 -f -q"
+    "retexture|@/rt.png|$SP retexture $dir/gprobe --texture $dir/imgs/frame_000000.png -o @/rt.png -f -q"
+    "check|@/c.json|$SP check $dir/sel.spcap --no-face --json @/c.json"
+    "record|@/rec.spcap|$SP record --camera fake --imu fake --duration 0.5 --size 160x120 --fps 20 -o @/rec.spcap"
 )
 runnable=()
 for c in "${cases[@]}"; do
@@ -69,8 +74,9 @@ for c in "${cases[@]}"; do
         echo "note: SKIP $name: $(head -1 "$dir/err.txt")"
     fi
 done
-# export-video PNG makes its directory, recover -o its copy and fit its face directory: none replaces an old one
-rm -rf "$P/frames" "$P/r.spcap" "$P/face"
+# export-video PNG makes its directory, recover -o its copy, fit its face directory and record its capture:
+# none replaces an old one
+rm -rf "$P/frames" "$P/r.spcap" "$P/face" "$P/rec.spcap"
 
 check() { # how expected-message
     local how=$1 want=$2
@@ -82,18 +88,33 @@ check() { # how expected-message
         local rc=$?
         [ $rc = 3 ] || { fail "$name on a $how file system: exit $rc, expected 3"; sed 's/^/  | /' "$dir/err.txt"; }
         grep -qi "$want" "$dir/err.txt" || { fail "$name on a $how file system: no '$want'"; sed 's/^/  | /' "$dir/err.txt"; }
+        grep -q "$M/" "$dir/err.txt" || { fail "$name on a $how file system: the message names no output"; sed 's/^/  | /' "$dir/err.txt"; }
         [ "$(snapshot)" = "$before" ] || { fail "$name on a $how file system: outputs changed or left";
                                            diff <(echo "$before") <(snapshot) | head; }
     done
 }
 
 mount -t tmpfs -o size=64m tmpfs "$M" || { echo "SKIP: mount -t tmpfs failed"; exit 77; }
+cp "$dir/damaged.spcap" "$P/dmg.spcap" # what recover in place repairs
 cp -a "$P/." "$M/" || { echo "the previous outputs do not fit a 64 MB tmpfs"; exit 1; }
 mount -o remount,ro "$M" || exit 1
 check "read-only" "read-only file system"
+# recover in place: refused on a read-only file system (the capture as it was); on a full one it only cuts
+in_place() { # how expected-exit-code expected-message
+    "$SP" recover "$M/dmg.spcap" >"$dir/out.txt" 2>"$dir/err.txt"
+    local rc=$?
+    [ $rc = "$2" ] || { fail "recover in place on a $1 file system: exit $rc, expected $2"; sed 's/^/  | /' "$dir/err.txt"; }
+    grep -qi "$3" "$dir/err.txt" "$dir/out.txt" || { fail "recover in place on a $1 file system: no '$3'"; sed 's/^/  | /' "$dir/err.txt"; }
+    [ -z "$(cd "$M" && find . -name '*.tmp*' -o -name '*.partial*' -o -name '*.new.*')" ] ||
+        fail "recover in place on a $1 file system: left temporaries"
+}
+in_place "read-only" 3 "read-only file system"
+cmp -s "$M/dmg.spcap" "$dir/damaged.spcap" || fail "recover in place on a read-only file system changed the capture"
 mount -o remount,rw "$M" || exit 1
 dd if=/dev/zero of="$M/fill" bs=4k status=none 2>/dev/null # until it is full
 check "full" "no space left on device"
+in_place "full" 0 "kept"
+"$SP" verify "$M/dmg.spcap" >/dev/null 2>&1 || fail "recover in place on a full file system: the capture does not verify"
 
 echo "${#runnable[@]} of ${#cases[@]} commands checked"
 [ "$fails" -eq 0 ] || { echo "$fails check(s) failed"; exit 1; }

@@ -60,6 +60,10 @@ cp "$dir/stats0.csv" "$dir/lm.csv" # any previous content; the landmarks stage (
     fail "replay landmarks of a corrupt capture: exit 0"
 same "$dir/lm.csv" "$dir/stats0.csv" "replay landmarks of a corrupt capture"
 no_temps "replay"
+# a corrupt chunk stops fit with its offset and what recover keeps, as probe and replay say it
+expect 2 "fit of a corrupt capture" "$SP" fit "$dir/damaged.spcap" -o "$dir/face" --no-progress --face generic --no-dlib
+contains "$dir/err.txt" "damaged.spcap: corrupt chunk at byte [1-9][0-9]*; .sunprobe recover" "fit corrupt-chunk message"
+[ -e "$dir/face" ] && fail "fit of a corrupt capture left $dir/face"
 
 # ---- export-video .avi: a failed write keeps the previous video, even with --force
 v=$dir/v.avi

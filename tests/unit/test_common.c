@@ -171,6 +171,22 @@ static void test_report(void)
     if (f)
         fclose(f);
     CHECK(strstr(line, "<svg") != NULL && strstr(line, "fit &amp; test") != NULL);
+    /* a failed run's report is dropped: the previous one stays whole, no temporary is left */
+    CHECK_EQ_INT(sp_report_open(&r, prefix, "again", names, 2, 1), 0);
+    double row[2] = { 9.0, 9.0 };
+    CHECK_EQ_INT(sp_report_add(r, 1.0, row), 0);
+    sp_report_abort(&r);
+    CHECK(r == NULL);
+    snprintf(path, sizeof(path), "%s.csv", prefix);
+    f = fopen(path, "r");
+    rows = 0;
+    while (f && fgets(line, sizeof(line), f))
+        rows += strncmp(line, "1.0000,9", 8) != 0;
+    if (f)
+        fclose(f);
+    CHECK_EQ_INT(rows, 7);
+    snprintf(path, sizeof(path), "ls -a %s | grep -q '\\.new\\.'", dir);
+    CHECK_MSG(system(path) != 0, "a report temporary was left in %s", dir);
     snprintf(path, sizeof(path), "rm -rf %s", dir);
     CHECK(system(path) == 0);
     /* bad arguments are refused */
