@@ -14,6 +14,19 @@
 
 #include "common/atomic_file.h"
 
+#if HAVE_LIBPNG
+/* The whole PNG stream to f through the row writer; 0 or a negative errno. */
+static int png_emit(FILE *f, const uint8_t *pixels, uint32_t width, uint32_t height, uint32_t stride, int channels)
+{
+    sp_png_stream *s = NULL;
+    int ret = sp_png_stream_open(&s, f, width, height, channels);
+    if (!ret)
+        ret = sp_png_stream_rows(s, pixels, height, stride);
+    int end = sp_png_stream_finish(&s);
+    return ret ? ret : end;
+}
+
+#else /* the minimal writer: filter-less rows, deflate through zlib or stored blocks */
 static uint32_t crc_table[256];
 
 static void crc_init(void)
@@ -137,6 +150,8 @@ static int png_emit(FILE *f, const uint8_t *pixels, uint32_t width, uint32_t hei
     return ret;
 }
 
+#endif
+
 static int png_args_ok(const uint8_t *pixels, uint32_t width, uint32_t height, uint32_t stride, int channels)
 {
     return pixels && width && height && (channels == 1 || channels == 3 || channels == 4) &&
@@ -178,6 +193,7 @@ int sp_png_encode(const uint8_t *pixels, uint32_t width, uint32_t height, uint32
     return 0;
 }
 
+#if !HAVE_LIBPNG /* with libpng the stream is png_libpng.c's */
 struct sp_png_stream {
     FILE *f;
     uint32_t width, height, rows_done, row_bytes;
@@ -329,3 +345,4 @@ int sp_png_stream_finish(sp_png_stream **sp)
     *sp = NULL;
     return ret;
 }
+#endif

@@ -1,5 +1,9 @@
 /* SPDX-License-Identifier: MIT */
-/* PNG writer: 8-bit gray, RGB or RGBA; deflate via zlib when built with it, stored blocks otherwise. */
+/*
+ * PNG writer: 8-bit gray, RGB or RGBA. Through libpng where it is built (its default adaptive row
+ * filters and deflate level); otherwise a minimal writer: rows unfiltered, deflate via zlib when built
+ * with it, stored blocks without.
+ */
 #ifndef SUNPROBE_EXPORT_PNG_H
 #define SUNPROBE_EXPORT_PNG_H
 

@@ -14,9 +14,12 @@
 #include <zlib.h>
 #endif
 
-#define MAX_SIDE 16384u
-#define MAX_PIXELS (1u << 28)
+static uint32_t get_be32(const uint8_t *p)
+{
+    return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
+}
 
+#if !HAVE_LIBPNG /* the minimal decoder; with libpng sp_png_decode_rgba is png_libpng.c's */
 typedef struct png_info {
     uint32_t width, height;
     int depth, color, interlace;
@@ -25,11 +28,6 @@ typedef struct png_info {
     uint16_t trns_gray, trns_rgb[3];
     int has_trns;
 } png_info;
-
-static uint32_t get_be32(const uint8_t *p)
-{
-    return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
-}
 
 static uint32_t crc_update(uint32_t crc, const uint8_t *p, size_t n)
 {
@@ -73,7 +71,8 @@ static int parse_ihdr(const uint8_t *d, uint32_t len, png_info *info)
     if (!channels_of(info->color) || !ok_depth || d[10] != 0 || d[11] != 0 || info->interlace > 1 ||
         !info->width || !info->height)
         return SP_ECORRUPT;
-    if (info->width > MAX_SIDE || info->height > MAX_SIDE || (uint64_t)info->width * info->height > MAX_PIXELS)
+    if (info->width > SP_PNG_MAX_SIDE || info->height > SP_PNG_MAX_SIDE ||
+        (uint64_t)info->width * info->height > SP_PNG_MAX_PIXELS)
         return -E2BIG;
     return info->interlace ? SP_EUNSUPPORTED : 0;
 }
@@ -294,6 +293,8 @@ int sp_png_decode_rgba(const uint8_t *data, size_t size, uint8_t **rgba, uint32_
     *height = info.height;
     return 0;
 }
+
+#endif
 
 int sp_png_read_rgba(const char *path, uint8_t **rgba, uint32_t *width, uint32_t *height)
 {

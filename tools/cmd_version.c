@@ -46,6 +46,7 @@ int sp_cmd_version(int argc, char **argv)
     feature("libiio", HAVE_IIO, "IIO through libiio (sysfs is always read)");
     feature("JPEG", HAVE_JPEG, "MJPEG frames");
     feature("zlib", HAVE_ZLIB, "");
+    feature("libpng", HAVE_LIBPNG, "");
     feature("AVX2 kernels", HAVE_SIMD_AVX2, "");
     printf("renderer kernel set on this CPU: %s\n", sp_render_kernel_set());
 #if SP_LAZY_MODULES

@@ -4,8 +4,8 @@
  * an occluder and nothing else, lighting (eq. 3.4) scales the brightness, the
  * shadow darkens lit ground by the ratio and pre-existing shadow not at all,
  * height from the plane or the override, back-to-front order, bad arguments.
- * Also the PNG reader (filters, palettes, 16 bits, damage; works without zlib
- * through stored blocks) and the PFM round trip.
+ * Also the PNG reader (filters, palettes, 16 bits, damage; interlaced images
+ * through libpng; works without zlib through stored blocks) and the PFM round trip.
  */
 #include <errno.h>
 #include <math.h>
@@ -15,6 +15,10 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "sp_config.h"
+#if HAVE_LIBPNG
+#include <png.h>
+#endif
 #include "export/png.h"
 #include "export/png_read.h"
 #include "export/probe_dir.h"
@@ -276,11 +280,70 @@ static void test_png_kinds(void)
     out[8 + 8 + 12] = 1; /* interlace byte of IHDR, then fix its CRC */
     uint32_t c = crc32_of(out + 12, 17, 0);
     out[29] = (uint8_t)(c >> 24), out[30] = (uint8_t)(c >> 16), out[31] = (uint8_t)(c >> 8), out[32] = (uint8_t)c;
+#if HAVE_LIBPNG /* a 1x1 image's single Adam7 pass is the same bytes as the plain image */
+    CHECK(sp_png_decode_rgba(out, n, &rgba, &w, &h) == 0 && w == 1 && h == 1 && rgba && rgba[0] == 1 && rgba[1] == 2 &&
+          rgba[2] == 3 && rgba[3] == 255);
+    free(rgba), rgba = NULL;
+#else
     CHECK(sp_png_decode_rgba(out, n, &rgba, &w, &h) == SP_EUNSUPPORTED);
+#endif
     n = make_png(out, 4, 1, 2, 3, raw1, 2, NULL, 0, NULL, 0);
     CHECK(sp_png_decode_rgba(out, n, &rgba, &w, &h) == SP_ECORRUPT);
     CHECK(sp_png_read_rgba("/nonexistent/x.png", &rgba, &w, &h) == -ENOENT);
 }
+
+#if HAVE_LIBPNG
+static void append_bytes(png_structp png, png_bytep data, size_t n)
+{
+    FILE *f = png_get_io_ptr(png);
+    fwrite(data, 1, n, f);
+}
+
+static void no_flush(png_structp png)
+{
+    (void)png;
+}
+
+/* An Adam7-interlaced RGB image (what a user's cut-out editor may save) decodes to its pixels. */
+static void test_png_interlaced(void)
+{
+    enum { IW = 13, IH = 11 };
+    uint8_t pix[IH][IW * 3];
+    for (int y = 0; y < IH; y++)
+        for (int x = 0; x < IW * 3; x++)
+            pix[y][x] = (uint8_t)(x * 7 + y * 31);
+    char *buf = NULL;
+    size_t n = 0;
+    FILE *f = open_memstream(&buf, &n);
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
+    png_infop info = png_create_info_struct(png);
+    CHECK(f && png && info);
+    if (!f || !png || !info || setjmp(png_jmpbuf(png)))
+        return;
+    png_set_write_fn(png, f, append_bytes, no_flush);
+    png_set_IHDR(png, info, IW, IH, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_ADAM7, PNG_COMPRESSION_TYPE_DEFAULT,
+                 PNG_FILTER_TYPE_DEFAULT);
+    png_write_info(png, info);
+    png_bytep rows[IH];
+    for (int y = 0; y < IH; y++)
+        rows[y] = pix[y];
+    png_write_image(png, rows);
+    png_write_end(png, NULL);
+    png_destroy_write_struct(&png, &info);
+    fclose(f);
+    CHECK(n > 33 && buf[8 + 8 + 12] == 1); /* the IHDR says Adam7 */
+    uint8_t *rgba = NULL;
+    uint32_t w = 0, h = 0;
+    CHECK_EQ_INT(sp_png_decode_rgba((const uint8_t *)buf, n, &rgba, &w, &h), 0);
+    CHECK(w == IW && h == IH);
+    int same = rgba != NULL;
+    for (int i = 0; same && i < IW * IH; i++)
+        same = !memcmp(rgba + 4 * i, &pix[i / IW][3 * (i % IW)], 3) && rgba[4 * i + 3] == 255;
+    CHECK(same);
+    free(rgba);
+    free(buf);
+}
+#endif
 
 /* What the project's writer produces reads back exactly, in every channel layout. */
 static void test_png_roundtrip(void)
@@ -355,6 +418,9 @@ int main(void)
     test_order_and_args();
     test_png_filters();
     test_png_kinds();
+#if HAVE_LIBPNG
+    test_png_interlaced();
+#endif
     test_png_roundtrip();
     test_pfm();
     return check_exit();
