@@ -304,6 +304,327 @@ static int run_level(const tex_job *job, level_win *W, int level)
     return 0;
 }
 
+/*
+ * ---- The finest level in whole blocks ----
+ * The vote of the finest level is replaced by image-quilting-style blocks
+ * (4 patches a side, overlapping by a patch) laid in raster order, each copying
+ * one exemplar offset found for the block as a whole: candidates from the voted
+ * layout (its source map), continued from the neighbouring blocks, drawn at
+ * random, on a coarse grid (subsampled cost) refined around its best, and
+ * searched around the best, costed by the block's error against the pixels
+ * already settled (held fixed or laid by earlier blocks) plus, weaker, against
+ * the voted image, plus the reuse penalty. A block may not continue its
+ * neighbours' copy beyond BLOCK_RUN blocks, nor (at BLOCK_RUN 1) reproduce a
+ * patch side of settled pixels exactly (a diagonal's or an earlier tile's copy),
+ * which bounds verbatim repetition the way quilting's fixed block does; borders
+ * are minimum-error cuts. Sequential, so the result depends on the seed only.
+ */
+#define BLOCK_PATCHES 4   /* block side in patches */
+#define BLOCK_RANDOM 24   /* random offsets tried per block */
+#define BLOCK_STRIDE 4    /* the exhaustive search's grid step */
+#define GRID_SUB 4        /* and its pixel subsampling (the grid only picks where to refine) */
+#define REFINE_SIDE (BLOCK_STRIDE + 1) /* full-cost offsets around the grid's best, a side */
+#define N_REFINE (REFINE_SIDE * REFINE_SIDE)
+#define BLOCK_RUN 1       /* blocks one verbatim copy may span */
+#define LAYOUT_WEIGHT 0.1f /* the voted image's weight where nothing is settled yet */
+#define UNSETTLED_COST 1e6f /* a cut through a pixel nothing has laid yet: kept inside the overlap */
+
+typedef struct block_pass {
+    const tex_level *ex;
+    const float *voted;
+    float *out;
+    uint8_t *settled;        /* 0 free, 1 laid by a block, TEX_FIXED + 1 held fixed */
+    float *tgt, *wt;         /* the block's target pixels and their weights */
+    int w, h, B, x0, y0, bw, bh;
+    float *cnt;              /* blocks covering each patch-sized exemplar bin */
+    int bins_w, P;
+    double fair, pen_unit;
+    int exact_max;           /* settled pixels a candidate may reproduce exactly */
+} block_pass;
+
+/* Weighted distance of the block to exemplar offset (ox, oy), with the reuse penalty; FLT_MAX at or past bound. */
+static float block_cost(const block_pass *b, int ox, int oy, float bound, int check_exact, int step)
+{
+    const tex_level *ex = b->ex;
+    double over = 0;
+    int nb = 0;
+    for (int y = oy + b->P / 2; y < oy + b->bh; y += b->P)
+        for (int x = ox + b->P / 2; x < ox + b->bw; x += b->P, nb++) {
+            double o = (double)b->cnt[(y / b->P) * b->bins_w + x / b->P] / b->fair - 1.0;
+            over += o > 0 ? o : 0;
+        }
+    float d = (float)(b->pen_unit * over / (nb ? nb : 1));
+    int exact = 0;
+    float area = (float)(step * step); /* a subsampled cost stands for the whole block */
+    for (int y = 0; y < b->bh && d < bound; y += step) {
+        const float *e = ex->px + 3 * ((size_t)(oy + y) * ex->w + ox), *t = b->tgt + 3 * (size_t)y * b->bw;
+        const float *wr = b->wt + (size_t)y * b->bw;
+        for (int x = 0; x < b->bw; x += step) {
+            float t0 = e[3 * x] - t[3 * x], t1 = e[3 * x + 1] - t[3 * x + 1], t2 = e[3 * x + 2] - t[3 * x + 2];
+            float q = t0 * t0 + t1 * t1 + t2 * t2;
+            d += area * wr[x] * q;
+            exact += q == 0.0f && wr[x] == 1.0f;
+        }
+    }
+    /* reproducing settled pixels verbatim (a neighbour's, a diagonal's or an earlier tile's copy) extends that copy */
+    if (check_exact && exact >= b->exact_max)
+        return FLT_MAX;
+    return d < bound ? d : FLT_MAX;
+}
+
+/* Union-find over the block grid: blocks joined when one continues the other's copy. */
+static int run_root(int *parent, int i)
+{
+    while (parent[i] != i)
+        i = parent[i] = parent[parent[i]];
+    return i;
+}
+
+/* The minimum-error path across a strip of the block (vertical: top to bottom over columns [0, n)). */
+static void cut_path(const float *err, int bw, int bh, int n, int vertical, int *path, float *acc)
+{
+    int len = vertical ? bh : bw;
+    for (int k = 0; k < len; k++)
+        for (int c = 0; c < n; c++) {
+            float e = vertical ? err[(size_t)k * bw + c] : err[(size_t)c * bw + k], best = 0;
+            if (k > 0) {
+                best = acc[(size_t)(k - 1) * n + c];
+                if (c > 0 && acc[(size_t)(k - 1) * n + c - 1] < best)
+                    best = acc[(size_t)(k - 1) * n + c - 1];
+                if (c + 1 < n && acc[(size_t)(k - 1) * n + c + 1] < best)
+                    best = acc[(size_t)(k - 1) * n + c + 1];
+            }
+            acc[(size_t)k * n + c] = e + best;
+        }
+    int c = 0;
+    for (int i = 1; i < n; i++)
+        if (acc[(size_t)(len - 1) * n + i] < acc[(size_t)(len - 1) * n + c])
+            c = i;
+    for (int k = len - 1; k >= 0; k--) {
+        path[k] = c;
+        if (k > 0) {
+            int cc = c;
+            for (int d = -1; d <= 1; d += 2)
+                if (c + d >= 0 && c + d < n && acc[(size_t)(k - 1) * n + c + d] < acc[(size_t)(k - 1) * n + cc])
+                    cc = c + d;
+            c = cc;
+        }
+    }
+}
+
+/*
+ * Columns (vertical) or rows of the block holding settled pixels from its first
+ * side (the most over its rows) or its last (the fewest: only a finished tile
+ * across the wrap covers a whole trailing side), at most half the block.
+ */
+static int settled_depth(const block_pass *b, int vertical, int trailing)
+{
+    int side = vertical ? b->bw : b->bh, lim = side / 2, depth = trailing ? lim : 0;
+    for (int k = 0; k < (vertical ? b->bh : b->bw); k++) {
+        int d = 0;
+        while (d < lim) {
+            int a = trailing ? side - 1 - d : d;
+            if (!b->settled[vertical ? (size_t)(b->y0 + k) * b->w + b->x0 + a : (size_t)(b->y0 + a) * b->w + b->x0 + k])
+                break;
+            d++;
+        }
+        depth = trailing ? (d < depth ? d : depth) : (d > depth ? d : depth);
+    }
+    return depth;
+}
+
+/*
+ * Lays exemplar offset (ox, oy) into the block: settled pixels stay on the far
+ * side of a minimum-error cut through each side they cover (left and top from
+ * earlier blocks; right and bottom where a finished tile lies across the wrap).
+ */
+static void lay_block(block_pass *b, int ox, int oy, float *err, int *path, float *acc)
+{
+    const tex_level *ex = b->ex;
+    for (int y = 0; y < b->bh; y++)
+        for (int x = 0; x < b->bw; x++) {
+            size_t p = (size_t)(b->y0 + y) * b->w + b->x0 + x;
+            const float *e = ex->px + 3 * ((size_t)(oy + y) * ex->w + ox + x), *o = b->out + 3 * p;
+            float d0 = e[0] - o[0], d1 = e[1] - o[1], d2 = e[2] - o[2];
+            err[(size_t)y * b->bw + x] = b->settled[p] ? d0 * d0 + d1 * d1 + d2 * d2 : UNSETTLED_COST;
+        }
+    int nl = settled_depth(b, 1, 0), nt = settled_depth(b, 0, 0), nr = settled_depth(b, 1, 1), nb = settled_depth(b, 0, 1);
+    int *lpath = path, *tpath = path + b->bh, *rpath = tpath + b->bw, *bpath = rpath + b->bh;
+    if (nl)
+        cut_path(err, b->bw, b->bh, nl, 1, lpath, acc);
+    if (nt)
+        cut_path(err, b->bw, b->bh, nt, 0, tpath, acc);
+    if (nr)
+        cut_path(err + (b->bw - nr), b->bw, b->bh, nr, 1, rpath, acc);
+    if (nb)
+        cut_path(err + (size_t)(b->bh - nb) * b->bw, b->bw, b->bh, nb, 0, bpath, acc);
+    for (int y = 0; y < b->bh; y++)
+        for (int x = 0; x < b->bw; x++) {
+            size_t p = (size_t)(b->y0 + y) * b->w + b->x0 + x;
+            int keep = b->settled[p] && ((nl && x < lpath[y]) || (nt && y < tpath[x]) ||
+                                         (nr && x > b->bw - nr + rpath[y]) || (nb && y > b->bh - nb + bpath[x]));
+            if (b->settled[p] == TEX_FIXED + 1 || keep)
+                continue;
+            memcpy(b->out + 3 * p, ex->px + 3 * ((size_t)(oy + y) * ex->w + ox + x), 3 * sizeof(float));
+            b->settled[p] = 1;
+        }
+    for (int y = oy + b->P / 2; y < oy + b->bh; y += b->P)
+        for (int x = ox + b->P / 2; x < ox + b->bw; x += b->P)
+            b->cnt[(y / b->P) * b->bins_w + x / b->P] += 1;
+}
+
+/* Block origins along one axis: steps of B - P, the last one flush with the end. */
+static int block_origins(int n, int B, int step, int *pos)
+{
+    int k = 0;
+    for (int x = 0;; x += step) {
+        pos[k++] = x + B < n ? x : n - B;
+        if (x + B >= n)
+            return k;
+    }
+}
+
+static int clampi(int v, int lo, int hi)
+{
+    return v < lo ? lo : v > hi ? hi : v;
+}
+
+static void settle_blocks(const tex_job *job, level_win *W, const tex_level *ex, int *xs, int *ys, int *off,
+                          int *parent, int *size, block_pass *b)
+{
+    int P = b->P, B = b->B, nx = block_origins(W->w, B, B - P, xs), ny = block_origins(W->h, B, B - P, ys);
+    uint64_t rng = tex_hash(job->key ^ 0xB10Cull, 0);
+    float *err = b->wt + (size_t)B * B, *acc = err + (size_t)B * B;
+    int *path = (int *)(acc + (size_t)B * B);
+    for (int j = 0; j < ny; j++)
+        for (int i = 0; i < nx; i++) {
+            int id = j * nx + i;
+            b->x0 = xs[i], b->y0 = ys[j], b->bw = B, b->bh = B;
+            for (int y = 0; y < B; y++)
+                for (int x = 0; x < B; x++) {
+                    size_t p = (size_t)(b->y0 + y) * W->w + b->x0 + x, q = (size_t)y * B + x;
+                    memcpy(b->tgt + 3 * q, b->settled[p] ? b->out + 3 * p : b->voted + 3 * p, 3 * sizeof(float));
+                    b->wt[q] = b->settled[p] ? 1.0f : LAYOUT_WEIGHT;
+                }
+            /* neighbours whose copy a candidate would continue, and the run it would make */
+            int nbr[2] = { i > 0 ? id - 1 : -1, j > 0 ? id - nx : -1 };
+            int cont[2][2];
+            for (int k = 0; k < 2; k++)
+                if (nbr[k] >= 0) {
+                    cont[k][0] = off[2 * nbr[k]] + (k ? 0 : xs[i] - xs[i - 1]);
+                    cont[k][1] = off[2 * nbr[k] + 1] + (k ? ys[j] - ys[j - 1] : 0);
+                }
+            /* a block closing onto a finished tile across the wrap has to continue what lies on both sides */
+            int closing = settled_depth(b, 1, 1) || settled_depth(b, 0, 1);
+            int bx = -1, by = -1, gx = 0, gy = 0;
+            float gbest = FLT_MAX;
+            float best = FLT_MAX;
+            int n_grid = ((ex->w - B) / BLOCK_STRIDE + 1) * ((ex->h - B) / BLOCK_STRIDE + 1);
+            int n_cand = 5 + 2 + n_grid + N_REFINE + BLOCK_RANDOM + 16;
+            for (int t = 0; t < n_cand; t++) {
+                int cx, cy;
+                if (t < 5) { /* the voted layout at the block's centre and corners */
+                    int dx = t == 0 ? B / 2 : (t & 1) ? 0 : B - 1, dy = t == 0 ? B / 2 : t < 3 ? 0 : B - 1;
+                    int32_t s = W->src[(size_t)(b->y0 + dy) * W->w + b->x0 + dx];
+                    cx = s % ex->w - dx, cy = s / ex->w - dy;
+                } else if (t < 7) {
+                    if (nbr[t - 5] < 0)
+                        continue;
+                    cx = cont[t - 5][0], cy = cont[t - 5][1];
+                } else if (t < 7 + n_grid) { /* every offset on a coarse grid */
+                    int gw = (ex->w - B) / BLOCK_STRIDE + 1;
+                    cx = (t - 7) % gw * BLOCK_STRIDE, cy = (t - 7) / gw * BLOCK_STRIDE;
+                } else if (t < 7 + n_grid + N_REFINE) { /* the grid's best, refined at full resolution */
+                    if (gbest == FLT_MAX)
+                        continue;
+                    int k = t - 7 - n_grid;
+                    cx = gx + k % REFINE_SIDE - REFINE_SIDE / 2, cy = gy + k / REFINE_SIDE - REFINE_SIDE / 2;
+                } else if (t < 7 + n_grid + N_REFINE + BLOCK_RANDOM) {
+                    int32_t s = ex->list[rng_next(&rng) % (uint64_t)ex->n_list];
+                    cx = s % ex->w, cy = s / ex->w;
+                } else { /* around the best, the radius halving */
+                    if (bx < 0)
+                        break;
+                    int r = (ex->w > ex->h ? ex->w : ex->h) >> (t - 7 - n_grid - N_REFINE - BLOCK_RANDOM);
+                    if (r < 1)
+                        break;
+                    uint64_t u = rng_next(&rng);
+                    cx = bx + (int)(u % (uint64_t)(2 * r + 1)) - r;
+                    cy = by + (int)((u >> 32) % (uint64_t)(2 * r + 1)) - r;
+                }
+                cx = clampi(cx, 0, ex->w - B), cy = clampi(cy, 0, ex->h - B);
+                int run = 1, roots[2] = { -1, -1 };
+                for (int k = 0; k < 2; k++)
+                    if (nbr[k] >= 0 && cx == cont[k][0] && cy == cont[k][1]) {
+                        roots[k] = run_root(parent, nbr[k]);
+                        if (k == 0 || roots[1] != roots[0])
+                            run += size[roots[k]];
+                    }
+                if (run > BLOCK_RUN)
+                    continue;
+                if (t >= 7 && t < 7 + n_grid) { /* the grid only picks where to refine: a subsampled cost */
+                    float d = block_cost(b, cx, cy, gbest, 0, GRID_SUB);
+                    if (d < gbest)
+                        gbest = d, gx = cx, gy = cy;
+                    continue;
+                }
+                float d = block_cost(b, cx, cy, best, run == 1 && !closing, 1);
+                if (d < best)
+                    best = d, bx = cx, by = cy;
+            }
+            if (bx < 0) { /* every candidate continued a full run: the first random one not doing so */
+                bx = clampi((int)(rng_next(&rng) % (uint64_t)(ex->w - B + 1)), 0, ex->w - B);
+                by = clampi((int)(rng_next(&rng) % (uint64_t)(ex->h - B + 1)), 0, ex->h - B);
+            }
+            off[2 * id] = bx, off[2 * id + 1] = by;
+            parent[id] = id, size[id] = 1;
+            for (int k = 0; k < 2; k++)
+                if (nbr[k] >= 0 && bx == cont[k][0] && by == cont[k][1]) {
+                    int r = run_root(parent, nbr[k]), me = run_root(parent, id);
+                    if (r != me)
+                        parent[r] = me, size[me] += size[r];
+                }
+            lay_block(b, bx, by, err, path, acc);
+        }
+}
+
+/* The finest level's window in blocks (above); left as voted where the exemplar or window is smaller than a block. */
+int tex_blocks_apply(const tex_exemplar *ex, int w, int h)
+{
+    int B = BLOCK_PATCHES * ex->patch;
+    return !ex->lv[0].valid && ex->lv[0].w >= B && ex->lv[0].h >= B && w >= B && h >= B;
+}
+
+static int block_level(const tex_job *job, level_win *W, const tex_level *ex, const float *held)
+{
+    int P = job->ex->patch, B = BLOCK_PATCHES * P;
+    if (!tex_blocks_apply(job->ex, W->w, W->h))
+        return 0;
+    int nx = (W->w + B - P - 1) / (B - P) + 1, ny = (W->h + B - P - 1) / (B - P) + 1;
+    size_t n = (size_t)W->w * W->h, nb = (size_t)nx * ny;
+    int bins_w = (ex->w + P - 1) / P, bins_h = (ex->h + P - 1) / P;
+    block_pass b = { ex, W->img, W->next, calloc(n, 1), malloc(sizeof(float) * (size_t)B * B * 7 + sizeof(int) * 4 * B),
+                     NULL, W->w, W->h, B, 0, 0, 0, 0, calloc((size_t)bins_w * bins_h, sizeof(float)), bins_w, P,
+                     (double)n / ((double)ex->w * ex->h), job->s->reuse * ex->scale * (double)(B * B) / (P * P) };
+    int *idx = malloc(sizeof(int) * ((size_t)nx + ny + 4 * nb));
+    if (!b.settled || !b.tgt || !b.cnt || !idx) {
+        free(b.settled), free(b.tgt), free(b.cnt), free(idx);
+        return -ENOMEM;
+    }
+    b.wt = b.tgt + (size_t)3 * B * B;
+    b.exact_max = P; /* a patch side: a copy touching its diagonal neighbour through a corner still counts */
+    /* blended pixels count as laid by an earlier block: the cut may pass through them, no cross-fade follows */
+    for (size_t p = 0; p < n; p++) {
+        b.settled[p] = W->fixed[p] == TEX_FIXED ? TEX_FIXED + 1 : W->fixed[p] == TEX_SOFT;
+        memcpy(W->next + 3 * p, W->fixed[p] == TEX_FREE ? W->img + 3 * p : held + 3 * p, 3 * sizeof(float));
+    }
+    settle_blocks(job, W, ex, idx, idx + nx, idx + nx + ny, idx + nx + ny + 2 * nb, idx + nx + ny + 3 * nb, &b);
+    float *t = W->img;
+    W->img = W->next, W->next = t;
+    free(b.settled), free(b.tgt), free(b.cnt), free(idx);
+    return 0;
+}
+
 static void win_free(level_win *W)
 {
     free(W->img), free(W->next), free(W->src), free(W->src_next);
@@ -378,7 +699,7 @@ int tex_synth_window(const tex_job *job, float *img, const uint8_t *fixed, int w
             upsample(&C, &job->ex->lv[l + 1], &W, ex);
         win_free(&C);
         paint(&W, ex, pimg[l], pfix[l]);
-        if ((ret = run_level(job, &W, l)))
+        if ((ret = run_level(job, &W, l)) || (l == 0 && job->blocks && (ret = block_level(job, &W, ex, img))))
             goto out;
         C = W;
         memset(&W, 0, sizeof(W));

@@ -46,6 +46,7 @@ static int exemplar_levels(const sp_texture_settings *s, uint32_t ew, uint32_t e
 typedef struct tiler {
     const sp_texture_settings *s;
     int W, H, nx, ny, halo, blend, rows;
+    int blocks;          /* the finest level in whole blocks (tex_job) */
     int *xs, *ys;        /* tile boundaries, nx + 1 and ny + 1 */
     int fd;              /* scratch file: output row y of the band at row y % rows; tileable: rows [0, halo) after */
     float *win, *old;    /* the window; the band's values under it */
@@ -198,15 +199,16 @@ static void wrap_ramp(tiler *t, int y0, int w, int h)
 }
 
 /* The core into the band; blended pixels become a mix of old and new that moves to the new towards the core. */
-static int scatter(tiler *t, int i, int j, int x0, int y0, int w, int h)
+static int scatter(tiler *t, const tex_exemplar *ex, int i, int j, int x0, int y0, int w, int h)
 {
+    int cut = t->blocks && tex_blocks_apply(ex, w, h); /* blocks settled the blend by a cut: no cross-fade */
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
             size_t p = (size_t)y * w + x;
             int d = core_dist(t, i, j, x0 + x, y0 + y);
             if (d > 0 && t->fixed[p] != TEX_SOFT)
                 continue;
-            float *v = t->old + 3 * p, a = (float)(t->blend + 1 - d) / (float)(t->blend + 1);
+            float *v = t->old + 3 * p, a = cut ? 1.0f : (float)(t->blend + 1 - d) / (float)(t->blend + 1);
             for (int c = 0; c < 3; c++) /* the core is new: its old band values are not pixels yet */
                 v[c] = d > 0 ? v[c] + a * (t->win[3 * p + c] - v[c]) : t->win[3 * p + c];
         }
@@ -224,14 +226,14 @@ static int run_tile(tiler *t, const tex_exemplar *ex, sp_pool *pool, int i, int 
     span(t, t->xs, i, t->W, &x0, &x1);
     span(t, t->ys, j, t->H, &y0, &y1);
     int w = x1 - x0, h = y1 - y0, ret = gather(t, i, j, x0, y0, w, h);
-    tex_job job = { ex, t->s, pool, tex_hash(t->s->seed, ((uint64_t)j << 32) | (uint64_t)i) };
+    tex_job job = { ex, t->s, pool, tex_hash(t->s->seed, ((uint64_t)j << 32) | (uint64_t)i), t->blocks };
     if (!ret)
         ret = tex_synth_window(&job, t->win, t->fixed, w, h, tex_window_levels(w, h, ex->patch, ex->levels));
     if (ret)
         return ret;
     if (t->s->tileable && j == t->ny - 1)
         wrap_ramp(t, y0, w, h);
-    return scatter(t, i, j, x0, y0, w, h);
+    return scatter(t, ex, i, j, x0, y0, w, h);
 }
 
 /* n cuts of [0, len) into pieces of nearly equal size. */
@@ -265,6 +267,7 @@ static int tiler_open(tiler *t, const sp_texture_settings *s, int W, int H)
     memset(t, 0, sizeof(*t));
     t->fd = -1;
     t->s = s, t->W = W, t->H = H, t->halo = 4 * s->patch, t->blend = 2 * s->patch;
+    t->blocks = !getenv("SP_TEX_NOBLOCKS");
     int T = s->tile;
     t->nx = (W + T - 1) / T, t->ny = (H + T - 1) / T;
     if (s->tileable) /* a tile never wraps onto itself */
@@ -380,7 +383,7 @@ int sp_texture_fill(float *rgb, uint32_t w, uint32_t h, const uint8_t *fill, con
             memcpy(win + 3 * p, rgb + 3 * q, 3 * sizeof(float));
             fixed[p] = fill[q] ? TEX_FREE : TEX_FIXED;
         }
-    tex_job job = { &ex, s, pool, tex_hash(s->seed, 0xF111ull) };
+    tex_job job = { &ex, s, pool, tex_hash(s->seed, 0xF111ull), 0 };
     if (!ret)
         ret = tex_synth_window(&job, win, fixed, bw, bh, tex_window_levels(bw, bh, s->patch, ex.levels));
     for (int y = 0; !ret && y < bh; y++)

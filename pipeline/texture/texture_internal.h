@@ -42,6 +42,7 @@ typedef struct tex_job {
     const sp_texture_settings *s;
     sp_pool *pool;
     uint64_t key;       /* per window: mixed into every random draw */
+    int blocks;         /* 1: the finest level is laid in whole blocks (synth.c), 0: left as voted */
 } tex_job;
 
 /*
@@ -50,6 +51,9 @@ typedef struct tex_job {
  * (<= ex->levels; coarse windows must keep a patch). 0 or -ENOMEM.
  */
 int tex_synth_window(const tex_job *job, float *img, const uint8_t *fixed, int w, int h, int levels);
+
+/* Whether a w x h window's finest level is laid in whole blocks (when the job asks): exemplar and window hold one. */
+int tex_blocks_apply(const tex_exemplar *ex, int w, int h);
 
 /* Levels a w x h window can use: each level's window at least two patches a side. */
 int tex_window_levels(int w, int h, int patch, int max_levels);

@@ -8,7 +8,7 @@
  * (blender-data, GPL-2+). Measures: coherence, repetition, seams, colour
  * histogram and autocorrelation distances (texture_eval.h), and time.
  *
- *   bench_texture [quality] [--size N] [--captures DIR]
+ *   bench_texture [quality] [--size N] [--captures DIR] [--seed N]   (sunprobe's seed; quilting's is fixed)
  *   bench_texture scale --size WxH [--out FILE.png] [--threads N]   (one size per process: peak RSS)
  */
 #include <errno.h>
@@ -253,7 +253,7 @@ static void print_row(const char *who, const scores *s)
            s->coh, s->rep, s->seam, s->hist, s->ac, s->secs);
 }
 
-static int quality(int N, const char *cap)
+static int quality(int N, const char *cap, uint64_t seed)
 {
     tev_image ex[MAX_EX];
     const char *name[MAX_EX];
@@ -263,6 +263,7 @@ static int quality(int N, const char *cap)
     sp_texture_settings s;
     sp_texture_default_settings(&s);
     s.tile = tile;
+    s.seed = seed;
     printf("%dx%d from each exemplar; sunprobe tiles of %d (seams across them), quilting blocks of %d (seams across "
            "its block steps of %d)\n", N, N, tile, B, B - B / 6);
     for (int k = 0; k < n; k++) {
@@ -350,6 +351,7 @@ int main(int argc, char **argv)
     int scale_mode = argc > 1 && !strcmp(argv[1], "scale"), threads = 0, N = 384;
     uint32_t W = 2304, H = 2304;
     const char *cap = "../shared/captures", *out = "/dev/null";
+    uint64_t seed = 1;
     for (int i = 1 + (argc > 1 && (scale_mode || !strcmp(argv[1], "quality"))); i + 1 < argc; i += 2) {
         if (!strcmp(argv[i], "--size") && scale_mode && sscanf(argv[i + 1], "%ux%u", &W, &H) == 2)
             continue;
@@ -359,11 +361,13 @@ int main(int argc, char **argv)
             cap = argv[i + 1];
         else if (!strcmp(argv[i], "--out"))
             out = argv[i + 1];
+        else if (!strcmp(argv[i], "--seed") && !scale_mode)
+            seed = strtoull(argv[i + 1], NULL, 10);
         else if (!strcmp(argv[i], "--threads"))
             threads = atoi(argv[i + 1]);
         else
-            return fprintf(stderr, "usage: bench_texture [quality] [--size N] [--captures DIR] | "
+            return fprintf(stderr, "usage: bench_texture [quality] [--size N] [--captures DIR] [--seed N] | "
                                    "scale --size WxH [--out F.png] [--threads N]\n"), 1;
     }
-    return scale_mode ? scale(W, H, out, threads) : quality(N, cap);
+    return scale_mode ? scale(W, H, out, threads) : quality(N, cap, seed);
 }
