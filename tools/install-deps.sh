@@ -8,6 +8,7 @@ profile=${1:-full}
 core=(meson ninja-build pkg-config gcc g++ python3 zlib1g-dev libjpeg62-turbo-dev)
 full=(clang libclang-rt-14-dev libopencv-dev opencv-doc libopenimageio-dev libdraco-dev libeigen3-dev
       libcamera-dev libiio-dev libdlib-dev
+      clang-format # the layout of changed C lines (tests/integration/test_clang_format.sh)
       libpng-dev # PNG reading (interlaced too) and writing (export/png_libpng.c)
       libzip-dev # Sensor Logger .zip exports (capture/import_bundle.c)
       libmeshoptimizer-dev # export --reorder: vertex cache/fetch order (export/gltf_reorder.c)
