@@ -7,7 +7,9 @@ Loads the face with tools/blender/sunprobe_face.py (the user's path), checks wha
 against the .glb's JSON (vertex/triangle counts, materials and their textures, shape key names, the
 sun's W/m2, the camera), renders one Cycles frame from the glTF camera and writes OUTDIR/mask.png
 (alpha > 0.5) and prints `blender: mean_luminance L` (linear Rec. 709 luminance over the mask, after
-the scene's film exposure). Exit 1 on a failed check.
+the scene's film exposure), then the same frame with Eevee (`blender: eevee_mean_luminance L`; in
+background mode Blender falls back to surfaceless EGL, Mesa's software OpenGL on a machine without a
+GPU). Exit 1 on a failed check.
 """
 import os
 import sys
@@ -75,31 +77,38 @@ else:
     check(not suns, "no sun (the export has none)")
 check(scene.camera is not None and scene.camera.type == "CAMERA", "the glTF camera is the scene camera")
 
-scene.render.engine = "CYCLES"
-scene.cycles.device = "CPU"
-scene.cycles.samples = samples
-scene.cycles.use_denoising = False
-scene.render.film_transparent = True
-scene.render.image_settings.file_format = "OPEN_EXR"
-scene.render.image_settings.color_depth = "32"
-scene.render.filepath = os.path.join(outdir, "render.exr")
-bpy.ops.render.render(write_still=True)
-img = bpy.data.images.load(scene.render.filepath)
-w, h = img.size
-px = list(img.pixels)  # linear scene light, bottom row first; EXR gets no view transform
-gain = 2.0 ** scene.view_settings.exposure
-print(f"blender: exposure {scene.view_settings.exposure:.3f} EV")
-mask = [0.0] * (w * h * 4)
-total, n = 0.0, 0
-for y in range(h):
-    for x in range(w):
-        i = (y * w + x) * 4
+
+def render_face(engine, name):
+    """Renders the scene with `engine` to OUTDIR/name; its size, the alpha > 0.5 pixels' mask and mean luminance."""
+    scene.render.engine = engine
+    scene.render.film_transparent = True
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    scene.render.filepath = os.path.join(outdir, name)
+    bpy.ops.render.render(write_still=True)
+    img = bpy.data.images.load(scene.render.filepath)
+    w, h = img.size
+    px = list(img.pixels)  # linear scene light, bottom row first; EXR gets no view transform
+    gain = 2.0 ** scene.view_settings.exposure
+    mask = [0.0] * (w * h * 4)
+    total, n = 0.0, 0
+    for i in range(0, w * h * 4, 4):
         if px[i + 3] > 0.5:
             total += gain * (0.2126 * px[i] + 0.7152 * px[i + 1] + 0.0722 * px[i + 2]) / px[i + 3]
             n += 1
             mask[i:i + 4] = (1.0, 1.0, 1.0, 1.0)
         else:
             mask[i + 3] = 1.0
+    return w, h, n, mask, total / max(n, 1)
+
+
+scene.cycles.device = "CPU"
+scene.cycles.samples = samples
+scene.cycles.use_denoising = False
+scene.eevee.taa_render_samples = samples
+print(f"blender: exposure {scene.view_settings.exposure:.3f} EV")
+w, h, n, mask, mean = render_face("CYCLES", "render.exr")
+_, _, en, _, emean = render_face("BLENDER_EEVEE", "eevee.exr")
 out = bpy.data.images.new("mask", w, h)
 out.pixels = mask
 scene.view_settings.exposure = 0.0  # save_render applies the view transform; the mask is 0 or 1
@@ -107,7 +116,9 @@ settings = scene.render.image_settings  # stored (uncompressed) PNG: readable by
 settings.file_format, settings.color_mode, settings.color_depth, settings.compression = "PNG", "RGB", "8", 0
 out.save_render(os.path.join(outdir, "mask.png"), scene=scene)
 
-print(f"blender: {w}x{h}, {n} face pixels")
-print(f"blender: mean_luminance {total / max(n, 1):.6g}")
+print(f"blender: {w}x{h}, {n} face pixels (Eevee: {en})")
+print(f"blender: mean_luminance {mean:.6g}")
+print(f"blender: eevee_mean_luminance {emean:.6g}")
 check(n > 0, "the render shows the face")
+check(en > 0.9 * n and en < 1.1 * n, "Eevee shows the face as Cycles does (face pixels within 10 %)")
 sys.exit(1 if failures else 0)

@@ -3,8 +3,9 @@
 # Blender round trip of the exported face: exports the fixture face (--no-draco: Debian's Blender cannot
 # decode Draco), loads it with tools/blender/sunprobe_face.py in headless Blender, checks the import
 # against the glTF (blender_check.py: counts, materials, textures, shape keys, sun, camera), renders one
-# Cycles frame from the glTF camera and requires, against the project's renderer (render_mask) from
-# keyframe 0's camera: silhouette IoU >= 0.9 and a mean face luminance within a factor of 1.5.
+# frame from the glTF camera with Cycles and one with Eevee and requires, against the project's renderer
+# (render_mask) from keyframe 0's camera: silhouette IoU >= 0.9 (Cycles) and a mean face luminance within
+# a factor of 1.5 (each engine).
 # Exit 77 without Blender.
 # usage: test_blender.sh SUNPROBE TEST_EXPORT RENDER_MASK BLENDER_TOOLS_DIR
 set -u
@@ -40,11 +41,15 @@ check_face() { # NAME FACE_DIR
     "$MASK" lum "$face" >"$out/lum.txt" || exit 1
     cat "$out/lum.txt"
     ref=$(sed -n 's/^sunprobe: mean_luminance //p' "$out/lum.txt")
-    got=$(sed -n 's/^blender: mean_luminance //p' "$out/blender.log")
-    awk -v r="$ref" -v g="$got" -v m="$MAX_RATIO" 'BEGIN {
-        if (r <= 0 || g <= 0) { print "FAIL: no luminance"; exit 1 }
-        q = g / r; printf "mean face luminance: Blender / sunprobe = %.3f (allowed %.3f..%.3f)\n", q, 1 / m, m
-        exit (q <= m && q >= 1 / m) ? 0 : 1 }' || fail=1
+    for engine in Cycles Eevee; do
+        key=mean_luminance
+        [ $engine = Eevee ] && key=eevee_mean_luminance
+        got=$(sed -n "s/^blender: $key //p" "$out/blender.log")
+        awk -v r="$ref" -v g="$got" -v m="$MAX_RATIO" -v e=$engine 'BEGIN {
+            if (r <= 0 || g <= 0) { print "FAIL: no luminance from " e; exit 1 }
+            q = g / r; printf "mean face luminance: %s / sunprobe = %.3f (allowed %.3f..%.3f)\n", e, q, 1 / m, m
+            exit (q <= m && q >= 1 / m) ? 0 : 1 }' || fail=1
+    done
 }
 fail=0
 check_face fixture "$TMP/face"
