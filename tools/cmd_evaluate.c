@@ -17,6 +17,7 @@
 #include <errno.h>
 #include <getopt.h>
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -39,6 +40,7 @@ typedef sp_rigid rigid; /* x' = R x + t */
 
 typedef struct eval_args {
     const char *face, *capture, *json, *renders;
+    int passes; /* --passes: per-pixel planes of every view beside its PNG (save_passes) */
 } eval_args;
 
 typedef struct scored {
@@ -71,13 +73,16 @@ typedef struct eval_ctx {
 
 static void usage(FILE *out)
 {
-    fprintf(out, "usage: sunprobe evaluate FACE_DIR CAPTURE_DIR [--json FILE] [--renders DIR]\n\n"
-                 "Scores a fitted face against a capture with ground truth (laid out as in ../shared/captures):\n"
-                 "sun direction error, training and held-out PSNR, relighting (gt/relight) and novel-view\n"
-                 "(gt/nvs) PSNR and SSIM inside the union of the true and rendered face masks, and the\n"
-                 "coverage and error of the fit's landmarks (landmarks.csv against gt/landmarks.csv).\n"
-                 "  --json FILE     also write the figures as JSON\n"
-                 "  --renders DIR   write each rendered view beside its ground truth as PNG\n");
+    fprintf(out,
+            "usage: sunprobe evaluate FACE_DIR CAPTURE_DIR [--json FILE] [--renders DIR [--passes]]\n\n"
+            "Scores a fitted face against a capture with ground truth (laid out as in ../shared/captures):\n"
+            "sun direction error, training and held-out PSNR, relighting (gt/relight) and novel-view\n"
+            "(gt/nvs) PSNR and SSIM inside the union of the true and rendered face masks, and the\n"
+            "coverage and error of the fit's landmarks (landmarks.csv against gt/landmarks.csv).\n"
+            "  --json FILE     also write the figures as JSON\n"
+            "  --renders DIR   write each rendered view beside its ground truth as PNG\n"
+            "  --passes        with --renders: also KIND_NN.f32, the view's per-pixel render, truth, masks,\n"
+            "                  world normal and sun visibility as floats (layout in SUNSTAGE.md, Evaluation)\n");
 }
 
 /* ---- small rigid algebra ---- */
@@ -307,6 +312,56 @@ static void save_pair(const eval_ctx *c, const char *kind, int index, const floa
     free(path);
 }
 
+/*
+ * --passes: KIND_NN.f32 beside KIND_NN.png, for residual analyses (tools/bench/residual_by_normal.py):
+ * "SPEV", int32 version 1, width, height, float32 sun direction (world, towards the sun) and intensity,
+ * then float32 planes of width x height: the render (RGB, as scored), the truth (RGB), the rendered
+ * face's coverage, the true mask (0/1), the shading normal (world xyz, unit; 0 off the head) and the
+ * sun visibility (0..1). Native byte order. A failure is reported and skips the file.
+ */
+static void save_passes(const eval_ctx *c, const char *kind, int index, const sp_face_view *v, const float *render,
+                        const float *truth, const float *cover, const uint8_t *tmask, int w, int h)
+{
+    size_t np = (size_t)w * (size_t)h;
+    float *nrm = malloc(sizeof(float) * np * 3), *vis = malloc(sizeof(float) * np), *head = malloc(sizeof(float) * np);
+    float *tm = malloc(sizeof(float) * np);
+    char name[64];
+    snprintf(name, sizeof(name), "%s_%02d.f32", kind, index);
+    char *path = sp_path_join_alloc(c->a->renders, name);
+    sp_face_passes ps = { .normal = nrm, .visibility = vis, .coverage = head };
+    int ok = nrm && vis && head && tm && tmask && path && !sp_face_asset_render_passes(&c->asset, v, &ps);
+    for (size_t i = 0; ok && i < np; i++) { /* the passes are premultiplied by the head's coverage */
+        double n2 = 0.0;
+        for (int k = 0; k < 3; k++)
+            n2 += (double)nrm[i * 3 + (size_t)k] * (double)nrm[i * 3 + (size_t)k];
+        float s = n2 > 1e-12 ? (float)(1.0 / sqrt(n2)) : 0.0f;
+        for (int k = 0; k < 3; k++)
+            nrm[i * 3 + (size_t)k] *= s;
+        vis[i] = head[i] > 1e-6f ? fminf(1.0f, vis[i] / head[i]) : 0.0f;
+        tm[i] = (float)tmask[i];
+    }
+    FILE *f = ok ? fopen(path, "wb") : NULL;
+    if (f) {
+        int32_t hd[4] = { 0, 1, w, h };
+        memcpy(hd, "SPEV", 4);
+        float sun[4] = { (float)v->sun_dir[0], (float)v->sun_dir[1], (float)v->sun_dir[2], (float)v->sun_intensity };
+        ok = fwrite(hd, sizeof(hd), 1, f) == 1 && fwrite(sun, sizeof(sun), 1, f) == 1 &&
+            fwrite(render, sizeof(float), np * 3, f) == np * 3 && fwrite(truth, sizeof(float), np * 3, f) == np * 3 &&
+            fwrite(cover, sizeof(float), np, f) == np && fwrite(tm, sizeof(float), np, f) == np &&
+            fwrite(nrm, sizeof(float), np * 3, f) == np * 3 && fwrite(vis, sizeof(float), np, f) == np;
+        ok = fclose(f) == 0 && ok;
+    } else {
+        ok = 0;
+    }
+    if (!ok)
+        fprintf(stderr, "sunprobe evaluate: cannot write %s\n", path ? path : name);
+    free(path);
+    free(nrm);
+    free(vis);
+    free(head);
+    free(tm);
+}
+
 /* Renders one gt/relight or gt/nvs image with its camera, head pose and the given sun; scores it. */
 static int score_image(eval_ctx *c, const char *kind, const sp_json *img, const double K[4], const double sun[3],
                        double sun_I, scored *acc)
@@ -357,6 +412,9 @@ static int score_image(eval_ctx *c, const char *kind, const sp_json *img, const 
             render[i] = (float)sp_sunstage_display_to_srgb((double)render[i]);
     if (!ret) {
         size_t npx = (size_t)w * h, n_true = 0, n_both = 0;
+        uint8_t *tmask = c->a->passes ? malloc(npx) : NULL; /* the true mask alone, for --passes */
+        if (tmask)
+            memcpy(tmask, mask, npx);
         for (size_t i = 0; i < npx; i++) {
             n_true += mask[i];
             n_both += mask[i] && cover[i] > 0.5f;
@@ -380,6 +438,10 @@ static int score_image(eval_ctx *c, const char *kind, const sp_json *img, const 
         sp_strbuf_printf(&c->images, "}");
         if (c->a->renders)
             save_pair(c, kind, (int)sp_json_number(sp_json_get(img, "index"), acc->n - 1), render, truth, w, h);
+        if (c->a->passes)
+            save_passes(c, kind, (int)sp_json_number(sp_json_get(img, "index"), acc->n - 1), &v, render, truth, cover,
+                        tmask, w, h);
+        free(tmask);
     }
     free(path);
     free(mpath);
@@ -558,6 +620,7 @@ static int parse_args(int argc, char **argv, eval_args *a)
         { "help", no_argument, NULL, 'h' },
         { "json", required_argument, NULL, 'j' },
         { "renders", required_argument, NULL, 'r' },
+        { "passes", no_argument, NULL, 'p' },
         { 0 },
     };
     int c;
@@ -566,11 +629,18 @@ static int parse_args(int argc, char **argv, eval_args *a)
         case 'h': usage(stdout); return 1;
         case 'j': a->json = optarg; break;
         case 'r': a->renders = optarg; break;
+        case 'p':
+            a->passes = 1;
+            break;
         default: usage(stderr); return -1;
         }
     }
     if (optind != argc - 2) {
         fprintf(stderr, "sunprobe evaluate: expected FACE_DIR and CAPTURE_DIR (see --help)\n");
+        return -1;
+    }
+    if (a->passes && !a->renders) {
+        fprintf(stderr, "sunprobe evaluate: --passes needs --renders DIR\n");
         return -1;
     }
     a->face = argv[optind];

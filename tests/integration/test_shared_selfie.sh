@@ -59,7 +59,10 @@ fi
 
 # the measuring instrument on the same fit: its registration must agree with the cameras above, and every
 # held-out image must be scored with finite figures (the fidelity targets themselves are tracked, not asserted)
-"$sp" evaluate "$tmp/face" "$cap" --json "$tmp/eval.json" || fail=1
+"$sp" evaluate "$tmp/face" "$cap" --json "$tmp/eval.json" --renders "$tmp/renders" --passes || fail=1
+# --passes: one float file per held-out view, readable by the residual tool (SUNSTAGE.md, "The residual by normal")
+python3 "$here/../../tools/bench/residual_by_normal.py" "$tmp/renders" nvs >"$tmp/residual.txt" &&
+    grep -q "^| all | [1-9]" "$tmp/residual.txt" || { echo "evaluate --passes: FAILED"; cat "$tmp/residual.txt"; fail=1; }
 python3 - "$tmp/eval.json" <<'PY' || fail=1
 import json, math, sys
 e = json.load(open(sys.argv[1]))
