@@ -334,7 +334,7 @@ relight_bad 8 "relight, zero camera quaternion" zq "cameras\.json.*camera_to_wor
 # ======== 9. fit of a capture whose frame timestamps are all equal: bad input (2), not a disk error
 edit equal "$I/sel.spcap" "$W/eq.spcap"
 run "$SP" fit "$W/eq.spcap" -o "$W/eqface" $FIT
-code 2; never "no space"; absent "$W/eqface"; leftovers "$W"
+code 2; never "no space"; says "same timestamp"; absent "$W/eqface"; leftovers "$W"
 verdict 9 "fit, all timestamps equal"
 
 # ======== 10. probe of content it cannot use: bad input (2), no probe

@@ -342,6 +342,11 @@ static int fittable(const sp_sunstage *ss, int n_keyframes)
     else if (c.skipped_no_orientation >= most)
         sp_log(SP_LOG_ERROR, MOD, "%llu of %llu frames have no camera orientation (IMU gaps or a filter that never "
                "settled): nothing to fit", (unsigned long long)c.skipped_no_orientation, frames);
+    else if (frames > 1 && ft[0] == ft[1]) /* no time between the frames, so no turn between them */
+        sp_log(SP_LOG_ERROR, MOD,
+               "the first and last of %llu frames carry the same timestamp (%.3f s), so they share one camera "
+               "orientation: the capture's frame times are broken (import --fps or --frame-times sets them)",
+               frames, (double)ft[0] * 1e-9);
     else if (c.skipped_undecodable >= most)
         sp_log(SP_LOG_ERROR, MOD, "%llu of %llu frames do not decode (damaged image data): nothing to fit",
                (unsigned long long)c.skipped_undecodable, frames);

@@ -46,7 +46,8 @@ static int write_still_imu(sp_capture_writer *w, int64_t start_ns, int64_t end_n
 
 /*
  * Writes a capture: n RGB24 frames at 15 fps (black or noise), with_imu 1: still IMU over them at
- * 200 Hz; 2: the same IMU 1000 s later (a clock that never meets the frames', as a recorder could write).
+ * 200 Hz; 2: the same IMU 1000 s later (a clock that never meets the frames', as a recorder could write);
+ * 3: as 1 with every frame at the first frame's time (a writer that stamped them all at once).
  */
 static int write_capture(const char *path, int n, content what, int with_imu)
 {
@@ -65,7 +66,7 @@ static int write_capture(const char *path, int n, content what, int with_imu)
     if (!ret)
         ret = sp_frame_pool_open(&pool, 1, FW * FH * 3);
     int64_t end_ns = (int64_t)n * 66666667 + 500000000;
-    if (!ret && with_imu == 1)
+    if (!ret && (with_imu == 1 || with_imu == 3))
         ret = write_still_imu(w, 0, end_ns);
     unsigned seed = 7;
     for (int i = 0; !ret && i < n; i++) {
@@ -77,7 +78,7 @@ static int write_capture(const char *path, int n, content what, int with_imu)
         f->height = FH;
         f->stride = FW * 3;
         f->bytes_used = FW * FH * 3;
-        f->timestamp_ns = 300000000 + (int64_t)i * 66666667;
+        f->timestamp_ns = 300000000 + (with_imu == 3 ? 0 : (int64_t)i * 66666667);
         f->sequence = (uint64_t)i;
         for (size_t k = 0; k < f->bytes_used; k++)
             f->data[k] = what == CONTENT_BLACK ? 0 : (uint8_t)(64 + (rand_r(&seed) % 128));
@@ -711,6 +712,7 @@ int main(int argc, char **argv)
         bad_input("noimu", 12, CONTENT_NOISE, 0, "no IMU");
         bad_input("lateimu", 12, CONTENT_NOISE, 2, "never overlap in time");
         bad_input("oneframe", 1, CONTENT_NOISE, 1, "no camera orientation");
+        bad_input("sametime", 12, CONTENT_NOISE, 3, "carry the same timestamp"); /* it said ENOSPC once */
         bad_input("black", 12, CONTENT_BLACK, 1, "12 of 12 frames are too dark");
         bad_input("noface", 12, CONTENT_NOISE, 1, "no face");
     }
