@@ -31,16 +31,6 @@ typedef struct record_args {
 #define LIVE_LINE_PERIOD 10       /* off a terminal, a live check line every this many 0.2 s ticks */
 #define LIVE_MAX_LAG_S 1.0        /* frames older than this when the tracker's turn comes are skipped */
 
-static sp_recorder *volatile g_recorder;
-
-static void on_signal(int sig)
-{
-    (void)sig;
-    sp_recorder *r = g_recorder;
-    if (r)
-        sp_recorder_request_stop(r); /* an atomic store: async-signal-safe */
-}
-
 static void usage(FILE *out)
 {
     fprintf(out,
@@ -175,21 +165,18 @@ static void print_summary(const char *path, const sp_camera_info *ci, const sp_r
         printf("%" PRIu64 " queued frames were not written after the write error\n", st->frames_discarded);
 }
 
-/* Runs an opened recorder to its end, with SIGINT/SIGTERM asking it to stop; the live check's status on
- * the progress line of a terminal, else on a line of its own every two seconds. */
+/* Runs an opened recorder to its end, a caught SIGINT/SIGTERM (sp_cmd_stop_signal) asking it to stop (a
+ * signal interrupts the sleep, so within a tick); the live check's status on the progress line of a terminal,
+ * else on a line of its own every two seconds. A signal that came while the recorder was opened stops it at
+ * once: the capture is then whole and empty. */
 static int run(sp_recorder *rec, const record_args *a, sp_live_check *check, sp_recorder_stats *st)
 {
-    struct sigaction sa, old_int, old_term;
-    memset(&sa, 0, sizeof(sa));
-    sa.sa_handler = on_signal;
-    sigemptyset(&sa.sa_mask);
-    g_recorder = rec;
-    sigaction(SIGINT, &sa, &old_int);
-    sigaction(SIGTERM, &sa, &old_term);
     int err = sp_recorder_start(rec);
     int tty = !a->quiet && isatty(STDERR_FILENO);
     char status[192] = "";
     for (unsigned tick = 1; err == 0 && !sp_recorder_finished(rec); tick++) {
+        if (sp_cmd_stop_signal)
+            sp_recorder_request_stop(rec);
         nanosleep(&(struct timespec){ 0, 200000000 }, NULL);
         if (check)
             sp_live_check_status(check, status, sizeof(status));
@@ -202,9 +189,6 @@ static int run(sp_recorder *rec, const record_args *a, sp_live_check *check, sp_
         fputc('\n', stderr);
     if (err == 0)
         err = sp_recorder_wait(rec, st);
-    sigaction(SIGINT, &old_int, NULL);
-    sigaction(SIGTERM, &old_term, NULL);
-    g_recorder = NULL;
     return err;
 }
 
@@ -239,11 +223,23 @@ int sp_cmd_record(int argc, char **argv)
     /* room for every queued frame plus the one being written and the one being captured:
        then a slow disk shows as counted queue drops, not as a starved camera */
     a.cam.pool_frames = a.rec.frame_queue + 2;
+    /* caught from the start: a signal before the capture file exists ends the command with nothing
+       written; one after it ends the recording, whole (run) */
+    sp_cmd_signals sig;
+    sp_cmd_catch_signals(&sig);
     sp_camera *cam = NULL;
     sp_imu_device *imu = NULL;
     int code = open_devices(&a, &cam, &imu);
-    if (code)
+    if (!code && sp_cmd_stop_signal) {
+        fprintf(stderr, "sunprobe " CMD ": stopped by a signal before recording began: nothing written\n");
+        code = sp_cmd_stopped_code(SP_EXIT_OK);
+        sp_imu_device_close(&imu);
+        sp_camera_close(&cam);
+    }
+    if (code) {
+        sp_cmd_restore_signals(&sig);
         return code;
+    }
     a.rec.camera = cam;
     a.rec.imu = imu;
     sp_recorder *rec = NULL;
@@ -271,5 +267,6 @@ int sp_cmd_record(int argc, char **argv)
     sp_recorder_close(&rec);
     sp_imu_device_close(&imu);
     sp_camera_close(&cam);
+    sp_cmd_restore_signals(&sig);
     return code;
 }
