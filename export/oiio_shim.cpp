@@ -26,6 +26,7 @@ int write_exr(const std::string &path, const float *pixels, uint32_t width, uint
     }
     OIIO::ImageSpec spec((int)width, (int)height, channels, OIIO::TypeDesc::FLOAT);
     spec.attribute("compression", "zip");
+    spec.attribute("DateTime", ""); /* else the writer stamps the clock's time: the same run, other bytes */
     bool ok = out->open(path, spec) && out->write_image(OIIO::TypeDesc::FLOAT, pixels);
     if (!ok)
         sp_log(SP_LOG_ERROR, "oiio", "%s: %s", path.c_str(), out->geterror().c_str());
@@ -127,6 +128,7 @@ extern "C" int sp_tiled_open(sp_tiled_image **out, const char *path, uint32_t wi
         OIIO::ImageSpec spec((int)width, (int)height, 3, exr ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT8);
         spec.tile_width = spec.tile_height = (int)tile;
         spec.attribute("compression", "zip");
+        spec.attribute("DateTime", ""); /* reproducible bytes, as above */
         t->band.reset(new float[(size_t)width * tile * 3]);
         if (!t->out->open(path, spec)) {
             sp_log(SP_LOG_ERROR, "oiio", "%s: %s", path, t->out->geterror().c_str());
