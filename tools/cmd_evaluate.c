@@ -23,6 +23,7 @@
 #include <string.h>
 
 #include "cmd.h"
+#include "common/atomic_file.h"
 #include "common/rigid.h"
 #include "common/file_util.h"
 #include "common/image_metrics.h"
@@ -317,7 +318,8 @@ static void save_pair(const eval_ctx *c, const char *kind, int index, const floa
  * "SPEV", int32 version 1, width, height, float32 sun direction (world, towards the sun) and intensity,
  * then float32 planes of width x height: the render (RGB, as scored), the truth (RGB), the rendered
  * face's coverage, the true mask (0/1), the shading normal (world xyz, unit; 0 off the head) and the
- * sun visibility (0..1). Native byte order. A failure is reported and skips the file.
+ * sun visibility (0..1). Native byte order. Written atomically, as the PNGs are; a failure is reported
+ * and skips the file.
  */
 static void save_passes(const eval_ctx *c, const char *kind, int index, const sp_face_view *v, const float *render,
                         const float *truth, const float *cover, const uint8_t *tmask, int w, int h)
@@ -340,8 +342,9 @@ static void save_passes(const eval_ctx *c, const char *kind, int index, const sp
         vis[i] = head[i] > 1e-6f ? fminf(1.0f, vis[i] / head[i]) : 0.0f;
         tm[i] = (float)tmask[i];
     }
-    FILE *f = ok ? fopen(path, "wb") : NULL;
-    if (f) {
+    sp_atomic_file af;
+    if (ok && !sp_atomic_file_open(&af, path)) {
+        FILE *f = af.file;
         int32_t hd[4] = { 0, 1, w, h };
         memcpy(hd, "SPEV", 4);
         float sun[4] = { (float)v->sun_dir[0], (float)v->sun_dir[1], (float)v->sun_dir[2], (float)v->sun_intensity };
@@ -349,7 +352,7 @@ static void save_passes(const eval_ctx *c, const char *kind, int index, const sp
             fwrite(render, sizeof(float), np * 3, f) == np * 3 && fwrite(truth, sizeof(float), np * 3, f) == np * 3 &&
             fwrite(cover, sizeof(float), np, f) == np && fwrite(tm, sizeof(float), np, f) == np &&
             fwrite(nrm, sizeof(float), np * 3, f) == np * 3 && fwrite(vis, sizeof(float), np, f) == np;
-        ok = fclose(f) == 0 && ok;
+        ok = sp_atomic_file_finish(&af, ok ? 0 : -EIO) == 0;
     } else {
         ok = 0;
     }
