@@ -40,6 +40,13 @@ enum sp_synth_face_source {
     SP_SYNTH_FACE_ICT = 2,     /* ICT only: -ENOENT (log names tools/fetch-ict-facekit.sh) without it */
 };
 
+/* What the background pixels show (the head is lit by the sky's environment map either way). */
+enum sp_synth_backdrop {
+    SP_SYNTH_BACKDROP_SKY = 0,  /* the environment map itself: smooth, nothing to track (default) */
+    SP_SYNTH_BACKDROP_CITY = 1, /* a procedural city panorama at infinity (buildings, windows, paved ground),
+                                   shaded by the sky: corners all round for rotation-only tracking */
+};
+
 enum sp_synth_frame_format {
     SP_SYNTH_FORMAT_AUTO = 0,  /* MJPEG when the build has libjpeg, else RGB24 */
     SP_SYNTH_FORMAT_MJPEG = 1, /* SP_EDISABLED (naming -Djpeg) without libjpeg */
@@ -83,6 +90,7 @@ typedef struct sp_synth_selfie_settings {
     double sun_intensity;     /* white irradiance at normal incidence; default 3 */
     double sky_intensity;     /* scale of the analytic sky radiance; default 1 */
     int overcast;             /* 1: sun 0, bright grey overcast sky; default 0 */
+    enum sp_synth_backdrop backdrop; /* background pixels; default SKY (the head's lighting never changes) */
     /* renderer */
     int supersample;          /* S x S samples per pixel; default 2 */
     int shadow_size;          /* default 512 */
