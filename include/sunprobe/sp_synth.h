@@ -70,6 +70,8 @@ typedef struct sp_synth_selfie_settings {
     double ae_drift;          /* random walk of log exposure per frame (std); default 0.01 */
     /* motion, IMU noise and bias: the fake IMU, used as given (its own seed sets the sway and IMU noise) */
     sp_fake_imu_settings imu; /* defaults: sp_fake_imu_default_settings with arm_radius_m 0.5 */
+    int no_imu;               /* 1: the capture holds no IMU samples and its META no "imu" (the motion and the
+                                 true-orientation side data stay); default 0 */
     double camera_height_m;   /* camera above the face centre (added to the fake IMU's position); default 0 */
     double head_wobble_deg;   /* head rotation relative to the body (slow sway); default 1 */
     /* face */

@@ -100,6 +100,8 @@ static const char *bad_field(const sp_synth_selfie_settings *s)
         return "n_relit / n_novel (0..64)";
     if (s->backdrop < SP_SYNTH_BACKDROP_SKY || s->backdrop > SP_SYNTH_BACKDROP_CITY)
         return "backdrop";
+    if (s->no_imu < 0 || s->no_imu > 1)
+        return "no_imu (0 or 1)";
     return NULL;
 }
 

@@ -448,7 +448,8 @@ static void manifest_motion(sp_strbuf *b, const sp_synth_selfie *g)
     sp_strbuf_json_numbers(b, gb, 3);
     sp_strbuf_printf(b, ",\"accel_noise\":%.17g,\"accel_bias\":", m->accel_noise);
     sp_strbuf_json_numbers(b, ab, 3);
-    sp_strbuf_printf(b, ",\"gyro_range\":%.17g,\"seed\":%llu},\n", m->gyro_range, (unsigned long long)m->seed);
+    sp_strbuf_printf(b, ",\"gyro_range\":%.17g,\"seed\":%llu%s},\n", m->gyro_range, (unsigned long long)m->seed,
+                     g->s.no_imu ? ",\"in_capture\":false" : ""); /* no_imu: the motion's IMU, not written */
 }
 
 int synth_write_truth(sp_synth_selfie *g, const char *dir, const char *capture_name, sp_synth_selfie_report *rep)
