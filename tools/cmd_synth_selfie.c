@@ -42,12 +42,16 @@ static void usage(FILE *out)
             "          --heading D  --pitch D  --arm M (0.5)  --wobble D (0.5)  --camera-height M (0)\n"
             "          --head-wobble D (1)  --imu-rate HZ (200)  --gyro-noise N  --accel-noise N\n"
             "          --gyro-bias X,Y,Z (deg/s)  --accel-bias X,Y,Z (m/s^2)  --imu-noiseless\n"
+            "          --no-imu (no IMU samples and no IMU in META; the motion and true orientation stay)\n"
             "face:     --face auto|generic|ict  --identity-sigma S (0.7)  --expression-max E (0.15)\n"
             "          --albedo-size ROWS (512)\n"
             "light:    --sun-elevation D (35)  --sun-azimuth D (150, from world +x towards +y)\n"
             "          --sun-intensity I (3)  --sky-intensity K (1)  --overcast\n"
             "          --utc ISO8601 --location LAT,LON   the sun from the clock instead of the two angles:\n"
             "                         world +x is magnetic north, the IMU gets a magnetometer\n"
+            "          --backdrop sky|city   what the background shows (sky): the sky map, or a city panorama\n"
+            "                         at infinity (buildings, windows, paving) shaded by that sky, for\n"
+            "                         rotation-only tracking; the head is lit by the sky either way\n"
             "render:   --supersample S (2)  --shadow-size N (512)\n"
             "truth:    --truth DIR  --no-truth  --relit N (6)  --novel N (6)\n"
             "sheet:    --contact-sheet FILE.png  --sheet-frames N (8)  --sheet-columns C (4)\n"
@@ -122,41 +126,119 @@ static int utc(const char *o, const char *s, sp_synth_selfie_settings *out)
 }
 
 enum opt_code {
-    O_WIDTH = 256, O_HEIGHT, O_FPS, O_FOCAL, O_FORMAT, O_JPEGQ, O_SHUTTER, O_BLUR, O_NOISE, O_EXPOSURE, O_NOAE,
-    O_AESPEED, O_AEDRIFT, O_STILL, O_TURNS, O_TURND, O_HEADING, O_PITCH, O_ARM, O_WOBBLE, O_CAMH, O_HEADW,
-    O_IMURATE, O_GNOISE, O_ANOISE, O_GBIAS, O_ABIAS, O_IMUQUIET, O_FACE, O_IDS, O_EXPMAX, O_ALBEDO, O_SUNEL,
-    O_SUNAZ, O_SUNI, O_SKYI, O_OVERCAST, O_SS, O_SHADOW, O_TRUTH, O_NOTRUTH, O_RELIT, O_NOVEL, O_SHEET,
-    O_SHEETN, O_SHEETC, O_SHEETAT, O_SEED, O_NOISELESS, O_PROGRESS, O_UTC, O_LOCATION,
+    O_WIDTH = 256,
+    O_HEIGHT,
+    O_FPS,
+    O_FOCAL,
+    O_FORMAT,
+    O_JPEGQ,
+    O_SHUTTER,
+    O_BLUR,
+    O_NOISE,
+    O_EXPOSURE,
+    O_NOAE,
+    O_AESPEED,
+    O_AEDRIFT,
+    O_STILL,
+    O_TURNS,
+    O_TURND,
+    O_HEADING,
+    O_PITCH,
+    O_ARM,
+    O_WOBBLE,
+    O_CAMH,
+    O_HEADW,
+    O_IMURATE,
+    O_GNOISE,
+    O_ANOISE,
+    O_GBIAS,
+    O_ABIAS,
+    O_IMUQUIET,
+    O_FACE,
+    O_IDS,
+    O_EXPMAX,
+    O_ALBEDO,
+    O_SUNEL,
+    O_SUNAZ,
+    O_SUNI,
+    O_SKYI,
+    O_OVERCAST,
+    O_SS,
+    O_SHADOW,
+    O_TRUTH,
+    O_NOTRUTH,
+    O_RELIT,
+    O_NOVEL,
+    O_SHEET,
+    O_SHEETN,
+    O_SHEETC,
+    O_SHEETAT,
+    O_SEED,
+    O_NOISELESS,
+    O_PROGRESS,
+    O_UTC,
+    O_LOCATION,
+    O_BACKDROP,
+    O_NOIMU,
 };
 
 static const struct option opts[] = {
-    { "help", no_argument, NULL, 'h' }, { "output", required_argument, NULL, 'o' },
-    { "width", required_argument, NULL, O_WIDTH }, { "height", required_argument, NULL, O_HEIGHT },
-    { "fps", required_argument, NULL, O_FPS }, { "focal-ratio", required_argument, NULL, O_FOCAL },
-    { "format", required_argument, NULL, O_FORMAT }, { "jpeg-quality", required_argument, NULL, O_JPEGQ },
-    { "shutter", required_argument, NULL, O_SHUTTER }, { "motion-blur", required_argument, NULL, O_BLUR },
-    { "noise", required_argument, NULL, O_NOISE }, { "exposure", required_argument, NULL, O_EXPOSURE },
-    { "no-ae", no_argument, NULL, O_NOAE }, { "ae-speed", required_argument, NULL, O_AESPEED },
-    { "ae-drift", required_argument, NULL, O_AEDRIFT }, { "still", required_argument, NULL, O_STILL },
-    { "turn-seconds", required_argument, NULL, O_TURNS }, { "turn-deg", required_argument, NULL, O_TURND },
-    { "heading", required_argument, NULL, O_HEADING }, { "pitch", required_argument, NULL, O_PITCH },
-    { "arm", required_argument, NULL, O_ARM }, { "wobble", required_argument, NULL, O_WOBBLE },
-    { "camera-height", required_argument, NULL, O_CAMH }, { "head-wobble", required_argument, NULL, O_HEADW },
-    { "imu-rate", required_argument, NULL, O_IMURATE }, { "gyro-noise", required_argument, NULL, O_GNOISE },
-    { "accel-noise", required_argument, NULL, O_ANOISE }, { "gyro-bias", required_argument, NULL, O_GBIAS },
-    { "accel-bias", required_argument, NULL, O_ABIAS }, { "imu-noiseless", no_argument, NULL, O_IMUQUIET },
-    { "face", required_argument, NULL, O_FACE }, { "identity-sigma", required_argument, NULL, O_IDS },
-    { "expression-max", required_argument, NULL, O_EXPMAX }, { "albedo-size", required_argument, NULL, O_ALBEDO },
-    { "utc", required_argument, NULL, O_UTC }, { "location", required_argument, NULL, O_LOCATION },
-    { "sun-elevation", required_argument, NULL, O_SUNEL }, { "sun-azimuth", required_argument, NULL, O_SUNAZ },
-    { "sun-intensity", required_argument, NULL, O_SUNI }, { "sky-intensity", required_argument, NULL, O_SKYI },
-    { "overcast", no_argument, NULL, O_OVERCAST }, { "supersample", required_argument, NULL, O_SS },
-    { "shadow-size", required_argument, NULL, O_SHADOW }, { "truth", required_argument, NULL, O_TRUTH },
-    { "no-truth", no_argument, NULL, O_NOTRUTH }, { "relit", required_argument, NULL, O_RELIT },
-    { "novel", required_argument, NULL, O_NOVEL }, { "contact-sheet", required_argument, NULL, O_SHEET },
-    { "sheet-frames", required_argument, NULL, O_SHEETN }, { "sheet-columns", required_argument, NULL, O_SHEETC },
-    { "sheet-at", required_argument, NULL, O_SHEETAT }, { "seed", required_argument, NULL, O_SEED },
-    { "noiseless", no_argument, NULL, O_NOISELESS }, { "progress", no_argument, NULL, O_PROGRESS },
+    { "help", no_argument, NULL, 'h' },
+    { "output", required_argument, NULL, 'o' },
+    { "width", required_argument, NULL, O_WIDTH },
+    { "height", required_argument, NULL, O_HEIGHT },
+    { "fps", required_argument, NULL, O_FPS },
+    { "focal-ratio", required_argument, NULL, O_FOCAL },
+    { "format", required_argument, NULL, O_FORMAT },
+    { "jpeg-quality", required_argument, NULL, O_JPEGQ },
+    { "shutter", required_argument, NULL, O_SHUTTER },
+    { "motion-blur", required_argument, NULL, O_BLUR },
+    { "noise", required_argument, NULL, O_NOISE },
+    { "exposure", required_argument, NULL, O_EXPOSURE },
+    { "no-ae", no_argument, NULL, O_NOAE },
+    { "ae-speed", required_argument, NULL, O_AESPEED },
+    { "ae-drift", required_argument, NULL, O_AEDRIFT },
+    { "still", required_argument, NULL, O_STILL },
+    { "turn-seconds", required_argument, NULL, O_TURNS },
+    { "turn-deg", required_argument, NULL, O_TURND },
+    { "heading", required_argument, NULL, O_HEADING },
+    { "pitch", required_argument, NULL, O_PITCH },
+    { "arm", required_argument, NULL, O_ARM },
+    { "wobble", required_argument, NULL, O_WOBBLE },
+    { "camera-height", required_argument, NULL, O_CAMH },
+    { "head-wobble", required_argument, NULL, O_HEADW },
+    { "imu-rate", required_argument, NULL, O_IMURATE },
+    { "gyro-noise", required_argument, NULL, O_GNOISE },
+    { "accel-noise", required_argument, NULL, O_ANOISE },
+    { "gyro-bias", required_argument, NULL, O_GBIAS },
+    { "accel-bias", required_argument, NULL, O_ABIAS },
+    { "imu-noiseless", no_argument, NULL, O_IMUQUIET },
+    { "face", required_argument, NULL, O_FACE },
+    { "identity-sigma", required_argument, NULL, O_IDS },
+    { "expression-max", required_argument, NULL, O_EXPMAX },
+    { "albedo-size", required_argument, NULL, O_ALBEDO },
+    { "utc", required_argument, NULL, O_UTC },
+    { "location", required_argument, NULL, O_LOCATION },
+    { "sun-elevation", required_argument, NULL, O_SUNEL },
+    { "sun-azimuth", required_argument, NULL, O_SUNAZ },
+    { "sun-intensity", required_argument, NULL, O_SUNI },
+    { "sky-intensity", required_argument, NULL, O_SKYI },
+    { "overcast", no_argument, NULL, O_OVERCAST },
+    { "supersample", required_argument, NULL, O_SS },
+    { "shadow-size", required_argument, NULL, O_SHADOW },
+    { "truth", required_argument, NULL, O_TRUTH },
+    { "no-truth", no_argument, NULL, O_NOTRUTH },
+    { "relit", required_argument, NULL, O_RELIT },
+    { "novel", required_argument, NULL, O_NOVEL },
+    { "contact-sheet", required_argument, NULL, O_SHEET },
+    { "sheet-frames", required_argument, NULL, O_SHEETN },
+    { "sheet-columns", required_argument, NULL, O_SHEETC },
+    { "sheet-at", required_argument, NULL, O_SHEETAT },
+    { "seed", required_argument, NULL, O_SEED },
+    { "noiseless", no_argument, NULL, O_NOISELESS },
+    { "progress", no_argument, NULL, O_PROGRESS },
+    { "backdrop", required_argument, NULL, O_BACKDROP },
+    { "no-imu", no_argument, NULL, O_NOIMU },
     { 0 },
 };
 
@@ -214,16 +296,23 @@ static int opt_motion(int c, const char *o, const char *v, sp_synth_selfie_setti
     case O_GBIAS: return vec3(o, v, DEG, &m->gyro_bias);
     case O_ABIAS: return vec3(o, v, 1.0, &m->accel_bias);
     case O_IMUQUIET: imu_quiet(m); return 0;
+    case O_NOIMU:
+        s->no_imu = 1;
+        return 0;
     default: return 1;
     }
 }
 
 static int opt_scene(int c, const char *o, const char *v, sp_synth_selfie_settings *s)
 {
-    static const char *const faces[] = { "auto", "generic", "ict" };
+    static const char *const faces[] = { "auto", "generic", "ict" }, *const backdrops[] = { "sky", "city" };
     int i = 0, bad;
     switch (c) {
     case O_FACE: bad = sp_opt_choice(CMD, o, v, faces, 3, &i); s->face = (enum sp_synth_face_source)i; return bad;
+    case O_BACKDROP:
+        bad = sp_opt_choice(CMD, o, v, backdrops, 2, &i);
+        s->backdrop = (enum sp_synth_backdrop)i;
+        return bad;
     case O_IDS: return num(o, v, 0, 10, &s->identity_sigma);
     case O_EXPMAX: return num(o, v, 0, 1, &s->expression_max);
     case O_ALBEDO: return u32num(o, v, 16, 4096, &s->albedo_height);

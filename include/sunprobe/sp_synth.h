@@ -40,6 +40,13 @@ enum sp_synth_face_source {
     SP_SYNTH_FACE_ICT = 2,     /* ICT only: -ENOENT (log names tools/fetch-ict-facekit.sh) without it */
 };
 
+/* What the background pixels show (the head is lit by the sky's environment map either way). */
+enum sp_synth_backdrop {
+    SP_SYNTH_BACKDROP_SKY = 0,  /* the environment map itself: smooth, nothing to track (default) */
+    SP_SYNTH_BACKDROP_CITY = 1, /* a procedural city panorama at infinity (buildings, windows, paved ground),
+                                   shaded by the sky: corners all round for rotation-only tracking */
+};
+
 enum sp_synth_frame_format {
     SP_SYNTH_FORMAT_AUTO = 0,  /* MJPEG when the build has libjpeg, else RGB24 */
     SP_SYNTH_FORMAT_MJPEG = 1, /* SP_EDISABLED (naming -Djpeg) without libjpeg */
@@ -63,6 +70,8 @@ typedef struct sp_synth_selfie_settings {
     double ae_drift;          /* random walk of log exposure per frame (std); default 0.01 */
     /* motion, IMU noise and bias: the fake IMU, used as given (its own seed sets the sway and IMU noise) */
     sp_fake_imu_settings imu; /* defaults: sp_fake_imu_default_settings with arm_radius_m 0.5 */
+    int no_imu;               /* 1: the capture holds no IMU samples and its META no "imu" (the motion and the
+                                 true-orientation side data stay); default 0 */
     double camera_height_m;   /* camera above the face centre (added to the fake IMU's position); default 0 */
     double head_wobble_deg;   /* head rotation relative to the body (slow sway); default 1 */
     /* face */
@@ -83,6 +92,7 @@ typedef struct sp_synth_selfie_settings {
     double sun_intensity;     /* white irradiance at normal incidence; default 3 */
     double sky_intensity;     /* scale of the analytic sky radiance; default 1 */
     int overcast;             /* 1: sun 0, bright grey overcast sky; default 0 */
+    enum sp_synth_backdrop backdrop; /* background pixels; default SKY (the head's lighting never changes) */
     /* renderer */
     int supersample;          /* S x S samples per pixel; default 2 */
     int shadow_size;          /* default 512 */

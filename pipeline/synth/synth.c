@@ -98,6 +98,10 @@ static const char *bad_field(const sp_synth_selfie_settings *s)
         return "supersample (1..8) / shadow_size (16..8192)";
     if (s->n_relit < 0 || s->n_relit > 64 || s->n_novel < 0 || s->n_novel > 64)
         return "n_relit / n_novel (0..64)";
+    if (s->backdrop < SP_SYNTH_BACKDROP_SKY || s->backdrop > SP_SYNTH_BACKDROP_CITY)
+        return "backdrop";
+    if (s->no_imu < 0 || s->no_imu > 1)
+        return "no_imu (0 or 1)";
     return NULL;
 }
 
@@ -249,6 +253,14 @@ static int alloc_buffers(sp_synth_selfie *g)
     g->bg_grid = malloc(((size_t)g->s.width / BG_STEP + 2) * ((size_t)g->s.height / BG_STEP + 2) * 3 * sizeof(double));
     if (!g->linear || !g->rgb || !g->frame_exposure || !g->bg_grid)
         return -ENOMEM;
+    if (g->s.backdrop == SP_SYNTH_BACKDROP_CITY) {
+        g->horizon_grid =
+            malloc(((size_t)g->s.width / BG_STEP + 2) * ((size_t)g->s.height / BG_STEP + 2) * 3 * sizeof(double));
+        g->city_corner = calloc(((size_t)g->s.width + 1) * ((size_t)g->s.height + 1), sizeof(synth_city_sample));
+        int ret = g->horizon_grid && g->city_corner ? synth_city_build(g->s.seed, &g->city) : -ENOMEM;
+        if (ret)
+            return ret;
+    }
     for (uint64_t i = 0; i < g->n_frames; i++)
         g->frame_exposure[i] = NAN;
     return 0;
@@ -365,6 +377,9 @@ void sp_synth_selfie_close(sp_synth_selfie **gp)
     free(g->rgb);
     free(g->frame_exposure);
     free(g->bg_grid);
+    free(g->horizon_grid);
+    free(g->city_corner);
+    synth_city_free(&g->city);
     sp_face_model_free(&g->own_model);
     free(g);
     *gp = NULL;
@@ -496,16 +511,137 @@ int synth_render_pose(sp_synth_selfie *g, const synth_pose *p, const double sun_
     return sp_render(g->r, &sc, out);
 }
 
-/* Environment radiance along the view ray of pixel (u, v). */
-static void ray_env(const sp_synth_selfie *g, const double R[9], const float *env, double u, double v, double rgb[3])
+/* World direction (unit) of the view ray through pixel (u, v). */
+static void ray_dir(const sp_synth_selfie *g, const double R[9], double u, double v, double d[3])
 {
-    double dc[3] = { (u - g->cx) / g->fx, (v - g->cy) / g->fy, 1.0 }, d[3];
+    double dc[3] = { (u - g->cx) / g->fx, (v - g->cy) / g->fy, 1.0 };
     for (int k = 0; k < 3; k++)
         d[k] = R[k] * dc[0] + R[3 + k] * dc[1] + R[6 + k] * dc[2];
     double n = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     for (int k = 0; k < 3; k++)
         d[k] /= n; /* n >= 1: the ray's camera z is 1 and R is a rotation */
+}
+
+/* Environment radiance along the view ray of pixel (u, v). */
+static void ray_env(const sp_synth_selfie *g, const double R[9], const float *env, double u, double v, double rgb[3])
+{
+    double d[3];
+    ray_dir(g, R, u, v, d);
     synth_env_lookup(env, d, rgb);
+}
+
+/* The sky 3 deg over the horizon at the azimuth of pixel (u, v)'s ray: what lights the city's facades. */
+static void ray_horizon(const sp_synth_selfie *g, const double R[9], const float *env, double u, double v,
+                        double rgb[3])
+{
+    double d[3];
+    ray_dir(g, R, u, v, d);
+    double h = sqrt(d[0] * d[0] + d[1] * d[1]);
+    if (!(h > 1e-9)) { /* straight up or down: any azimuth */
+        d[0] = 1.0;
+        d[1] = 0.0;
+        h = 1.0;
+    }
+    double e[3] = { d[0] / h * cos(3.0 * DEG), d[1] / h * cos(3.0 * DEG), sin(3.0 * DEG) };
+    synth_env_lookup(env, e, rgb);
+}
+
+static double luminance(const double c[3])
+{
+    return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+}
+
+/* Bilinear value of a BG_STEP grid (gw columns) at pixel (u, v). */
+static void grid_at(const double *grid, uint32_t gw, uint32_t u, uint32_t v, double out[3])
+{
+    uint32_t i = u / BG_STEP, j = v / BG_STEP;
+    double fx = (double)(u % BG_STEP) / BG_STEP, fy = (double)(v % BG_STEP) / BG_STEP;
+    const double *a = grid + (j * gw + i) * 3, *b = a + 3, *c = a + gw * 3, *d = c + 3;
+    for (int k = 0; k < 3; k++)
+        out[k] = (1 - fy) * ((1 - fx) * a[k] + fx * b[k]) + fy * ((1 - fx) * c[k] + fx * d[k]);
+}
+
+/* What the city shows at the corners of the pixels (i, j) .. (i + 1, j + 1) that need it (need[] set). */
+static void city_corners(const sp_synth_selfie *g, const double R[9])
+{
+    uint32_t cw = g->s.width + 1, ch = g->s.height + 1;
+    for (uint32_t j = 0; j < ch; j++)
+        for (uint32_t i = 0; i < cw; i++) {
+            synth_city_sample *cs = g->city_corner + (size_t)j * cw + i;
+            if (!cs->need)
+                continue;
+            double d[3], c[3], haze;
+            ray_dir(g, R, (double)i - 0.5, (double)j - 0.5, d);
+            cs->part = (uint8_t)synth_city_look(g->city, d, 1.0 / g->fx, c, &haze);
+            for (int k = 0; k < 3; k++)
+                cs->rgb[k] = (float)c[k];
+            cs->haze = (float)haze;
+        }
+}
+
+/*
+ * Radiance of the city backdrop behind pixel (u, v): the mean of its four corners (one evaluation per pixel,
+ * shared, antialiases the edges) shaded by the sky there (grid values; the sky is smooth, the city is not).
+ * lum_ground: the luminance of the env's ground (the same below the whole horizon) over its albedo, what a
+ * ground of reflectance 1 would show.
+ */
+static void city_pixel(const sp_synth_selfie *g, uint32_t gw, uint32_t u, uint32_t v, double lum_ground, double out[3])
+{
+    const double facade_k = 2.0; /* a facade of reflectance 0.5 matches the sky at the horizon */
+    double sky[3], hor[3];
+    grid_at(g->bg_grid, gw, u, v, sky);
+    grid_at(g->horizon_grid, gw, u, v, hor);
+    double lum_hor = luminance(hor);
+    size_t cw = g->s.width + 1;
+    const synth_city_sample *c0 = g->city_corner + v * cw + u, *cs[4] = { c0, c0 + 1, c0 + cw, c0 + cw + 1 };
+    out[0] = out[1] = out[2] = 0.0;
+    for (int n = 0; n < 4; n++) {
+        const synth_city_sample *c = cs[n];
+        double haze = (double)c->haze;
+        for (int k = 0; k < 3; k++) {
+            double r = c->part == SYNTH_CITY_SKY ? sky[k]
+                : c->part == SYNTH_CITY_FACADE   ? facade_k * (double)c->rgb[k] * lum_hor
+                                                 : (double)c->rgb[k] * lum_ground;
+            out[k] += 0.25 * ((1.0 - haze) * r + haze * hor[k]);
+        }
+    }
+}
+
+/* synth_accumulate for the city backdrop: the sky grids, the city at the background pixels' corners, then
+ * every background pixel on its own. */
+static void accumulate_city(const sp_synth_selfie *g, const synth_pose *p, const sp_render_outputs *o, const float *env,
+                            double weight, double *lin)
+{
+    uint32_t w = g->s.width, h = g->s.height, gw = w / BG_STEP + 2, gh = h / BG_STEP + 2;
+    static const double down[3] = { 0, 0, -1 };
+    double ground[3];
+    synth_env_lookup(env, down, ground);
+    double lum_ground = luminance(ground) / g->ground_albedo;
+    for (uint32_t j = 0; j < gh; j++)
+        for (uint32_t i = 0; i < gw; i++) {
+            ray_env(g, p->cam.R, env, (double)(i * BG_STEP), (double)(j * BG_STEP), g->bg_grid + (j * gw + i) * 3);
+            ray_horizon(g, p->cam.R, env, (double)(i * BG_STEP), (double)(j * BG_STEP),
+                        g->horizon_grid + (j * gw + i) * 3);
+        }
+    size_t cw = (size_t)w + 1;
+    for (size_t i = 0; i < cw * (h + 1); i++)
+        g->city_corner[i].need = 0;
+    for (uint32_t v = 0; v < h; v++)
+        for (uint32_t u = 0; u < w; u++)
+            if (1.0 - (double)o->coverage[(size_t)v * w + u] > 1e-6) {
+                synth_city_sample *c = g->city_corner + v * cw + u;
+                c[0].need = c[1].need = c[cw].need = c[cw + 1].need = 1;
+            }
+    city_corners(g, p->cam.R);
+    for (uint32_t v = 0; v < h; v++)
+        for (uint32_t u = 0; u < w; u++) {
+            size_t px = (size_t)v * w + u;
+            double bgw = 1.0 - (double)o->coverage[px], bg[3] = { 0, 0, 0 };
+            if (bgw > 1e-6)
+                city_pixel(g, gw, u, v, lum_ground, bg);
+            for (int k = 0; k < 3; k++)
+                lin[3 * px + (size_t)k] += weight * ((double)o->radiance[3 * px + (size_t)k] + bgw * bg[k]);
+        }
 }
 
 void synth_accumulate(const sp_synth_selfie *g, const synth_pose *p, const sp_render_outputs *o, const float *env,
@@ -514,6 +650,10 @@ void synth_accumulate(const sp_synth_selfie *g, const synth_pose *p, const sp_re
     /* the 16x32 sky varies slowly across the image: look it up every BG_STEP pixels, interpolate between */
     uint32_t w = g->s.width, h = g->s.height, gw = w / BG_STEP + 2, gh = h / BG_STEP + 2;
     env = env ? env : g->env;
+    if (g->city) {
+        accumulate_city(g, p, o, env, weight, lin);
+        return;
+    }
     for (uint32_t j = 0; j < gh; j++)
         for (uint32_t i = 0; i < gw; i++)
             ray_env(g, p->cam.R, env, (double)(i * BG_STEP), (double)(j * BG_STEP), g->bg_grid + (j * gw + i) * 3);

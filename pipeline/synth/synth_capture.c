@@ -4,6 +4,7 @@
  * timestamp, the frame (motion-blurred render + distant world, sensor noise,
  * tone map, JPEG) and its side data (landmarks, true orientation), then the
  * remaining IMU samples. Auto-exposure meters each frame and steers the next.
+ * With no_imu there are no IMU samples and META names no IMU.
  */
 #include "pipeline/synth/synth_internal.h"
 
@@ -51,16 +52,19 @@ static int write_meta(cap_state *c, const char *truth_rel)
     const sp_synth_selfie *g = c->g;
     const sp_fake_imu_settings *imu = &g->s.imu;
     sp_strbuf b = { 0 };
-    sp_strbuf_printf(&b, "{\"kind\":\"selfie\",\"source\":\"sunprobe synth selfie\",\"camera\":{\"name\":"
-                         "\"synthetic phone camera\",\"driver\":\"synthetic\",\"width\":%u,\"height\":%u,\"fps\":%.17g,"
-                         "\"fx\":%.17g,\"fy\":%.17g,\"cx\":%.17g,\"cy\":%.17g,\"focal_length_mm\":%.17g,"
-                         "\"sensor_width_mm\":%.17g,\"transfer\":\"sunprobe\"},",
-                     g->s.width, g->s.height, g->s.fps, g->fx, g->fy, g->cx, g->cy,
-                     g->s.focal_ratio * SENSOR_WIDTH_MM, SENSOR_WIDTH_MM);
-    sp_strbuf_printf(&b, "\"imu\":{\"name\":\"fake imu\",\"rate_hz\":%.17g,\"to_camera\":[%.17g,%.17g,%.17g,%.17g],"
-                         "\"time_offset_s\":0}",
-                     imu->rate_hz, imu->imu_to_camera.w, imu->imu_to_camera.x, imu->imu_to_camera.y,
-                     imu->imu_to_camera.z);
+    sp_strbuf_printf(&b,
+                     "{\"kind\":\"selfie\",\"source\":\"sunprobe synth selfie\",\"camera\":{\"name\":"
+                     "\"synthetic phone camera\",\"driver\":\"synthetic\",\"width\":%u,\"height\":%u,\"fps\":%.17g,"
+                     "\"fx\":%.17g,\"fy\":%.17g,\"cx\":%.17g,\"cy\":%.17g,\"focal_length_mm\":%.17g,"
+                     "\"sensor_width_mm\":%.17g,\"transfer\":\"sunprobe\"}",
+                     g->s.width, g->s.height, g->s.fps, g->fx, g->fy, g->cx, g->cy, g->s.focal_ratio * SENSOR_WIDTH_MM,
+                     SENSOR_WIDTH_MM);
+    if (!g->s.no_imu) /* --no-imu: no samples, so no IMU to describe */
+        sp_strbuf_printf(&b,
+                         ",\"imu\":{\"name\":\"fake imu\",\"rate_hz\":%.17g,\"to_camera\":[%.17g,%.17g,%.17g,"
+                         "%.17g],\"time_offset_s\":0}",
+                         imu->rate_hz, imu->imu_to_camera.w, imu->imu_to_camera.x, imu->imu_to_camera.y,
+                         imu->imu_to_camera.z);
     if (g->s.utc_start[0]) { /* the sun from the clock: magnetic north is the synthetic world's +x */
         sp_strbuf_printf(&b, ",\"utc_start\":");
         sp_strbuf_json_string(&b, g->s.utc_start);
@@ -77,13 +81,16 @@ static int write_meta(cap_state *c, const char *truth_rel)
     return ret;
 }
 
-/* IMU samples with timestamps up to t_ns, in batches; the first sample past t_ns is held for later. */
+/* IMU samples with timestamps up to t_ns, in batches; the first sample past t_ns is held for later. None
+ * without an IMU (--no-imu). */
 static int write_imu_until(cap_state *c, int64_t t_ns)
 {
     enum { BATCH = 256 };
     sp_imu_sample batch[BATCH];
     size_t n = 0;
     int ret = 0;
+    if (!c->imu)
+        return 0;
     for (;;) {
         if (!c->have_held) {
             ret = sp_fake_imu_next(c->imu, &c->held);
@@ -251,7 +258,7 @@ static int run(cap_state *c, const char *partial, const char *truth_rel)
     ws.sync = SP_SYNC_NONE; /* the file is renamed into place only when complete; close syncs */
     ws.overwrite = 1;
     int ret = sp_capture_writer_open(&c->w, partial, &ws);
-    if (!ret)
+    if (!ret && !g->s.no_imu)
         ret = sp_fake_imu_open(&c->imu, &g->s.imu);
     if (!ret)
         ret = write_meta(c, truth_rel);

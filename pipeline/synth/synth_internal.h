@@ -18,7 +18,18 @@ enum synth_stream {
     SYNTH_STREAM_LOOK = 2,
     SYNTH_STREAM_NOISE = 3,
     SYNTH_STREAM_AE = 4,
+    SYNTH_STREAM_BACKDROP = 5,
 };
+
+typedef struct synth_city synth_city; /* synth_backdrop.c */
+
+/* What the city shows at one pixel corner (synth.c): enum synth_city_part, colour, haze. */
+typedef struct synth_city_sample {
+    float rgb[3];
+    float haze;
+    uint8_t part;
+    uint8_t need; /* a background pixel has this corner */
+} synth_city_sample;
 
 typedef struct synth_rng {
     uint64_t state;
@@ -92,6 +103,11 @@ struct sp_synth_selfie {
     double *linear;         /* 3 * w * h exposed linear values */
     uint8_t *rgb;           /* 3 * w * h display bytes */
     double *bg_grid;        /* sky behind the head every BG_STEP pixels: (w / BG_STEP + 2) * (h / BG_STEP + 2) * 3 */
+    /* the city backdrop (NULL for the sky), the sky at the horizon of each bg_grid point's azimuth, the city
+       at the pixels' corners: (w + 1) * (h + 1) */
+    synth_city *city;
+    double *horizon_grid;
+    synth_city_sample *city_corner;
 };
 
 /* A rendering pose: camera and the head's face params. */
@@ -149,6 +165,19 @@ void synth_build_env(const sp_synth_selfie_settings *s, const double sun_dir[3],
                      double ground_albedo, float *env);
 /* Bilinear radiance of the env map in a world direction (unit). */
 void synth_env_lookup(const float *env, const double dir[3], double rgb[3]);
+
+/* ---- synth_backdrop.c: the city panorama at infinity (--backdrop city) ---- */
+enum synth_city_part { SYNTH_CITY_SKY = 0, SYNTH_CITY_FACADE = 1, SYNTH_CITY_GROUND = 2 };
+/* Draws the panorama of a seed (its own random stream). *out: synth_city_free. */
+int synth_city_build(uint64_t seed, synth_city **out);
+void synth_city_free(synth_city **c);
+/*
+ * What world direction d (unit) shows for a pixel px_rad radians across (details smaller than ~2 pixels
+ * fade to their mean): the part, its reflectance-like colour (1 for the sky) and how much of it is haze
+ * (0..1, the weight of the horizon sky's colour in front of it).
+ */
+enum synth_city_part synth_city_look(const synth_city *c, const double d[3], double px_rad, double rgb[3],
+                                     double *haze);
 
 /* ---- synth_capture.c ---- */
 int synth_write_capture(sp_synth_selfie *g, const char *path, const char *truth_rel, sp_synth_selfie_report *rep,

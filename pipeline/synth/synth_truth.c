@@ -423,6 +423,10 @@ static void manifest_lighting(sp_strbuf *b, const sp_synth_selfie *g, const file
                         "column j: azimuth from +x towards +y\"},\n",
                      s->sun_elevation_deg, s->sun_azimuth_deg, g->sun_intensity, s->overcast ? "overcast" : "clear",
                      s->sky_intensity, g->ground_albedo, fn->env_png, SP_RENDER_ENV_H, SP_RENDER_ENV_W);
+    if (s->backdrop == SP_SYNTH_BACKDROP_CITY) /* the default (the sky map) leaves the manifest as it was */
+        sp_strbuf_printf(b,
+                         "\"backdrop\":{\"kind\":\"city\",\"note\":\"background pixels show a city panorama "
+                         "at infinity shaded by the sky; the head is lit by env.pfm alone\"},\n");
 }
 
 static void manifest_motion(sp_strbuf *b, const sp_synth_selfie *g)
@@ -444,7 +448,8 @@ static void manifest_motion(sp_strbuf *b, const sp_synth_selfie *g)
     sp_strbuf_json_numbers(b, gb, 3);
     sp_strbuf_printf(b, ",\"accel_noise\":%.17g,\"accel_bias\":", m->accel_noise);
     sp_strbuf_json_numbers(b, ab, 3);
-    sp_strbuf_printf(b, ",\"gyro_range\":%.17g,\"seed\":%llu},\n", m->gyro_range, (unsigned long long)m->seed);
+    sp_strbuf_printf(b, ",\"gyro_range\":%.17g,\"seed\":%llu%s},\n", m->gyro_range, (unsigned long long)m->seed,
+                     g->s.no_imu ? ",\"in_capture\":false" : ""); /* no_imu: the motion's IMU, not written */
 }
 
 int synth_write_truth(sp_synth_selfie *g, const char *dir, const char *capture_name, sp_synth_selfie_report *rep)

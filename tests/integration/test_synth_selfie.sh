@@ -2,7 +2,8 @@
 # SPDX-License-Identifier: MIT
 # `sunprobe synth selfie` end to end: a short small capture passes info and verify with the
 # expected frame and IMU counts, the truth directory and contact sheet exist, the same seed gives
-# the same bytes, --overcast gives a zero sun, bad options get exit code 1.
+# the same bytes, --overcast gives a zero sun, --backdrop sky is the default and city changes only the
+# background, --no-imu writes no IMU samples, bad options get exit code 1.
 set -u
 SP=$1
 . "$(dirname "$0")/cli_lib.sh" selfie
@@ -48,6 +49,32 @@ cmp -s -i 64 "$dir/a/s.spcap" "$dir/b/o.spcap" && fail "another seed gave the sa
 expect 0 "synth selfie overcast" "$SP" synth selfie -o "$dir/b/c.spcap" "${small[@]}" --overcast --truth "$dir/ct"
 contains "$dir/ct/truth.json" '"sun":\{[^}]*"intensity":0,' "overcast sun intensity 0"
 contains "$dir/ct/truth.json" '"model":"overcast"' "overcast sky model"
+
+# --backdrop: sky is the default to the byte; city changes the background only (the face's metering, hence
+# every frame's exposure, and the landmarks stay), and the truth says so
+mkdir -p "$dir/sky" "$dir/city"
+expect 0 "synth selfie --backdrop sky" "$SP" synth selfie -o "$dir/sky/s.spcap" "${small[@]}" --backdrop sky
+cmp -s -i 64 "$dir/a/s.spcap" "$dir/sky/s.spcap" || fail "--backdrop sky differs from the default capture"
+cmp -s "$t/truth.json" "$dir/sky/s.truth/truth.json" || fail "--backdrop sky differs from the default truth"
+expect 0 "synth selfie --backdrop city" "$SP" synth selfie -o "$dir/city/s.spcap" "${small[@]}" --backdrop city
+cmp -s -i 64 "$dir/a/s.spcap" "$dir/city/s.spcap" && fail "--backdrop city gave the default capture"
+cmp -s "$t/frames.json" "$dir/city/s.truth/frames.json" || fail "--backdrop city changed the exposures or landmarks"
+cmp -s "$t/heldout/relit_00.png" "$dir/city/s.truth/heldout/relit_00.png" && fail "--backdrop city: held-out frame unchanged"
+contains "$dir/city/s.truth/truth.json" '"backdrop":\{"kind":"city"' "city backdrop in the manifest"
+grep -q '"backdrop"' "$t/truth.json" && fail "the default manifest names a backdrop"
+expect 0 "info city" "$SP" info "$dir/city/s.spcap"
+contains "$dir/out.txt" "frames\[0\]: +31 " "city frame count"
+expect 1 "synth selfie bad backdrop" "$SP" synth selfie -o "$dir/x.spcap" --backdrop foo
+contains "$dir/err.txt" "selfie: --backdrop 'foo'" "bad --backdrop names the option"
+
+# --no-imu: frames and side data, no IMU samples, and META names no IMU
+expect 0 "synth selfie --no-imu" "$SP" synth selfie -o "$dir/b/n.spcap" "${small[@]}" --no-imu --no-truth
+contains "$dir/out.txt" " 0 IMU samples" "--no-imu summary"
+expect 0 "info --no-imu" "$SP" info "$dir/b/n.spcap"
+contains "$dir/out.txt" "imu: +none" "--no-imu: info finds no IMU samples"
+contains "$dir/out.txt" " 0 imu, 62 side" "--no-imu: no IMU chunks, both side data"
+grep -q "fake imu" "$dir/out.txt" && fail "--no-imu: META still names an IMU"
+contains "$dir/out.txt" "frames\[0\]: +31 " "--no-imu frame count"
 
 expect 0 "synth selfie --help" "$SP" synth selfie --help
 expect 1 "synth selfie without output" "$SP" synth selfie

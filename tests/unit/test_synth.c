@@ -259,6 +259,44 @@ static void test_capture(void)
     test_truth_dir(truth, want_frames);
 }
 
+/*
+ * The city backdrop without IMU: every frame and both side data, no IMU sample and no "imu" in META; the same
+ * seed gives the same chunks, and they differ from the sky backdrop's.
+ */
+static void test_city_no_imu(void)
+{
+    sp_synth_selfie_settings s;
+    small_settings(&s);
+    s.format = SP_SYNTH_FORMAT_RGB24;
+    char c1[320], c2[320], c3[320];
+    path_in(c1, sizeof(c1), "city1.spcap");
+    path_in(c2, sizeof(c2), "city2.spcap");
+    path_in(c3, sizeof(c3), "sky.spcap");
+    s.no_imu = 1;
+    CHECK_EQ_INT(generate(&s, c3, NULL, NULL), 0);
+    s.backdrop = SP_SYNTH_BACKDROP_CITY;
+    sp_synth_selfie_report rep;
+    CHECK_EQ_INT(generate(&s, c1, NULL, &rep), 0);
+    CHECK_EQ_INT(generate(&s, c2, NULL, NULL), 0);
+    CHECK_EQ_INT(rep.imu_samples, 0);
+    scan a, b, c;
+    CHECK_EQ_INT(scan_capture(c1, 96, 96, &a), 0);
+    CHECK_EQ_INT(scan_capture(c2, 96, 96, &b), 0);
+    CHECK_EQ_INT(scan_capture(c3, 96, 96, &c), 0);
+    CHECK_EQ_INT(a.frames, 31);
+    CHECK_EQ_INT(a.imu, 0);
+    CHECK_EQ_INT(a.lm_chunks, 31);
+    CHECK_EQ_INT(a.ori_chunks, 31);
+    CHECK(a.payload_crc == b.payload_crc);
+    CHECK(a.payload_crc != c.payload_crc);
+    char err[128];
+    sp_json *meta = NULL;
+    CHECK_EQ_INT(sp_json_parse(a.meta_json, strlen(a.meta_json), &meta, err, sizeof(err)), 0);
+    CHECK(meta && sp_json_get(meta, "imu") == NULL);
+    CHECK(meta && sp_json_get(meta, "camera") != NULL);
+    sp_json_free(meta);
+}
+
 /* Same seed: identical chunks and truth files; another seed: different frames. */
 static void test_determinism(void)
 {
@@ -426,9 +464,15 @@ static void test_bad_settings(void)
 {
     sp_synth_selfie_settings s;
     sp_synth_selfie *g = NULL;
-    for (int k = 0; k < 9; k++) {
+    for (int k = 0; k < 11; k++) {
         small_settings(&s);
         switch (k) {
+        case 9:
+            s.backdrop = (enum sp_synth_backdrop)2;
+            break;
+        case 10:
+            s.no_imu = 2;
+            break;
         case 0: s.width = 8; break;
         case 1: s.imu.arm_radius_m = 0.1; break;
         case 2: s.fps = 0; break;
@@ -631,6 +675,7 @@ int main(void)
     test_frames_match_renderer();
     test_overcast();
     test_bad_settings();
+    test_city_no_imu();
     test_extremes();
     test_relative_truth();
     test_street();
