@@ -15,6 +15,8 @@ typedef int (*image_decode_fn)(const uint8_t *, size_t, uint8_t **, size_t *, ui
 typedef int (*writer_open_fn)(sp_cv_video_writer **, const char *, uint32_t, uint32_t, double);
 typedef int (*video_write_fn)(sp_cv_video_writer *, const uint8_t *, uint32_t);
 typedef int (*writer_close_fn)(sp_cv_video_writer **);
+typedef int (*track_corners_fn)(const uint8_t *, const uint8_t *, uint32_t, uint32_t, const uint8_t *, const double *,
+                                unsigned, double, double, double, float *, unsigned *);
 
 /* name's function from the module, looked up once (each forwarder has its slot, name##_slot) */
 #define SYMBOL(type, name) ((type)sp_module_symbol_cached(&sp_module_opencv_import, #name, &name##_slot))
@@ -86,4 +88,14 @@ int sp_cv_video_writer_close(sp_cv_video_writer **w)
         return 0;
     writer_close_fn fn = SYMBOL(writer_close_fn, sp_cv_video_writer_close);
     return fn ? fn(w) : SP_EMODULE;
+}
+
+static sp_module_slot sp_cv_track_corners_slot;
+int sp_cv_track_corners(const uint8_t *from, const uint8_t *to, uint32_t width, uint32_t height, const uint8_t *mask,
+                        const double guess[9], unsigned max_corners, double min_distance, double min_eigen,
+                        double max_fb_px, float *pairs, unsigned *n)
+{
+    track_corners_fn fn = SYMBOL(track_corners_fn, sp_cv_track_corners);
+    return fn ? fn(from, to, width, height, mask, guess, max_corners, min_distance, min_eigen, max_fb_px, pairs, n)
+              : SP_EMODULE;
 }

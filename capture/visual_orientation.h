@@ -1,0 +1,68 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Camera orientation from the video alone, for captures without an IMU
+ * (ORIENTATION.md, "Without an IMU"). A selfie turn moves the camera on a
+ * circle of arm's length, small against the distance of the background, so the
+ * background moves by a rotation only: corners tracked from frame to frame give
+ * each step's rotation (a two-point RANSAC, then least squares). The person
+ * moves with the camera, so of two well-supported motions the one that is not
+ * the identity is the world's. The chain drifts; when the turn comes back to
+ * where it started, the first frame is matched again and the difference is
+ * spread over the turn (loop closure). World up is the turn's axis (a person
+ * turns about the vertical), or the first frame's up when the turn is too
+ * short to say, which the result reports. The heading is relative: world +x is
+ * the first frame's forward direction on the horizon.
+ *
+ * Memory: the first frame and the last one at the working resolution (a
+ * 1920-px video is tracked at 480 px) and 48 bytes per frame.
+ */
+#ifndef SUNPROBE_CAPTURE_VISUAL_ORIENTATION_H
+#define SUNPROBE_CAPTURE_VISUAL_ORIENTATION_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "common/private_api.h"
+#include "sunprobe/sp_frame.h"
+#include "sunprobe/sp_math.h"
+
+typedef struct sp_vo_settings {
+    uint32_t width, height; /* the capture's frame size */
+    double fx, fy, cx, cy;  /* its intrinsics, pixels */
+} sp_vo_settings;
+
+typedef struct sp_vo_result {
+    uint64_t frames;
+    uint64_t coasted;      /* frames whose step had too few background tracks: the last step repeated */
+    double median_inliers; /* tracks agreeing with each step's rotation, median over the steps */
+    double turn_deg;       /* the sum of the step rotations */
+    int loop_closed;       /* the first frame was found again */
+    uint64_t loop_frame;   /* ... at this frame */
+    unsigned loop_inliers;
+    double loop_correction_deg; /* the drift the closure removed */
+    int up_from_turn;           /* world up is the turn's axis (else the first frame's up) */
+    double turn_axis_share;     /* how much of the rotation is about that axis (0..1) */
+} sp_vo_result;
+
+typedef struct sp_vo sp_vo;
+
+/* -EINVAL for a size or intrinsics that are not usable. */
+SP_PRIVATE int sp_vo_open(sp_vo **out, const sp_vo_settings *s);
+/*
+ * One frame, in capture order (borrowed), with the face's 68 landmarks (x, y in capture pixels,
+ * Multi-PIE order) when known, else NULL: the person around them is no background. SP_EMODULE
+ * without OpenCV; -EINVAL for another size.
+ */
+SP_PRIVATE int sp_vo_push(sp_vo *v, const sp_frame *frame, const float *landmarks);
+/*
+ * Closes the loop and sets world up; *r says how it went. SP_ENODATA when the
+ * background could not be tracked (over a fifth of the steps coasted, or no
+ * step found a rotation): the orientations are then not to be used.
+ */
+SP_PRIVATE int sp_vo_finish(sp_vo *v, sp_vo_result *r);
+/* Camera-to-world of frame i (0-based, in push order; world z up, camera x right, y down, z forward)
+   after sp_vo_finish; *tracked is 0 for a coasted frame. -ERANGE past the end. */
+SP_PRIVATE int sp_vo_camera(const sp_vo *v, size_t i, sp_quat *camera_to_world, int *tracked);
+SP_PRIVATE void sp_vo_close(sp_vo **v);
+
+#endif
