@@ -96,6 +96,11 @@ static int attach_side(tagger *g, const sp_event *ev)
 /* Orientation of a waiting frame; 1 when it must wait longer (unless forced). */
 static int resolve(tagger *g, waiting *w, int force)
 {
+    if (g->set.orientation_for) {
+        int ret = g->set.orientation_for(g->set.orientation_user, w->frame->sequence, w->t, &w->tags.camera_to_world);
+        w->tags.orientation = ret == 0 ? SP_ORIENTATION_OK : SP_ORIENTATION_NOT_COVERED;
+        return 0;
+    }
     if (w->no_imu) {
         w->tags.orientation = SP_ORIENTATION_NO_IMU;
         return 0;
@@ -181,6 +186,10 @@ static int take(tagger *g, sp_event *in)
         on_meta(g, in);
         return 1;
     case SP_EVENT_IMU: {
+        if (g->set.orientation_for) { /* orientation comes from elsewhere: the samples only pass */
+            g->stats.imu_samples++;
+            return 1;
+        }
         int ret = g->filter ? 0 : open_filter(g);
         if (ret)
             return ret;

@@ -33,6 +33,11 @@ typedef struct sp_tagger_settings {
     /* frames held at once (2..1024, default 32: about 1 s at 30 fps, the filter's usual start-up). They are
        frame references of the inner source: a replay's pool needs this many frames on top of its own. */
     unsigned max_waiting;
+    /* Camera orientation from elsewhere (e.g. the video-orientation pre-pass of a capture without an IMU):
+       when set, every frame's orientation comes from it and the IMU filter is never opened. It returns 0
+       with *camera_to_world, or non-zero when it has none for the frame (NOT_COVERED). NULL: the IMU. */
+    int (*orientation_for)(void *user, uint64_t sequence, int64_t timestamp_ns, sp_quat *camera_to_world);
+    void *orientation_user;
 } sp_tagger_settings;
 
 typedef struct sp_tagger_stats {

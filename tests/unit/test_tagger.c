@@ -257,6 +257,63 @@ static void test_no_imu(const char *path)
     CHECK(!t.stats.have_filter);
 }
 
+/* Orientation from elsewhere (the video pass): every frame takes it, odd sequences have none; the IMU
+   filter is never opened, so nothing is thinned while it would have settled. */
+static int orientation_by_sequence(void *user, uint64_t sequence, int64_t t, sp_quat *q)
+{
+    (void)t;
+    (*(int *)user)++;
+    if (sequence % 2)
+        return SP_ENODATA;
+    *q = sp_quat_from_axis_angle((sp_vec3){ 0, 0, 1 }, (double)sequence * DEG);
+    return 0;
+}
+
+static void test_orientation_from_elsewhere(const char *path)
+{
+    sp_fake_imu_settings g;
+    phone_settings(&g, (sp_quat){ 1, 0, 0, 0 });
+    cap_opts o = { .video_start_ns = 0, .to_camera = { 1, 0, 0, 0 }, .with_imu = 1 };
+    int n = make_capture(path, &o, &g);
+    sp_tagger_settings ts;
+    sp_tagger_default_settings(&ts);
+    ts.max_waiting = 4; /* with the IMU this ring thins 10 or more frames (test_thinning) */
+    int calls = 0;
+    ts.orientation_for = orientation_by_sequence;
+    ts.orientation_user = &calls;
+    sp_replay_settings rs;
+    sp_replay_default_settings(&rs);
+    rs.pool_frames += ts.max_waiting;
+    sp_source *replay = NULL, *tagger = NULL;
+    CHECK_EQ_INT(sp_replay_open(&replay, path, &rs), 0);
+    CHECK_EQ_INT(sp_tagger_open(&tagger, replay, &ts), 0);
+    sp_event ev;
+    int frames = 0, right = 0, imu = 0;
+    while (tagger && sp_source_next(tagger, &ev) == 0) {
+        imu += ev.type == SP_EVENT_IMU;
+        if (ev.type == SP_EVENT_FRAME) {
+            frames++;
+            uint64_t seq = ev.frame->sequence;
+            if (seq % 2)
+                right += ev.tags->orientation == SP_ORIENTATION_NOT_COVERED;
+            else
+                right += ev.tags->orientation == SP_ORIENTATION_OK &&
+                    fabs(sp_quat_angle_between(ev.tags->camera_to_world, sp_quat_identity()) / DEG -
+                         (double)(seq % 360 <= 180 ? seq % 360 : 360 - seq % 360)) < 1e-6;
+        }
+        sp_event_release(&ev);
+    }
+    sp_tagger_stats st;
+    CHECK_EQ_INT(sp_tagger_get_stats(tagger, &st), 0);
+    CHECK_EQ_INT(frames, n);
+    CHECK_EQ_INT(right, n);
+    CHECK_EQ_INT(calls, n);
+    CHECK_EQ_INT(st.thinned, 0);
+    CHECK(!st.have_filter && imu > 0 && st.imu_samples == (uint64_t)imu); /* the samples pass, unused */
+    sp_source_close(&tagger);
+    sp_source_close(&replay);
+}
+
 static void test_settings(void)
 {
     sp_source *out = NULL, *inner = NULL;
@@ -281,6 +338,7 @@ int main(void)
     test_to_camera_is_used(path);
     test_thinning(path);
     test_no_imu(path);
+    test_orientation_from_elsewhere(path);
     unlink(path);
     return check_exit();
 }
