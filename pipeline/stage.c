@@ -10,11 +10,7 @@
 #include "stages/stages.h"
 
 static const sp_stage_ops *const registry[] = {
-    &sp_stage_null,
-    &sp_stage_stats,
-    &sp_stage_orientation,
-    &sp_stage_landmarks,
-    NULL,
+    &sp_stage_null, &sp_stage_stats, &sp_stage_orientation, &sp_stage_landmarks, &sp_stage_video_orientation, NULL,
 };
 
 const sp_stage_ops *const *sp_stage_registry(void)

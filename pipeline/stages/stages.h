@@ -21,6 +21,13 @@ extern const sp_stage_ops sp_stage_null;
 extern const sp_stage_ops sp_stage_stats;
 extern const sp_stage_ops sp_stage_orientation; /* tagged: writes the tagger's orientation per frame */
 extern const sp_stage_ops sp_stage_landmarks;   /* the landmark tracker on every frame */
+extern SP_PRIVATE const sp_stage_ops sp_stage_video_orientation; /* orientation from the video alone (no IMU) */
+/* After that stage finished (ctx: its sp_stage.ctx): a frame's camera-to-world by sequence, shaped as
+   sp_tagger_settings.orientation_for; SP_ENODATA for a frame it has not, or only coasted through. */
+SP_PRIVATE int sp_video_orientation_for(void *ctx, uint64_t sequence, int64_t timestamp_ns, sp_quat *camera_to_world);
+/* How the tracking went (valid once finish ran, also when it failed). */
+struct sp_vo_result;
+SP_PRIVATE int sp_video_orientation_result(void *ctx, struct sp_vo_result *out);
 
 /* "fit": the SunStage front end (tagged frames into the keyframe reservoir); ctx is the sp_sunstage. */
 typedef struct sp_fit_stage_settings {

@@ -327,7 +327,7 @@ static int fittable(const sp_sunstage *ss, int n_keyframes)
         sp_log(SP_LOG_ERROR, MOD, "%d keyframe(s) and no frames streamed: nothing to fit", n_keyframes);
         return 0;
     }
-    if (!c.imu_samples) {
+    if (!c.imu_samples && c.skipped_no_orientation >= most) { /* orientation from the video tags frames without */
         sp_log(SP_LOG_ERROR, MOD, "the capture has no IMU samples: SunStage needs the camera orientation per frame");
         return 0;
     }
