@@ -23,6 +23,9 @@ typedef struct sp_check_report {
     int light_from_face;                /* 1: measured in the landmarks' box (faces on most frames), 0: the frame's centre */
     double face_share;                  /* frames with landmarks (side data, else dlib), NaN when not looked for */
     size_t face_skipped;                /* live: sampled frames whose face was not looked for, the check being behind */
+    /* without gyroscope samples, `check` tracks the background as the fit would (video_orientation.h) */
+    int video_checked, video_ok, video_loop_closed;
+    size_t video_frames, video_coasted;
 } sp_check_report;
 
 /*

@@ -5,11 +5,14 @@
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "check_capture.h"
 #include "cmd.h"
 #include "common/atomic_file.h"
+#include "common/module.h"
+#include "video_orientation.h"
 
 #define CMD "check"
 
@@ -84,15 +87,25 @@ static void judge(const sp_check_report *r, verdicts *v)
         say(v, r->face_share < MIN_FACES ? 2 : r->face_share < GOOD_FACES ? 1 : 0, "face", "found on %.0f %% of frames%s%s",
             100 * r->face_share, skipped,
             r->face_share < GOOD_FACES ? ": keep the whole face in the frame, lit, at arm's length" : "");
-    if (!r->gyro_samples) {
-        say(v, 2, "imu", "no gyroscope samples: the fit needs the IMU's orientation (import one with --imu)");
+    if (!r->gyro_samples && r->video_checked && r->video_ok) {
+        say(v, 0, "imu", "none: the camera orientation comes from the video (%zu of %zu frames tracked%s)",
+            r->video_frames - r->video_coasted, r->video_frames, r->video_loop_closed ? ", the loop closed" : "");
+    } else if (!r->gyro_samples) {
+        say(v, 2, "imu",
+            "no gyroscope samples%s (import one with --imu, or film in front of a textured background "
+            "far away)",
+            r->video_checked ? ", and the background cannot be tracked in the video" : "");
         return;
+    } else {
+        say(v,
+            r->imu_coverage < MIN_COVERAGE ? 2
+                : r->gyro_hz < MIN_GYRO_HZ ? 1
+                                           : 0,
+            "imu", "gyro at %.0f Hz covering %.0f %% of the frames%s", r->gyro_hz, 100 * r->imu_coverage,
+            r->imu_coverage < MIN_COVERAGE ? ": the clocks do not line up (import --imu-offset)"
+                : r->gyro_hz < MIN_GYRO_HZ ? ": record the gyroscope at 100 Hz or more"
+                                           : "");
     }
-    say(v, r->imu_coverage < MIN_COVERAGE ? 2 : r->gyro_hz < MIN_GYRO_HZ ? 1 : 0, "imu",
-        "gyro at %.0f Hz covering %.0f %% of the frames%s", r->gyro_hz, 100 * r->imu_coverage,
-        r->imu_coverage < MIN_COVERAGE ? ": the clocks do not line up (import --imu-offset)"
-        : r->gyro_hz < MIN_GYRO_HZ     ? ": record the gyroscope at 100 Hz or more"
-                                       : "");
     say(v, r->turn_range_deg < MIN_TURN_DEG ? 2 : r->turn_range_deg < GOOD_TURN_DEG ? 1 : 0, "turn",
         "%.0f deg turned about gravity (net %.0f deg)%s", r->turn_range_deg, r->turn_deg,
         r->turn_range_deg < GOOD_TURN_DEG ? ": re-shoot turning a full circle in place" : "");
@@ -142,6 +155,31 @@ static int write_json(const char *path, const sp_check_report *r, const sp_check
     return sp_atomic_file_finish(&f, ferror(f.file) ? -EIO : sp_cmd_stop_signal ? -ECANCELED : 0);
 }
 
+/* No gyroscope: the background tracked as the fit would, its turn in place of the IMU's. */
+static int check_video(const char *path, sp_check_report *r)
+{
+    char *text = NULL;
+    size_t len = 0;
+    FILE *quiet = open_memstream(&text, &len); /* the stage's summary: the verdict says it shorter */
+    if (!quiet)
+        return -ENOMEM;
+    sp_stage stage = { 0 };
+    sp_vo_result vr;
+    int ret = sp_tool_video_orientation(path, 0, quiet, &stage, &vr);
+    sp_stage_close(&stage);
+    fclose(quiet);
+    free(text);
+    if (ret && ret != SP_ENODATA && ret != SP_EMODULE)
+        return ret;
+    r->video_checked = ret != SP_EMODULE; /* a build without OpenCV cannot look */
+    r->video_ok = ret == 0;
+    r->video_loop_closed = vr.loop_closed;
+    r->video_frames = vr.frames, r->video_coasted = vr.coasted;
+    if (r->video_ok)
+        r->turn_deg = r->turn_range_deg = vr.turn_deg;
+    return 0;
+}
+
 int sp_cmd_check(int argc, char **argv)
 {
     static const struct option opts[] = { { "json", required_argument, NULL, 'j' }, { "no-face", no_argument, NULL, 'n' },
@@ -172,6 +210,8 @@ int sp_cmd_check(int argc, char **argv)
     sp_cmd_signals sig; /* a stop signal is acted on before --json is written; once it is, the run ends */
     sp_cmd_catch_signals(&sig);
     int rc = sp_check_capture(path, faces, &r);
+    if (!rc && !r.gyro_samples && r.frames)
+        rc = check_video(path, &r);
     if (!rc && sp_cmd_stop_signal)
         return sp_cmd_fail(CMD, -ECANCELED, path);
     if (rc) {

@@ -22,61 +22,81 @@
 #include "common/report.h"
 #include "export/face_dir.h"
 #include "pipeline/stages/stages.h"
+#include "video_orientation.h"
 #include "sunprobe/sp_face_model.h"
 #include "sunprobe/sp_sunstage.h"
+
+enum { ORIENT_AUTO, ORIENT_IMU, ORIENT_VIDEO }; /* --orientation */
 
 typedef struct fit_args {
     const char *capture, *out, *report;
     sp_sunstage_settings set;
     int progress;
     const char *face;     /* auto, generic, ict */
+    int orientation;      /* ORIENT_* */
+    sp_stage video;       /* the video-orientation pre-pass, when it ran */
     char truth[4096];     /* truth.json of a synthetic capture, "" when none */
     sp_partial pd;        /* FACE_DIR.partial.PID: made before the fit, so a bad location fails at once */
 } fit_args;
 
 static void fit_usage(FILE *out)
 {
-    fprintf(out, "usage: sunprobe fit CAPTURE -o FACE_DIR [options]\n\n"
-                 "Fits face geometry, reflectance, sun and sky and per-frame cameras to a rotating-selfie\n"
-                 "capture (frames + IMU; landmarks from side data, else dlib).\n"
-                 "  --solver fast|adam     photometric solver (default fast)\n"
-                 "  --keyframes N          training keyframes, one per camera-yaw bin (default 12)\n"
-                 "  --heldout N            held-out keyframes (default 3)\n"
-                 "  --fit-width W          fitting resolution: the face crop's side, or the frame's width\n"
-                 "  --face-crop            fit a square crop around the face instead of the whole frame\n"
-                 "  --texture N|auto       albedo/displacement rows, 8-2048 (default 128); auto: one texel per\n"
-                 "                         face pixel of the best keyframe\n"
-                 "  --iterations N         Adam steps (default 300)\n"
-                 "  --time-budget S        stop the photometric stage after S seconds\n"
-                 "  --min-rotation DEG     below this camera-yaw range lighting is unobservable (default 90)\n"
-                 "  --silhouette W         silhouette loss weight per outline vertex (default 0.5; 0 = off)\n"
-                 "  --refine N             fast solver: photometric refinement steps of geometry and\n"
-                 "                         displacement, kept if the held-out PSNR rises (default 20; 0 = off)\n"
-                 "  --threads N            solver threads (default 0 = the online CPUs; the result does not\n"
-                 "                         depend on it)\n"
-                 "  --no-dlib              never run the dlib detector\n"
-                 "  --dlib-model PATH      shape_predictor_68_face_landmarks.dat location\n"
-                 "  --report PREFIX        error against run time: PREFIX.csv and PREFIX.svg (when the fit succeeds)\n"
-                 "  --face auto|generic|ict  face model (default auto: ICT when its data exists)\n"
-                 "  --no-progress          no progress bar\n");
+    fprintf(out,
+            "usage: sunprobe fit CAPTURE -o FACE_DIR [options]\n\n"
+            "Fits face geometry, reflectance, sun and sky and per-frame cameras to a rotating-selfie\n"
+            "capture (frames + IMU; landmarks from side data, else dlib).\n"
+            "  --solver fast|adam     photometric solver (default fast)\n"
+            "  --keyframes N          training keyframes, one per camera-yaw bin (default 12)\n"
+            "  --heldout N            held-out keyframes (default 3)\n"
+            "  --fit-width W          fitting resolution: the face crop's side, or the frame's width\n"
+            "  --face-crop            fit a square crop around the face instead of the whole frame\n"
+            "  --texture N|auto       albedo/displacement rows, 8-2048 (default 128); auto: one texel per\n"
+            "                         face pixel of the best keyframe\n"
+            "  --iterations N         Adam steps (default 300)\n"
+            "  --time-budget S        stop the photometric stage after S seconds\n"
+            "  --min-rotation DEG     below this camera-yaw range lighting is unobservable (default 90)\n"
+            "  --silhouette W         silhouette loss weight per outline vertex (default 0.5; 0 = off)\n"
+            "  --refine N             fast solver: photometric refinement steps of geometry and\n"
+            "                         displacement, kept if the held-out PSNR rises (default 20; 0 = off)\n"
+            "  --threads N            solver threads (default 0 = the online CPUs; the result does not\n"
+            "                         depend on it)\n"
+            "  --no-dlib              never run the dlib detector\n"
+            "  --dlib-model PATH      shape_predictor_68_face_landmarks.dat location\n"
+            "  --report PREFIX        error against run time: PREFIX.csv and PREFIX.svg (when the fit succeeds)\n"
+            "  --face auto|generic|ict  face model (default auto: ICT when its data exists)\n"
+            "  --orientation auto|imu|video  camera orientation per frame: from the IMU, or from the video\n"
+            "                         alone (background tracked by rotation, a pass before the fit); auto\n"
+            "                         (default): the IMU when the capture has one, else the video\n"
+            "  --no-progress          no progress bar\n");
 }
 
 static int parse_fit(int argc, char **argv, fit_args *a)
 {
     static const struct option opts[] = {
-        { "help", no_argument, NULL, 'h' },           { "output", required_argument, NULL, 'o' },
-        { "solver", required_argument, NULL, 's' },   { "keyframes", required_argument, NULL, 'k' },
-        { "heldout", required_argument, NULL, 'H' },  { "fit-width", required_argument, NULL, 'w' },
-        { "texture", required_argument, NULL, 't' },  { "iterations", required_argument, NULL, 'i' },
-        { "time-budget", required_argument, NULL, 'b' }, { "min-rotation", required_argument, NULL, 'r' },
-        { "no-dlib", no_argument, NULL, 'n' },        { "dlib-model", required_argument, NULL, 'd' },
-        { "report", required_argument, NULL, 'R' },   { "no-progress", no_argument, NULL, 'P' },
-        { "face", required_argument, NULL, 'f' },     { "silhouette", required_argument, NULL, 'S' },
-        { "refine", required_argument, NULL, 'F' },   { "face-crop", no_argument, NULL, 'C' },
+        { "help", no_argument, NULL, 'h' },
+        { "output", required_argument, NULL, 'o' },
+        { "solver", required_argument, NULL, 's' },
+        { "keyframes", required_argument, NULL, 'k' },
+        { "heldout", required_argument, NULL, 'H' },
+        { "fit-width", required_argument, NULL, 'w' },
+        { "texture", required_argument, NULL, 't' },
+        { "iterations", required_argument, NULL, 'i' },
+        { "time-budget", required_argument, NULL, 'b' },
+        { "min-rotation", required_argument, NULL, 'r' },
+        { "no-dlib", no_argument, NULL, 'n' },
+        { "dlib-model", required_argument, NULL, 'd' },
+        { "report", required_argument, NULL, 'R' },
+        { "no-progress", no_argument, NULL, 'P' },
+        { "face", required_argument, NULL, 'f' },
+        { "silhouette", required_argument, NULL, 'S' },
+        { "refine", required_argument, NULL, 'F' },
+        { "face-crop", no_argument, NULL, 'C' },
         { "threads", required_argument, NULL, 'T' },
+        { "orientation", required_argument, NULL, 'O' },
         { 0 },
     };
     static const char *const solvers[] = { "fast", "adam" }, *const faces[] = { "auto", "generic", "ict" };
+    static const char *const orientations[] = { "auto", "imu", "video" };
     int c, bad = 0, li = -1, choice = 0;
     while (!bad && (c = getopt_long(argc, argv, "ho:", opts, &li)) != -1) {
         const char *on = li >= 0 ? opts[li].name : "";
@@ -108,6 +128,10 @@ static int parse_fit(int argc, char **argv, fit_args *a)
         case 'd': a->set.dlib_model = optarg; break;
         case 'R': a->report = optarg; break;
         case 'P': a->progress = 0; break;
+        case 'O':
+            bad = sp_opt_choice("fit", on, optarg, orientations, 3, &choice);
+            a->orientation = choice;
+            break;
         case 'f':
             a->face = optarg;
             bad = sp_opt_choice("fit", on, optarg, faces, 3, &choice);
@@ -197,11 +221,60 @@ static int read_true_sun(const char *path, double sun[3])
     return ret;
 }
 
+/* 1 when the capture carries an IMU sample (read up to the first), 0 when not, or an error. */
+static int capture_has_imu(const char *path)
+{
+    sp_source *src = NULL;
+    sp_replay_settings rs;
+    sp_replay_default_settings(&rs);
+    int ret = sp_replay_open(&src, path, &rs);
+    sp_event ev;
+    while (!ret && (ret = sp_source_next(src, &ev)) == 0) {
+        int imu = ev.type == SP_EVENT_IMU;
+        sp_event_release(&ev);
+        if (imu)
+            ret = 1;
+    }
+    sp_source_close(&src);
+    return ret == SP_EOS ? 0 : ret;
+}
+
+/*
+ * Without an IMU (or with --orientation video): the camera orientation of every frame from the
+ * video, a whole pass before the fit (the loop closure needs the end of the turn). Exit code on failure.
+ */
+static int orient_from_video(fit_args *a)
+{
+    int has_imu = a->orientation == ORIENT_AUTO ? capture_has_imu(a->capture) : 0;
+    if (has_imu < 0) /* unreadable: the fit's own pass says why */
+        return SP_EXIT_OK;
+    if (a->orientation == ORIENT_IMU || has_imu)
+        return SP_EXIT_OK;
+    if (a->orientation == ORIENT_AUTO)
+        printf("fit: the capture has no IMU: the camera orientation comes from the video (--orientation)\n");
+    sp_vo_result r;
+    int ret = sp_tool_video_orientation(a->capture, a->progress, NULL, &a->video, &r);
+    if (ret == -ECANCELED)
+        return sp_cmd_fail("fit", ret, a->out);
+    if (ret == SP_ENODATA && r.frames)
+        return sp_cmd_failf("fit", ret,
+                            "%s: the camera orientation cannot be found from the video (see above): "
+                            "record with an IMU, or in front of a textured background far away",
+                            a->capture);
+    if (ret)
+        return sp_cmd_failf("fit", ret, "%s: video orientation", a->capture);
+    return SP_EXIT_OK;
+}
+
 /* Streams the capture through the orientation tagger into the fitter's front end. */
 static int stream(fit_args *a, const sp_stage *stage)
 {
     sp_run_settings rs;
     sp_run_default_settings(&rs);
+    if (a->video.ctx) {
+        rs.tagger.orientation_for = sp_video_orientation_for;
+        rs.tagger.orientation_user = a->video.ctx;
+    }
     rs.progress = a->progress ? -1 : 0;
     rs.stop = &sp_cmd_stop_signal;
     sp_run_stats st;
@@ -272,6 +345,8 @@ static int run_fit(fit_args *a, const sp_face_model *model)
         code = sp_cmd_failf("fit", ret, "cannot write the report %s", a->report);
         goto done;
     }
+    if ((code = orient_from_video(a)) != SP_EXIT_OK)
+        goto done;
     if ((ret = stream(a, &stage))) {
         code = ret == -ECANCELED ? sp_cmd_fail("fit", ret, a->out) : sp_exit_for_error(ret);
         goto done;
@@ -309,6 +384,7 @@ done:
     else if (rep && (ret = sp_report_close(&rep)))
         code = sp_cmd_failf("fit", ret, "writing the report %s", a->report);
     sp_stage_close(&stage);
+    sp_stage_close(&a->video);
     return code;
 }
 
