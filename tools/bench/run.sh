@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: MIT
 # Builds a release tree and runs the benchmarks; each prints medians and the ratio against its
-# named baseline in the same run. Usage: tools/bench/run.sh [replay|record|render|relight|probe|fit|texture ...]
+# named baseline in the same run. Usage: tools/bench/run.sh [replay|record|render|relight|probe|fit|texture|orientation ...]
 # (default: all; depopulate and repopulate are run only when named). Scratch captures are cached in ${SP_BENCH_DIR:-/tmp/sp-bench}.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -11,7 +11,7 @@ ninja -C "$build" >/dev/null
 dir=${SP_BENCH_DIR:-/tmp/sp-bench}
 mkdir -p "$dir"
 which=("$@")
-[ ${#which[@]} -gt 0 ] || which=(replay record render relight probe fit texture)
+[ ${#which[@]} -gt 0 ] || which=(replay record render relight probe fit texture orientation)
 for b in "${which[@]}"; do
     if [ "$b" = repopulate ]; then # a script over the command's reports (no timing)
         echo "== repopulate"
@@ -25,7 +25,7 @@ for b in "${which[@]}"; do
     fi
     echo "== bench_$b"
     case $b in
-        replay) "$exe" "$dir" ;;
+        replay | orientation) "$exe" "$dir" ;;
         depopulate) tools/bench/depopulate.sh "$build" "$dir" ;;
         *) "$exe" ;;
     esac
