@@ -63,23 +63,27 @@ static int lm_open(void **ctx, const void *settings)
     return 0;
 }
 
+int sp_stage_frame_landmarks(ss_lm_tracker *t, const sp_frame *f, uint8_t **rgb, size_t *rgb_size, ss_lm_result *r)
+{
+    size_t need = (size_t)f->width * f->height * 3;
+    if (need > *rgb_size) {
+        uint8_t *b = realloc(*rgb, need);
+        if (!b)
+            return -ENOMEM;
+        *rgb = b, *rgb_size = need;
+    }
+    int ret = sp_pixconv_frame_to_rgb24(f, *rgb, need, f->width * 3);
+    return ret ? ret : ss_lm_tracker_frame(t, *rgb, (int)f->width, (int)f->height, r);
+}
+
 static int lm_push(void *ctx, const sp_event *ev)
 {
     landmarks_stage *s = ctx;
     if (ev->type != SP_EVENT_FRAME)
         return 0;
     const sp_frame *f = ev->frame;
-    size_t need = (size_t)f->width * f->height * 3;
-    if (need > s->rgb_size) {
-        uint8_t *b = realloc(s->rgb, need);
-        if (!b)
-            return -ENOMEM;
-        s->rgb = b, s->rgb_size = need;
-    }
-    int ret = sp_pixconv_frame_to_rgb24(f, s->rgb, need, f->width * 3);
     ss_lm_result r;
-    if (!ret)
-        ret = ss_lm_tracker_frame(s->tracker, s->rgb, (int)f->width, (int)f->height, &r);
+    int ret = sp_stage_frame_landmarks(s->tracker, f, &s->rgb, &s->rgb_size, &r);
     if (ret)
         return ret;
     s->frames++;

@@ -17,7 +17,6 @@
 
 #include "capture/visual_orientation.h"
 #include "common/atomic_file.h"
-#include "common/pixconv.h"
 #include "pipeline/sunstage/landmarks.h"
 #include "sunprobe/sp_capture.h"
 
@@ -98,18 +97,8 @@ static int face_of(video_orientation_stage *s, const sp_event *ev, const float *
             return 0;
         }
     }
-    const sp_frame *f = ev->frame;
-    size_t need = (size_t)f->width * f->height * 3;
-    if (need > s->rgb_size) {
-        uint8_t *b = realloc(s->rgb, need);
-        if (!b)
-            return -ENOMEM;
-        s->rgb = b, s->rgb_size = need;
-    }
     ss_lm_result r;
-    int ret = sp_pixconv_frame_to_rgb24(f, s->rgb, need, f->width * 3);
-    if (!ret)
-        ret = ss_lm_tracker_frame(s->faces, s->rgb, (int)f->width, (int)f->height, &r);
+    int ret = sp_stage_frame_landmarks(s->faces, ev->frame, &s->rgb, &s->rgb_size, &r);
     if (ret || r.source == SS_LM_NONE)
         return ret;
     for (int k = 0; k < 136; k++)
