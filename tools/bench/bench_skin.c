@@ -9,7 +9,7 @@
  * Push-pull alone (the face directory's map when it has no synthesised texels)
  * and push-pull + synthesis (skin_fill.c) side by side. The fit's albedo is
  * scaled per channel to the truth over the observed skin (albedo and light
- * trade a factor).
+ * trade a factor). Then the observed skin the synthesis copies, against the truth there.
  */
 #include <errno.h>
 #include <math.h>
@@ -217,6 +217,10 @@ int main(int argc, char **argv)
     if (!already)
         print_measure("push-pull alone", &pp);
     print_measure("push-pull + synthesis", &sy);
+    /* the exemplar the synthesis copies: the fit's observed skin against the truth there */
+    double co_fit = local_contrast(albedo, seen, w, h), co_true = local_contrast(truth, seen, w, h);
+    printf("  %-22s local contrast %.4f vs true %.4f (%+5.1f %%)\n", "observed skin (source)", co_fit, co_true,
+           100 * (co_fit / fmax(co_true, 1e-12) - 1));
     if (argc >= 5 && !strcmp(argv[3], "--png")) { /* truth, push-pull, synthesis, each 4x */
         int z = 4, iw = w * z, ih = 3 * h * z;
         uint8_t *img = malloc((size_t)iw * ih * 3);
