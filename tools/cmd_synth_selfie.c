@@ -52,6 +52,9 @@ static void usage(FILE *out)
             "          --backdrop sky|city   what the background shows (sky): the sky map, or a city panorama\n"
             "                         at infinity (buildings, windows, paving) shaded by that sky, for\n"
             "                         rotation-only tracking; the head is lit by the sky either way\n"
+            "          --backdrop-distance M  the city on a sphere of radius M about the turning axis\n"
+            "                         (0 = at infinity, the default; else at least 2 m: the camera must stay\n"
+            "                         inside the sphere), so the arm's motion adds parallax\n"
             "render:   --supersample S (2)  --shadow-size N (512)\n"
             "truth:    --truth DIR  --no-truth  --relit N (6)  --novel N (6)\n"
             "sheet:    --contact-sheet FILE.png  --sheet-frames N (8)  --sheet-columns C (4)\n"
@@ -95,6 +98,22 @@ static int vec3(const char *o, const char *s, double scale, sp_vec3 *out)
         return -1;
     *out = (sp_vec3){ v[0] * scale, v[1] * scale, v[2] * scale };
     return 0;
+}
+
+/* 0 (at infinity) or a distance of at least SP_SYNTH_BACKDROP_MIN_DISTANCE_M metres */
+static int backdrop_distance(const char *o, const char *s, double *out)
+{
+    double v = 0.0;
+    int bad = num(o, s, 0, 1e9, &v);
+    if (!bad && v > 0.0 && v < SP_SYNTH_BACKDROP_MIN_DISTANCE_M) {
+        fprintf(stderr,
+                "sunprobe " CMD ": --%s '%s': expected 0 (at infinity) or at least %g m: the camera must stay "
+                "inside the city's sphere\n",
+                o, s, SP_SYNTH_BACKDROP_MIN_DISTANCE_M);
+        return -1;
+    }
+    *out = bad ? *out : v;
+    return bad;
 }
 
 /* LAT,LON in degrees */
@@ -179,6 +198,7 @@ enum opt_code {
     O_UTC,
     O_LOCATION,
     O_BACKDROP,
+    O_BACKDROPD,
     O_NOIMU,
 };
 
@@ -238,6 +258,7 @@ static const struct option opts[] = {
     { "noiseless", no_argument, NULL, O_NOISELESS },
     { "progress", no_argument, NULL, O_PROGRESS },
     { "backdrop", required_argument, NULL, O_BACKDROP },
+    { "backdrop-distance", required_argument, NULL, O_BACKDROPD },
     { "no-imu", no_argument, NULL, O_NOIMU },
     { 0 },
 };
@@ -313,6 +334,8 @@ static int opt_scene(int c, const char *o, const char *v, sp_synth_selfie_settin
         bad = sp_opt_choice(CMD, o, v, backdrops, 2, &i);
         s->backdrop = (enum sp_synth_backdrop)i;
         return bad;
+    case O_BACKDROPD:
+        return backdrop_distance(o, v, &s->backdrop_distance_m);
     case O_IDS: return num(o, v, 0, 10, &s->identity_sigma);
     case O_EXPMAX: return num(o, v, 0, 1, &s->expression_max);
     case O_ALBEDO: return u32num(o, v, 16, 4096, &s->albedo_height);

@@ -47,6 +47,9 @@ enum sp_synth_backdrop {
                                    shaded by the sky: corners all round for rotation-only tracking */
 };
 
+/* Smallest finite backdrop_distance_m: the camera must stay inside the city's sphere. */
+#define SP_SYNTH_BACKDROP_MIN_DISTANCE_M 2.0
+
 enum sp_synth_frame_format {
     SP_SYNTH_FORMAT_AUTO = 0,  /* MJPEG when the build has libjpeg, else RGB24 */
     SP_SYNTH_FORMAT_MJPEG = 1, /* SP_EDISABLED (naming -Djpeg) without libjpeg */
@@ -93,6 +96,11 @@ typedef struct sp_synth_selfie_settings {
     double sky_intensity;     /* scale of the analytic sky radiance; default 1 */
     int overcast;             /* 1: sun 0, bright grey overcast sky; default 0 */
     enum sp_synth_backdrop backdrop; /* background pixels; default SKY (the head's lighting never changes) */
+    /* CITY only: 0 = at infinity (default: the background moves with the camera's rotation alone); a distance
+       D >= SP_SYNTH_BACKDROP_MIN_DISTANCE_M puts the panorama on a sphere of radius D about the turning axis
+       (the world origin), so the arm's motion adds parallax. The camera must stay inside the sphere: D also
+       has to exceed hypot(imu.arm_radius_m, camera_height_m) */
+    double backdrop_distance_m;
     /* renderer */
     int supersample;          /* S x S samples per pixel; default 2 */
     int shadow_size;          /* default 512 */

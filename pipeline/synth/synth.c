@@ -100,6 +100,11 @@ static const char *bad_field(const sp_synth_selfie_settings *s)
         return "n_relit / n_novel (0..64)";
     if (s->backdrop < SP_SYNTH_BACKDROP_SKY || s->backdrop > SP_SYNTH_BACKDROP_CITY)
         return "backdrop";
+    if (!(s->backdrop_distance_m == 0.0 || in_range(s->backdrop_distance_m, SP_SYNTH_BACKDROP_MIN_DISTANCE_M, 1e9)))
+        return "backdrop_distance_m (0 = infinity, or 2..1e9 m: the camera must stay inside the city's sphere)";
+    if (s->backdrop_distance_m > 0.0 && !(s->backdrop_distance_m > hypot(s->imu.arm_radius_m, s->camera_height_m)))
+        return "backdrop_distance_m (more than the camera's distance from the turning axis, hypot(arm, camera "
+               "height): the camera must stay inside the city's sphere)";
     if (s->no_imu < 0 || s->no_imu > 1)
         return "no_imu (0 or 1)";
     return NULL;
@@ -561,18 +566,41 @@ static void grid_at(const double *grid, uint32_t gw, uint32_t u, uint32_t v, dou
         out[k] = (1 - fy) * ((1 - fx) * a[k] + fx * b[k]) + fy * ((1 - fx) * c[k] + fx * d[k]);
 }
 
+/*
+ * The city at a finite distance D (backdrop_distance_m > 0): painted on the sphere of radius D about the world
+ * origin (the turning axis), so the view ray from the camera centre c along d meets it at c + s d, s > 0 the
+ * root of |c + s d| = D, and shows the panorama in the direction of that point from the origin. The pixel's
+ * footprint there, seen from the origin, is about s / D times its angle from the camera. A camera on or outside
+ * the sphere (only a held-out view can be; the setting keeps the capture's inside) sees it at infinity.
+ */
+static double city_direction(double D, const double c[3], double d[3])
+{
+    double cd = c[0] * d[0] + c[1] * d[1] + c[2] * d[2], cc = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
+    double disc = cd * cd - cc + D * D;
+    if (!(cc < D * D) || !(disc > 0.0))
+        return 1.0;
+    double s = -cd + sqrt(disc), x[3] = { c[0] + s * d[0], c[1] + s * d[1], c[2] + s * d[2] };
+    double n = sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+    for (int k = 0; k < 3; k++)
+        d[k] = x[k] / n;
+    return s / D;
+}
+
 /* What the city shows at the corners of the pixels (i, j) .. (i + 1, j + 1) that need it (need[] set). */
-static void city_corners(const sp_synth_selfie *g, const double R[9])
+static void city_corners(const sp_synth_selfie *g, const synth_pose *p)
 {
     uint32_t cw = g->s.width + 1, ch = g->s.height + 1;
+    double D = g->s.backdrop_distance_m, cam[3] = { p->cam_pos.x, p->cam_pos.y, p->cam_pos.z };
     for (uint32_t j = 0; j < ch; j++)
         for (uint32_t i = 0; i < cw; i++) {
             synth_city_sample *cs = g->city_corner + (size_t)j * cw + i;
             if (!cs->need)
                 continue;
-            double d[3], c[3], haze;
-            ray_dir(g, R, (double)i - 0.5, (double)j - 0.5, d);
-            cs->part = (uint8_t)synth_city_look(g->city, d, 1.0 / g->fx, c, &haze);
+            double d[3], c[3], haze, px_rad = 1.0 / g->fx;
+            ray_dir(g, p->cam.R, (double)i - 0.5, (double)j - 0.5, d);
+            if (D > 0.0)
+                px_rad *= city_direction(D, cam, d);
+            cs->part = (uint8_t)synth_city_look(g->city, d, px_rad, c, &haze);
             for (int k = 0; k < 3; k++)
                 cs->rgb[k] = (float)c[k];
             cs->haze = (float)haze;
@@ -632,7 +660,7 @@ static void accumulate_city(const sp_synth_selfie *g, const synth_pose *p, const
                 synth_city_sample *c = g->city_corner + v * cw + u;
                 c[0].need = c[1].need = c[cw].need = c[cw + 1].need = 1;
             }
-    city_corners(g, p->cam.R);
+    city_corners(g, p);
     for (uint32_t v = 0; v < h; v++)
         for (uint32_t u = 0; u < w; u++) {
             size_t px = (size_t)v * w + u;

@@ -423,10 +423,18 @@ static void manifest_lighting(sp_strbuf *b, const sp_synth_selfie *g, const file
                         "column j: azimuth from +x towards +y\"},\n",
                      s->sun_elevation_deg, s->sun_azimuth_deg, g->sun_intensity, s->overcast ? "overcast" : "clear",
                      s->sky_intensity, g->ground_albedo, fn->env_png, SP_RENDER_ENV_H, SP_RENDER_ENV_W);
-    if (s->backdrop == SP_SYNTH_BACKDROP_CITY) /* the default (the sky map) leaves the manifest as it was */
+    /* the default (the sky map) leaves the manifest as it was, and so does the city at infinity */
+    if (s->backdrop == SP_SYNTH_BACKDROP_CITY && !(s->backdrop_distance_m > 0.0))
         sp_strbuf_printf(b,
                          "\"backdrop\":{\"kind\":\"city\",\"note\":\"background pixels show a city panorama "
                          "at infinity shaded by the sky; the head is lit by env.pfm alone\"},\n");
+    else if (s->backdrop == SP_SYNTH_BACKDROP_CITY)
+        sp_strbuf_printf(b,
+                         "\"backdrop\":{\"kind\":\"city\",\"distance_m\":%.17g,\"note\":\"background pixels "
+                         "show a city panorama on a sphere of radius distance_m about the world origin (the turning "
+                         "axis), shaded by the sky: the arm's motion adds parallax; the head is lit by env.pfm "
+                         "alone\"},\n",
+                         s->backdrop_distance_m);
 }
 
 static void manifest_motion(sp_strbuf *b, const sp_synth_selfie *g)

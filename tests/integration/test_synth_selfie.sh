@@ -3,7 +3,7 @@
 # `sunprobe synth selfie` end to end: a short small capture passes info and verify with the
 # expected frame and IMU counts, the truth directory and contact sheet exist, the same seed gives
 # the same bytes, --overcast gives a zero sun, --backdrop sky is the default and city changes only the
-# background, --no-imu writes no IMU samples, bad options get exit code 1.
+# background, --backdrop-distance moves it in from infinity, --no-imu writes no IMU samples, bad options get exit code 1.
 set -u
 SP=$1
 . "$(dirname "$0")/cli_lib.sh" selfie
@@ -66,6 +66,15 @@ expect 0 "info city" "$SP" info "$dir/city/s.spcap"
 contains "$dir/out.txt" "frames\[0\]: +31 " "city frame count"
 expect 1 "synth selfie bad backdrop" "$SP" synth selfie -o "$dir/x.spcap" --backdrop foo
 contains "$dir/err.txt" "selfie: --backdrop 'foo'" "bad --backdrop names the option"
+# --backdrop-distance: the city 20 m away shows parallax, so the frames differ from the city at infinity
+# (and the manifest records the distance); under 2 m the camera could leave the sphere: refused
+mkdir -p "$dir/near"
+expect 0 "synth selfie --backdrop-distance 20" "$SP" synth selfie -o "$dir/near/s.spcap" "${small[@]}" --backdrop city \
+    --backdrop-distance 20
+cmp -s -i 64 "$dir/city/s.spcap" "$dir/near/s.spcap" && fail "--backdrop-distance 20 gave the city at infinity"
+contains "$dir/near/s.truth/truth.json" '"backdrop":\{"kind":"city","distance_m":20,' "backdrop distance in the manifest"
+expect 1 "synth selfie --backdrop-distance 1" "$SP" synth selfie -o "$dir/x.spcap" --backdrop city --backdrop-distance 1
+contains "$dir/err.txt" "selfie: --backdrop-distance '1'" "--backdrop-distance 1 names the option"
 
 # --no-imu: frames and side data, no IMU samples, and META names no IMU
 expect 0 "synth selfie --no-imu" "$SP" synth selfie -o "$dir/b/n.spcap" "${small[@]}" --no-imu --no-truth

@@ -464,7 +464,7 @@ static void test_bad_settings(void)
 {
     sp_synth_selfie_settings s;
     sp_synth_selfie *g = NULL;
-    for (int k = 0; k < 11; k++) {
+    for (int k = 0; k < 15; k++) {
         small_settings(&s);
         switch (k) {
         case 9:
@@ -472,6 +472,19 @@ static void test_bad_settings(void)
             break;
         case 10:
             s.no_imu = 2;
+            break;
+        case 11: /* the camera could leave the city's sphere */
+            s.backdrop_distance_m = 1.0;
+            break;
+        case 12:
+            s.backdrop_distance_m = NAN;
+            break;
+        case 13:
+            s.backdrop_distance_m = -5.0;
+            break;
+        case 14: /* 3 m is allowed, but not with the camera 4 m from the axis */
+            s.backdrop_distance_m = 3.0;
+            s.imu.arm_radius_m = 4.0;
             break;
         case 0: s.width = 8; break;
         case 1: s.imu.arm_radius_m = 0.1; break;
