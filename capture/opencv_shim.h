@@ -73,9 +73,9 @@ SP_PRIVATE int sp_cv_video_writer_close(sp_cv_video_writer **w);
  * the start. Corners whose smaller structure-tensor eigenvalue (cv::cornerMinEigenVal, 5x5, on the
  * 0..1 scale OpenCV gives 8-bit images) is under min_eigen are dropped (0: keep all). The kept pairs go to pairs as x0, y0, x1, y1 (room for 4 * max_corners floats); *n of them.
  */
-SP_PRIVATE int sp_cv_track_corners(const uint8_t *from, const uint8_t *to, uint32_t width, uint32_t height,
-                                   const uint8_t *mask, const double guess[9], unsigned max_corners,
-                                   double min_distance, double min_eigen, double max_fb_px, float *pairs, unsigned *n);
+int sp_cv_track_corners(const uint8_t *from, const uint8_t *to, uint32_t width, uint32_t height, const uint8_t *mask,
+                        const double guess[9], unsigned max_corners, double min_distance, double min_eigen,
+                        double max_fb_px, float *pairs, unsigned *n);
 
 #ifdef __cplusplus
 }

@@ -47,22 +47,22 @@ typedef struct sp_vo_result {
 typedef struct sp_vo sp_vo;
 
 /* -EINVAL for a size or intrinsics that are not usable. */
-SP_PRIVATE int sp_vo_open(sp_vo **out, const sp_vo_settings *s);
+int sp_vo_open(sp_vo **out, const sp_vo_settings *s);
 /*
  * One frame, in capture order (borrowed), with the face's 68 landmarks (x, y in capture pixels,
  * Multi-PIE order) when known, else NULL: the person around them is no background. SP_EMODULE
  * without OpenCV; -EINVAL for another size.
  */
-SP_PRIVATE int sp_vo_push(sp_vo *v, const sp_frame *frame, const float *landmarks);
+int sp_vo_push(sp_vo *v, const sp_frame *frame, const float *landmarks);
 /*
  * Closes the loop and sets world up; *r says how it went. SP_ENODATA when the
  * background could not be tracked (over a fifth of the steps coasted, or no
  * step found a rotation): the orientations are then not to be used.
  */
-SP_PRIVATE int sp_vo_finish(sp_vo *v, sp_vo_result *r);
+int sp_vo_finish(sp_vo *v, sp_vo_result *r);
 /* Camera-to-world of frame i (0-based, in push order; world z up, camera x right, y down, z forward)
    after sp_vo_finish; *tracked is 0 for a coasted frame. -ERANGE past the end. */
-SP_PRIVATE int sp_vo_camera(const sp_vo *v, size_t i, sp_quat *camera_to_world, int *tracked);
-SP_PRIVATE void sp_vo_close(sp_vo **v);
+int sp_vo_camera(const sp_vo *v, size_t i, sp_quat *camera_to_world, int *tracked);
+void sp_vo_close(sp_vo **v);
 
 #endif

@@ -24,8 +24,8 @@ extern const sp_stage_ops sp_stage_landmarks;   /* the landmark tracker on every
 /* The landmark tracker on one frame of any format, through an RGB24 buffer grown as needed (*rgb, malloc'd). */
 struct ss_lm_tracker;
 struct ss_lm_result;
-SP_PRIVATE int sp_stage_frame_landmarks(struct ss_lm_tracker *t, const sp_frame *f, uint8_t **rgb, size_t *rgb_size,
-                                        struct ss_lm_result *r);
+int sp_stage_frame_landmarks(struct ss_lm_tracker *t, const sp_frame *f, uint8_t **rgb, size_t *rgb_size,
+                             struct ss_lm_result *r);
 extern SP_PRIVATE const sp_stage_ops sp_stage_video_orientation; /* orientation from the video alone (no IMU) */
 /* After that stage finished (ctx: its sp_stage.ctx): a frame's camera-to-world by sequence, shaped as
    sp_tagger_settings.orientation_for; SP_ENODATA for a frame it has not, or only coasted through. */

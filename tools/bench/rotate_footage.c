@@ -116,9 +116,17 @@ int main(int argc, char **argv)
                     o[c] = (uint8_t)lrint(val);
                 }
             }
-        sp_frame of = { .format = SP_PIXFMT_RGB24, .width = OW, .height = OH, .stride = OW * 3, .data = out,
-                        .capacity = (size_t)OW * OH * 3, .bytes_used = (size_t)OW * OH * 3,
-                        .timestamp_ns = ev.timestamp_ns, .sequence = n, .exposure_us = NAN, .gain = NAN };
+        sp_frame of = { .format = SP_PIXFMT_RGB24,
+                        .width = OW,
+                        .height = OH,
+                        .stride = OW * 3,
+                        .data = out,
+                        .capacity = (size_t)OW * OH * 3,
+                        .bytes_used = (size_t)OW * OH * 3,
+                        .timestamp_ns = ev.timestamp_ns,
+                        .sequence = n,
+                        .exposure_us = NAN,
+                        .gain = NAN };
         if (!ret)
             ret = sp_capture_write_frame(w, &of);
         float truth[4] = { (float)q.w, (float)q.x, (float)q.y, (float)q.z };
