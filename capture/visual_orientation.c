@@ -27,7 +27,7 @@
 #define STILL_DEG 0.08      /* a motion this small is "stuck to the camera" when another motion is found */
 #define MAX_COASTED 0.2     /* more coasted steps than this share: the background is not trackable */
 #define LOOP_MIN_TURN 270.0 /* degrees of turn before the first frame is looked for again */
-#define LOOP_MAX_DEG 25.0   /* ... within this angle of where the chain says it is */
+#define LOOP_MAX_DEG 40.0   /* ... within this angle of the first frame, as the chain says and as matched */
 #define LOOP_MIN_INLIERS 20
 #define AXIS_MIN_TURN 60.0 /* a shorter turn does not say where its axis is */
 #define AXIS_MIN_SHARE 0.8
@@ -58,7 +58,7 @@ struct sp_vo {
     size_t loop_frame;
     unsigned loop_inliers;
     sp_quat loop_c;    /* camera to world of loop_frame as the first frame sees it */
-    double loop_angle; /* its angle from the first camera (smaller: more overlap) */
+    double loop_angle; /* its measured angle from the first camera (smaller: more overlap) */
     uint64_t rng;
 };
 
@@ -341,23 +341,37 @@ static int grow(sp_vo *v)
     return 0;
 }
 
-/* When the turn has come round, match the first frame again; keep the closest match. */
+/*
+ * When the turn has come round, match the first frame again; keep the match closest to it. The chain
+ * comes up short when the background is near (the camera's own motion along its circle slows the
+ * background's: about 360 deg x arm / distance, 16 deg at 10 m), so the match is also tried from
+ * guesses turned further and less far about the camera's vertical.
+ */
 static int try_loop(sp_vo *v, const vo_frame *fr)
 {
+    static const double offsets_deg[] = { 0, 15, -15, 30, -30 };
     double ang = sp_quat_angle_between(fr->c, v->f[0].c) * 180.0 / M_PI;
-    if (fr->path_deg < LOOP_MIN_TURN || ang > LOOP_MAX_DEG || (v->loop_closed && ang >= v->loop_angle))
+    if (fr->path_deg < LOOP_MIN_TURN || ang > LOOP_MAX_DEG)
         return 0;
-    /* bearing in the first camera -> this one: c^-1 c0 */
-    sp_quat guess = sp_quat_mul(sp_quat_conj(fr->c), v->f[0].c), q;
-    unsigned k;
-    int ret = step_rotation(v, v->first, v->cur, guess, &q, &k);
-    if (ret || k < LOOP_MIN_INLIERS || sp_quat_angle_between(q, guess) * 180.0 / M_PI > 10.0)
-        return ret;
-    v->loop_closed = 1;
-    v->loop_frame = v->n;
-    v->loop_inliers = k;
-    v->loop_c = sp_quat_mul(v->f[0].c, sp_quat_conj(q));
-    v->loop_angle = ang;
+    sp_quat chain = sp_quat_mul(sp_quat_conj(fr->c), v->f[0].c); /* bearing in the first camera -> this one */
+    for (size_t i = 0; i < sizeof(offsets_deg) / sizeof(offsets_deg[0]); i++) {
+        sp_quat turn = sp_quat_from_axis_angle((sp_vec3){ 0, 1, 0 }, offsets_deg[i] * M_PI / 180.0), q;
+        unsigned k;
+        int ret = step_rotation(v, v->first, v->cur, sp_quat_mul(turn, chain), &q, &k);
+        if (ret)
+            return ret;
+        if (k < LOOP_MIN_INLIERS || sp_quat_angle_between(q, chain) * 180.0 / M_PI > LOOP_MAX_DEG)
+            continue;
+        double seen = sp_quat_angle_between(q, sp_quat_identity()) * 180.0 / M_PI;
+        if (!v->loop_closed || seen < v->loop_angle) {
+            v->loop_closed = 1;
+            v->loop_frame = v->n;
+            v->loop_inliers = k;
+            v->loop_c = sp_quat_mul(v->f[0].c, sp_quat_conj(q));
+            v->loop_angle = seen;
+        }
+        return 0;
+    }
     return 0;
 }
 
