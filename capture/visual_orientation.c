@@ -354,24 +354,29 @@ static int try_loop(sp_vo *v, const vo_frame *fr)
     if (fr->path_deg < LOOP_MIN_TURN || ang > LOOP_MAX_DEG)
         return 0;
     sp_quat chain = sp_quat_mul(sp_quat_conj(fr->c), v->f[0].c); /* bearing in the first camera -> this one */
+    sp_quat best = chain;
+    unsigned best_k = 0;
     for (size_t i = 0; i < sizeof(offsets_deg) / sizeof(offsets_deg[0]); i++) {
         sp_quat turn = sp_quat_from_axis_angle((sp_vec3){ 0, 1, 0 }, offsets_deg[i] * M_PI / 180.0), q;
         unsigned k;
         int ret = step_rotation(v, v->first, v->cur, sp_quat_mul(turn, chain), &q, &k);
         if (ret)
             return ret;
-        if (k < LOOP_MIN_INLIERS || sp_quat_angle_between(q, chain) * 180.0 / M_PI > LOOP_MAX_DEG)
-            continue;
+        /* a still match is the person, who is in both frames where the background was not found */
         double seen = sp_quat_angle_between(q, sp_quat_identity()) * 180.0 / M_PI;
-        if (!v->loop_closed || seen < v->loop_angle) {
-            v->loop_closed = 1;
-            v->loop_frame = v->n;
-            v->loop_inliers = k;
-            v->loop_c = sp_quat_mul(v->f[0].c, sp_quat_conj(q));
-            v->loop_angle = seen;
-        }
-        return 0;
+        if (k > best_k && seen > 4 * STILL_DEG && sp_quat_angle_between(q, chain) * 180.0 / M_PI <= LOOP_MAX_DEG)
+            best = q, best_k = k;
+        if (best_k >= LOOP_MIN_INLIERS && i == 0)
+            break; /* found from the chain's own guess */
     }
+    double seen = sp_quat_angle_between(best, sp_quat_identity()) * 180.0 / M_PI;
+    if (best_k < LOOP_MIN_INLIERS || (v->loop_closed && seen >= v->loop_angle))
+        return 0;
+    v->loop_closed = 1;
+    v->loop_frame = v->n;
+    v->loop_inliers = best_k;
+    v->loop_c = sp_quat_mul(v->f[0].c, sp_quat_conj(best));
+    v->loop_angle = seen;
     return 0;
 }
 
