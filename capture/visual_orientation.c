@@ -129,6 +129,7 @@ static int to_work(sp_vo *v, const sp_frame *frame, uint8_t *dst)
     return 0;
 }
 
+#if HAVE_OPENCV /* the corner tracker needs OpenCV; without it nothing calls these */
 static void bearing(const sp_vo *v, double x, double y, double b[3])
 {
     double u = (x - v->cx) / v->fx, w = (y - v->cy) / v->fy, n = sqrt(u * u + w * w + 1.0);
@@ -148,6 +149,7 @@ static void rotation_homography(const sp_vo *v, sp_quat q, double H[9])
         for (int j = 0; j < 3; j++)
             H[3 * i + j] = K[3 * i] * T[j] + K[3 * i + 1] * T[3 + j] + K[3 * i + 2] * T[6 + j];
 }
+#endif
 
 static void cross(const double a[3], const double b[3], double c[3])
 {
@@ -291,7 +293,8 @@ static int track_pairs(sp_vo *v, const uint8_t *from, const uint8_t *to, sp_quat
     return 0;
 #else
     (void)v, (void)from, (void)to, (void)guess;
-    return SP_EMODULE; /* no OpenCV in this build: nothing tracks corners */
+    sp_log(SP_LOG_ERROR, MOD, "this build has no OpenCV to track the video's corners (build with -Dopencv=enabled)");
+    return SP_EMODULE;
 #endif
 }
 
