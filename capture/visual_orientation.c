@@ -17,9 +17,9 @@
 #define WORK_WIDTH 480 /* frames wider than this are tracked at about this width */
 #define MAX_CORNERS 400
 #define MIN_DISTANCE 8.0 /* px at the working size: corners spread over the background */
-#define MIN_EIGEN \
-    0.001             /* a corner needs about 8 grey levels per px both ways: render grain and sensor
-                           noise on a plain wall or sky stay under it (cv::cornerMinEigenVal scale) */
+/* a corner needs about 8 grey levels per px both ways: render grain and sensor noise on a plain wall or
+   sky stay under it (cv::cornerMinEigenVal's scale) */
+#define MIN_EIGEN 0.001
 #define MAX_FB_PX 0.7 /* forward-backward tracking disagreement allowed, working px */
 #define INLIER_PX 1.2 /* a track agrees with a rotation within this many working px */
 #define RANSAC_ROUNDS 200
@@ -44,8 +44,7 @@ struct sp_vo {
     uint32_t ww, wh;       /* working size */
     double fx, fy, cx, cy; /* intrinsics at the working size */
     uint8_t *gray_full, *first, *prev, *cur;
-    uint8_t *mask;   /* where corners may be taken: off the person (working size) */
-    int have_person; /* the mask holds a person's outline (from landmarks) */
+    uint8_t *mask; /* where corners may be taken: off the person (working size) */
     float *pairs;
     double *b0, *b1;
     uint8_t *in, *in_best, *rest;
@@ -415,7 +414,6 @@ static void person_mask(sp_vo *v, const float *lm)
             }
             v->mask[(size_t)y * v->ww + x] = off ? 255 : 0;
         }
-    v->have_person = 1;
 }
 
 int sp_vo_push(sp_vo *v, const sp_frame *frame, const float *landmarks)

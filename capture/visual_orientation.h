@@ -13,8 +13,9 @@
  * short to say, which the result reports. The heading is relative: world +x is
  * the first frame's forward direction on the horizon.
  *
- * Memory: the first frame and the last one at the working resolution (a
- * 1920-px video is tracked at 480 px) and 48 bytes per frame.
+ * Memory: one frame in grey at the capture's size, the first, the last and the
+ * current one and a mask at the working size (a 1920-px video is tracked at
+ * 480 px), and 56 bytes per frame.
  */
 #ifndef SUNPROBE_CAPTURE_VISUAL_ORIENTATION_H
 #define SUNPROBE_CAPTURE_VISUAL_ORIENTATION_H
