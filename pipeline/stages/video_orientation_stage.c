@@ -264,8 +264,8 @@ static int vos_finish(void *ctx, FILE *summary)
                 "uneven to give its axis): the phone is assumed held upright\n");
     if (status) {
         fprintf(summary,
-                "video-orientation: the background could not be tracked (a textureless background, or "
-                "one too near): no orientation\n");
+                "video-orientation: the background could not be tracked (a plain sky or wall, or a person "
+                "filling the frame): no orientation\n");
         return status;
     }
     double *err = malloc(sizeof(double) * s->n);
