@@ -18,6 +18,7 @@
 #include "common/clock.h"
 #include "common/file_util.h"
 #include "common/json.h"
+#include "common/module.h"
 #include "common/progress.h"
 #include "common/report.h"
 #include "export/face_dir.h"
@@ -256,6 +257,12 @@ static int orient_from_video(fit_args *a)
     int ret = sp_tool_video_orientation(a->capture, a->progress, NULL, &a->video, &r);
     if (ret == -ECANCELED)
         return sp_cmd_fail("fit", ret, a->out);
+    if (ret == SP_EMODULE) { /* no OpenCV here: the fit goes on without, and says what is missing */
+        sp_stage_close(&a->video);
+        printf("fit: this build cannot orient the video (no OpenCV): frames without an IMU orientation are "
+               "skipped\n");
+        return SP_EXIT_OK;
+    }
     if (ret == SP_ENODATA && r.frames)
         return sp_cmd_failf("fit", ret,
                             "%s: the camera orientation cannot be found from the video (see above): "
