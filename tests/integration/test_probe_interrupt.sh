@@ -65,7 +65,14 @@ if [ "$seen" = 1 ]; then
     kill -INT "$pid" 2>/dev/null
     wait "$pid"
     got=$?
-    [ "$got" -eq 130 ] || { fail "import INT: exit $got, expected 130"; sed 's/^/  | /' "$dir/e.txt"; }
+    # a build that cannot decode PNG fails on the first frame, maybe before the signal lands (a race the
+    # minimal CI build lost once): that is exit 4, not an interrupted import
+    if [ "$got" -eq 4 ] && grep -q "needs OpenCV" "$dir/e.txt"; then
+        echo "note: the import case's signal not tested: this build cannot decode PNG"
+    elif [ "$got" -ne 130 ]; then
+        fail "import INT: exit $got, expected 130"
+        sed 's/^/  | /' "$dir/e.txt"
+    fi
     [ -e "$dir/imp.spcap.partial" ] && fail "import INT: partial file left behind"
     [ "$(cat "$dir/imp.spcap")" = old ] || fail "import INT: the existing output was replaced"
 else
