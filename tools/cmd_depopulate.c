@@ -36,27 +36,30 @@ typedef struct depop_args {
 
 static void usage(FILE *out)
 {
-    fprintf(out, "usage: sunprobe depopulate INPUT.png|.jpg -o OUT.png [options]\n\n"
-                 "Removes people and other objects with their shadows from one street image and fills the holes.\n"
-                 "With --probe, objects come from the probe's segmentation against its clean plate, which fills\n"
-                 "them; otherwise from --box and OpenCV's HOG people detector, filled by exemplar inpainting.\n\n"
-                 "options:\n"
-                 "      --probe DIR       a probe directory of the same scene (sunprobe probe)\n"
-                 "      --box X,Y,W,H     an object to remove (repeatable)\n"
-                 "      --keep X,Y        keep the object whose box holds this point (repeatable)\n"
-                 "      --detector hog|none  single-image people detector (default hog where OpenCV is built,\n"
-                 "                        else none)\n"
-                 "      --sun-dir DX,DY   image direction shadows fall in from the feet (default: found per object)\n"
-                 "      --no-shadows      remove the objects only, not their shadows\n"
-                 "      --camera F,CX,CY,PITCH  focal length and principal point (pixels) and the downward pitch\n"
-                 "                        (degrees) for the sun from the shadows (default: assumed, 60 deg wide,\n"
-                 "                        centred, 15 deg down)\n"
-                 "      --utc ISO --location LAT,LON --heading DEG  the sun from the clock as well (heading: the\n"
-                 "                        view's compass bearing), and how far the two disagree\n"
-                 "      --report FILE     the JSON report (default OUT without .png + .json)\n"
-                 "      --debug FILE      the input with the masks drawn (default OUT without .png + .debug.png)\n"
-                 "  -o, --output PNG      the emptied image\n"
-                 "  -q, --quiet           no summary\n");
+    fprintf(out,
+            "usage: sunprobe depopulate INPUT.png|.jpg -o OUT.png [options]\n\n"
+            "Removes people and other objects with their shadows from one street image and fills the holes.\n"
+            "With --probe, objects come from the probe's segmentation against its clean plate, which fills\n"
+            "them; otherwise from --box and OpenCV's HOG people detector, filled by exemplar inpainting.\n\n"
+            "options:\n"
+            "      --probe DIR       a probe directory of the same scene (sunprobe probe)\n"
+            "      --box X,Y,W,H     an object to remove (repeatable)\n"
+            "      --keep X,Y        keep the object whose box holds this point (repeatable)\n"
+            "      --detector hog|none  single-image people detector (default hog where OpenCV is built,\n"
+            "                        else none)\n"
+            "      --sun-dir DX,DY   image direction shadows fall in from the feet (default: found per object)\n"
+            "      --whole-boxes     remove each box whole (default: its object's silhouette, found by\n"
+            "                        OpenCV's GrabCut, and the box's lowest fifth)\n"
+            "      --no-shadows      remove the objects only, not their shadows\n"
+            "      --camera F,CX,CY,PITCH  focal length and principal point (pixels) and the downward pitch\n"
+            "                        (degrees) for the sun from the shadows (default: assumed, 60 deg wide,\n"
+            "                        centred, 15 deg down)\n"
+            "      --utc ISO --location LAT,LON --heading DEG  the sun from the clock as well (heading: the\n"
+            "                        view's compass bearing), and how far the two disagree\n"
+            "      --report FILE     the JSON report (default OUT without .png + .json)\n"
+            "      --debug FILE      the input with the masks drawn (default OUT without .png + .debug.png)\n"
+            "  -o, --output PNG      the emptied image\n"
+            "  -q, --quiet           no summary\n");
 }
 
 static int bad(const char *opt, const char *v)
@@ -65,8 +68,21 @@ static int bad(const char *opt, const char *v)
     return SP_EXIT_USAGE;
 }
 
-enum { OPT_PROBE = 256, OPT_BOX, OPT_KEEP, OPT_DETECTOR, OPT_SUN, OPT_NO_SHADOWS, OPT_REPORT, OPT_DEBUG, OPT_CAMERA,
-       OPT_UTC, OPT_LOCATION, OPT_HEADING };
+enum {
+    OPT_PROBE = 256,
+    OPT_BOX,
+    OPT_KEEP,
+    OPT_DETECTOR,
+    OPT_WHOLE_BOXES,
+    OPT_SUN,
+    OPT_NO_SHADOWS,
+    OPT_REPORT,
+    OPT_DEBUG,
+    OPT_CAMERA,
+    OPT_UTC,
+    OPT_LOCATION,
+    OPT_HEADING
+};
 
 static int parse_option(int c, const char *name, depop_args *a)
 {
@@ -108,14 +124,23 @@ static int parse_option(int c, const char *name, depop_args *a)
 static int parse_args(int argc, char **argv, depop_args *a)
 {
     static const struct option opts[] = {
-        { "probe", required_argument, NULL, OPT_PROBE },       { "box", required_argument, NULL, OPT_BOX },
-        { "keep", required_argument, NULL, OPT_KEEP },         { "detector", required_argument, NULL, OPT_DETECTOR },
-        { "sun-dir", required_argument, NULL, OPT_SUN },       { "no-shadows", no_argument, NULL, OPT_NO_SHADOWS },
-        { "report", required_argument, NULL, OPT_REPORT },     { "debug", required_argument, NULL, OPT_DEBUG },
-        { "camera", required_argument, NULL, OPT_CAMERA },     { "utc", required_argument, NULL, OPT_UTC },
-        { "location", required_argument, NULL, OPT_LOCATION }, { "heading", required_argument, NULL, OPT_HEADING },
-        { "output", required_argument, NULL, 'o' },            { "quiet", no_argument, NULL, 'q' },
-        { "help", no_argument, NULL, 'h' },                    { 0 },
+        { "probe", required_argument, NULL, OPT_PROBE },
+        { "box", required_argument, NULL, OPT_BOX },
+        { "keep", required_argument, NULL, OPT_KEEP },
+        { "detector", required_argument, NULL, OPT_DETECTOR },
+        { "sun-dir", required_argument, NULL, OPT_SUN },
+        { "no-shadows", no_argument, NULL, OPT_NO_SHADOWS },
+        { "whole-boxes", no_argument, NULL, OPT_WHOLE_BOXES },
+        { "report", required_argument, NULL, OPT_REPORT },
+        { "debug", required_argument, NULL, OPT_DEBUG },
+        { "camera", required_argument, NULL, OPT_CAMERA },
+        { "utc", required_argument, NULL, OPT_UTC },
+        { "location", required_argument, NULL, OPT_LOCATION },
+        { "heading", required_argument, NULL, OPT_HEADING },
+        { "output", required_argument, NULL, 'o' },
+        { "quiet", no_argument, NULL, 'q' },
+        { "help", no_argument, NULL, 'h' },
+        { 0 },
     };
     optind = 0;
     int c, code, li = -1;
@@ -196,8 +221,10 @@ static int write_report(const depop_args *a, const depop_job *j, const char *pat
     sp_strbuf_json_string(&b, j->source);
     sp_strbuf_printf(&b, ",\"filled_from\":");
     sp_strbuf_json_string(&b, j->fill);
-    sp_strbuf_printf(&b, ",\"kept\":%zu,\"hog_detections\":%zu,\"object_pixels\":%zu,\"shadow_pixels\":%zu,"
-                         "\"sun_dir_given\":", j->kept, j->hog_found, nobj, nsh);
+    sp_strbuf_printf(&b,
+                     ",\"kept\":%zu,\"hog_detections\":%zu,\"silhouettes\":%zu,\"object_pixels\":%zu,"
+                     "\"shadow_pixels\":%zu,\"sun_dir_given\":",
+                     j->kept, j->hog_found, j->segmented, nobj, nsh);
     double sd[2] = { a->in.ds.sun_dx, a->in.ds.sun_dy };
     if (sd[0] != 0 || sd[1] != 0)
         sp_strbuf_json_numbers(&b, sd, 2);

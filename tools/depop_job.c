@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "cmd.h"
+#include "common/module.h"
 #include "export/png_read.h"
 #include "pipeline/probe/opencv_probe_shim.h"
 #include "sp_config.h"
@@ -48,6 +49,8 @@ int depop_input_option(const char *cmd, const char *opt, const char *arg, depop_
         if (sp_opt_numbers(arg, v, 2) || hypot(v[0], v[1]) < 1e-9)
             return bad(cmd, "--sun-dir (DX,DY, not both 0)", arg);
         a->ds.sun_dx = v[0], a->ds.sun_dy = v[1];
+    } else if (!strcmp(opt, "whole-boxes")) {
+        a->whole_boxes = 1;
     } else if (!strcmp(opt, "no-shadows")) {
         a->ds.shadows = 0;
     } else {
@@ -175,7 +178,19 @@ static int find_objects(const depop_input *a, depop_job *j)
         return code;
     j->source = a->detector == 1 ? (a->n_boxes ? "--box and the HOG people detector" : "the HOG people detector")
                                  : "--box";
-    int ret = sp_depop_mask(j->rgb, j->w, j->h, j->w * 3, j->obj, j->n, &a->ds, j->mask);
+    int ret = 0;
+    if (!a->whole_boxes && j->n) {
+        if (!(j->silhouettes = malloc((size_t)j->w * j->h)))
+            return sp_cmd_fail(j->cmd, -ENOMEM, "silhouettes");
+        ret = sp_depop_segment(j->rgb, j->w, j->h, j->w * 3, j->obj, j->n, j->silhouettes, &j->segmented);
+        if (ret == SP_EMODULE) { /* no OpenCV here: the boxes go whole, and the report says so */
+            fprintf(stderr, "sunprobe %s: no OpenCV GrabCut in this build; each box is removed whole\n", j->cmd);
+            ret = 0;
+        } else if (ret) {
+            return sp_cmd_fail(j->cmd, ret, "silhouettes");
+        }
+    }
+    ret = sp_depop_mask(j->rgb, j->w, j->h, j->w * 3, j->obj, j->n, &a->ds, j->mask);
     return ret ? sp_cmd_fail(j->cmd, ret, "removal masks") : 0;
 }
 
@@ -228,7 +243,7 @@ int depop_job_fill(depop_job *j)
 
 void depop_job_free(depop_job *j)
 {
-    free(j->rgb), free(j->mask), free(j->result);
+    free(j->rgb), free(j->mask), free(j->result), free(j->silhouettes);
     if (j->have_probe)
         sp_probe_dir_free(&j->pd);
     memset(j, 0, sizeof(*j));

@@ -26,7 +26,8 @@ typedef struct depop_input {
     unsigned n_boxes;
     double keep[2 * DEPOP_MAX_KEEP];
     unsigned n_keep;
-    int detector; /* 0 none, 1 hog */
+    int detector;    /* 0 none, 1 hog */
+    int whole_boxes; /* --whole-boxes: remove boxes whole, no silhouettes */
     sp_depop_settings ds;
 } depop_input;
 
@@ -37,6 +38,8 @@ typedef struct depop_job {
     sp_probe_dir pd;
     int have_probe;
     uint8_t *mask, *result; /* 1 object, 2 shadow; the filled image */
+    uint8_t *silhouettes;   /* the box objects' own masks (sp_depop_segment), or NULL */
+    size_t segmented;       /* box objects cut to their silhouettes */
     sp_depop_object obj[DEPOP_MAX_OBJECTS];
     const char *origin[DEPOP_MAX_OBJECTS]; /* "box", "hog", "probe" */
     size_t n, kept, hog_found;
@@ -47,7 +50,7 @@ typedef struct depop_job {
 /* Sets the defaults (HOG where OpenCV is built). */
 void depop_input_default(depop_input *in);
 /*
- * --probe, --box, --keep, --detector, --sun-dir, --no-shadows (the long option's name without its dashes
+ * --probe, --box, --keep, --detector, --whole-boxes, --sun-dir, --no-shadows (the long option's name without its dashes
  * in opt, its value in arg): 0 taken, 1 not one of these, else the exit code after a message.
  */
 int depop_input_option(const char *cmd, const char *opt, const char *arg, depop_input *in);

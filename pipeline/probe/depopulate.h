@@ -75,6 +75,17 @@ SP_PRIVATE int sp_depop_mask(const uint8_t *rgb, uint32_t width, uint32_t height
                   size_t n, const sp_depop_settings *s, uint8_t *mask);
 
 /*
+ * Each box object's own silhouette (depop_segment.c): GrabCut inside the box, holes closed, grown by 3% of
+ * the box height (at least a pixel), the box's lowest fifth whole (where it meets the ground); a cut under a
+ * fifth or over 95% of the box keeps the whole box. Objects
+ * that came with a mask keep it. masks (image-sized) is cleared and gets the union of the silhouettes;
+ * each box object's mask points to it (masks must outlive objs' use). *segmented: how many boxes were cut.
+ * SP_EMODULE where OpenCV is not built or cannot be loaded (no object changed), -EINVAL, -ENOMEM.
+ */
+SP_PRIVATE int sp_depop_segment(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride,
+                                sp_depop_object *objs, size_t n, uint8_t *masks, size_t *segmented);
+
+/*
  * Objects and their shadows from a clean plate (a probe directory's): the
  * probe's own segmentation of the image against the plate (plane may be
  * NULL). Objects whose box holds one of the n_keep points keep (x, y pairs)

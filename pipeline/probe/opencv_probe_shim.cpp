@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: MIT */
-/* OpenCV behind a C API for the probe: HOG people scores and MOG2; exceptions stop here. */
+/* OpenCV behind a C API for the probe: HOG people scores, MOG2, Telea and GrabCut; exceptions stop here. */
 #include "opencv_probe_shim.h"
 
 #include <cerrno>
@@ -118,6 +118,35 @@ extern "C" int sp_cv_inpaint_telea(uint8_t *rgb, uint32_t width, uint32_t height
         cv::inpaint(img, m8, out, radius, cv::INPAINT_TELEA);
         out.copyTo(img);
         return img.data == rgb ? 0 : -EIO;
+    });
+}
+
+extern "C" int sp_cv_grabcut_box(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, int x0, int y0,
+                                 int x1, int y1, int iterations, uint8_t *mask)
+{
+    if (!rgb || !mask || width == 0 || height == 0 || width > 32768 || height > 32768 || stride < width * 3 || x0 < 0 ||
+        y0 < 0 || x1 < x0 || y1 < y0 || x1 >= (int)width || y1 >= (int)height || iterations < 1 || iterations > 10)
+        return -EINVAL;
+    int bw = x1 - x0 + 1, bh = y1 - y0 + 1;
+    /* the colour models learn the background from a frame around the box, not the whole image */
+    int mx = std::max(8, bw / 2), my = std::max(8, bh / 4);
+    cv::Rect crop(cv::Point(std::max(0, x0 - mx), std::max(0, y0 - my)),
+                  cv::Point(std::min((int)width, x1 + 1 + mx), std::min((int)height, y1 + 1 + my)));
+    cv::Rect box(x0 - crop.x, y0 - crop.y, bw, bh);
+    if (bw < 3 || bh < 3 || crop.area() - box.area() < 64)
+        return SP_ENODATA; /* too small a box, or no background around it to learn */
+    return guarded("GrabCut", [&]() -> int {
+        cv::Mat img((int)height, (int)width, CV_8UC3, const_cast<uint8_t *>(rgb), stride);
+        cv::Mat gc, bgd, fgd;
+        cv::theRNG().state = 0x5eed; /* the GMMs start from k-means: the same box, the same mask */
+        cv::grabCut(img(crop), gc, box, bgd, fgd, iterations, cv::GC_INIT_WITH_RECT);
+        for (int y = 0; y < bh; y++)
+            for (int x = 0; x < bw; x++) {
+                uint8_t v = gc.at<uint8_t>(box.y + y, box.x + x);
+                if (v == cv::GC_FGD || v == cv::GC_PR_FGD)
+                    mask[(size_t)(y0 + y) * width + (size_t)(x0 + x)] = 1;
+            }
+        return 0;
     });
 }
 

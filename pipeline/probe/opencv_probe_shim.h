@@ -2,7 +2,8 @@
 /*
  * The probe's C face of OpenCV (opencv_probe_shim.cpp, compiled only under
  * HAVE_OPENCV): the HOG people detector that can confirm person-shaped objects,
- * and the MOG2 background subtractor the benchmark compares against. Pixels
+ * GrabCut for an object's silhouette in its box, and the MOG2 background
+ * subtractor and Telea inpainting the benchmarks compare against. Pixels
  * cross as packed RGB24; no C++ exception escapes. Internal, not installed.
  */
 #ifndef SUNPROBE_PIPELINE_PROBE_OPENCV_PROBE_SHIM_H
@@ -40,6 +41,16 @@ SP_PRIVATE int sp_cv_hog_detect(sp_cv_hog *hog, const uint8_t *rgb, uint32_t wid
 /* OpenCV's Telea inpainting (photo module) of the pixels where mask != 0, in place: a baseline. */
 int sp_cv_inpaint_telea(uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, const uint8_t *mask,
                         double radius);
+
+/*
+ * OpenCV's GrabCut of the object in the box x0..x1, y0..y1 (inclusive pixels) of an RGB24 image: the colour
+ * models are learnt on a crop around the box (half its width and a quarter of its height each side, at
+ * least 8 px), the box's outside as background. Sets mask (image-sized, width bytes a row) to 1 where the
+ * box's pixels come out (probably) foreground, leaves the rest. Deterministic. SP_ENODATA for a box
+ * under 3 px or without background around it, -EINVAL, -EIO.
+ */
+int sp_cv_grabcut_box(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, int x0, int y0, int x1,
+                      int y1, int iterations, uint8_t *mask);
 
 typedef struct sp_cv_mog2 sp_cv_mog2;
 

@@ -8,7 +8,8 @@
  * direction, refuse a leak into dark material, and the plate-based path finds
  * an object and keeps the one the user keeps; the sun from shadows projected
  * through a known camera, over azimuths all round and elevations 10-60
- * degrees, with an outlier, and nothing from no shadows or a bad camera.
+ * degrees, with an outlier, and nothing from no shadows or a bad camera;
+ * an object's silhouette in its box keeps the box's background.
  */
 #include <errno.h>
 #include <math.h>
@@ -17,6 +18,7 @@
 #include <string.h>
 
 #include "check.h"
+#include "common/module.h"
 #include "pipeline/probe/depopulate.h"
 #include "sunprobe/sp_common.h"
 
@@ -306,6 +308,53 @@ static void test_sun(void)
     CHECK_EQ_INT(sp_depop_sun_estimate(o, 3, &bad, &e), -EINVAL);
 }
 
+/*
+ * A figure in a box on a striped wall: its silhouette keeps most of the box's wall and covers the
+ * figure; a box filling the image has no background to learn and stays whole; bad boxes; without OpenCV
+ * every object is left as a box.
+ */
+static void test_silhouettes(void)
+{
+    static uint8_t rgb[W * H * 3], masks[W * H];
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            int fig = abs(x - 60) * 4 <= (y - 20) && y <= 80; /* a cone-shaped figure, apex at (60, 20) */
+            uint8_t *p = rgb + 3 * (y * W + x);
+            int wall = (x / 6) % 2 ? 200 : 150;
+            p[0] = clamp8((fig ? 180 : wall) + noise(6)), p[1] = clamp8((fig ? 40 : wall) + noise(6));
+            p[2] = clamp8((fig ? 30 : wall - 20) + noise(6));
+        }
+    sp_depop_object o = { .x0 = 40, .y0 = 10, .x1 = 80, .y1 = 82 };
+    size_t cut = 9;
+    int ret = sp_depop_segment(rgb, W, H, W * 3, &o, 1, masks, &cut);
+    if (ret == SP_EMODULE) { /* a build without OpenCV: nothing changes */
+        CHECK(cut == 0 && o.mask == NULL);
+    } else {
+        CHECK_EQ_INT(ret, 0);
+        CHECK(cut == 1 && o.mask == masks);
+        int fig = 0, fig_hit = 0, wall = 0, wall_kept = 0;
+        for (int y = o.y0; y <= o.y1; y++)
+            for (int x = o.x0; x <= o.x1; x++) {
+                int f = abs(x - 60) * 4 <= (y - 20) && y <= 80, m = masks[y * W + x] != 0;
+                if (y < o.y1 - (o.y1 - o.y0) / 5) /* the lowest fifth goes whole by design */
+                    fig += f, fig_hit += f && m, wall += !f, wall_kept += !f && !m;
+            }
+        CHECK(fig_hit >= 0.97 * fig);
+        CHECK(wall_kept >= 0.6 * wall);
+        for (int y = 0; y < H; y++) /* nothing outside the box */
+            for (int x = 0; x < W; x++)
+                if (x < o.x0 || x > o.x1 || y < o.y0 || y > o.y1)
+                    CHECK(masks[y * W + x] == 0);
+        sp_depop_object all = { .x0 = 0, .y0 = 0, .x1 = W - 1, .y1 = H - 1 };
+        CHECK_EQ_INT(sp_depop_segment(rgb, W, H, W * 3, &all, 1, masks, &cut), 0);
+        CHECK(cut == 0 && all.mask == masks && masks[0] && masks[W * H - 1] && masks[W * 45 + 5]);
+    }
+    sp_depop_object outside = { .x0 = 100, .y0 = 10, .x1 = W, .y1 = 20 };
+    CHECK_EQ_INT(sp_depop_segment(rgb, W, H, W * 3, &outside, 1, masks, &cut), -EINVAL);
+    CHECK_EQ_INT(sp_depop_segment(rgb, W, H, W * 2, &o, 1, masks, &cut), -EINVAL);
+    CHECK_EQ_INT(sp_depop_segment(NULL, W, H, W * 3, &o, 1, masks, &cut), -EINVAL);
+}
+
 int main(void)
 {
     test_edge_continues();
@@ -313,5 +362,6 @@ int main(void)
     test_shadow_masks();
     test_from_plate();
     test_sun();
+    test_silhouettes();
     return check_exit();
 }

@@ -10,7 +10,7 @@
  * With --camera (and --sun, the truth's sun as azimuth from the view direction to the right and
  * elevation), also the sun from each frame's shadows (depop_sun.c) and its error.
  *
- * usage: bench_depopulate [--time FRAME.png BACKGROUND.png] [--camera F,CX,CY,PITCH [--sun AZ,EL]]
+ * usage: bench_depopulate [--whole-boxes] [--time FRAME.png BACKGROUND.png] [--camera F,CX,CY,PITCH [--sun AZ,EL]]
  *                         LABEL FRAME BACKGROUND IDS SHADOWS ...
  *   IDS "-": objects are the pixels that differ from the background and are no shadow of it;
  *   SHADOWS "-": the removed region is every pixel that differs from the background (noise-free
@@ -34,9 +34,8 @@
 #define MAX_OBJ 64
 #define N_METHODS 4
 
-static const char *const method_names[N_METHODS] = {
-    "Telea, object boxes alone (baseline)", "Telea, grown masks", "exemplar, object boxes alone",
-    "exemplar, grown masks (ours)" };
+static const char *const method_names[N_METHODS] = { "Telea, object boxes alone (baseline)", "Telea, silhouettes alone",
+                                                     "Telea, grown masks", "exemplar, grown masks (ours)" };
 
 typedef struct sun_eval {
     int on, truth;
@@ -47,6 +46,7 @@ typedef struct sun_eval {
 } sun_eval;
 
 static sun_eval sun;
+static int whole_boxes; /* --whole-boxes: every method removes the boxes as given (no silhouettes) */
 
 typedef struct scene {
     uint8_t *rgb, *bg, *objpx; /* objpx: the truth's object pixels */
@@ -187,16 +187,23 @@ static int run_method(const scene *s, int m, uint8_t *out, uint8_t *mask)
     size_t n = (size_t)s->w * s->h;
     sp_depop_settings ds;
     sp_depop_default_settings(&ds);
-    ds.shadows = m == 1 || m == 3;
+    ds.shadows = m >= 2;
     sp_depop_object obj[MAX_OBJ];
     memcpy(obj, s->obj, sizeof(obj));
-    int ret = sp_depop_mask(s->rgb, s->w, s->h, s->w * 3, obj, s->n, &ds, mask);
+    size_t cut = 0;
+    uint8_t *silhouettes = malloc(n);
+    int ret = silhouettes ? 0 : -ENOMEM;
+    if (!ret && m >= 1 && !whole_boxes)
+        ret = sp_depop_segment(s->rgb, s->w, s->h, s->w * 3, obj, s->n, silhouettes, &cut);
+    if (!ret)
+        ret = sp_depop_mask(s->rgb, s->w, s->h, s->w * 3, obj, s->n, &ds, mask);
     memcpy(out, s->rgb, 3 * n);
     if (!ret && m == 3 && sun.on)
         sun_frame(obj, s->n);
+    free(silhouettes);
     if (ret)
         return ret;
-    if (m >= 2)
+    if (m == 3)
         return sp_inpaint_exemplar(out, s->w, s->h, s->w * 3, mask, NULL, NULL);
 #if HAVE_OPENCV
     return sp_cv_inpaint_telea(out, s->w, s->h, s->w * 3, mask, 3);
@@ -230,19 +237,41 @@ static int score(const char *label, const scene *s, double psnr[N_METHODS], doub
         psnr[m] = sp_psnr_masked(a, b, region, (int)s->w, (int)s->h);
         ssim[m] = sp_ssim_masked(a, b, region, (int)s->w, (int)s->h);
     }
-    const char *dump = getenv("SP_BENCH_DUMP"); /* a folder: each method's result, to look at */
+    const char *dump = getenv("SP_BENCH_DUMP"); /* a folder: each method's result, and the masks, to look at */
     for (int m = 0; m < N_METHODS && !ret && dump; m++) {
         char path[4096];
         snprintf(path, sizeof(path), "%s/%s.%d.png", dump, label, m);
         sp_png_write(path, out[m], s->w, s->h, s->w * 3, 3);
     }
+    if (!ret && dump) { /* our grown mask against the truth's region: both green, truth only red, ours only blue */
+        char path[4096];
+        memcpy(out[0], s->rgb, 3 * n);
+        for (size_t i = 0; i < n; i++)
+            if (s->changed[i] || mask[3][i]) {
+                uint8_t *p = out[0] + 3 * i;
+                p[0] = s->changed[i] && !mask[3][i] ? 255 : p[0] / 3;
+                p[1] = s->changed[i] && mask[3][i] ? 255 : p[1] / 3;
+                p[2] = !s->changed[i] ? 255 : p[2] / 3;
+            }
+        snprintf(path, sizeof(path), "%s/%s.masks.png", dump, label);
+        sp_png_write(path, out[0], s->w, s->h, s->w * 3, 3);
+    }
+    double err_missed = 0,
+           err_filled = 0; /* ours: squared error where the truth changed and we kept, where we filled */
+    for (size_t i = 0; !ret && i < n; i++)
+        for (int c = 0; c < 3; c++) {
+            double d = ((double)out[3][3 * i + c] - s->bg[3 * i + c]) / 255.0;
+            err_missed += s->changed[i] && !mask[3][i] ? d * d : 0, err_filled += mask[3][i] ? d * d : 0;
+        }
     size_t truth = 0, hit = 0, extra = 0;
     for (size_t i = 0; !ret && i < n; i++)
         truth += s->changed[i], hit += s->changed[i] && mask[3][i], extra += !s->changed[i] && mask[3][i];
     if (!ret)
         printf("%-28s %2zu objects  Telea %6.2f dB %.3f  ours %6.2f dB %.3f  (grown mask holds %.1f%% of the truth's "
-               "region, %.1f%% more)\n", label, s->n, psnr[0], ssim[0], psnr[3], ssim[3], 100.0 * hit / truth,
-               100.0 * extra / truth);
+               "region, %.1f%% more; of our squared error %.0f%% is left in, %.0f%% filled)\n",
+               label, s->n, psnr[0], ssim[0], psnr[3], ssim[3], 100.0 * hit / truth, 100.0 * extra / truth,
+               100.0 * err_missed / (err_missed + err_filled + 1e-30),
+               100.0 * err_filled / (err_missed + err_filled + 1e-30));
     for (int m = 0; m < N_METHODS; m++)
         free(out[m]), free(mask[m]);
     free(region), free(a), free(b);
@@ -289,6 +318,8 @@ int main(int argc, char **argv)
 #endif
     double psnr[256][N_METHODS], ssim[256][N_METHODS];
     int k = 0, i = 1;
+    if (i < argc && !strcmp(argv[i], "--whole-boxes"))
+        whole_boxes = 1, i++;
     if (i + 2 < argc && !strcmp(argv[i], "--time")) {
         time_one(argv[i + 1], argv[i + 2]);
         i += 3;
