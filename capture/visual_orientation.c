@@ -36,6 +36,8 @@ typedef struct vo_frame {
     sp_quat c;       /* camera to world (world = the first camera until finish) */
     double path_deg; /* turn so far */
     int tracked;
+    int has_up;  /* the accelerometer's up at this frame is known */
+    float up[3]; /* ... in camera axes, unit */
 } vo_frame;
 
 struct sp_vo {
@@ -427,7 +429,7 @@ int sp_vo_push(sp_vo *v, const sp_frame *frame, const float *landmarks)
         return ret;
     if (landmarks)
         person_mask(v, landmarks);
-    vo_frame fr = { sp_quat_identity(), 0.0, 1 };
+    vo_frame fr = { sp_quat_identity(), 0.0, 1, 0, { 0, 0, 0 } };
     if (v->n == 0) {
         memcpy(v->first, v->cur, (size_t)v->ww * v->wh);
     } else {
@@ -452,6 +454,18 @@ int sp_vo_push(sp_vo *v, const sp_frame *frame, const float *landmarks)
     return 0;
 }
 
+int sp_vo_gravity(sp_vo *v, sp_vec3 up_in_camera)
+{
+    double n = sp_vec3_norm(up_in_camera);
+    if (!v || v->n == 0 || !isfinite(n) || n < 1.0)
+        return -EINVAL;
+    vo_frame *f = &v->f[v->n - 1];
+    f->has_up = 1;
+    f->up[0] = (float)(up_in_camera.x / n), f->up[1] = (float)(up_in_camera.y / n),
+    f->up[2] = (float)(up_in_camera.z / n);
+    return 0;
+}
+
 static int cmp_double(const void *a, const void *b)
 {
     double x = *(const double *)a, y = *(const double *)b;
@@ -472,9 +486,25 @@ static void close_loop(sp_vo *v, double *correction_deg)
     }
 }
 
-/* World up: the turn's axis (the principal direction of the steps' world rotation vectors), signed
-   towards the first frame's up; the first frame's up when the turn does not say. */
-static sp_vec3 world_up(const sp_vo *v, int *from_turn, double *share, double turn_deg)
+/* The accelerometer's up in the world: the frames' measured up turned by their cameras, averaged (the arm's
+   centripetal and the turn's own accelerations average out over a turn). Zero vector when under half the
+   frames have one. */
+static sp_vec3 gravity_up(const sp_vo *v)
+{
+    sp_vec3 sum = { 0, 0, 0 };
+    size_t k = 0;
+    for (size_t i = 0; i < v->n; i++)
+        if (v->f[i].has_up) {
+            sp_vec3 u = { v->f[i].up[0], v->f[i].up[1], v->f[i].up[2] };
+            sum = sp_vec3_add(sum, sp_quat_rotate(v->f[i].c, u)), k++;
+        }
+    return k * 2 >= v->n && sp_vec3_norm(sum) > 0.5 * (double)k ? sp_vec3_normalize(sum) : (sp_vec3){ 0, 0, 0 };
+}
+
+/* World up: the accelerometer's when it is known; else the turn's axis (the principal direction of the
+   steps' world rotation vectors), signed towards the first frame's up; else the first frame's up. The
+   turn's axis is found in every case, and its angle to gravity reported. */
+static sp_vec3 world_up(const sp_vo *v, sp_vo_result *res)
 {
     double M[9] = { 0 }, tr = 0;
     for (size_t i = 1; i < v->n; i++) {
@@ -498,12 +528,19 @@ static sp_vec3 world_up(const sp_vo *v, int *from_turn, double *share, double tu
         for (int r = 0; r < 3; r++)
             x[r] = y[r] / n;
     }
-    *share = tr > 0 ? lambda / tr : 0.0;
-    *from_turn = turn_deg >= AXIS_MIN_TURN && *share >= AXIS_MIN_SHARE;
-    if (!*from_turn)
-        return cam_up;
-    sp_vec3 axis = { x[0], x[1], x[2] };
-    return sp_vec3_dot(axis, cam_up) < 0 ? sp_vec3_scale(axis, -1.0) : axis;
+    res->turn_axis_share = tr > 0 ? lambda / tr : 0.0;
+    int turn_says = res->turn_deg >= AXIS_MIN_TURN && res->turn_axis_share >= AXIS_MIN_SHARE;
+    sp_vec3 axis = { x[0], x[1], x[2] }, g = gravity_up(v);
+    axis = sp_vec3_dot(axis, cam_up) < 0 ? sp_vec3_scale(axis, -1.0) : axis;
+    res->axis_to_gravity_deg = NAN;
+    if (sp_vec3_norm(g) > 0) {
+        res->up_from_gravity = 1;
+        if (turn_says)
+            res->axis_to_gravity_deg = acos(fmax(-1.0, fmin(1.0, sp_vec3_dot(axis, g)))) * 180.0 / M_PI;
+        return g;
+    }
+    res->up_from_turn = turn_says;
+    return turn_says ? axis : cam_up;
 }
 
 int sp_vo_finish(sp_vo *v, sp_vo_result *r)
@@ -511,6 +548,7 @@ int sp_vo_finish(sp_vo *v, sp_vo_result *r)
     if (!v || !r)
         return -EINVAL;
     memset(r, 0, sizeof(*r));
+    r->axis_to_gravity_deg = NAN;
     r->frames = v->n;
     r->coasted = v->coasted;
     if (v->n < 2)
@@ -528,7 +566,7 @@ int sp_vo_finish(sp_vo *v, sp_vo_result *r)
         r->loop_closed = 1, r->loop_frame = v->loop_frame, r->loop_inliers = v->loop_inliers;
         close_loop(v, &r->loop_correction_deg);
     }
-    sp_vec3 up = world_up(v, &r->up_from_turn, &r->turn_axis_share, r->turn_deg);
+    sp_vec3 up = world_up(v, r);
     /* the world turned so that up is +z and the first camera looks along +x */
     sp_vec3 fwd = sp_quat_rotate(v->f[0].c, (sp_vec3){ 0, 0, 1 });
     fwd = sp_vec3_sub(fwd, sp_vec3_scale(up, sp_vec3_dot(fwd, up)));

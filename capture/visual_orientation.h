@@ -8,14 +8,15 @@
  * moves with the camera, so of two well-supported motions the one that is not
  * the identity is the world's. The chain drifts; when the turn comes back to
  * where it started, the first frame is matched again and the difference is
- * spread over the turn (loop closure). World up is the turn's axis (a person
- * turns about the vertical), or the first frame's up when the turn is too
- * short to say, which the result reports. The heading is relative: world +x is
+ * spread over the turn (loop closure). World up is the accelerometer's when
+ * the capture has one, else the turn's axis (a person turns about the
+ * vertical), else the first frame's up when the turn is too short to say;
+ * the result reports which. The heading is relative: world +x is
  * the first frame's forward direction on the horizon.
  *
  * Memory: one frame in grey at the capture's size, the first, the last and the
  * current one and a mask at the working size (a 1920-px video is tracked at
- * 480 px), and 56 bytes per frame.
+ * 480 px), and 72 bytes per frame.
  */
 #ifndef SUNPROBE_CAPTURE_VISUAL_ORIENTATION_H
 #define SUNPROBE_CAPTURE_VISUAL_ORIENTATION_H
@@ -41,8 +42,10 @@ typedef struct sp_vo_result {
     uint64_t loop_frame;   /* ... at this frame */
     unsigned loop_inliers;
     double loop_correction_deg; /* the drift the closure removed */
-    int up_from_turn;           /* world up is the turn's axis (else the first frame's up) */
+    int up_from_gravity;        /* world up is the accelerometer's (sp_vo_gravity on half the frames or more) */
+    int up_from_turn;           /* else: world up is the turn's axis (else the first frame's up) */
     double turn_axis_share;     /* how much of the rotation is about that axis (0..1) */
+    double axis_to_gravity_deg; /* with both: the angle between the turn's axis and the accelerometer's up; NaN */
 } sp_vo_result;
 
 typedef struct sp_vo sp_vo;
@@ -55,6 +58,12 @@ int sp_vo_open(sp_vo **out, const sp_vo_settings *s);
  * without OpenCV; -EINVAL for another size.
  */
 int sp_vo_push(sp_vo *v, const sp_frame *frame, const float *landmarks);
+/*
+ * The accelerometer's up at the last pushed frame: the specific force it measures (m/s^2, pointing up at
+ * rest), in camera axes. Optional; with it on half the frames or more, world up is gravity's rather than
+ * the turn's axis. -EINVAL before a frame or for a vector that is not finite or under 1 m/s^2.
+ */
+int sp_vo_gravity(sp_vo *v, sp_vec3 up_in_camera);
 /*
  * Closes the loop and sets world up; *r says how it went. SP_ENODATA when the
  * background could not be tracked (over a fifth of the steps coasted, or no

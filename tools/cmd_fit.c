@@ -222,8 +222,9 @@ static int read_true_sun(const char *path, double sun[3])
     return ret;
 }
 
-/* 1 when the capture carries an IMU sample (read up to the first), 0 when not, or an error. */
-static int capture_has_imu(const char *path)
+/* 1 when the capture carries a gyroscope sample (read up to the first), 0 when not, or an error: the IMU's
+   orientation needs one; an accelerometer alone gives the video's orientation its world up. */
+static int capture_has_gyro(const char *path)
 {
     sp_source *src = NULL;
     sp_replay_settings rs;
@@ -231,7 +232,7 @@ static int capture_has_imu(const char *path)
     int ret = sp_replay_open(&src, path, &rs);
     sp_event ev;
     while (!ret && (ret = sp_source_next(src, &ev)) == 0) {
-        int imu = ev.type == SP_EVENT_IMU;
+        int imu = ev.type == SP_EVENT_IMU && ev.imu.sensor == SP_IMU_GYRO;
         sp_event_release(&ev);
         if (imu)
             ret = 1;
@@ -246,13 +247,14 @@ static int capture_has_imu(const char *path)
  */
 static int orient_from_video(fit_args *a)
 {
-    int has_imu = a->orientation == ORIENT_AUTO ? capture_has_imu(a->capture) : 0;
-    if (has_imu < 0) /* unreadable: the fit's own pass says why */
+    int has_gyro = a->orientation == ORIENT_AUTO ? capture_has_gyro(a->capture) : 0;
+    if (has_gyro < 0) /* unreadable: the fit's own pass says why */
         return SP_EXIT_OK;
-    if (a->orientation == ORIENT_IMU || has_imu)
+    if (a->orientation == ORIENT_IMU || has_gyro)
         return SP_EXIT_OK;
     if (a->orientation == ORIENT_AUTO)
-        printf("fit: the capture has no IMU: the camera orientation comes from the video (--orientation)\n");
+        printf("fit: no gyroscope in the capture (no IMU, or an accelerometer alone): the camera orientation "
+               "comes from the video (--orientation)\n");
     sp_vo_result r;
     int ret = sp_tool_video_orientation(a->capture, a->progress, NULL, &a->video, &r);
     if (ret == -ECANCELED)

@@ -45,6 +45,8 @@ typedef struct video_orientation_stage {
     float found[136];   /* the tracker's landmarks on the current frame, or the last side data's */
     int side_landmarks; /* the capture brings landmarks as side data (they follow their frame) */
     int finished;       /* finish succeeded: the orientations can be looked up */
+    double accel[3];    /* the accelerometer's samples since the last frame, summed (IMU axes) */
+    unsigned n_accel;
     sp_vo_result result;
 } video_orientation_stage;
 
@@ -140,6 +142,12 @@ static int vos_push(void *ctx, const sp_event *ev)
     }
     if (ev->type == SP_EVENT_SIDE)
         on_side(s, ev);
+    if (ev->type == SP_EVENT_IMU && ev->imu.sensor == SP_IMU_ACCEL && isfinite(ev->imu.v[0]) &&
+        isfinite(ev->imu.v[1]) && isfinite(ev->imu.v[2])) {
+        for (int k = 0; k < 3; k++)
+            s->accel[k] += (double)ev->imu.v[k];
+        s->n_accel++;
+    }
     if (ev->type != SP_EVENT_FRAME)
         return 0;
     int ret = s->vo ? 0 : open_tracker(s, ev->frame);
@@ -155,6 +163,12 @@ static int vos_push(void *ctx, const sp_event *ev)
         s->with_face++;
     if (ret || (ret = sp_vo_push(s->vo, ev->frame, lm)))
         return ret;
+    if (s->n_accel) { /* gravity for world up: the mean since the last frame, bias off, in camera axes */
+        sp_vec3 a = { s->accel[0] / s->n_accel - s->meta.accel_bias.x, s->accel[1] / s->n_accel - s->meta.accel_bias.y,
+                      s->accel[2] / s->n_accel - s->meta.accel_bias.z };
+        sp_vo_gravity(s->vo, sp_quat_rotate(sp_quat_normalize(s->meta.imu_to_camera), a)); /* under 1 m/s^2: none */
+        s->accel[0] = s->accel[1] = s->accel[2] = 0, s->n_accel = 0;
+    }
     vo_row *r = &s->rows[s->n++];
     r->sequence = ev->frame->sequence;
     r->t_ns = ev->timestamp_ns;
@@ -255,7 +269,14 @@ static int vos_finish(void *ctx, FILE *summary)
         fprintf(summary,
                 "video-orientation: no loop closure (the turn did not come back to its start, or the "
                 "start was not found again): the drift stays\n");
-    if (r.up_from_turn)
+    if (r.up_from_gravity && isfinite(r.axis_to_gravity_deg))
+        fprintf(summary, "video-orientation: world up is the accelerometer's (the turn's axis is %.1f deg from it)\n",
+                r.axis_to_gravity_deg);
+    else if (r.up_from_gravity)
+        fprintf(summary,
+                "video-orientation: world up is the accelerometer's (the turn is too short or too uneven "
+                "to give its axis)\n");
+    else if (r.up_from_turn)
         fprintf(summary, "video-orientation: world up is the turn's axis (%.0f%% of the rotation is about it)\n",
                 100.0 * r.turn_axis_share);
     else

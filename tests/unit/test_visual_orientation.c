@@ -6,8 +6,10 @@
  * camera (the person), once at infinity and once on a sphere of 5 m about the
  * turning axis (parallax against the arm's half metre). The orientations must
  * match the truth within a fraction of a degree after the one aligning
- * rotation, the loop must close and world up must come from the turn. A flat sky is refused, not guessed; bad settings and
- * frames are refused.
+ * rotation, the loop must close and world up must come from the turn. A short
+ * turn with the phone held up takes world up from an accelerometer when given
+ * one, and is 15 degrees off without. A flat sky is refused, not guessed; bad
+ * settings, frames and gravity samples are refused.
  */
 #include "capture/visual_orientation.h"
 
@@ -43,10 +45,13 @@ static double world(const double d[3])
     return 40.0 + 0.6 * cell + 0.3 * el;
 }
 
+static double held_pitch_deg; /* the phone tilted up by this much throughout (the short turn's test) */
+
 /* Camera-to-world of frame i: one turn about +z, pitch and roll wobbling by a few degrees. */
 static sp_quat true_camera(int i)
 {
-    double yaw = 360.0 * i / (FRAMES - 4) * DEG, pitch = 4.0 * sin(0.21 * i) * DEG, roll = 2.0 * sin(0.13 * i) * DEG;
+    double yaw = 360.0 * i / (FRAMES - 4) * DEG, pitch = (held_pitch_deg + 4.0 * sin(0.21 * i)) * DEG;
+    double roll = 2.0 * sin(0.13 * i) * DEG;
     /* an upright camera looking along +x: x right = -y world, y down = -z world, z forward = +x world */
     double m[9] = { 0, 0, 1, -1, 0, 0, 0, -1, 0 };
     sp_quat base = sp_quat_from_matrix(m);
@@ -92,6 +97,20 @@ static void render(sp_frame *f, uint8_t *px, int i, int flat, double distance)
     f->sequence = (uint64_t)i;
 }
 
+/* The worst angle between the estimated and the true up over the first n frames. */
+static double worst_tilt(const sp_vo *v, int n)
+{
+    double tilt = 0;
+    for (int i = 0; i < n; i++) {
+        sp_quat est;
+        sp_vo_camera(v, (size_t)i, &est, NULL);
+        sp_vec3 u0 = sp_quat_rotate(sp_quat_conj(est), (sp_vec3){ 0, 0, 1 });
+        sp_vec3 u1 = sp_quat_rotate(sp_quat_conj(true_camera(i)), (sp_vec3){ 0, 0, 1 });
+        tilt = fmax(tilt, acos(fmin(1.0, sp_vec3_dot(u0, u1))) / DEG);
+    }
+    return tilt;
+}
+
 static void test_turn(double distance, double max_worst)
 {
     sp_vo_settings s = { W, H, FX, FX, 0.5 * (W - 1), 0.5 * (H - 1) };
@@ -124,14 +143,11 @@ static void test_turn(double distance, double max_worst)
         sp_quat_mean_add(&m, sp_quat_mul(true_camera(i), sp_quat_conj(est)));
     }
     sp_quat align = sp_quat_mean_get(&m);
-    double worst = 0, tilt = 0;
+    double worst = 0, tilt = worst_tilt(v, FRAMES);
     for (int i = 0; i < FRAMES; i++) {
         sp_quat est;
         sp_vo_camera(v, (size_t)i, &est, NULL);
         worst = fmax(worst, sp_quat_angle_between(sp_quat_mul(align, est), true_camera(i)) / DEG);
-        sp_vec3 u0 = sp_quat_rotate(sp_quat_conj(est), (sp_vec3){ 0, 0, 1 });
-        sp_vec3 u1 = sp_quat_rotate(sp_quat_conj(true_camera(i)), (sp_vec3){ 0, 0, 1 });
-        tilt = fmax(tilt, acos(fmin(1.0, sp_vec3_dot(u0, u1))) / DEG);
     }
     printf("world at %g m: turn %.1f deg, loop at frame %llu (%.2f deg of drift), worst error %.3f deg, worst tilt "
            "%.3f deg\n",
@@ -141,6 +157,44 @@ static void test_turn(double distance, double max_worst)
     sp_quat q;
     CHECK_EQ_INT(sp_vo_camera(v, FRAMES, &q, NULL), -ERANGE);
     sp_vo_close(&v);
+}
+
+/*
+ * A 50-degree turn with the phone held 15 degrees up: too short to give its axis, so without an
+ * accelerometer world up is the first frame's and 15 degrees off; with one (its up in camera axes, plus
+ * half a metre per second squared of arm motion) it is gravity's. Bad gravity samples are refused.
+ */
+static void test_gravity(void)
+{
+    enum { N = 14 };
+    held_pitch_deg = 15;
+    for (int with_gravity = 0; with_gravity < 2; with_gravity++) {
+        sp_vo_settings s = { W, H, FX, FX, 0.5 * (W - 1), 0.5 * (H - 1) };
+        sp_vo *v = NULL;
+        CHECK_EQ_INT(sp_vo_open(&v, &s), 0);
+        CHECK_EQ_INT(sp_vo_gravity(v, (sp_vec3){ 0, -9.8, 0 }), -EINVAL); /* before a frame */
+        static uint8_t px[W * H];
+        sp_frame f;
+        for (int i = 0; i < N; i++) {
+            render(&f, px, i, 0, 0);
+            CHECK_EQ_INT(sp_vo_push(v, &f, NULL), 0);
+            sp_vec3 up = sp_vec3_scale(sp_quat_rotate(sp_quat_conj(true_camera(i)), (sp_vec3){ 0, 0, 1 }), 9.81);
+            sp_vec3 arm = { 0.5 * sin(1.3 * i), 0.5 * cos(0.7 * i), 0.5 * sin(2.1 * i) };
+            if (with_gravity)
+                CHECK_EQ_INT(sp_vo_gravity(v, sp_vec3_add(up, arm)), 0);
+        }
+        CHECK_EQ_INT(sp_vo_gravity(v, (sp_vec3){ 0, 0.5, 0 }), -EINVAL); /* not gravity */
+        CHECK_EQ_INT(sp_vo_gravity(v, (sp_vec3){ NAN, 9.8, 0 }), -EINVAL);
+        sp_vo_result r;
+        CHECK_EQ_INT(sp_vo_finish(v, &r), 0);
+        double tilt = worst_tilt(v, N);
+        printf("a %.0f-deg turn held %.0f deg up, %s: worst tilt %.2f deg\n", r.turn_deg, held_pitch_deg,
+               with_gravity ? "with gravity" : "without", tilt);
+        CHECK(!r.up_from_turn && r.up_from_gravity == with_gravity && isnan(r.axis_to_gravity_deg));
+        CHECK(with_gravity ? tilt < 0.5 : tilt > 10);
+        sp_vo_close(&v);
+    }
+    held_pitch_deg = 0;
 }
 
 static void test_flat_sky_refused(void)
@@ -188,5 +242,6 @@ int main(void)
     test_flat_sky_refused();
     test_turn(0, 0.5);
     test_turn(5, 1.5); /* the loop closes over the ~32 deg the chain comes up short; parallax: 1.02 measured */
+    test_gravity();
     return check_exit();
 }
