@@ -10,6 +10,7 @@
 #include "capture/opencv_shim.h"
 #include "common/pixconv.h"
 #include "common/module.h"
+#include "common/stats.h"
 #include "sp_config.h"
 #include "sunprobe/sp_common.h"
 
@@ -466,12 +467,6 @@ int sp_vo_gravity(sp_vo *v, sp_vec3 up_in_camera)
     return 0;
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
 /* The loop's drift spread over the turn by each frame's share of the turn up to the closing frame. */
 static void close_loop(sp_vo *v, double *correction_deg)
 {
@@ -558,8 +553,7 @@ int sp_vo_finish(sp_vo *v, sp_vo_result *r)
     if (!tmp)
         return -ENOMEM;
     memcpy(tmp, v->inlier_counts, sizeof(double) * steps);
-    qsort(tmp, steps, sizeof(double), cmp_double);
-    r->median_inliers = steps % 2 ? tmp[steps / 2] : 0.5 * (tmp[steps / 2 - 1] + tmp[steps / 2]);
+    r->median_inliers = sp_median_inplace(tmp, steps);
     free(tmp);
     r->turn_deg = v->f[v->n - 1].path_deg;
     if (v->loop_closed) {

@@ -13,6 +13,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/stats.h"
+
 #define DEG (M_PI / 180.0)
 
 static const char *const sky_names[] = { "unknown", "sunny", "overcast" };
@@ -163,12 +165,6 @@ double sp_repop_height_px(const sp_depop_camera *cam, double H, double x, double
     return y + 0.5 - v;
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
 double sp_repop_people_height(const sp_depop_object *objs, size_t n, const sp_depop_camera *cam)
 {
     double *H = malloc((n ? n : 1) * sizeof(double));
@@ -181,11 +177,7 @@ double sp_repop_people_height(const sp_depop_object *objs, size_t n, const sp_de
         if (h > 0 && h < 1)
             H[m++] = h;
     }
-    double r = NAN;
-    if (m) {
-        qsort(H, m, sizeof(double), cmp_double);
-        r = m % 2 ? H[m / 2] : 0.5 * (H[m / 2 - 1] + H[m / 2]);
-    }
+    double r = H ? sp_median_inplace(H, m) : (double)NAN;
     free(H);
     return r;
 }

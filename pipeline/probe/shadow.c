@@ -18,6 +18,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/stats.h"
+
 #define SHADOW_REC 4          /* u, v, dx, dy */
 #define MIN_AREA_FRACTION 0.1 /* shadow pixels over mask pixels for a hard shadow */
 #define MIN_LENGTH 0.15       /* |(dx, dy)|: contact shadows under the feet are shorter */
@@ -82,21 +84,6 @@ int shadows_add(probe_shadows *sh, const probe_segment *sg, const probe_object *
     return 1;
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-/* Median of n values, sorting the scratch copy in place. */
-static double median_of(double *v, unsigned n)
-{
-    if (!n)
-        return (double)NAN;
-    qsort(v, n, sizeof(double), cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 /* Huber IRLS of column `col` on [1, u, v] (p = 3) or [1] (p = 1); scratch holds 2 n doubles. */
 static int huber_fit(const float *rec, unsigned n, unsigned col, unsigned p, double *scratch, double beta[3])
 {
@@ -127,7 +114,7 @@ static int huber_fit(const float *rec, unsigned n, unsigned col, unsigned p, dou
             r[i] = fabs((double)q[col] - pred);
         }
         memcpy(w, r, n * sizeof(double));
-        double s = 1.4826 * median_of(w, n), k = 1.345 * (s > 0.01 ? s : 0.01);
+        double s = 1.4826 * sp_median_inplace(w, n), k = 1.345 * (s > 0.01 ? s : 0.01);
         for (unsigned i = 0; i < n; i++)
             w[i] = r[i] <= k ? 1.0 : k / r[i];
     }

@@ -17,6 +17,7 @@
 
 #include "capture/visual_orientation.h"
 #include "common/atomic_file.h"
+#include "common/stats.h"
 #include "pipeline/sunstage/landmarks.h"
 #include "sunprobe/sp_capture.h"
 
@@ -176,12 +177,6 @@ static int vos_push(void *ctx, const sp_event *ev)
     return 0;
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
 /* Error against the truth after the best-aligning world rotation: median and max, tilt apart. */
 static void report_truth(video_orientation_stage *s, FILE *summary, double *err)
 {
@@ -214,11 +209,11 @@ static void report_truth(video_orientation_stage *s, FILE *summary, double *err)
         double c = fmax(-1.0, fmin(1.0, sp_vec3_dot(up_est, up_true)));
         tilt_max = fmax(tilt_max, acos(c) * 180.0 / M_PI);
     }
-    qsort(e, k, sizeof(double), cmp_double);
+    double median = sp_median_inplace(e, k); /* sorted now */
     fprintf(summary,
             "video-orientation: error against ground truth after world alignment: median %.3f deg, max %.3f deg "
             "over %zu frames; tilt error max %.3f deg\n",
-            k % 2 ? e[k / 2] : 0.5 * (e[k / 2 - 1] + e[k / 2]), e[k - 1], k, tilt_max);
+            median, e[k - 1], k, tilt_max);
     free(e);
 }
 

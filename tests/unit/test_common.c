@@ -8,6 +8,7 @@
 #include "common/crc32c.h"
 #include "common/json.h"
 #include "common/report.h"
+#include "common/stats.h"
 #include "device/node_scan.h"
 #include "sunprobe/sp_frame.h"
 #include "sunprobe/sp_math.h"
@@ -222,9 +223,25 @@ static void test_node_scan(void)
     sp_strbuf_free(&b);
 }
 
+/* The median: none, one, odd and even counts, unsorted with negatives and repeats, sorted in place. */
+static void test_median(void)
+{
+    double none[1] = { 7 };
+    CHECK(isnan(sp_median_inplace(none, 0)));
+    CHECK(isnan(sp_median_inplace(NULL, 3)));
+    double one[1] = { -2.5 };
+    CHECK(sp_median_inplace(one, 1) == -2.5);
+    double odd[5] = { 3, -1, 1e300, 3, -1e-300 };
+    CHECK(sp_median_inplace(odd, 5) == 3);
+    CHECK(odd[0] == -1 && odd[4] == 1e300);
+    double even[4] = { 4, -4, 2, 1 };
+    CHECK(sp_median_inplace(even, 4) == 1.5);
+}
+
 int main(void)
 {
     test_crc32c();
+    test_median();
     test_json();
     test_frame_pool();
     test_quat();
