@@ -325,6 +325,12 @@ static size_t score_cutouts(const repop_args *a, const scene *sc, cutout *c, siz
     return usable;
 }
 
+/* A cut-out's height over a person's of the scene (its real height over the scale model's person; 1 unknown). */
+static double real_scale(const cutout *c)
+{
+    return c->m.height_m > 0 ? c->m.height_m / SP_REPOP_PERSON_HEIGHT_M : 1.0;
+}
+
 /* For each target the best-scoring usable cut-out big enough for it, fewer repeats first, ties by the seed. */
 static size_t choose(const repop_args *a, cutout *c, size_t n, target *t, size_t nt)
 {
@@ -333,14 +339,14 @@ static size_t choose(const repop_args *a, cutout *c, size_t n, target *t, size_t
     for (size_t k = 0; k < nt; k++) {
         double best = -1e9;
         for (size_t i = 0; i < n; i++) {
-            if (c[i].match < a->min_match || t[k].h > MAX_UPSCALE * c[i].m.height_px)
+            if (c[i].match < a->min_match || t[k].h * real_scale(&c[i]) > MAX_UPSCALE * c[i].m.height_px)
                 continue;
             double v = c[i].score - 0.5 * c[i].used + 0.02 * uniform(&s);
             if (v > best)
                 best = v, t[k].ci = (int)i;
         }
-        if (t[k].ci >= 0)
-            c[t[k].ci].used++, placed++;
+        if (t[k].ci >= 0) /* the target's height was a person's of the scene's height: now the cut-out's own */
+            c[t[k].ci].used++, placed++, t[k].h *= real_scale(&c[t[k].ci]);
     }
     return placed;
 }

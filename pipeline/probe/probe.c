@@ -16,6 +16,7 @@
 #include "common/clock.h"
 #include "common/pixconv.h"
 #include "common/report.h"
+#include "repopulate.h"
 #include "sp_config.h"
 #if HAVE_OPENCV
 #include "opencv_probe_shim.h"
@@ -24,7 +25,7 @@
 #define PERSON_REC 3     /* x, y, h */
 /* a car's height against a person's: scales a scene where only cars were seen (PROBE.md, Object classes) */
 #define CAR_HEIGHT_M 1.5
-#define PERSON_HEIGHT_M 1.7
+#define PERSON_HEIGHT_M SP_REPOP_PERSON_HEIGHT_M /* the scale model's person, which cut-outs are measured against */
 #define RECENT_MAX 1024  /* observations between checkpoints scored before they join the fit */
 #define N_SERIES 8
 #define REPEAT_MOVE 0.015 /* of the height: closer to the last counted foot point, a person's view repeats */

@@ -25,6 +25,8 @@ void sp_cutout_meta_json(const sp_cutout_meta *m, const char *source, sp_strbuf 
     sp_strbuf_json_string(b, m->image);
     sp_strbuf_printf(b, ",\"height_px\":");
     sp_strbuf_json_number(b, m->height_px);
+    if (m->height_m > 0)
+        sp_strbuf_printf(b, ",\"height_m\":%.3f", m->height_m);
     double foot[2] = { m->foot_x, m->foot_y };
     sp_strbuf_printf(b, ",\"foot\":");
     sp_strbuf_json_numbers(b, foot, 2);
@@ -94,9 +96,11 @@ int sp_cutout_meta_parse(const char *json, size_t len, sp_cutout_meta *out, char
     } else {
         strcpy(out->image, img);
     }
-    if (!ret && (field(root, "height_px", 0, 1, 1e5, &out->height_px, err, n) ||
-                 field(root, "foot", 0, -1e5, 1e5, &out->foot_x, err, n) ||
-                 field(root, "foot", 1, -1e5, 1e5, &out->foot_y, err, n) || parse_light(root, &out->light, err, n)))
+    if (!ret &&
+        (field(root, "height_px", 0, 1, 1e5, &out->height_px, err, n) ||
+         field(root, "foot", 0, -1e5, 1e5, &out->foot_x, err, n) ||
+         field(root, "foot", 1, -1e5, 1e5, &out->foot_y, err, n) || parse_light(root, &out->light, err, n) ||
+         (sp_json_get(root, "height_m") && field(root, "height_m", 0, 0.2, 10, &out->height_m, err, n))))
         ret = SP_ECORRUPT;
     sp_json_free(root);
     return ret;

@@ -25,10 +25,14 @@ typedef struct sp_repop_light {
     double ground_rgb[3];          /* lit ground reference in 8-bit levels; all 0: unknown */
 } sp_repop_light;
 
+/* The probe's scale model takes a person to be this tall (probe.c); a cut-out without a real height is one. */
+#define SP_REPOP_PERSON_HEIGHT_M 1.7
+
 /* A cut-out's sidecar: the person is the PNG's opaque content, its foot the content's bottom middle. */
 typedef struct sp_cutout_meta {
     char image[256];       /* the PNG's file name, beside the sidecar */
     double height_px;      /* the person's height in the cut-out, pixels */
+    double height_m;       /* its real height, metres (0.2..10); 0: not given, a person of the scene's height */
     double foot_x, foot_y; /* the foot point in the cut-out, pixels */
     sp_repop_light light;  /* of the image it came from */
 } sp_cutout_meta;

@@ -4,7 +4,7 @@
 # (segmented against its probe) become a collection with the sun of the probe's shadow model; a frame of
 # another seed gets them, replacing its people (--private, with its probe: heights from the plane within
 # 10 % of the truth's), and at given points from a person's box with the sun given (the shadow's direction
-# within 5 degrees of the truth's). Then the bad input: nothing to remove, no usable cut-out, a cut-out
+# within 5 degrees of the truth's), and a cut-out with a real height of 0.85 m at half a person's. Then the bad input: nothing to remove, no usable cut-out, a cut-out
 # without alpha, a sidecar with NaN, an empty collection: a message, exit 2, OUT left as it was.
 set -u
 SP=$1
@@ -80,6 +80,21 @@ for p in r["placed"]:
     err = abs(math.degrees(math.atan2(d[1], d[0]) - math.atan2(s["shadow_dy"], s["shadow_dx"])))
     assert min(err, 360 - err) < 5, (p, s, err)
     assert abs(p["height_px"] / s["height"] - 1) < 0.08, (p, s)
+PY
+
+# a cut-out with its real height (a child of 0.85 m): drawn at half a person's height there
+mkdir -p "$dir/child"
+side=$(ls "$dir/c" | grep json | head -1)
+cp "$dir/c/${side%.json}.png" "$dir/child/"
+sed 's/"height_px":/"height_m":0.85,"height_px":/' "$dir/c/$side" >"$dir/child/$side"
+expect 0 "real height" "$SP" repopulate "$frame" --collection "$dir/child" --detector none --box "$box" $at \
+    --sun -30,40 --camera $cam --min-match -1 -o "$dir/k.png"
+python3 - "$dir/k.json" "$dir/b.json" <<'PY' || fail "real height: report"
+import json, sys
+k, b = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+for p, q in zip(k["placed"], b["placed"]):
+    assert p["at"] == q["at"] and abs(p["height_px"] / q["height_px"] - 0.5) < 0.01, (p, q)
+print("real height: %s" % [round(p["height_px"] / q["height_px"], 3) for p, q in zip(k["placed"], b["placed"])])
 PY
 
 # HOG where OpenCV is built: its boxes are its training window (an eighth above and below the person), and

@@ -55,17 +55,24 @@ static int parse(const char *json, sp_cutout_meta *m, char *err)
 
 static void test_sidecar(void)
 {
-    sp_cutout_meta m = { .height_px = 70, .foot_x = 12.5, .foot_y = 70,
-                         .light = { SP_REPOP_SUNNY, -30.5, 41, { 139, 136.5, 129 } } }, back;
+    sp_cutout_meta m = { .height_px = 70,
+                         .height_m = 0.85,
+                         .foot_x = 12.5,
+                         .foot_y = 70,
+                         .light = { SP_REPOP_SUNNY, -30.5, 41, { 139, 136.5, 129 } } },
+                   back;
     strcpy(m.image, "p.png");
     sp_strbuf b = { 0 };
     sp_cutout_meta_json(&m, "frame 3", &b);
     char err[200] = "";
     CHECK_EQ_INT(sp_cutout_meta_parse(b.data, b.len, &back, err, sizeof(err)), 0);
     CHECK(!strcmp(back.image, "p.png") && back.height_px == 70 && back.foot_x == 12.5 && back.foot_y == 70);
+    CHECK(back.height_m == 0.85);
     CHECK(back.light.sky == SP_REPOP_SUNNY && back.light.sun_az_deg == -30.5 && back.light.ground_rgb[1] == 136.5);
     sp_strbuf_free(&b);
-    static const struct { const char *json, *why; } bad[] = {
+    static const struct {
+        const char *json, *why;
+    } bad[] = {
         { "{\"image\":\"p.png\",\"height_px\":NaN,\"foot\":[1,2],\"sky\":\"overcast\"}", "byte" },
         { "{\"image\":\"p.png\",\"height_px\":1e999,\"foot\":[1,2],\"sky\":\"overcast\"}", "height_px" },
         { "{\"image\":\"p.png\",\"height_px\":0,\"foot\":[1,2],\"sky\":\"overcast\"}", "height_px" },
@@ -73,11 +80,16 @@ static void test_sidecar(void)
         { "{\"image\":\"p.png\",\"height_px\":50,\"foot\":[1,2],\"sky\":\"cloudy\"}", "sky" },
         { "{\"image\":\"p.png\",\"height_px\":50,\"foot\":[1,2],\"sky\":\"sunny\"}", "sun_azimuth_deg" },
         { "{\"image\":\"p.png\",\"height_px\":50,\"foot\":[1,2],\"sky\":\"sunny\",\"sun_azimuth_deg\":0,"
-          "\"sun_elevation_deg\":91}", "sun_elevation_deg" },
+          "\"sun_elevation_deg\":91}",
+          "sun_elevation_deg" },
         { "{\"image\":\"p.png\",\"height_px\":50,\"foot\":[1,2],\"sky\":\"overcast\",\"ground_rgb\":[1,2,-3]}",
           "ground_rgb" },
         { "{\"image\":\"../p.png\",\"height_px\":50,\"foot\":[1,2],\"sky\":\"overcast\"}", "image" },
         { "[1,2]", "image" },
+        { "{\"image\":\"p.png\",\"height_px\":50,\"foot\":[1,2],\"sky\":\"overcast\",\"height_m\":0.1}", "height_m" },
+        { "{\"image\":\"p.png\",\"height_px\":50,\"foot\":[1,2],\"sky\":\"overcast\",\"height_m\":12}", "height_m" },
+        { "{\"image\":\"p.png\",\"height_px\":50,\"foot\":[1,2],\"sky\":\"overcast\",\"height_m\":\"tall\"}",
+          "height_m" },
     };
     for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
         err[0] = 0;
@@ -85,6 +97,7 @@ static void test_sidecar(void)
         CHECK_MSG(strstr(err, bad[i].why) != NULL, "case %zu: '%s' does not name %s", i, err, bad[i].why);
     }
     CHECK_EQ_INT(parse("{\"image\":\"p.png\",\"height_px\":5,\"foot\":[1,2],\"sky\":\"unknown\"}", &back, err), 0);
+    CHECK(back.height_m == 0); /* not given: a person of the scene's height */
 }
 
 static void test_geometry(void)
