@@ -56,27 +56,28 @@ typedef struct scene {
 
 static void usage(FILE *out)
 {
-    fprintf(out, "usage: sunprobe repopulate INPUT.png|.jpg --collection DIR -o OUT.png [options]\n\n"
-                 "Inserts people from a collection of cut-outs (RGBA PNG + sidecar JSON each, as `sunprobe cutouts`\n"
-                 "writes) whose lighting matches the scene's: the sun from the shadows of the people in the image\n"
-                 "(or a probe's shadow model, or --sun), the ground's brightness. Heights come from the ground plane\n"
-                 "(the people found and the camera, or the probe's plane), shadows are cast along the sun.\n\n"
-                 "options:\n"
-                 "      --collection DIR  the cut-outs\n"
-                 "      --count N         people to insert at random ground points (default 3)\n"
-                 "      --at X,Y          insert one at this foot point instead (repeatable)\n"
-                 "      --private         remove the people found first and put a different one at each foot point\n"
-                 "      --seed S          the random choices (default 1)\n"
-                 "      --probe DIR       a probe directory of the scene: objects, plane, shadow model, occlusion\n"
-                 "      --box X,Y,W,H     a person in the image (repeatable); --keep X,Y, --detector hog|none as in\n"
-                 "                        depopulate\n"
-                 "      --camera F,CX,CY,PITCH  as in depopulate (default: 60 deg wide, centred, 15 deg down)\n"
-                 "      --sun AZ,EL       the sun relative to the camera instead of from the shadows\n"
-                 "      --overcast        no sun\n"
-                 "      --min-match M     lowest lighting match (-1..1) a cut-out may have (default 0)\n"
-                 "      --report FILE     the JSON report (default OUT without .png + .json)\n"
-                 "  -o, --output PNG      the result\n"
-                 "  -q, --quiet           no summary\n");
+    fprintf(out,
+            "usage: sunprobe repopulate INPUT.png|.jpg --collection DIR -o OUT.png [options]\n\n"
+            "Inserts people from a collection of cut-outs (RGBA PNG + sidecar JSON each, as `sunprobe cutouts`\n"
+            "writes) whose lighting matches the scene's: the sun from the shadows of the people in the image\n"
+            "(or a probe's shadow model, or --sun), the ground's brightness. Heights come from the ground plane\n"
+            "(the people found and the camera, or the probe's plane), shadows are cast along the sun.\n\n"
+            "options:\n"
+            "      --collection DIR  the cut-outs\n"
+            "      --count N         people to insert at random ground points (default 3)\n"
+            "      --at X,Y          insert one at this foot point instead (repeatable)\n"
+            "      --private         remove the people found first and put a different one at each foot point\n"
+            "      --seed S          the random choices (default 1)\n"
+            "      --probe DIR       a probe directory of the scene: objects, plane, shadow model, occlusion\n"
+            "      --box X,Y,W,H     a person in the image (repeatable); --keep X,Y, --detector hog|none,\n"
+            "                        --whole-boxes as in depopulate\n"
+            "      --camera F,CX,CY,PITCH  as in depopulate (default: 60 deg wide, centred, 15 deg down)\n"
+            "      --sun AZ,EL       the sun relative to the camera instead of from the shadows\n"
+            "      --overcast        no sun\n"
+            "      --min-match M     lowest lighting match (-1..1) a cut-out may have (default 0)\n"
+            "      --report FILE     the JSON report (default OUT without .png + .json)\n"
+            "  -o, --output PNG      the result\n"
+            "  -q, --quiet           no summary\n");
 }
 
 static int bad(const char *opt, const char *v)
@@ -85,14 +86,29 @@ static int bad(const char *opt, const char *v)
     return SP_EXIT_USAGE;
 }
 
-enum { OPT_PROBE = 256, OPT_BOX, OPT_KEEP, OPT_DETECTOR, OPT_COLLECTION, OPT_COUNT, OPT_AT, OPT_PRIVATE, OPT_SEED,
-       OPT_CAMERA, OPT_SUN, OPT_OVERCAST, OPT_MIN_MATCH, OPT_REPORT };
+enum {
+    OPT_PROBE = 256,
+    OPT_BOX,
+    OPT_KEEP,
+    OPT_DETECTOR,
+    OPT_WHOLE_BOXES,
+    OPT_COLLECTION,
+    OPT_COUNT,
+    OPT_AT,
+    OPT_PRIVATE,
+    OPT_SEED,
+    OPT_CAMERA,
+    OPT_SUN,
+    OPT_OVERCAST,
+    OPT_MIN_MATCH,
+    OPT_REPORT
+};
 
 static int parse_option(int c, const char *name, repop_args *a)
 {
     double v[4];
     int n;
-    if (c >= OPT_PROBE && c <= OPT_DETECTOR)
+    if (c >= OPT_PROBE && c <= OPT_WHOLE_BOXES)
         return depop_input_option("repopulate", name, optarg, &a->in);
     switch (c) {
     case OPT_COLLECTION: a->collection = optarg; return 0;
@@ -130,15 +146,25 @@ static int parse_option(int c, const char *name, repop_args *a)
 static int parse_args(int argc, char **argv, repop_args *a)
 {
     static const struct option opts[] = {
-        { "probe", required_argument, NULL, OPT_PROBE },         { "box", required_argument, NULL, OPT_BOX },
-        { "keep", required_argument, NULL, OPT_KEEP },           { "detector", required_argument, NULL, OPT_DETECTOR },
-        { "collection", required_argument, NULL, OPT_COLLECTION }, { "count", required_argument, NULL, OPT_COUNT },
-        { "at", required_argument, NULL, OPT_AT },               { "private", no_argument, NULL, OPT_PRIVATE },
-        { "seed", required_argument, NULL, OPT_SEED },           { "camera", required_argument, NULL, OPT_CAMERA },
-        { "sun", required_argument, NULL, OPT_SUN },             { "overcast", no_argument, NULL, OPT_OVERCAST },
-        { "min-match", required_argument, NULL, OPT_MIN_MATCH }, { "report", required_argument, NULL, OPT_REPORT },
-        { "output", required_argument, NULL, 'o' },              { "quiet", no_argument, NULL, 'q' },
-        { "help", no_argument, NULL, 'h' },                      { 0 },
+        { "probe", required_argument, NULL, OPT_PROBE },
+        { "box", required_argument, NULL, OPT_BOX },
+        { "keep", required_argument, NULL, OPT_KEEP },
+        { "detector", required_argument, NULL, OPT_DETECTOR },
+        { "whole-boxes", no_argument, NULL, OPT_WHOLE_BOXES },
+        { "collection", required_argument, NULL, OPT_COLLECTION },
+        { "count", required_argument, NULL, OPT_COUNT },
+        { "at", required_argument, NULL, OPT_AT },
+        { "private", no_argument, NULL, OPT_PRIVATE },
+        { "seed", required_argument, NULL, OPT_SEED },
+        { "camera", required_argument, NULL, OPT_CAMERA },
+        { "sun", required_argument, NULL, OPT_SUN },
+        { "overcast", no_argument, NULL, OPT_OVERCAST },
+        { "min-match", required_argument, NULL, OPT_MIN_MATCH },
+        { "report", required_argument, NULL, OPT_REPORT },
+        { "output", required_argument, NULL, 'o' },
+        { "quiet", no_argument, NULL, 'q' },
+        { "help", no_argument, NULL, 'h' },
+        { 0 },
     };
     optind = 0;
     int c, code, li;
@@ -476,8 +502,10 @@ static int write_report(const repop_args *a, const depop_job *j, const scene *sc
     sp_strbuf_json_string(&b, a->in.in);
     sp_strbuf_printf(&b, ",\"collection\":");
     sp_strbuf_json_string(&b, a->collection);
-    sp_strbuf_printf(&b, ",\"width\":%u,\"height\":%u,\"private\":%s,\"people_found\":%zu,\"objects_from\":", j->w,
-                     j->h, a->private_mode ? "true" : "false", j->n);
+    sp_strbuf_printf(&b,
+                     ",\"width\":%u,\"height\":%u,\"private\":%s,\"people_found\":%zu,\"silhouettes\":%zu,"
+                     "\"objects_from\":",
+                     j->w, j->h, a->private_mode ? "true" : "false", j->n, j->segmented);
     sp_strbuf_json_string(&b, j->source);
     sp_strbuf_printf(&b, ",\"found\":[");
     for (size_t i = 0; i < j->n; i++)

@@ -112,11 +112,19 @@ for p in r["placed"]:
         if y0 <= p["at"][1] <= y1:
             h = h0 + (h1 - h0) * (p["at"][1] - y0) / (y1 - y0)
             assert abs(p["height_px"] / h - 1) < 0.15, (p, h, r["scene"])
+# HOG's loose windows are cut to the people's silhouettes (GrabCut, with OpenCV) unless --whole-boxes
+assert r["silhouettes"] >= 1, r
 PY
     2) grep -q "nothing to remove" "$dir/e.txt" || fail "hog: exit 2 without the message" ;;
     4) grep -q -- "-Dopencv" "$dir/e.txt" || fail "hog: exit 4 without naming -Dopencv" ;;
     *) fail "hog: exit $got" ;;
 esac
+if [ $got = 0 ]; then
+    expect 0 "hog, whole boxes" "$SP" repopulate "$frame" --collection "$dir/c" --detector hog --private --camera $cam \
+        --whole-boxes -o "$dir/hw.png" -q
+    python3 -c 'import json, sys; r = json.load(open(sys.argv[1])); assert r["silhouettes"] == 0, r' "$dir/hw.json" ||
+        fail "hog, whole boxes: silhouettes"
+fi
 
 bad() { # name args...: exit 2, a message, OUT untouched, no report
     local name=$1
