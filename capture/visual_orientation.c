@@ -527,7 +527,6 @@ static sp_vec3 world_up(const sp_vo *v, sp_vo_result *res)
     int turn_says = res->turn_deg >= AXIS_MIN_TURN && res->turn_axis_share >= AXIS_MIN_SHARE;
     sp_vec3 axis = { x[0], x[1], x[2] }, g = gravity_up(v);
     axis = sp_vec3_dot(axis, cam_up) < 0 ? sp_vec3_scale(axis, -1.0) : axis;
-    res->axis_to_gravity_deg = NAN;
     if (sp_vec3_norm(g) > 0) {
         res->up_from_gravity = 1;
         if (turn_says)

@@ -256,8 +256,8 @@ static int score(const char *label, const scene *s, double psnr[N_METHODS], doub
         snprintf(path, sizeof(path), "%s/%s.masks.png", dump, label);
         sp_png_write(path, out[0], s->w, s->h, s->w * 3, 3);
     }
-    double err_missed = 0,
-           err_filled = 0; /* ours: squared error where the truth changed and we kept, where we filled */
+    /* our squared error where the truth changed and we kept the pixel, and where we filled */
+    double err_missed = 0, err_filled = 0;
     for (size_t i = 0; !ret && i < n; i++)
         for (int c = 0; c < 3; c++) {
             double d = ((double)out[3][3 * i + c] - s->bg[3 * i + c]) / 255.0;
