@@ -92,7 +92,7 @@ static int parse_option(int c, const char *name, depop_args *a)
         return depop_input_option("depopulate", name, optarg, &a->in);
     switch (c) {
     case OPT_CAMERA:
-        a->have_cam = 1;
+        a->have_cam = 1, a->in.ds.camera = &a->cam; /* the masks search the one sun through it too */
         return depop_camera_option("depopulate", optarg, &a->cam);
     case OPT_UTC: {
         double t;
@@ -187,9 +187,11 @@ static void sun_json(const depop_args *a, const depop_job *j, sp_strbuf *b)
     int shadows = !j->have_probe && !sp_depop_sun_estimate(j->obj, j->n, &cam, &e) && e.found;
     sp_strbuf_printf(b, "\"sun\":{\"camera\":\"%s\",\"from_shadows\":", a->have_cam ? "given" : "assumed");
     if (shadows)
-        sp_strbuf_printf(b, "{\"azimuth_deg\":%.2f,\"elevation_deg\":%.2f,\"shadows\":%u,\"azimuth_spread_deg\":%.2f,"
-                            "\"elevation_spread_deg\":%.2f}", e.azimuth_deg, e.elevation_deg, e.used,
-                         e.azimuth_spread_deg, e.elevation_spread_deg);
+        sp_strbuf_printf(b,
+                         "{\"azimuth_deg\":%.2f,\"elevation_deg\":%.2f,\"shadows\":%u,\"azimuth_spread_deg\":%.2f,"
+                         "\"elevation_spread_deg\":%.2f,\"closed\":%s}",
+                         e.azimuth_deg, e.elevation_deg, e.used, e.azimuth_spread_deg, e.elevation_spread_deg,
+                         e.closed ? "true" : "false");
     else
         sp_strbuf_printf(b, "\"%s\"", j->have_probe ? "not estimated with --probe" : "no sun shadows");
     sp_strbuf_printf(b, ",\"from_clock\":");
@@ -241,7 +243,8 @@ static int write_report(const depop_args *a, const depop_job *j, const char *pat
                          o->x1 - o->x0 + 1, o->y1 - o->y0 + 1, o->shadow_px, o->contact_px,
                          o->shadow_leak ? "true" : "false");
         sp_strbuf_json_numbers(&b, sh, 3);
-        sp_strbuf_printf(&b, "}");
+        sp_strbuf_printf(&b, ",\"shadow_closed\":%s}",
+                         o->shadow_px && sp_depop_closed_shadow(o->shadow_spill, o->shadow_px) ? "true" : "false");
     }
     sp_strbuf_printf(&b, "]}\n");
     int ret = b.failed ? -ENOMEM : sp_write_whole_file_atomic(path, b.data, b.len);

@@ -125,7 +125,7 @@ static int parse_option(int c, const char *name, repop_args *a)
     case OPT_PRIVATE: a->private_mode = 1; return 0;
     case OPT_SEED: return sp_opt_u64("repopulate", "--seed", optarg, 0, UINT64_MAX, &a->seed) ? SP_EXIT_USAGE : 0;
     case OPT_CAMERA:
-        a->have_cam = 1;
+        a->have_cam = 1, a->in.ds.camera = &a->cam; /* the masks search the one sun through it too */
         return depop_camera_option("repopulate", optarg, &a->cam);
     case OPT_SUN:
         if (sp_opt_numbers(optarg, v, 2) || fabs(v[0]) > 360 || !(v[1] > 0 && v[1] <= 90))

@@ -190,7 +190,10 @@ static int find_objects(const depop_input *a, depop_job *j)
             return sp_cmd_fail(j->cmd, ret, "silhouettes");
         }
     }
-    ret = sp_depop_mask(j->rgb, j->w, j->h, j->w * 3, j->obj, j->n, &a->ds, j->mask);
+    sp_depop_settings ds = a->ds;
+    sp_depop_camera assumed = depop_assumed_camera(j->w, j->h);
+    ds.camera = ds.camera ? ds.camera : &assumed; /* the one the sun's report assumes */
+    ret = sp_depop_mask(j->rgb, j->w, j->h, j->w * 3, j->obj, j->n, &ds, j->mask);
     return ret ? sp_cmd_fail(j->cmd, ret, "removal masks") : 0;
 }
 

@@ -111,9 +111,11 @@ static int in_cone(const cone *c, int x, int y)
 
 /*
  * Ground connected to the object's lower quarter that passes the shadow test inside the cone, as
- * pixel indices in g->queue; returns how many. Nothing is marked: the caller decides.
+ * pixel indices in g->queue; returns how many. *spill (may be NULL): how many pixels next to them pass
+ * the test outside the cone, plus how many found lie on the image's edge. Nothing is marked: the caller
+ * decides.
  */
-static size_t flood(grow *g, const sp_depop_object *o, const uint8_t ref[3], const cone *c)
+static size_t flood(grow *g, const sp_depop_object *o, const uint8_t ref[3], const cone *c, uint32_t *spill)
 {
     const sp_depop_settings *s = g->s;
     int32_t lo = (int32_t)lround(s->ratio_lo * 1024), hi = (int32_t)lround(s->ratio_hi * 1024);
@@ -128,22 +130,29 @@ static size_t flood(grow *g, const sp_depop_object *o, const uint8_t ref[3], con
                 g->seen[i] = 1, g->queue[n++] = (int32_t)i;
         }
     size_t seeds = n;
+    uint32_t out = 0;
     while (head < n) {
         int32_t i = g->queue[head++];
         int x = i % g->w, y = i / g->w;
+        out += head > seeds && (x == 0 || y == 0 || x == g->w - 1 || y == g->h - 1);
         for (int dy = -1; dy <= 1; dy++)
             for (int dx = -1; dx <= 1; dx++) {
                 int u = x + dx, v = y + dy;
                 if (u < 0 || v < 0 || u >= g->w || v >= g->h)
                     continue;
                 size_t j = (size_t)v * g->w + u;
-                if (g->seen[j] || g->mask[j] != M_NONE || !in_cone(c, u, v))
+                if (g->seen[j] || g->mask[j] != M_NONE)
                     continue;
-                g->seen[j] = 1;
-                if (probe_shadow_of(g->rgb + (size_t)v * g->stride + 3 * (size_t)u, ref, lo, hi, tol, 3))
+                g->seen[j] = 1; /* outside the cone too: within a pixel of its box, cleared with it */
+                int dark = probe_shadow_of(g->rgb + (size_t)v * g->stride + 3 * (size_t)u, ref, lo, hi, tol, 3);
+                if (dark && in_cone(c, u, v))
                     g->queue[n++] = (int32_t)j;
+                else if (dark && head > seeds)
+                    out++;
             }
     }
+    if (spill)
+        *spill = out;
     for (size_t q = 0; q < n; q++)
         g->seen[g->queue[q]] = 0;
     /* the seen flags of rejected pixels are cleared by the caller's sweep over the cone's box */
@@ -184,7 +193,7 @@ static int near_direction(grow *g, const sp_depop_object *o, const uint8_t ref[3
     int h = o->y1 - o->y0 + 1, w = o->x1 - o->x0 + 1;
     cone near = object_cone(g, o);
     near.reach = h;
-    size_t n = flood(g, o, ref, &near);
+    size_t n = flood(g, o, ref, &near, NULL);
     clear_seen(g, &near);
     double mx, my;
     mean_offset(g, n, near.fx, near.fy, &mx, &my);
@@ -200,7 +209,8 @@ static void cast_along(grow *g, sp_depop_object *o, const uint8_t ref[3], double
 {
     cone c = object_cone(g, o);
     c.dx = dx, c.dy = dy;
-    size_t n = flood(g, o, ref, &c);
+    uint32_t spill;
+    size_t n = flood(g, o, ref, &c, &spill);
     clear_seen(g, &c);
     if ((double)n > 1.5 * (o->x1 - o->x0 + 1) * (o->y1 - o->y0 + 1)) {
         o->shadow_leak = 1;
@@ -208,19 +218,107 @@ static void cast_along(grow *g, sp_depop_object *o, const uint8_t ref[3], double
     }
     double mx, my, len = 0;
     mean_offset(g, n, c.fx, c.fy, &mx, &my);
-    o->tip_x = c.fx, o->tip_y = c.fy;
+    /* along the shadow's own axis (foot to its mean; the cone's direction is the search's, a few degrees off) */
+    double ml = hypot(mx, my), ax = ml > 0 ? mx / ml : c.dx, ay = ml > 0 ? my / ml : c.dy;
     for (size_t k = 0; k < n; k++) {
         int32_t i = g->queue[k];
-        double along = (i % g->w - c.fx) * c.dx + (i / g->w - c.fy) * c.dy;
-        if (along > len)
-            len = along, o->tip_x = i % g->w, o->tip_y = i / g->w;
+        len = fmax(len, (i % g->w - c.fx) * ax + (i / g->w - c.fy) * ay);
         g->mask[i] = M_SHADOW;
     }
-    o->shadow_px = (uint32_t)n, o->shadow_dx = mx, o->shadow_dy = my, o->shadow_len = len;
+    /* the tip: on that axis, as far as the shadow goes (not a corner of its end) */
+    o->tip_x = c.fx + len * ax, o->tip_y = c.fy + len * ay;
+    o->shadow_px = (uint32_t)n, o->shadow_dx = mx, o->shadow_dy = my, o->shadow_len = len, o->shadow_spill = spill;
 }
 
 /*
- * Every object's cast shadow. With the sun's image direction given, along it. Without, each object's
+ * 1 when a found shadow of n pixels is closed: the shadow-dark ground going on past its cone (spill, a count
+ * along the boundary) is a few stray pixels, under a tenth of the shadow's side (sqrt(n)).
+ */
+int sp_depop_closed_shadow(uint32_t spill, size_t n)
+{
+    return spill <= 2 + 0.1 * sqrt((double)n);
+}
+
+/* The image direction at object o's foot of the ground direction psi (radians from the view direction to the right). */
+static int ground_to_image(const sp_depop_camera *cam, const sp_depop_object *o, double psi, double d[2])
+{
+    double fx = 0.5 * (o->x0 + o->x1), fy = o->y1 + 0.5, g[2], u, v;
+    if (sp_depop_ground_point(cam, fx, fy, g))
+        return -1;
+    double e = 0.05 * (1 + hypot(g[0], g[1])); /* a ground line is an image line: any step works */
+    double p[3] = { g[0] + e * sin(psi), g[1] + e * cos(psi), 0 };
+    if (sp_depop_project(cam, p, &u, &v))
+        return -1;
+    double l = hypot(u - fx, v - fy);
+    if (!(l > 1e-9))
+        return -1;
+    d[0] = (u - fx) / l, d[1] = (v - fy) / l;
+    return 0;
+}
+
+enum { N_PSI = 36 }; /* ground directions 10 degrees apart; the cone is 30 degrees either side */
+
+/*
+ * One sun: every cast shadow on the ground plane points one way. Each ground direction is scored by the
+ * number of objects whose flood along its image direction is a closed shadow reaching past the contact area;
+ * a wrong direction cuts a real shadow at the cone's side, which leaves it open, and one large dark patch
+ * by one foot outvotes nothing. The best direction, refined between its neighbours, goes to dir[i] for every
+ * object with have[i] == 0 (set to 3). Nothing when no direction scores or a second one, more than 60
+ * degrees away, scores within 80% of the best (no shadows that tell, e.g. under an overcast sky).
+ */
+static void one_sun(grow *g, sp_depop_object *objs, size_t n, const uint8_t (*ref)[3], int *have, double (*dir)[2])
+{
+    const sp_depop_camera *cam = g->s->camera;
+    double score[N_PSI] = { 0 };
+    for (int k = 0; k < N_PSI; k++)
+        for (size_t i = 0; i < n; i++) {
+            double d[2];
+            if (have[i] != 0 || ground_to_image(cam, &objs[i], 2 * M_PI * k / N_PSI, d))
+                continue;
+            const sp_depop_object *o = &objs[i];
+            cone c = object_cone(g, o);
+            c.dx = d[0], c.dy = d[1];
+            uint32_t spill;
+            size_t m = flood(g, o, ref[i], &c, &spill), far = 0;
+            clear_seen(g, &c);
+            for (size_t q = 0; q < m; q++)
+                far += hypot(g->queue[q] % g->w - c.fx, g->queue[q] / g->w - c.fy) > c.free_r;
+            double area = (double)(o->x1 - o->x0 + 1) * (o->y1 - o->y0 + 1);
+            if (sp_depop_closed_shadow(spill, m) && far >= 10 && far >= 0.05 * area && m <= 1.5 * area)
+                score[k] +=
+                    1 + 0.1 * (far < area ? far / area : 1); /* objects count, their shadows' size breaks ties */
+        }
+    /* a shadow fits the cone over a range of directions: the range's evidence (over +-20 degrees) decides,
+       and the answer is the score-weighted mean direction over that range */
+    double wide[N_PSI];
+    int best = 0;
+    for (int k = 0; k < N_PSI; k++) {
+        wide[k] = 0;
+        for (int j = -2; j <= 2; j++)
+            wide[k] += score[(k + j + N_PSI) % N_PSI];
+        best = wide[k] > wide[best] ? k : best;
+    }
+    if (!(wide[best] > 0))
+        return;
+    for (int k = 0; k < N_PSI; k++) {
+        int apart = abs(k - best) < N_PSI - abs(k - best) ? abs(k - best) : N_PSI - abs(k - best);
+        if (apart * 360 / N_PSI > 60 && wide[k] >= 0.8 * wide[best])
+            return;
+    }
+    double sx = 0, sy = 0;
+    for (int j = -2; j <= 2; j++) {
+        double a = 2 * M_PI * (best + j) / N_PSI;
+        sx += score[(best + j + N_PSI) % N_PSI] * sin(a), sy += score[(best + j + N_PSI) % N_PSI] * cos(a);
+    }
+    double psi = atan2(sx, sy);
+    for (size_t i = 0; i < n; i++)
+        if (have[i] == 0 && !ground_to_image(cam, &objs[i], psi, dir[i]))
+            have[i] = 3;
+}
+
+/*
+ * Every object's cast shadow. With the sun's image direction given, along it. With a camera, along the one
+ * ground direction that closes the most shadows (one_sun). Without, each object's
  * own lean where it agrees with the others' (within 40 degrees of their mean direction), else the
  * mean's: one sun casts every shadow, and a lone lean is more often dark ground than a shadow.
  */
@@ -230,8 +328,11 @@ static void cast_shadows(grow *g, sp_depop_object *objs, size_t n)
     uint8_t (*ref)[3] = malloc(n * 3 + 1);
     double (*dir)[2] = calloc(n + 1, sizeof(*dir));
     int *have = calloc(n + 1, sizeof(int)), agree = 0;
-    for (size_t i = 0; i < n && ref && dir && have; i++) {
+    for (size_t i = 0; i < n && ref && dir && have; i++)
         have[i] = ground_reference(g, &objs[i], ref[i]) ? -1 : sl > 0 ? 1 : 0;
+    if (g->s->camera && !(sl > 0) && ref && dir && have)
+        one_sun(g, objs, n, (const uint8_t(*)[3])ref, have, dir);
+    for (size_t i = 0; i < n && ref && dir && have; i++) {
         if (have[i] == 0 && !near_direction(g, &objs[i], ref[i], &dir[i][0], &dir[i][1]))
             have[i] = 2, sx += dir[i][0], sy += dir[i][1], agree++;
     }
@@ -242,7 +343,7 @@ static void cast_shadows(grow *g, sp_depop_object *objs, size_t n)
             cast_along(g, &objs[i], ref[i], g->s->sun_dx / sl, g->s->sun_dy / sl);
         else if (have[i] == 2 && consensus && dir[i][0] * sx / ml + dir[i][1] * sy / ml < cos(40 * M_PI / 180))
             cast_along(g, &objs[i], ref[i], sx / ml, sy / ml);
-        else if (have[i] == 2)
+        else if (have[i] == 2 || have[i] == 3)
             cast_along(g, &objs[i], ref[i], dir[i][0], dir[i][1]);
     }
     free(ref), free(dir), free(have);
@@ -294,6 +395,10 @@ static int check(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t s
         !(s->cone_deg > 0 && s->cone_deg <= 90) || !(s->max_length > 0 && s->max_length <= 20) ||
         !(s->chroma_tol >= 0 && s->chroma_tol < 1) || !isfinite(s->sun_dx) || !isfinite(s->sun_dy))
         return -EINVAL;
+    if (s->camera &&
+        (!(s->camera->f > 0 && s->camera->f < 1e6) || !isfinite(s->camera->cx) || !isfinite(s->camera->cy) ||
+         !(s->camera->pitch_deg >= 0 && s->camera->pitch_deg < 89)))
+        return -EINVAL;
     for (size_t i = 0; i < n; i++)
         if (objs[i].x0 < 0 || objs[i].y0 < 0 || objs[i].x1 < objs[i].x0 || objs[i].y1 < objs[i].y0 ||
             objs[i].x1 >= (int)width || objs[i].y1 >= (int)height)
@@ -319,7 +424,9 @@ int sp_depop_mask(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t 
     memset(mask, M_NONE, np);
     for (size_t i = 0; i < n; i++) {
         objs[i].shadow_px = objs[i].contact_px = 0, objs[i].shadow_leak = 0;
-        objs[i].shadow_dx = objs[i].shadow_dy = objs[i].shadow_len = 0;
+        objs[i].shadow_dx = objs[i].shadow_dy = objs[i].shadow_len = 0, objs[i].shadow_spill = 0;
+        objs[i].truncated =
+            objs[i].x0 == 0 || objs[i].y0 == 0 || objs[i].x1 == (int)width - 1 || objs[i].y1 == (int)height - 1;
         mark_object(&g, &objs[i]);
     }
     for (size_t i = 0; i < n && s->shadows; i++)

@@ -14,6 +14,8 @@
 #include <math.h>
 #include <stdlib.h>
 
+#include "common/stats.h"
+
 typedef struct basis {
     double xc[3], yc[3], zc[3]; /* camera axes in the world (z up, y the horizontal view direction) */
 } basis;
@@ -70,18 +72,6 @@ double sp_depop_height_at(const sp_depop_camera *cam, const double g[2], double 
     return height_at(cam, &b, g, v);
 }
 
-static int cmp(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *v, size_t n)
-{
-    qsort(v, n, sizeof(double), cmp);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 static double wrap180(double a)
 {
     while (a > 180)
@@ -91,12 +81,19 @@ static double wrap180(double a)
     return a;
 }
 
-/* One object's shadow as (azimuth of the sun, elevation) in degrees; -1 when it gives none. */
-static int object_sun(const sp_depop_object *o, const sp_depop_camera *cam, const basis *b, double *az, double *el)
+/*
+ * One object's shadow as (azimuth of the sun, elevation) in degrees; -1 when it gives none, or when it is open
+ * and open ones are not taken.
+ */
+static int object_sun(const sp_depop_object *o, const sp_depop_camera *cam, const basis *b, int take_open, double *az,
+                      double *el)
 {
     int h = o->y1 - o->y0 + 1, w = o->x1 - o->x0 + 1;
     /* a cast shadow covers about as much ground as the object's box holds of it; specks are not one */
     if (o->shadow_leak || o->shadow_px < 10 || o->shadow_px < 0.1 * w * h || hypot(o->tip_x - 0.5 * (o->x0 + o->x1), o->tip_y - o->y1) < 0.1 * h)
+        return -1;
+    /* the foot or the top may be outside the image; a car's shadow does not start at its box's bottom middle */
+    if (o->truncated || w > h || (!take_open && !sp_depop_closed_shadow(o->shadow_spill, o->shadow_px)))
         return -1;
     double foot[2], tip[2];
     if (ground_point(cam, b, 0.5 * (o->x0 + o->x1), o->y1 + 0.5, foot) ||
@@ -123,18 +120,24 @@ int sp_depop_sun_estimate(const sp_depop_object *objs, size_t n, const sp_depop_
         return -ENOMEM;
     }
     basis b = camera_basis(cam->pitch_deg * M_PI / 180.0);
+    /* closed shadows, whose tips are their ends; only where there is none, the open ones (said in .closed) */
     size_t m = 0;
+    int open = 0;
     for (size_t i = 0; i < n; i++)
-        m += !object_sun(&objs[i], cam, &b, &az[m], &el[m]);
+        m += !object_sun(&objs[i], cam, &b, 0, &az[m], &el[m]);
+    for (size_t i = 0; i < n && !m && (open = 1); i++)
+        m += !object_sun(&objs[i], cam, &b, 1, &az[m], &el[m]);
     if (m) {
         /* the azimuth's median on the circle: relative to the first, wrapped, then back */
         double ref = az[0];
         for (size_t i = 0; i < m; i++)
             az[i] = wrap180(az[i] - ref);
-        double ma = median(az, m), me = median(el, m);
+        double ma = sp_median_inplace(az, m), me = sp_median_inplace(el, m);
         for (size_t i = 0; i < m; i++)
             az[i] = fabs(wrap180(az[i] - ma)), el[i] = fabs(el[i] - me);
-        *out = (sp_depop_sun){ 1, wrap180(ma + ref), me, (unsigned)m, median(az, m), median(el, m) };
+        *out = (sp_depop_sun){ 1,           wrap180(ma + ref),        me,
+                               (unsigned)m, sp_median_inplace(az, m), sp_median_inplace(el, m),
+                               !open };
     }
     free(az), free(el);
     return 0;

@@ -50,7 +50,10 @@ typedef struct sp_depop_object {
     double shadow_dx, shadow_dy; /* mean offset of the cast shadow from the foot, pixels; 0,0: none */
     double shadow_len;           /* farthest shadow pixel from the foot along that direction, pixels */
     int shadow_leak;             /* the dark ground along the sun was too large to be its shadow: left */
-    double tip_x, tip_y;         /* the shadow pixel farthest from the foot along the direction */
+    double tip_x, tip_y;         /* the shadow's end: mean of its pixels farthest from the foot along the direction */
+    uint32_t shadow_spill;       /* shadow-dark ground next to the cast shadow but outside its cone or reach,
+                                    or on the image's edge: the shadow may go on, so its tip is not its end */
+    int truncated;               /* the box touches the image's edge: its foot or top may be outside */
 } sp_depop_object;
 
 typedef struct sp_depop_settings {
@@ -60,9 +63,14 @@ typedef struct sp_depop_settings {
     double ratio_lo, ratio_hi; /* a shadow keeps this share of the lit ground's brightness, default 0.2..0.85 */
     double chroma_tol;       /* normalised chromaticity change allowed, default 0.05 */
     int shadows;             /* grow masks by cast and contact shadows, default 1 */
+    /* the camera (borrowed, may be NULL): without sun_dx, sun_dy, the shadows' one ground direction is
+       searched for through it (depop_mask.c, "one sun") */
+    const struct sp_depop_camera *camera;
 } sp_depop_settings;
 
 SP_PRIVATE void sp_depop_default_settings(sp_depop_settings *s);
+/* 1 when a cast shadow of n pixels with this spill (sp_depop_object) is closed: its tip is its end. */
+SP_PRIVATE int sp_depop_closed_shadow(uint32_t spill, size_t n);
 /*
  * The removal mask of n objects in an RGB24 image: each object's mask (or
  * box), a pixel of dilation for its anti-aliased edge, its contact shadow
@@ -121,6 +129,8 @@ typedef struct sp_depop_sun {
     double elevation_deg;
     unsigned used;          /* objects whose shadow gave a direction */
     double azimuth_spread_deg, elevation_spread_deg; /* median absolute deviations over them */
+    int closed; /* 1: from closed shadows (tips that are their ends); 0: no shadow was closed,
+                               the answer is from open ones, whose tips may be dark ground's */
 } sp_depop_sun;
 
 /*
@@ -128,7 +138,8 @@ typedef struct sp_depop_sun {
  * shadow's foot and tip back-projected onto the ground, the object's height
  * from its box top on the vertical through the foot; azimuth from the
  * shadow's direction, elevation from height over length; medians over the
- * objects. -EINVAL for a bad camera.
+ * objects. Objects touching the image's edge or wider than tall give none;
+ * open shadows only when no shadow is closed. -EINVAL for a bad camera.
  */
 SP_PRIVATE int sp_depop_sun_estimate(const sp_depop_object *objs, size_t n, const sp_depop_camera *cam, sp_depop_sun *out);
 

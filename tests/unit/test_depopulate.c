@@ -308,6 +308,116 @@ static void test_sun(void)
     CHECK_EQ_INT(sp_depop_sun_estimate(o, 3, &bad, &e), -EINVAL);
 }
 
+/* Ground point (gx, gy) inside the strip from (ax, ay) along unit (dx, dy) for len, half-width hw. */
+static int in_strip(double gx, double gy, double ax, double ay, double dx, double dy, double len, double hw)
+{
+    double along = (gx - ax) * dx + (gy - ay) * dy, across = fabs((gx - ax) * dy - (gy - ay) * dx);
+    return along >= 0 && along <= len && across <= hw;
+}
+
+/*
+ * One sun through a known camera (sp_depop_settings.camera): three people on lit ground, each with its cast
+ * shadow along one ground direction; next to the third's foot a static shadow (dark ground of the same kind)
+ * pointing elsewhere, which pulls that person's own lean; the first's shadow ends in a wide static shadow,
+ * so it is open. The people's shadows go to truth (1..3), the static ones to decoy.
+ */
+enum { SW = 800, SH = 600 };
+static const sp_depop_camera scene_cam = { 700, 400, 300, 20 };
+
+static void one_sun_scene(double az, double el, uint8_t *rgb, uint8_t *truth, uint8_t *decoy, sp_depop_object o[3])
+{
+    static const double feet[3][3] = { { -0.9, 4.0, 0.40 }, { 0.8, 5.5, 0.42 }, { 0.1, 3.0, 0.38 } };
+    double r = M_PI / 180, sdx = -sin(az * r), sdy = -cos(az * r); /* shadows point away from the sun */
+    double pdx = sdx * cos(120 * r) - sdy * sin(120 * r), pdy = sdx * sin(120 * r) + sdy * cos(120 * r);
+    memset(truth, 0, SW * SH), memset(decoy, 0, SW * SH);
+    for (int y = 0; y < SH; y++)
+        for (int x = 0; x < SW; x++) {
+            int i = y * SW + x;
+            double g[2], k = 1;
+            if (!sp_depop_ground_point(&scene_cam, x + 0.5, y + 0.5, g))
+                for (int p = 0; p < 3; p++) {
+                    if (in_strip(g[0], g[1], feet[p][0], feet[p][1], sdx, sdy, feet[p][2] / tan(el * r), 0.045))
+                        truth[i] = (uint8_t)(p + 1), k = 0.45;
+                    double L = feet[p][2] / tan(el * r);
+                    int near_foot = p == 2 &&
+                        in_strip(g[0], g[1], feet[p][0] + 0.04 * pdx, feet[p][1] + 0.04 * pdy, pdx, pdy, 0.35, 0.12);
+                    int at_end = p == 0 &&
+                        in_strip(g[0], g[1], feet[p][0] + 0.7 * L * sdx, feet[p][1] + 0.7 * L * sdy, sdx, sdy, 0.08,
+                                 0.6);
+                    if ((near_foot || at_end) && !truth[i])
+                        decoy[i] = 1, k = 0.45;
+                }
+            rgb[3 * i] = clamp8((int)(160 * k) + noise(3));
+            rgb[3 * i + 1] = clamp8((int)(150 * k) + noise(3));
+            rgb[3 * i + 2] = clamp8((int)(135 * k) + noise(3));
+        }
+    for (int p = 0; p < 3; p++) {
+        double fu, fv, hu, hv;
+        project(&scene_cam, feet[p][0], feet[p][1], 0, &fu, &fv);
+        project(&scene_cam, feet[p][0], feet[p][1], feet[p][2], &hu, &hv);
+        int half = (int)lround(0.14 * (fv - hv));
+        o[p] = (sp_depop_object){
+            .x0 = (int)lround(fu) - half, .x1 = (int)lround(fu) + half, .y0 = (int)lround(hv), .y1 = (int)lround(fv)
+        };
+        for (int y = o[p].y0; y <= o[p].y1; y++)
+            for (int x = o[p].x0; x <= o[p].x1; x++)
+                rgb[3 * (y * SW + x)] = 60, rgb[3 * (y * SW + x) + 1] = 70, rgb[3 * (y * SW + x) + 2] = 120;
+    }
+}
+
+static void test_one_sun(void)
+{
+    static uint8_t rgb[SW * SH * 3], truth[SW * SH], decoy[SW * SH], mask[SW * SH];
+    static const double suns[][2] = { { -30, 40 }, { -132.5, 33 }, { 100, 25 } };
+    for (size_t k = 0; k < sizeof(suns) / sizeof(suns[0]); k++) {
+        sp_depop_object o[3];
+        one_sun_scene(suns[k][0], suns[k][1], rgb, truth, decoy, o);
+        sp_depop_settings s;
+        sp_depop_default_settings(&s);
+        s.camera = &scene_cam;
+        CHECK_EQ_INT(sp_depop_mask(rgb, SW, SH, SW * 3, o, 3, &s, mask), 0);
+        int hit[4] = { 0 }, n[4] = { 0 }, took = 0, nd = 0;
+        for (int i = 0; i < SW * SH; i++) {
+            int in_box = 0;
+            for (int p = 0; p < 3; p++)
+                in_box |=
+                    i % SW >= o[p].x0 - 1 && i % SW <= o[p].x1 + 1 && i / SW >= o[p].y0 - 1 && i / SW <= o[p].y1 + 1;
+            if (truth[i] && !in_box)
+                n[truth[i]]++, hit[truth[i]] += mask[i] != 0;
+            if (decoy[i] && !in_box)
+                nd++, took += mask[i] != 0;
+        }
+        /* every shadow along the one sun, the one next to the static shadow too; the static one mostly left */
+        for (int p = 1; p <= 3; p++)
+            CHECK_MSG(hit[p] >= 0.9 * n[p], "sun %.0f: person %d's shadow %d of %d", suns[k][0], p, hit[p], n[p]);
+        CHECK_MSG(took < 0.4 * nd, "sun %.0f: took %d of %d static-shadow pixels", suns[k][0], took, nd);
+        /* the shadow running into the wide static one is open; the closed ones give the sun */
+        CHECK_MSG(!sp_depop_closed_shadow(o[0].shadow_spill, o[0].shadow_px), "spill %u", o[0].shadow_spill);
+        sp_depop_sun e;
+        CHECK_EQ_INT(sp_depop_sun_estimate(o, 3, &scene_cam, &e), 0);
+        CHECK_MSG(e.found && e.closed && e.used >= 1 && e.used <= 2 &&
+                      fabs(remainder(e.azimuth_deg - suns[k][0], 360.0)) < 3 && fabs(e.elevation_deg - suns[k][1]) < 3,
+                  "sun %.1f/%.1f: %d closed %d from %u: %.1f/%.1f", suns[k][0], suns[k][1], e.found, e.closed, e.used,
+                  e.azimuth_deg, e.elevation_deg);
+    }
+    /* no cast shadows (overcast): nothing is voted, nothing found */
+    sp_depop_object o[3];
+    one_sun_scene(-30, 40, rgb, truth, decoy, o);
+    for (int i = 0; i < SW * SH; i++)
+        if (truth[i] || decoy[i])
+            rgb[3 * i] = 160, rgb[3 * i + 1] = 150, rgb[3 * i + 2] = 135;
+    sp_depop_settings s;
+    sp_depop_default_settings(&s);
+    s.camera = &scene_cam;
+    CHECK_EQ_INT(sp_depop_mask(rgb, SW, SH, SW * 3, o, 3, &s, mask), 0);
+    sp_depop_sun e;
+    CHECK_EQ_INT(sp_depop_sun_estimate(o, 3, &scene_cam, &e), 0);
+    CHECK(!e.found);
+    sp_depop_camera bad = scene_cam;
+    bad.pitch_deg = 95, s.camera = &bad;
+    CHECK_EQ_INT(sp_depop_mask(rgb, SW, SH, SW * 3, o, 3, &s, mask), -EINVAL);
+}
+
 /*
  * A figure in a box on a striped wall: its silhouette keeps most of the box's wall and covers the
  * figure; a box filling the image has no background to learn and stays whole; bad boxes; without OpenCV
@@ -362,6 +472,7 @@ int main(void)
     test_shadow_masks();
     test_from_plate();
     test_sun();
+    test_one_sun();
     test_silhouettes();
     return check_exit();
 }

@@ -41,8 +41,9 @@ typedef struct sun_eval {
     int on, truth;
     sp_depop_camera cam;
     double az, el;            /* the truth */
-    double err_az[256], err_el[256];
-    int frames, found;
+    double err_az[256], err_el[256];       /* every frame with an answer */
+    double closed_az[256], closed_el[256]; /* the frames whose answer is from closed shadows */
+    int frames, found, closed;
 } sun_eval;
 
 static sun_eval sun;
@@ -175,8 +176,11 @@ static void sun_frame(const sp_depop_object *obj, size_t n)
     da = da > 180 ? 360 - da : da;
     sun.err_az[sun.found] = da, sun.err_el[sun.found] = fabs(e.elevation_deg - sun.el);
     sun.found++;
-    printf("  sun: azimuth %7.1f elevation %5.1f from %u shadows (spread %.1f, %.1f)%s", e.azimuth_deg,
-           e.elevation_deg, e.used, e.azimuth_spread_deg, e.elevation_spread_deg, sun.truth ? "" : "\n");
+    if (e.closed)
+        sun.closed_az[sun.closed] = da, sun.closed_el[sun.closed++] = sun.err_el[sun.found - 1];
+    printf("  sun: azimuth %7.1f elevation %5.1f from %u %s shadows (spread %.1f, %.1f)%s", e.azimuth_deg,
+           e.elevation_deg, e.used, e.closed ? "closed" : "open", e.azimuth_spread_deg, e.elevation_spread_deg,
+           sun.truth ? "" : "\n");
     if (sun.truth)
         printf("; error %.1f, %.1f deg\n", da, sun.err_el[sun.found - 1]);
 }
@@ -187,6 +191,7 @@ static int run_method(const scene *s, int m, uint8_t *out, uint8_t *mask)
     size_t n = (size_t)s->w * s->h;
     sp_depop_settings ds;
     sp_depop_default_settings(&ds);
+    ds.camera = sun.on ? &sun.cam : NULL;
     ds.shadows = m >= 2;
     sp_depop_object obj[MAX_OBJ];
     memcpy(obj, s->obj, sizeof(obj));
@@ -350,10 +355,15 @@ int main(int argc, char **argv)
         printf("median over %d frames: %-38s PSNR %6.2f dB  SSIM %.3f\n", k, method_names[m], bench_median(p, k),
                bench_median(q, k));
     }
-    if (sun.on && sun.truth && sun.found)
+    if (sun.on && sun.truth && sun.found) {
         printf("sun over %d frames: %d with shadows; median error azimuth %.1f deg, elevation %.1f deg\n", sun.frames,
                sun.found, bench_median(sun.err_az, sun.found), bench_median(sun.err_el, sun.found));
-    else if (sun.on)
-        printf("sun over %d frames: %d with shadows\n", sun.frames, sun.found);
+        if (sun.closed)
+            printf("sun over %d frames: %d with closed shadows; median error azimuth %.1f deg, elevation %.1f deg\n",
+                   sun.frames, sun.closed, bench_median(sun.closed_az, sun.closed),
+                   bench_median(sun.closed_el, sun.closed));
+    } else if (sun.on) {
+        printf("sun over %d frames: %d with shadows, %d of them closed\n", sun.frames, sun.found, sun.closed);
+    }
     return 0;
 }
