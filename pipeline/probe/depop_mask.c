@@ -317,6 +317,66 @@ static void one_sun(grow *g, sp_depop_object *objs, size_t n, const uint8_t (*re
 }
 
 /*
+ * Where the sun is known from closed shadows, the shadow of an object whose own search found none, leaked
+ * or stayed open (a walker in a building's shadow, a shadow running onto a dark road): the ground strip the
+ * sun casts from its foot (its height over tan(elevation) long, 1.15 times for the head's penumbra, as
+ * wide as the object's foot row on the ground) and, inside it, the pixels that pass the shadow test. No
+ * connection to the foot is needed: the strip is where a shadow must be.
+ */
+static void predicted_shadows(grow *g, sp_depop_object *objs, size_t n, const uint8_t (*ref)[3], const int *have)
+{
+    const sp_depop_camera *cam = g->s->camera;
+    sp_depop_sun sun;
+    if (sp_depop_sun_estimate(objs, n, cam, &sun) || !sun.found || !sun.closed || !(sun.elevation_deg > 1))
+        return;
+    const sp_depop_settings *s = g->s;
+    int32_t lo = (int32_t)lround(s->ratio_lo * 1024), hi = (int32_t)lround(s->ratio_hi * 1024);
+    int32_t tol = (int32_t)lround(s->chroma_tol * 1024);
+    double psi = (sun.azimuth_deg + 180) * M_PI / 180, sdx = sin(psi), sdy = cos(psi);
+    for (size_t i = 0; i < n; i++) {
+        sp_depop_object *o = &objs[i];
+        int w = o->x1 - o->x0 + 1, h = o->y1 - o->y0 + 1;
+        if (have[i] < 0 || o->truncated || w > h ||
+            (o->shadow_px && !o->shadow_leak && sp_depop_closed_shadow(o->shadow_spill, o->shadow_px)))
+            continue;
+        double foot[2], left[2], right[2];
+        if (sp_depop_ground_point(cam, 0.5 * (o->x0 + o->x1), o->y1 + 0.5, foot) ||
+            sp_depop_ground_point(cam, o->x0, o->y1 + 0.5, left) ||
+            sp_depop_ground_point(cam, o->x1 + 1, o->y1 + 0.5, right))
+            continue;
+        double H = sp_depop_height_at(cam, foot, o->y0 - 0.5), hw = 0.5 * hypot(right[0] - left[0], right[1] - left[1]);
+        double L = 1.15 * H / tan(sun.elevation_deg * M_PI / 180);
+        if (!(H > 0) || !(L > 0) || !(L < 20 * H))
+            continue;
+        /* the strip's image box from its corners (all in front of the camera, or it is skipped) */
+        double u0 = g->w, v0 = g->h, u1 = -1, v1 = -1;
+        int behind = 0;
+        for (int c = 0; c < 4; c++) {
+            double t = c & 1 ? L : 0, a = c & 2 ? hw : -hw,
+                   p[3] = { foot[0] + t * sdx + a * sdy, foot[1] + t * sdy - a * sdx, 0 }, u, v;
+            behind |= sp_depop_project(cam, p, &u, &v);
+            u0 = fmin(u0, u), u1 = fmax(u1, u), v0 = fmin(v0, v), v1 = fmax(v1, v);
+        }
+        if (behind)
+            continue;
+        uint32_t took = 0;
+        for (int y = clampi((int)floor(v0), 0, g->h - 1); y <= clampi((int)ceil(v1), 0, g->h - 1); y++)
+            for (int x = clampi((int)floor(u0), 0, g->w - 1); x <= clampi((int)ceil(u1), 0, g->w - 1); x++) {
+                size_t k = (size_t)y * g->w + x;
+                double q[2];
+                if (g->mask[k] != M_NONE || sp_depop_ground_point(cam, x + 0.5, y + 0.5, q))
+                    continue;
+                double along = (q[0] - foot[0]) * sdx + (q[1] - foot[1]) * sdy;
+                double across = fabs((q[0] - foot[0]) * sdy - (q[1] - foot[1]) * sdx);
+                if (along >= 0 && along <= L && across <= hw &&
+                    probe_shadow_of(g->rgb + (size_t)y * g->stride + 3 * (size_t)x, ref[i], lo, hi, tol, 3))
+                    g->mask[k] = M_SHADOW, took++;
+            }
+        o->predicted_px = took;
+    }
+}
+
+/*
  * Every object's cast shadow. With the sun's image direction given, along it. With a camera, along the one
  * ground direction that closes the most shadows (one_sun). Without, each object's
  * own lean where it agrees with the others' (within 40 degrees of their mean direction), else the
@@ -346,6 +406,8 @@ static void cast_shadows(grow *g, sp_depop_object *objs, size_t n)
         else if (have[i] == 2 || have[i] == 3)
             cast_along(g, &objs[i], ref[i], dir[i][0], dir[i][1]);
     }
+    if (g->s->camera && !(sl > 0) && ref && dir && have)
+        predicted_shadows(g, objs, n, (const uint8_t(*)[3])ref, have);
     free(ref), free(dir), free(have);
 }
 
@@ -425,6 +487,7 @@ int sp_depop_mask(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t 
     for (size_t i = 0; i < n; i++) {
         objs[i].shadow_px = objs[i].contact_px = 0, objs[i].shadow_leak = 0;
         objs[i].shadow_dx = objs[i].shadow_dy = objs[i].shadow_len = 0, objs[i].shadow_spill = 0;
+        objs[i].predicted_px = 0;
         objs[i].truncated =
             objs[i].x0 == 0 || objs[i].y0 == 0 || objs[i].x1 == (int)width - 1 || objs[i].y1 == (int)height - 1;
         mark_object(&g, &objs[i]);

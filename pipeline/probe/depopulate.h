@@ -54,6 +54,8 @@ typedef struct sp_depop_object {
     uint32_t shadow_spill;       /* shadow-dark ground next to the cast shadow but outside its cone or reach,
                                     or on the image's edge: the shadow may go on, so its tip is not its end */
     int truncated;               /* the box touches the image's edge: its foot or top may be outside */
+    uint32_t predicted_px;       /* shadow pixels taken where the sun from the other, closed shadows puts its
+                                    shadow (its own was not found, leaked or is open) */
 } sp_depop_object;
 
 typedef struct sp_depop_settings {

@@ -324,7 +324,8 @@ static int in_strip(double gx, double gy, double ax, double ay, double dx, doubl
 enum { SW = 800, SH = 600 };
 static const sp_depop_camera scene_cam = { 700, 400, 300, 20 };
 
-static void one_sun_scene(double az, double el, uint8_t *rgb, uint8_t *truth, uint8_t *decoy, sp_depop_object o[3])
+static void one_sun_scene(double az, double el, int first_in_shade, uint8_t *rgb, uint8_t *truth, uint8_t *decoy,
+                          sp_depop_object o[3])
 {
     static const double feet[3][3] = { { -0.9, 4.0, 0.40 }, { 0.8, 5.5, 0.42 }, { 0.1, 3.0, 0.38 } };
     double r = M_PI / 180, sdx = -sin(az * r), sdy = -cos(az * r); /* shadows point away from the sun */
@@ -341,9 +342,12 @@ static void one_sun_scene(double az, double el, uint8_t *rgb, uint8_t *truth, ui
                     double L = feet[p][2] / tan(el * r);
                     int near_foot = p == 2 &&
                         in_strip(g[0], g[1], feet[p][0] + 0.04 * pdx, feet[p][1] + 0.04 * pdy, pdx, pdy, 0.35, 0.12);
-                    int at_end = p == 0 &&
+                    int at_end = p == 0 && !first_in_shade &&
                         in_strip(g[0], g[1], feet[p][0] + 0.7 * L * sdx, feet[p][1] + 0.7 * L * sdy, sdx, sdy, 0.08,
                                  0.6);
+                    /* or the first stands in a wide static shadow, 0.5 either side of its foot along the sun */
+                    at_end |= p == 0 && first_in_shade &&
+                        in_strip(g[0], g[1], feet[p][0] - 0.5 * sdx, feet[p][1] - 0.5 * sdy, sdx, sdy, 1.0, 0.5);
                     if ((near_foot || at_end) && !truth[i])
                         decoy[i] = 1, k = 0.45;
                 }
@@ -371,7 +375,7 @@ static void test_one_sun(void)
     static const double suns[][2] = { { -30, 40 }, { -132.5, 33 }, { 100, 25 } };
     for (size_t k = 0; k < sizeof(suns) / sizeof(suns[0]); k++) {
         sp_depop_object o[3];
-        one_sun_scene(suns[k][0], suns[k][1], rgb, truth, decoy, o);
+        one_sun_scene(suns[k][0], suns[k][1], 0, rgb, truth, decoy, o);
         sp_depop_settings s;
         sp_depop_default_settings(&s);
         s.camera = &scene_cam;
@@ -400,9 +404,38 @@ static void test_one_sun(void)
                   "sun %.1f/%.1f: %d closed %d from %u: %.1f/%.1f", suns[k][0], suns[k][1], e.found, e.closed, e.used,
                   e.azimuth_deg, e.elevation_deg);
     }
+    /* the first person in a static shadow: its own search leaks or stays open; the sun from the others'
+       closed shadows puts its shadow where it is, and only there is dark ground taken */
+    int leaks = 0;
+    for (size_t k = 0; k < sizeof(suns) / sizeof(suns[0]); k++) {
+        sp_depop_object o[3];
+        one_sun_scene(suns[k][0], suns[k][1], 1, rgb, truth, decoy, o);
+        sp_depop_settings s;
+        sp_depop_default_settings(&s);
+        s.camera = &scene_cam;
+        CHECK_EQ_INT(sp_depop_mask(rgb, SW, SH, SW * 3, o, 3, &s, mask), 0);
+        int hit = 0, n = 0, took = 0, nd = 0;
+        for (int i = 0; i < SW * SH; i++) {
+            int in_box =
+                i % SW >= o[0].x0 - 1 && i % SW <= o[0].x1 + 1 && i / SW >= o[0].y0 - 1 && i / SW <= o[0].y1 + 1;
+            if (truth[i] == 1 && !in_box)
+                n++, hit += mask[i] != 0;
+            if (decoy[i] && !in_box)
+                nd++, took += mask[i] != 0;
+        }
+        CHECK_MSG(o[0].shadow_leak || !sp_depop_closed_shadow(o[0].shadow_spill, o[0].shadow_px),
+                  "sun %.0f: in the shade, closed", suns[k][0]);
+        /* where the search leaks into the static shadow (and so takes nothing), all of it is predicted */
+        leaks += o[0].shadow_leak;
+        CHECK_MSG((!o[0].shadow_leak || o[0].predicted_px > 0) && hit >= 0.85 * n,
+                  "sun %.0f: leak %d, predicted %u, shadow %d of %d", suns[k][0], o[0].shadow_leak, o[0].predicted_px,
+                  hit, n);
+        CHECK_MSG(took < 0.5 * nd, "sun %.0f: took %d of %d static-shadow pixels", suns[k][0], took, nd);
+    }
+    CHECK_MSG(leaks >= 1, "no search leaked: the prediction was not tried");
     /* no cast shadows (overcast): nothing is voted, nothing found */
     sp_depop_object o[3];
-    one_sun_scene(-30, 40, rgb, truth, decoy, o);
+    one_sun_scene(-30, 40, 0, rgb, truth, decoy, o);
     for (int i = 0; i < SW * SH; i++)
         if (truth[i] || decoy[i])
             rgb[3 * i] = 160, rgb[3 * i + 1] = 150, rgb[3 * i + 2] = 135;
