@@ -317,98 +317,112 @@ static void one_sun(grow *g, sp_depop_object *objs, size_t n, const uint8_t (*re
 }
 
 /*
- * Where the sun is known from closed shadows, the shadow of an object whose own search found none, leaked
- * or stayed open (a walker in a building's shadow, a shadow running onto a dark road): the ground strip the
- * sun casts from its foot (its height over tan(elevation) long, 1.15 times for the head's penumbra, as
- * wide as the object's foot row on the ground) and, inside it, the pixels that pass the shadow test. No
- * connection to the foot is needed: the strip is where a shadow must be.
+ * Where the sun is known from closed shadows, each standing object's cast shadow is where that sun puts it:
+ * the ground strip from its foot, its height over tan(elevation) long (1.15 times, for the head's penumbra)
+ * and as wide as its foot row on the ground, widened for the sun's error (1.2 times the width plus a tenth of
+ * the distance along it, half a width longer); inside it, the pixels that pass the shadow test. This replaces
+ * the search's flood: it takes a shadow cut from the foot (a walker in a building's shadow, a white road
+ * marking across it) and leaves dark ground beside it (a shop window, the road) that the cone let in.
+ * Returns 0, or -1 for an object it cannot place (the caller keeps the search's shadow then).
  */
-static void predicted_shadows(grow *g, sp_depop_object *objs, size_t n, const uint8_t (*ref)[3], const int *have)
+static int sun_strip(grow *g, sp_depop_object *o, const uint8_t ref[3], const sp_depop_sun *sun)
 {
     const sp_depop_camera *cam = g->s->camera;
-    sp_depop_sun sun;
-    if (sp_depop_sun_estimate(objs, n, cam, &sun) || !sun.found || !sun.closed || !(sun.elevation_deg > 1))
-        return;
     const sp_depop_settings *s = g->s;
     int32_t lo = (int32_t)lround(s->ratio_lo * 1024), hi = (int32_t)lround(s->ratio_hi * 1024);
     int32_t tol = (int32_t)lround(s->chroma_tol * 1024);
-    double psi = (sun.azimuth_deg + 180) * M_PI / 180, sdx = sin(psi), sdy = cos(psi);
-    for (size_t i = 0; i < n; i++) {
-        sp_depop_object *o = &objs[i];
-        int w = o->x1 - o->x0 + 1, h = o->y1 - o->y0 + 1;
-        if (have[i] < 0 || o->truncated || w > h ||
-            (o->shadow_px && !o->shadow_leak && sp_depop_closed_shadow(o->shadow_spill, o->shadow_px)))
-            continue;
-        double foot[2], left[2], right[2];
-        if (sp_depop_ground_point(cam, 0.5 * (o->x0 + o->x1), o->y1 + 0.5, foot) ||
-            sp_depop_ground_point(cam, o->x0, o->y1 + 0.5, left) ||
-            sp_depop_ground_point(cam, o->x1 + 1, o->y1 + 0.5, right))
-            continue;
-        double H = sp_depop_height_at(cam, foot, o->y0 - 0.5), hw = 0.5 * hypot(right[0] - left[0], right[1] - left[1]);
-        double L = 1.15 * H / tan(sun.elevation_deg * M_PI / 180);
-        if (!(H > 0) || !(L > 0) || !(L < 20 * H))
-            continue;
-        /* the strip's image box from its corners (all in front of the camera, or it is skipped) */
-        double u0 = g->w, v0 = g->h, u1 = -1, v1 = -1;
-        int behind = 0;
-        for (int c = 0; c < 4; c++) {
-            double t = c & 1 ? L : 0, a = c & 2 ? hw : -hw,
-                   p[3] = { foot[0] + t * sdx + a * sdy, foot[1] + t * sdy - a * sdx, 0 }, u, v;
-            behind |= sp_depop_project(cam, p, &u, &v);
-            u0 = fmin(u0, u), u1 = fmax(u1, u), v0 = fmin(v0, v), v1 = fmax(v1, v);
-        }
-        if (behind)
-            continue;
-        uint32_t took = 0;
-        for (int y = clampi((int)floor(v0), 0, g->h - 1); y <= clampi((int)ceil(v1), 0, g->h - 1); y++)
-            for (int x = clampi((int)floor(u0), 0, g->w - 1); x <= clampi((int)ceil(u1), 0, g->w - 1); x++) {
-                size_t k = (size_t)y * g->w + x;
-                double q[2];
-                if (g->mask[k] != M_NONE || sp_depop_ground_point(cam, x + 0.5, y + 0.5, q))
-                    continue;
-                double along = (q[0] - foot[0]) * sdx + (q[1] - foot[1]) * sdy;
-                double across = fabs((q[0] - foot[0]) * sdy - (q[1] - foot[1]) * sdx);
-                if (along >= 0 && along <= L && across <= hw &&
-                    probe_shadow_of(g->rgb + (size_t)y * g->stride + 3 * (size_t)x, ref[i], lo, hi, tol, 3))
-                    g->mask[k] = M_SHADOW, took++;
-            }
-        o->predicted_px = took;
+    double psi = (sun->azimuth_deg + 180) * M_PI / 180, sdx = sin(psi), sdy = cos(psi);
+    double foot[2], left[2], right[2];
+    if (sp_depop_ground_point(cam, 0.5 * (o->x0 + o->x1), o->y1 + 0.5, foot) ||
+        sp_depop_ground_point(cam, o->x0, o->y1 + 0.5, left) ||
+        sp_depop_ground_point(cam, o->x1 + 1, o->y1 + 0.5, right))
+        return -1;
+    double H = sp_depop_height_at(cam, foot, o->y0 - 0.5), hw = 0.5 * hypot(right[0] - left[0], right[1] - left[1]);
+    double L = 1.15 * H / tan(sun->elevation_deg * M_PI / 180) + hw, slack = 0.1;
+    hw *= 1.2;
+    if (!(H > 0) || !(L > 0) || !(L < 20 * H))
+        return -1;
+    /* the strip's image box from its corners (all in front of the camera, or it is not placed) */
+    double u0 = g->w, v0 = g->h, u1 = -1, v1 = -1;
+    for (int c = 0; c < 4; c++) {
+        double t = c & 1 ? L : 0, a = (c & 2 ? 1 : -1) * (hw + slack * t), u, v;
+        double p[3] = { foot[0] + t * sdx + a * sdy, foot[1] + t * sdy - a * sdx, 0 };
+        if (sp_depop_project(cam, p, &u, &v))
+            return -1;
+        u0 = fmin(u0, u), u1 = fmax(u1, u), v0 = fmin(v0, v), v1 = fmax(v1, v);
     }
+    uint32_t took = 0;
+    for (int y = clampi((int)floor(v0), 0, g->h - 1); y <= clampi((int)ceil(v1), 0, g->h - 1); y++)
+        for (int x = clampi((int)floor(u0), 0, g->w - 1); x <= clampi((int)ceil(u1), 0, g->w - 1); x++) {
+            size_t k = (size_t)y * g->w + x;
+            double q[2];
+            if (g->mask[k] != M_NONE || sp_depop_ground_point(cam, x + 0.5, y + 0.5, q))
+                continue;
+            double along = (q[0] - foot[0]) * sdx + (q[1] - foot[1]) * sdy;
+            double across = fabs((q[0] - foot[0]) * sdy - (q[1] - foot[1]) * sdx);
+            if (along >= 0 && along <= L && across <= hw + slack * along &&
+                probe_shadow_of(g->rgb + (size_t)y * g->stride + 3 * (size_t)x, ref, lo, hi, tol, 3))
+                g->mask[k] = M_SHADOW, took++;
+        }
+    o->strip_px = took;
+    return 0;
 }
 
 /*
  * Every object's cast shadow. With the sun's image direction given, along it. With a camera, along the one
- * ground direction that closes the most shadows (one_sun). Without, each object's
- * own lean where it agrees with the others' (within 40 degrees of their mean direction), else the
- * mean's: one sun casts every shadow, and a lone lean is more often dark ground than a shadow.
+ * ground direction that closes the most shadows (one_sun); then, where those closed shadows tell the sun,
+ * again from the mask before any cast shadow: each standing object's shadow in the sun's strip (sun_strip).
+ * Without, each object's own lean where it agrees with the others' (within 40 degrees of their mean
+ * direction), else the mean's: one sun casts every shadow, and a lone lean is more often dark ground than a
+ * shadow.
  */
 static void cast_shadows(grow *g, sp_depop_object *objs, size_t n)
 {
     double sl = hypot(g->s->sun_dx, g->s->sun_dy), sx = 0, sy = 0;
+    int with_camera = g->s->camera && !(sl > 0);
     uint8_t (*ref)[3] = malloc(n * 3 + 1);
     double (*dir)[2] = calloc(n + 1, sizeof(*dir));
     int *have = calloc(n + 1, sizeof(int)), agree = 0;
-    for (size_t i = 0; i < n && ref && dir && have; i++)
+    uint8_t *before = with_camera ? malloc((size_t)g->w * g->h) : NULL; /* the mask before any cast shadow */
+    if (!ref || !dir || !have) {
+        free(ref), free(dir), free(have), free(before);
+        return;
+    }
+    if (before)
+        memcpy(before, g->mask, (size_t)g->w * g->h);
+    for (size_t i = 0; i < n; i++)
         have[i] = ground_reference(g, &objs[i], ref[i]) ? -1 : sl > 0 ? 1 : 0;
-    if (g->s->camera && !(sl > 0) && ref && dir && have)
+    if (with_camera)
         one_sun(g, objs, n, (const uint8_t(*)[3])ref, have, dir);
-    for (size_t i = 0; i < n && ref && dir && have; i++) {
+    for (size_t i = 0; i < n; i++) {
         if (have[i] == 0 && !near_direction(g, &objs[i], ref[i], &dir[i][0], &dir[i][1]))
             have[i] = 2, sx += dir[i][0], sy += dir[i][1], agree++;
     }
     double ml = hypot(sx, sy);
     int consensus = agree >= 2 && ml > 0.5 * agree; /* several leans, and they roughly agree */
-    for (size_t i = 0; i < n && ref && dir && have; i++) {
-        if (have[i] == 1)
-            cast_along(g, &objs[i], ref[i], g->s->sun_dx / sl, g->s->sun_dy / sl);
-        else if (have[i] == 2 && consensus && dir[i][0] * sx / ml + dir[i][1] * sy / ml < cos(40 * M_PI / 180))
-            cast_along(g, &objs[i], ref[i], sx / ml, sy / ml);
-        else if (have[i] == 2 || have[i] == 3)
-            cast_along(g, &objs[i], ref[i], dir[i][0], dir[i][1]);
+    for (int pass = 0; pass < 2; pass++) {
+        sp_depop_sun sun = { 0 };
+        /* the second pass only where the first one's closed shadows tell the sun */
+        if (pass == 1 &&
+            (!before || sp_depop_sun_estimate(objs, n, g->s->camera, &sun) || !sun.found || !sun.closed ||
+             !(sun.elevation_deg > 1)))
+            break;
+        if (pass == 1)
+            memcpy(g->mask, before, (size_t)g->w * g->h);
+        for (size_t i = 0; i < n; i++) {
+            sp_depop_object *o = &objs[i];
+            if (pass == 1 && have[i] >= 0 && !o->truncated && o->x1 - o->x0 <= o->y1 - o->y0 &&
+                !sun_strip(g, o, ref[i], &sun))
+                continue;
+            if (have[i] == 1)
+                cast_along(g, o, ref[i], g->s->sun_dx / sl, g->s->sun_dy / sl);
+            else if (have[i] == 2 && consensus && dir[i][0] * sx / ml + dir[i][1] * sy / ml < cos(40 * M_PI / 180))
+                cast_along(g, o, ref[i], sx / ml, sy / ml);
+            else if (have[i] == 2 || have[i] == 3)
+                cast_along(g, o, ref[i], dir[i][0], dir[i][1]);
+        }
     }
-    if (g->s->camera && !(sl > 0) && ref && dir && have)
-        predicted_shadows(g, objs, n, (const uint8_t(*)[3])ref, have);
-    free(ref), free(dir), free(have);
+    free(ref), free(dir), free(have), free(before);
 }
 
 /* Marks the object (its mask or box) and a pixel around it. */
@@ -487,7 +501,7 @@ int sp_depop_mask(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t 
     for (size_t i = 0; i < n; i++) {
         objs[i].shadow_px = objs[i].contact_px = 0, objs[i].shadow_leak = 0;
         objs[i].shadow_dx = objs[i].shadow_dy = objs[i].shadow_len = 0, objs[i].shadow_spill = 0;
-        objs[i].predicted_px = 0;
+        objs[i].strip_px = 0;
         objs[i].truncated =
             objs[i].x0 == 0 || objs[i].y0 == 0 || objs[i].x1 == (int)width - 1 || objs[i].y1 == (int)height - 1;
         mark_object(&g, &objs[i]);

@@ -54,8 +54,9 @@ typedef struct sp_depop_object {
     uint32_t shadow_spill;       /* shadow-dark ground next to the cast shadow but outside its cone or reach,
                                     or on the image's edge: the shadow may go on, so its tip is not its end */
     int truncated;               /* the box touches the image's edge: its foot or top may be outside */
-    uint32_t predicted_px;       /* shadow pixels taken where the sun from the other, closed shadows puts its
-                                    shadow (its own was not found, leaked or is open) */
+    uint32_t strip_px;           /* with a camera, where the closed shadows tell the sun: the cast shadow's
+                                    pixels, taken in the strip that sun casts from the foot instead of by the
+                                    search (whose figures above stay); 0 otherwise */
 } sp_depop_object;
 
 typedef struct sp_depop_settings {
