@@ -244,8 +244,7 @@ static int write_report(const depop_args *a, const depop_job *j, const char *pat
                          o->shadow_leak ? "true" : "false");
         sp_strbuf_json_numbers(&b, sh, 3);
         sp_strbuf_printf(&b, ",\"shadow_closed\":%s,\"shadow_strip_px\":%u}",
-                         o->shadow_px && sp_depop_closed_shadow(o->shadow_spill, o->shadow_px) ? "true" : "false",
-                         o->strip_px);
+                         sp_depop_closed_shadow(o) ? "true" : "false", o->strip_px);
     }
     sp_strbuf_printf(&b, "]}\n");
     int ret = b.failed ? -ENOMEM : sp_write_whole_file_atomic(path, b.data, b.len);

@@ -112,10 +112,11 @@ static int in_cone(const cone *c, int x, int y)
 /*
  * Ground connected to the object's lower quarter that passes the shadow test inside the cone, as
  * pixel indices in g->queue; returns how many. *spill (may be NULL): how many pixels next to them pass
- * the test outside the cone, plus how many found lie on the image's edge. Nothing is marked: the caller
- * decides.
+ * the test outside the cone, plus how many found lie on the image's edge; *cut: whether the shadow goes on
+ * past the search's reach or out of the image (one such pixel does: a thin shadow's spill is a pixel or
+ * two). Nothing is marked: the caller decides.
  */
-static size_t flood(grow *g, const sp_depop_object *o, const uint8_t ref[3], const cone *c, uint32_t *spill)
+static size_t flood(grow *g, const sp_depop_object *o, const uint8_t ref[3], const cone *c, uint32_t *spill, int *cut)
 {
     const sp_depop_settings *s = g->s;
     int32_t lo = (int32_t)lround(s->ratio_lo * 1024), hi = (int32_t)lround(s->ratio_hi * 1024);
@@ -131,10 +132,12 @@ static size_t flood(grow *g, const sp_depop_object *o, const uint8_t ref[3], con
         }
     size_t seeds = n;
     uint32_t out = 0;
+    int past = 0;
     while (head < n) {
         int32_t i = g->queue[head++];
         int x = i % g->w, y = i / g->w;
-        out += head > seeds && (x == 0 || y == 0 || x == g->w - 1 || y == g->h - 1);
+        int edge = head > seeds && (x == 0 || y == 0 || x == g->w - 1 || y == g->h - 1);
+        out += edge, past |= edge;
         for (int dy = -1; dy <= 1; dy++)
             for (int dx = -1; dx <= 1; dx++) {
                 int u = x + dx, v = y + dy;
@@ -148,11 +151,11 @@ static size_t flood(grow *g, const sp_depop_object *o, const uint8_t ref[3], con
                 if (dark && in_cone(c, u, v))
                     g->queue[n++] = (int32_t)j;
                 else if (dark && head > seeds)
-                    out++;
+                    out++, past |= hypot(u - c->fx, v - c->fy) > c->reach;
             }
     }
     if (spill)
-        *spill = out;
+        *spill = out, *cut = past;
     for (size_t q = 0; q < n; q++)
         g->seen[g->queue[q]] = 0;
     /* the seen flags of rejected pixels are cleared by the caller's sweep over the cone's box */
@@ -193,7 +196,7 @@ static int near_direction(grow *g, const sp_depop_object *o, const uint8_t ref[3
     int h = o->y1 - o->y0 + 1, w = o->x1 - o->x0 + 1;
     cone near = object_cone(g, o);
     near.reach = h;
-    size_t n = flood(g, o, ref, &near, NULL);
+    size_t n = flood(g, o, ref, &near, NULL, NULL);
     clear_seen(g, &near);
     double mx, my;
     mean_offset(g, n, near.fx, near.fy, &mx, &my);
@@ -210,7 +213,8 @@ static void cast_along(grow *g, sp_depop_object *o, const uint8_t ref[3], double
     cone c = object_cone(g, o);
     c.dx = dx, c.dy = dy;
     uint32_t spill;
-    size_t n = flood(g, o, ref, &c, &spill);
+    int cut;
+    size_t n = flood(g, o, ref, &c, &spill, &cut);
     clear_seen(g, &c);
     if ((double)n > 1.5 * (o->x1 - o->x0 + 1) * (o->y1 - o->y0 + 1)) {
         o->shadow_leak = 1;
@@ -228,15 +232,22 @@ static void cast_along(grow *g, sp_depop_object *o, const uint8_t ref[3], double
     /* the tip: on that axis, as far as the shadow goes (not a corner of its end) */
     o->tip_x = c.fx + len * ax, o->tip_y = c.fy + len * ay;
     o->shadow_px = (uint32_t)n, o->shadow_dx = mx, o->shadow_dy = my, o->shadow_len = len, o->shadow_spill = spill;
+    o->shadow_cut = cut;
 }
 
 /*
- * 1 when a found shadow of n pixels is closed: the shadow-dark ground going on past its cone (spill, a count
- * along the boundary) is a few stray pixels, under a tenth of the shadow's side (sqrt(n)).
+ * 1 when a found shadow of n pixels is closed: it does not go on past the search's reach (cut), and the
+ * shadow-dark ground going on past its cone (spill, a count along the boundary) is a few stray pixels, under
+ * a tenth of the shadow's side (sqrt(n)).
  */
-int sp_depop_closed_shadow(uint32_t spill, size_t n)
+static int closed(uint32_t spill, int cut, size_t n)
 {
-    return spill <= 2 + 0.1 * sqrt((double)n);
+    return !cut && spill <= 2 + 0.1 * sqrt((double)n);
+}
+
+int sp_depop_closed_shadow(const sp_depop_object *o)
+{
+    return o->shadow_px > 0 && closed(o->shadow_spill, o->shadow_cut, o->shadow_px);
 }
 
 /* The image direction at object o's foot of the ground direction psi (radians from the view direction to the right). */
@@ -279,12 +290,13 @@ static void one_sun(grow *g, sp_depop_object *objs, size_t n, const uint8_t (*re
             cone c = object_cone(g, o);
             c.dx = d[0], c.dy = d[1];
             uint32_t spill;
-            size_t m = flood(g, o, ref[i], &c, &spill), far = 0;
+            int cut;
+            size_t m = flood(g, o, ref[i], &c, &spill, &cut), far = 0;
             clear_seen(g, &c);
             for (size_t q = 0; q < m; q++)
                 far += hypot(g->queue[q] % g->w - c.fx, g->queue[q] / g->w - c.fy) > c.free_r;
             double area = (double)(o->x1 - o->x0 + 1) * (o->y1 - o->y0 + 1);
-            if (sp_depop_closed_shadow(spill, m) && far >= 10 && far >= 0.05 * area && m <= 1.5 * area)
+            if (closed(spill, cut, m) && far >= 10 && far >= 0.05 * area && m <= 1.5 * area)
                 score[k] +=
                     1 + 0.1 * (far < area ? far / area : 1); /* objects count, their shadows' size breaks ties */
         }
@@ -501,6 +513,7 @@ int sp_depop_mask(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t 
     for (size_t i = 0; i < n; i++) {
         objs[i].shadow_px = objs[i].contact_px = 0, objs[i].shadow_leak = 0;
         objs[i].shadow_dx = objs[i].shadow_dy = objs[i].shadow_len = 0, objs[i].shadow_spill = 0;
+        objs[i].shadow_cut = 0;
         objs[i].strip_px = 0;
         objs[i].truncated =
             objs[i].x0 == 0 || objs[i].y0 == 0 || objs[i].x1 == (int)width - 1 || objs[i].y1 == (int)height - 1;

@@ -53,6 +53,8 @@ typedef struct sp_depop_object {
     double tip_x, tip_y;         /* the shadow's end: mean of its pixels farthest from the foot along the direction */
     uint32_t shadow_spill;       /* shadow-dark ground next to the cast shadow but outside its cone or reach,
                                     or on the image's edge: the shadow may go on, so its tip is not its end */
+    int shadow_cut;              /* the cast shadow went on past the search's reach (max_length heights) or
+                                    out of the image */
     int truncated;               /* the box touches the image's edge: its foot or top may be outside */
     uint32_t strip_px;           /* with a camera, where the closed shadows tell the sun: the cast shadow's
                                     pixels, taken in the strip that sun casts from the foot instead of by the
@@ -72,8 +74,8 @@ typedef struct sp_depop_settings {
 } sp_depop_settings;
 
 SP_PRIVATE void sp_depop_default_settings(sp_depop_settings *s);
-/* 1 when a cast shadow of n pixels with this spill (sp_depop_object) is closed: its tip is its end. */
-SP_PRIVATE int sp_depop_closed_shadow(uint32_t spill, size_t n);
+/* 1 when the object's cast shadow (as sp_depop_mask found it) is closed: its tip is its end. */
+SP_PRIVATE int sp_depop_closed_shadow(const sp_depop_object *o);
 /*
  * The removal mask of n objects in an RGB24 image: each object's mask (or
  * box), a pixel of dilation for its anti-aliased edge, its contact shadow

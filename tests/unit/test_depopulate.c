@@ -195,6 +195,8 @@ static void test_shadow_masks(void)
     count(mask, patch, &hit, &n);
     CHECK_MSG(hit == 0, "took %d pixels of the detached dark patch", hit);
     CHECK(o.shadow_px > 0 && o.shadow_dx > 5 && o.shadow_dy > 2 && o.shadow_len > 20);
+    CHECK_MSG(sp_depop_closed_shadow(&o), "a shadow ending on lit ground: spill %u, cut %d", o.shadow_spill,
+              o.shadow_cut);
     CHECK_EQ_INT(mask[30 * W + 53], 1); /* the figure is object, its shadow shadow */
     CHECK_EQ_INT(mask[66 * W + 70], 2);
     /* the sun given the other way: only the contact area near the foot is taken */
@@ -202,6 +204,18 @@ static void test_shadow_masks(void)
     CHECK_EQ_INT(sp_depop_mask(rgb, W, H, W * 3, &o, 1, &s, mask), 0);
     count(mask, tsh, &hit, &n);
     CHECK_MSG(hit < 0.4 * n, "took %d of %d shadow pixels against the sun", hit, n);
+    /* the shadow going on, a thin line, out of the image: its tip is not its end (open) */
+    static uint8_t thin[W * H * 3];
+    memcpy(thin, rgb, sizeof(thin));
+    for (int x = 86; x < W; x++) {
+        int y = (int)lround(59 + 15 * (x - 54) / 31.0);
+        for (int c = 0; c < 3 && y < H; c++)
+            thin[3 * (y * W + x) + c] = (uint8_t)(thin[3 * (y * W + x) + c] / 2);
+    }
+    sp_depop_default_settings(&s);
+    CHECK_EQ_INT(sp_depop_mask(thin, W, H, W * 3, &o, 1, &s, mask), 0);
+    CHECK_MSG(o.shadow_cut && !sp_depop_closed_shadow(&o), "out of the image: spill %u, cut %d", o.shadow_spill,
+              o.shadow_cut);
     /* shadows off: the box and a pixel around it */
     sp_depop_default_settings(&s);
     s.shadows = 0;
@@ -398,7 +412,7 @@ static void test_one_sun(void)
             CHECK_MSG(hit[p] >= 0.9 * n[p], "sun %.0f: person %d's shadow %d of %d", suns[k][0], p, hit[p], n[p]);
         CHECK_MSG(took < 0.4 * nd, "sun %.0f: took %d of %d static-shadow pixels", suns[k][0], took, nd);
         /* the shadow running into the wide static one is open; the closed ones give the sun */
-        CHECK_MSG(!sp_depop_closed_shadow(o[0].shadow_spill, o[0].shadow_px), "spill %u", o[0].shadow_spill);
+        CHECK_MSG(!sp_depop_closed_shadow(&o[0]), "spill %u", o[0].shadow_spill);
         sp_depop_sun e;
         CHECK_EQ_INT(sp_depop_sun_estimate(o, 3, &scene_cam, &e), 0);
         CHECK_MSG(e.found && e.closed && e.used >= 1 && e.used <= 2 &&
@@ -425,8 +439,7 @@ static void test_one_sun(void)
             if (decoy[i] && !in_box)
                 nd++, took += mask[i] != 0;
         }
-        CHECK_MSG(o[0].shadow_leak || !sp_depop_closed_shadow(o[0].shadow_spill, o[0].shadow_px),
-                  "sun %.0f: in the shade, closed", suns[k][0]);
+        CHECK_MSG(o[0].shadow_leak || !sp_depop_closed_shadow(&o[0]), "sun %.0f: in the shade, closed", suns[k][0]);
         /* the shadow is taken in the sun's strip, also where the search leaked into the static shadow */
         leaks += o[0].shadow_leak;
         CHECK_MSG(o[0].strip_px > 0 && hit >= 0.85 * n, "sun %.0f: leak %d, strip %u, shadow %d of %d", suns[k][0],
