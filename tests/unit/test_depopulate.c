@@ -385,32 +385,44 @@ static void one_sun_scene(double az, double el, int first_in_shade, uint8_t *rgb
     }
 }
 
+/* How much of each person's shadow (1..3) and of the static shadows the masks took, outside the boxes. */
+typedef struct scene_count {
+    int hit[4], n[4], took, nd;
+} scene_count;
+
+static scene_count one_sun_masks(double az, double el, int first_in_shade, uint8_t *rgb, sp_depop_object o[3])
+{
+    static uint8_t truth[SW * SH], decoy[SW * SH], mask[SW * SH];
+    one_sun_scene(az, el, first_in_shade, rgb, truth, decoy, o);
+    sp_depop_settings s;
+    sp_depop_default_settings(&s);
+    s.camera = &scene_cam;
+    scene_count c = { { 0 }, { 0 }, 0, 0 };
+    CHECK_EQ_INT(sp_depop_mask(rgb, SW, SH, SW * 3, o, 3, &s, mask), 0);
+    for (int i = 0; i < SW * SH; i++) {
+        int in_box = 0;
+        for (int p = 0; p < 3; p++)
+            in_box |= i % SW >= o[p].x0 - 1 && i % SW <= o[p].x1 + 1 && i / SW >= o[p].y0 - 1 && i / SW <= o[p].y1 + 1;
+        if (truth[i] && !in_box)
+            c.n[truth[i]]++, c.hit[truth[i]] += mask[i] != 0;
+        if (decoy[i] && !in_box)
+            c.nd++, c.took += mask[i] != 0;
+    }
+    return c;
+}
+
 static void test_one_sun(void)
 {
-    static uint8_t rgb[SW * SH * 3], truth[SW * SH], decoy[SW * SH], mask[SW * SH];
+    static uint8_t rgb[SW * SH * 3];
     static const double suns[][2] = { { -30, 40 }, { -132.5, 33 }, { 100, 25 } };
     for (size_t k = 0; k < sizeof(suns) / sizeof(suns[0]); k++) {
         sp_depop_object o[3];
-        one_sun_scene(suns[k][0], suns[k][1], 0, rgb, truth, decoy, o);
-        sp_depop_settings s;
-        sp_depop_default_settings(&s);
-        s.camera = &scene_cam;
-        CHECK_EQ_INT(sp_depop_mask(rgb, SW, SH, SW * 3, o, 3, &s, mask), 0);
-        int hit[4] = { 0 }, n[4] = { 0 }, took = 0, nd = 0;
-        for (int i = 0; i < SW * SH; i++) {
-            int in_box = 0;
-            for (int p = 0; p < 3; p++)
-                in_box |=
-                    i % SW >= o[p].x0 - 1 && i % SW <= o[p].x1 + 1 && i / SW >= o[p].y0 - 1 && i / SW <= o[p].y1 + 1;
-            if (truth[i] && !in_box)
-                n[truth[i]]++, hit[truth[i]] += mask[i] != 0;
-            if (decoy[i] && !in_box)
-                nd++, took += mask[i] != 0;
-        }
+        scene_count c = one_sun_masks(suns[k][0], suns[k][1], 0, rgb, o);
         /* every shadow along the one sun, the one next to the static shadow too; the static one mostly left */
         for (int p = 1; p <= 3; p++)
-            CHECK_MSG(hit[p] >= 0.9 * n[p], "sun %.0f: person %d's shadow %d of %d", suns[k][0], p, hit[p], n[p]);
-        CHECK_MSG(took < 0.4 * nd, "sun %.0f: took %d of %d static-shadow pixels", suns[k][0], took, nd);
+            CHECK_MSG(c.hit[p] >= 0.9 * c.n[p], "sun %.0f: person %d's shadow %d of %d", suns[k][0], p, c.hit[p],
+                      c.n[p]);
+        CHECK_MSG(c.took < 0.4 * c.nd, "sun %.0f: took %d of %d static-shadow pixels", suns[k][0], c.took, c.nd);
         /* the shadow running into the wide static one is open; the closed ones give the sun */
         CHECK_MSG(!sp_depop_closed_shadow(&o[0]), "spill %u", o[0].shadow_spill);
         sp_depop_sun e;
@@ -425,30 +437,18 @@ static void test_one_sun(void)
     int leaks = 0;
     for (size_t k = 0; k < sizeof(suns) / sizeof(suns[0]); k++) {
         sp_depop_object o[3];
-        one_sun_scene(suns[k][0], suns[k][1], 1, rgb, truth, decoy, o);
-        sp_depop_settings s;
-        sp_depop_default_settings(&s);
-        s.camera = &scene_cam;
-        CHECK_EQ_INT(sp_depop_mask(rgb, SW, SH, SW * 3, o, 3, &s, mask), 0);
-        int hit = 0, n = 0, took = 0, nd = 0;
-        for (int i = 0; i < SW * SH; i++) {
-            int in_box =
-                i % SW >= o[0].x0 - 1 && i % SW <= o[0].x1 + 1 && i / SW >= o[0].y0 - 1 && i / SW <= o[0].y1 + 1;
-            if (truth[i] == 1 && !in_box)
-                n++, hit += mask[i] != 0;
-            if (decoy[i] && !in_box)
-                nd++, took += mask[i] != 0;
-        }
+        scene_count c = one_sun_masks(suns[k][0], suns[k][1], 1, rgb, o);
         CHECK_MSG(o[0].shadow_leak || !sp_depop_closed_shadow(&o[0]), "sun %.0f: in the shade, closed", suns[k][0]);
         /* the shadow is taken in the sun's strip, also where the search leaked into the static shadow */
         leaks += o[0].shadow_leak;
-        CHECK_MSG(o[0].strip_px > 0 && hit >= 0.85 * n, "sun %.0f: leak %d, strip %u, shadow %d of %d", suns[k][0],
-                  o[0].shadow_leak, o[0].strip_px, hit, n);
+        CHECK_MSG(o[0].strip_px > 0 && c.hit[1] >= 0.85 * c.n[1], "sun %.0f: leak %d, strip %u, shadow %d of %d",
+                  suns[k][0], o[0].shadow_leak, o[0].strip_px, c.hit[1], c.n[1]);
         /* the search's cone let in up to a quarter of the static shadows here; the strip a tenth */
-        CHECK_MSG(took < 0.15 * nd, "sun %.0f: took %d of %d static-shadow pixels", suns[k][0], took, nd);
+        CHECK_MSG(c.took < 0.15 * c.nd, "sun %.0f: took %d of %d static-shadow pixels", suns[k][0], c.took, c.nd);
     }
     CHECK_MSG(leaks >= 1, "no search leaked: the strip was not needed");
     /* no cast shadows (overcast): nothing is voted, nothing found */
+    static uint8_t truth[SW * SH], decoy[SW * SH], mask[SW * SH];
     sp_depop_object o[3];
     one_sun_scene(-30, 40, 0, rgb, truth, decoy, o);
     for (int i = 0; i < SW * SH; i++)
