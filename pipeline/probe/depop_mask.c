@@ -158,15 +158,24 @@ static size_t flood(grow *g, const sp_depop_object *o, const uint8_t ref[3], con
         *spill = out, *cut = past;
     for (size_t q = 0; q < n; q++)
         g->seen[g->queue[q]] = 0;
-    /* the seen flags of rejected pixels are cleared by the caller's sweep over the cone's box */
+    /* the seen flags of rejected pixels are cleared by the caller (clear_seen) */
     memmove(g->queue, g->queue + seeds, (n - seeds) * sizeof(*g->queue));
     return n - seeds;
 }
 
-static void clear_seen(grow *g, const cone *c)
+/*
+ * Clears the seen flags a flood of o in c set: over the cone's box and the seeds' box (flood's), each a pixel
+ * wider, since neighbours of both are marked whether or not they are in the cone (a wide object's seeds reach
+ * farther sideways than a short cone).
+ */
+static void clear_seen(grow *g, const sp_depop_object *o, const cone *c)
 {
-    int x0 = clampi((int)floor(c->fx - c->reach) - 1, 0, g->w - 1), x1 = clampi((int)ceil(c->fx + c->reach) + 1, 0, g->w - 1);
-    int y0 = clampi((int)floor(c->fy - c->reach) - 1, 0, g->h - 1), y1 = clampi((int)ceil(c->fy + c->reach) + 1, 0, g->h - 1);
+    int h = o->y1 - o->y0 + 1, k = (int)ceil(0.04 * h) + 3;
+    int x0 = (int)fmin(floor(c->fx - c->reach), o->x0 - k) - 1, x1 = (int)fmax(ceil(c->fx + c->reach), o->x1 + k) + 1;
+    int y0 = (int)fmin(floor(c->fy - c->reach), o->y1 - h / 4) - 1,
+        y1 = (int)fmax(ceil(c->fy + c->reach), o->y1 + k) + 1;
+    x0 = clampi(x0, 0, g->w - 1), x1 = clampi(x1, 0, g->w - 1), y0 = clampi(y0, 0, g->h - 1),
+    y1 = clampi(y1, 0, g->h - 1);
     for (int y = y0; y <= y1; y++)
         memset(g->seen + (size_t)y * g->w + x0, 0, (size_t)(x1 - x0 + 1));
 }
@@ -197,7 +206,7 @@ static int near_direction(grow *g, const sp_depop_object *o, const uint8_t ref[3
     cone near = object_cone(g, o);
     near.reach = h;
     size_t n = flood(g, o, ref, &near, NULL, NULL);
-    clear_seen(g, &near);
+    clear_seen(g, o, &near);
     double mx, my;
     mean_offset(g, n, near.fx, near.fy, &mx, &my);
     double ml = hypot(mx, my);
@@ -210,12 +219,14 @@ static int near_direction(grow *g, const sp_depop_object *o, const uint8_t ref[3
 /* The cast shadow along (dx, dy); refused as a leak into dark material when larger than 1.5 boxes. */
 static void cast_along(grow *g, sp_depop_object *o, const uint8_t ref[3], double dx, double dy)
 {
+    o->shadow_px = 0, o->shadow_leak = 0, o->shadow_spill = 0, o->shadow_cut = 0; /* a second pass starts afresh */
+    o->shadow_dx = o->shadow_dy = o->shadow_len = 0;
     cone c = object_cone(g, o);
     c.dx = dx, c.dy = dy;
     uint32_t spill;
     int cut;
     size_t n = flood(g, o, ref, &c, &spill, &cut);
-    clear_seen(g, &c);
+    clear_seen(g, o, &c);
     if ((double)n > 1.5 * (o->x1 - o->x0 + 1) * (o->y1 - o->y0 + 1)) {
         o->shadow_leak = 1;
         return;
@@ -292,7 +303,7 @@ static void one_sun(grow *g, sp_depop_object *objs, size_t n, const uint8_t (*re
             uint32_t spill;
             int cut;
             size_t m = flood(g, o, ref[i], &c, &spill, &cut), far = 0;
-            clear_seen(g, &c);
+            clear_seen(g, o, &c);
             for (size_t q = 0; q < m; q++)
                 far += hypot(g->queue[q] % g->w - c.fx, g->queue[q] / g->w - c.fy) > c.free_r;
             double area = (double)(o->x1 - o->x0 + 1) * (o->y1 - o->y0 + 1);
@@ -363,6 +374,8 @@ static int sun_strip(grow *g, sp_depop_object *o, const uint8_t ref[3], const sp
             return -1;
         u0 = fmin(u0, u), u1 = fmax(u1, u), v0 = fmin(v0, v), v1 = fmax(v1, v);
     }
+    /* a corner just in front of the camera projects far off: bound the box before it becomes an int */
+    u0 = fmax(u0, -1), v0 = fmax(v0, -1), u1 = fmin(u1, g->w), v1 = fmin(v1, g->h);
     uint32_t took = 0;
     for (int y = clampi((int)floor(v0), 0, g->h - 1); y <= clampi((int)ceil(v1), 0, g->h - 1); y++)
         for (int x = clampi((int)floor(u0), 0, g->w - 1); x <= clampi((int)ceil(u1), 0, g->w - 1); x++) {

@@ -125,8 +125,11 @@ int sp_depop_sun_estimate(const sp_depop_object *objs, size_t n, const sp_depop_
     int open = 0;
     for (size_t i = 0; i < n; i++)
         m += !object_sun(&objs[i], cam, &b, 0, &az[m], &el[m]);
-    for (size_t i = 0; i < n && !m && (open = 1); i++)
-        m += !object_sun(&objs[i], cam, &b, 1, &az[m], &el[m]);
+    if (!m) {
+        open = 1;
+        for (size_t i = 0; i < n; i++)
+            m += !object_sun(&objs[i], cam, &b, 1, &az[m], &el[m]);
+    }
     if (m) {
         /* the azimuth's median on the circle: relative to the first, wrapped, then back */
         double ref = az[0];

@@ -50,7 +50,7 @@ typedef struct sp_depop_object {
     double shadow_dx, shadow_dy; /* mean offset of the cast shadow from the foot, pixels; 0,0: none */
     double shadow_len;           /* farthest shadow pixel from the foot along that direction, pixels */
     int shadow_leak;             /* the dark ground along the sun was too large to be its shadow: left */
-    double tip_x, tip_y;         /* the shadow's end: mean of its pixels farthest from the foot along the direction */
+    double tip_x, tip_y;         /* the shadow's end: on its axis (foot to its mean), as far as it goes */
     uint32_t shadow_spill;       /* shadow-dark ground next to the cast shadow but outside its cone or reach,
                                     or on the image's edge: the shadow may go on, so its tip is not its end */
     int shadow_cut;              /* the cast shadow went on past the search's reach (max_length heights) or
