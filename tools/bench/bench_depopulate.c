@@ -11,6 +11,7 @@
  * elevation), also the sun from each frame's shadows (depop_sun.c) and its error.
  *
  * usage: bench_depopulate [--whole-boxes] [--time FRAME.png BACKGROUND.png] [--camera F,CX,CY,PITCH [--sun AZ,EL]]
+ *   (--time runs with the camera when one is given, as the commands do)
  *                         LABEL FRAME BACKGROUND IDS SHADOWS ...
  *   IDS "-": objects are the pixels that differ from the background and are no shadow of it;
  *   SHADOWS "-": the removed region is every pixel that differs from the background (noise-free
@@ -48,6 +49,7 @@ typedef struct sun_eval {
 
 static sun_eval sun;
 static int whole_boxes; /* --whole-boxes: every method removes the boxes as given (no silhouettes) */
+static int timing;      /* in time_one: no sun figures */
 
 typedef struct scene {
     uint8_t *rgb, *bg, *objpx; /* objpx: the truth's object pixels */
@@ -203,7 +205,7 @@ static int run_method(const scene *s, int m, uint8_t *out, uint8_t *mask)
     if (!ret)
         ret = sp_depop_mask(s->rgb, s->w, s->h, s->w * 3, obj, s->n, &ds, mask);
     memcpy(out, s->rgb, 3 * n);
-    if (!ret && m == 3 && sun.on)
+    if (!ret && m == 3 && sun.on && !timing)
         sun_frame(obj, s->n);
     free(silhouettes);
     if (ret)
@@ -299,12 +301,14 @@ static void time_one(const char *frame, const char *bgpath)
     size_t n = (size_t)s.w * s.h;
     uint8_t *out = malloc(3 * n), *mask = malloc(n);
     double t[3][2];
+    timing = 1;
     for (int r = 0; r < 3 && out && mask; r++)
         for (int m = 0; m < 2; m++) {
             int64_t t0 = bench_thread_cpu_ns();
             run_method(&s, m ? 3 : 0, out, mask);
             t[r][m] = (bench_thread_cpu_ns() - t0) * 1e-9;
         }
+    timing = 0;
     double ours[3] = { t[0][1], t[1][1], t[2][1] }, telea[3] = { t[0][0], t[1][0], t[2][0] };
     uint64_t holes = 0;
     for (size_t i = 0; i < n && mask; i++)
@@ -325,10 +329,9 @@ int main(int argc, char **argv)
     int k = 0, i = 1;
     if (i < argc && !strcmp(argv[i], "--whole-boxes"))
         whole_boxes = 1, i++;
-    if (i + 2 < argc && !strcmp(argv[i], "--time")) {
-        time_one(argv[i + 1], argv[i + 2]);
-        i += 3;
-    }
+    const char *time_frame = NULL, *time_bg = NULL;
+    if (i + 2 < argc && !strcmp(argv[i], "--time"))
+        time_frame = argv[i + 1], time_bg = argv[i + 2], i += 3;
     double v[4];
     if (i + 1 < argc && !strcmp(argv[i], "--camera") &&
         sscanf(argv[i + 1], "%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2], &v[3]) == 4) {
@@ -339,6 +342,8 @@ int main(int argc, char **argv)
         sun.truth = 1;
         i += 2;
     }
+    if (time_frame) /* with the camera when given: the one-sun search and the strips are timed too */
+        time_one(time_frame, time_bg);
     for (; i + 4 < argc && k < 256; i += 5) {
         scene s = { 0 };
         if (load(&s, argv[i + 1], argv[i + 2], argv[i + 3], argv[i + 4]) || !s.n ||
@@ -368,7 +373,7 @@ int main(int argc, char **argv)
             printf("sun over %d frames: %d with closed shadows; median error azimuth %.1f deg, elevation %.1f deg\n",
                    sun.frames, sun.closed, bench_median(sun.closed_az, sun.closed),
                    bench_median(sun.closed_el, sun.closed));
-    } else if (sun.on) {
+    } else if (sun.on && sun.frames) {
         printf("sun over %d frames: %d with shadows, %d of them closed\n", sun.frames, sun.found, sun.closed);
     }
     return 0;
