@@ -5,7 +5,9 @@
  * changed, and every pixel either method changed) for exemplar inpainting on
  * the grown masks (objects from boxes + their shadows) against OpenCV's Telea
  * on the object masks alone (the baseline), with the two ablations between
- * them; then the time of one 1280x720 depopulation on one core.
+ * them, and two oracles (each fill on the truth's own region: what a perfect mask would give); then the
+ * time of one 1280x720 depopulation on one core. Each frame's line also says how much of the truth's object
+ * and shadow pixels our mask left.
  *
  * With --camera (and --sun, the truth's sun as azimuth from the view direction to the right and
  * elevation), also the sun from each frame's shadows (depop_sun.c) and its error.
@@ -33,10 +35,14 @@
 #include "sp_config.h"
 
 #define MAX_OBJ 64
-#define N_METHODS 4
+#define N_METHODS 6
+#define OURS 3
 
-static const char *const method_names[N_METHODS] = { "Telea, object boxes alone (baseline)", "Telea, silhouettes alone",
-                                                     "Telea, grown masks", "exemplar, grown masks (ours)" };
+/* the last two are oracles: what each fill makes of the truth's own region (what a perfect mask would give) */
+static const char *const method_names[N_METHODS] = {
+    "Telea, object boxes alone (baseline)", "Telea, silhouettes alone",          "Telea, grown masks",
+    "exemplar, grown masks (ours)",         "oracle: Telea, the truth's region", "oracle: exemplar, the truth's region"
+};
 
 typedef struct sun_eval {
     int on, truth;
@@ -191,6 +197,17 @@ static void sun_frame(const sp_depop_object *obj, size_t n)
 static int run_method(const scene *s, int m, uint8_t *out, uint8_t *mask)
 {
     size_t n = (size_t)s->w * s->h;
+    if (m >= 4) { /* the oracles */
+        memcpy(mask, s->changed, n);
+        memcpy(out, s->rgb, 3 * n);
+        if (m == 5)
+            return sp_inpaint_exemplar(out, s->w, s->h, s->w * 3, mask, NULL, NULL);
+#if HAVE_OPENCV
+        return sp_cv_inpaint_telea(out, s->w, s->h, s->w * 3, mask, 3);
+#else
+        return SP_EDISABLED;
+#endif
+    }
     sp_depop_settings ds;
     sp_depop_default_settings(&ds);
     ds.camera = sun.on ? &sun.cam : NULL;
@@ -254,10 +271,10 @@ static int score(const char *label, const scene *s, double psnr[N_METHODS], doub
         char path[4096];
         memcpy(out[0], s->rgb, 3 * n);
         for (size_t i = 0; i < n; i++)
-            if (s->changed[i] || mask[3][i]) {
+            if (s->changed[i] || mask[OURS][i]) {
                 uint8_t *p = out[0] + 3 * i;
-                p[0] = s->changed[i] && !mask[3][i] ? 255 : p[0] / 3;
-                p[1] = s->changed[i] && mask[3][i] ? 255 : p[1] / 3;
+                p[0] = s->changed[i] && !mask[OURS][i] ? 255 : p[0] / 3;
+                p[1] = s->changed[i] && mask[OURS][i] ? 255 : p[1] / 3;
                 p[2] = !s->changed[i] ? 255 : p[2] / 3;
             }
         snprintf(path, sizeof(path), "%s/%s.masks.png", dump, label);
@@ -267,16 +284,21 @@ static int score(const char *label, const scene *s, double psnr[N_METHODS], doub
     double err_missed = 0, err_filled = 0;
     for (size_t i = 0; !ret && i < n; i++)
         for (int c = 0; c < 3; c++) {
-            double d = ((double)out[3][3 * i + c] - s->bg[3 * i + c]) / 255.0;
-            err_missed += s->changed[i] && !mask[3][i] ? d * d : 0, err_filled += mask[3][i] ? d * d : 0;
+            double d = ((double)out[OURS][3 * i + c] - s->bg[3 * i + c]) / 255.0;
+            err_missed += s->changed[i] && !mask[OURS][i] ? d * d : 0, err_filled += mask[OURS][i] ? d * d : 0;
         }
-    size_t truth = 0, hit = 0, extra = 0;
-    for (size_t i = 0; !ret && i < n; i++)
-        truth += s->changed[i], hit += s->changed[i] && mask[3][i], extra += !s->changed[i] && mask[3][i];
+    size_t truth = 0, hit = 0, extra = 0, objs = 0, objs_left = 0;
+    for (size_t i = 0; !ret && i < n; i++) {
+        truth += s->changed[i], hit += s->changed[i] && mask[OURS][i], extra += !s->changed[i] && mask[OURS][i];
+        objs += s->changed[i] && s->objpx[i], objs_left += s->changed[i] && s->objpx[i] && !mask[OURS][i];
+    }
+    size_t shadows = truth - objs, shadows_left = truth - hit - objs_left;
     if (!ret)
         printf("%-28s %2zu objects  Telea %6.2f dB %.3f  ours %6.2f dB %.3f  (grown mask holds %.1f%% of the truth's "
-               "region, %.1f%% more; of our squared error %.0f%% is left in, %.0f%% filled)\n",
-               label, s->n, psnr[0], ssim[0], psnr[3], ssim[3], 100.0 * hit / truth, 100.0 * extra / truth,
+               "region, %.1f%% more; left: %.0f%% of its object pixels, %.0f%% of its shadow pixels; of our squared "
+               "error %.0f%% is left in, %.0f%% filled)\n",
+               label, s->n, psnr[0], ssim[0], psnr[OURS], ssim[OURS], 100.0 * hit / truth, 100.0 * extra / truth,
+               100.0 * objs_left / (objs ? objs : 1), 100.0 * shadows_left / (shadows ? shadows : 1),
                100.0 * err_missed / (err_missed + err_filled + 1e-30),
                100.0 * err_filled / (err_missed + err_filled + 1e-30));
     for (int m = 0; m < N_METHODS; m++)
@@ -363,7 +385,7 @@ int main(int argc, char **argv)
     if (k) { /* paired: each frame's region is the same for every method, so its difference is the fair one */
         double d[256];
         for (int j = 0; j < k; j++)
-            d[j] = psnr[j][N_METHODS - 1] - psnr[j][0];
+            d[j] = psnr[j][OURS] - psnr[j][0];
         printf("median over %d frames of ours minus the baseline, frame by frame: %+.2f dB\n", k, bench_median(d, k));
     }
     if (sun.on && sun.truth && sun.found) {
