@@ -4,7 +4,8 @@
 # sunny and overcast, 7 frames each; the path-traced street (../shared/captures/street-sunny-dev1,
 # its gt/ids as the objects) when present, 20 frames; then one 1280x720 frame timed on one core.
 # The sun from each frame's shadows against the truth's: the synth seeds above (sun 30 deg left of the
-# view, 40 up), seeds 6-8 under other suns, and the path-traced street with its camera from meta.json.
+# view, 40 up), seeds 6-16 under other suns (all round, 15-55 deg up; 6-8 and 9-11 the same suns), and the
+# path-traced street with its camera from meta.json.
 # Usage: tools/bench/depopulate.sh BUILD_DIR SCRATCH_DIR
 set -euo pipefail
 build=$1
@@ -30,7 +31,8 @@ for kind in sunny overcast; do
     echo "-- synth street, $kind"
     if [ $kind = sunny ]; then "$bench" $synth_camera --sun -30,40 "${args[@]}"; else "$bench" $synth_camera "${args[@]}"; fi
 done
-for sun in "6 60 25" "7 -120 55" "8 150 30"; do
+for sun in "6 60 25" "7 -120 55" "8 150 30" "9 60 25" "10 -120 55" "11 150 30" "12 0 45" "13 90 15" "14 -60 35" \
+    "15 170 50" "16 -150 20"; do
     read -r seed az el <<<"$sun"
     read -ra args <<<"$(scenes sun$az.$el "$seed" --sun-azimuth "$az" --sun-elevation "$el")"
     echo "-- synth street, seed $seed, sun $az deg from the view, $el up"
