@@ -37,9 +37,28 @@ typedef struct grow {
     int32_t *queue;
     uint8_t *seen;
     const sp_depop_settings *s;
+    int32_t lo, hi, tol; /* the shadow test's bounds from s, in 1/1024 */
 } grow;
 
 static int clampi(int v, int lo, int hi) { return v < lo ? lo : v > hi ? hi : v; }
+
+/* Whether pixel (x, y) is a shadow of the lit reference colour (the probe's own test, probe_internal.h). */
+static int shadow_at(const grow *g, int x, int y, const uint8_t ref[3])
+{
+    return probe_shadow_of(g->rgb + (size_t)y * g->stride + 3 * (size_t)x, ref, g->lo, g->hi, g->tol, 3);
+}
+
+/* Where a flood of o starts: the object's lower quarter and its contact shadow, k pixels around (x0, y0, x1, y1). */
+static void seed_box(const sp_depop_object *o, int box[4])
+{
+    int h = o->y1 - o->y0 + 1, k = (int)ceil(0.04 * h) + 3;
+    box[0] = o->x0 - k, box[1] = o->y1 - h / 4, box[2] = o->x1 + k, box[3] = o->y1 + k;
+}
+
+int sp_depop_standing(const sp_depop_object *o)
+{
+    return !o->truncated && o->x1 - o->x0 <= o->y1 - o->y0;
+}
 
 void sp_depop_lit_band(const uint32_t hist[256], uint32_t n, int *lo, int *hi)
 {
@@ -118,14 +137,12 @@ static int in_cone(const cone *c, int x, int y)
  */
 static size_t flood(grow *g, const sp_depop_object *o, const uint8_t ref[3], const cone *c, uint32_t *spill, int *cut)
 {
-    const sp_depop_settings *s = g->s;
-    int32_t lo = (int32_t)lround(s->ratio_lo * 1024), hi = (int32_t)lround(s->ratio_hi * 1024);
-    int32_t tol = (int32_t)lround(s->chroma_tol * 1024);
-    int h = o->y1 - o->y0 + 1, ys = o->y1 - h / 4, k = (int)ceil(0.04 * h) + 3;
+    int sb[4];
+    seed_box(o, sb);
     size_t n = 0, head = 0;
     /* seeds: the object's lower part and its contact shadow */
-    for (int y = clampi(ys, 0, g->h - 1); y <= clampi(o->y1 + k, 0, g->h - 1); y++)
-        for (int x = clampi(o->x0 - k, 0, g->w - 1); x <= clampi(o->x1 + k, 0, g->w - 1); x++) {
+    for (int y = clampi(sb[1], 0, g->h - 1); y <= clampi(sb[3], 0, g->h - 1); y++)
+        for (int x = clampi(sb[0], 0, g->w - 1); x <= clampi(sb[2], 0, g->w - 1); x++) {
             size_t i = (size_t)y * g->w + x;
             if (g->mask[i] != M_NONE && !g->seen[i])
                 g->seen[i] = 1, g->queue[n++] = (int32_t)i;
@@ -147,7 +164,7 @@ static size_t flood(grow *g, const sp_depop_object *o, const uint8_t ref[3], con
                 if (g->seen[j] || g->mask[j] != M_NONE)
                     continue;
                 g->seen[j] = 1; /* outside the cone too: within a pixel of its box, cleared with it */
-                int dark = probe_shadow_of(g->rgb + (size_t)v * g->stride + 3 * (size_t)u, ref, lo, hi, tol, 3);
+                int dark = shadow_at(g, u, v, ref);
                 if (dark && in_cone(c, u, v))
                     g->queue[n++] = (int32_t)j;
                 else if (dark && head > seeds)
@@ -170,10 +187,10 @@ static size_t flood(grow *g, const sp_depop_object *o, const uint8_t ref[3], con
  */
 static void clear_seen(grow *g, const sp_depop_object *o, const cone *c)
 {
-    int h = o->y1 - o->y0 + 1, k = (int)ceil(0.04 * h) + 3;
-    int x0 = (int)fmin(floor(c->fx - c->reach), o->x0 - k) - 1, x1 = (int)fmax(ceil(c->fx + c->reach), o->x1 + k) + 1;
-    int y0 = (int)fmin(floor(c->fy - c->reach), o->y1 - h / 4) - 1,
-        y1 = (int)fmax(ceil(c->fy + c->reach), o->y1 + k) + 1;
+    int sb[4];
+    seed_box(o, sb);
+    int x0 = (int)fmin(floor(c->fx - c->reach), sb[0]) - 1, x1 = (int)fmax(ceil(c->fx + c->reach), sb[2]) + 1;
+    int y0 = (int)fmin(floor(c->fy - c->reach), sb[1]) - 1, y1 = (int)fmax(ceil(c->fy + c->reach), sb[3]) + 1;
     x0 = clampi(x0, 0, g->w - 1), x1 = clampi(x1, 0, g->w - 1), y0 = clampi(y0, 0, g->h - 1),
     y1 = clampi(y1, 0, g->h - 1);
     for (int y = y0; y <= y1; y++)
@@ -351,9 +368,6 @@ static void one_sun(grow *g, sp_depop_object *objs, size_t n, const uint8_t (*re
 static int sun_strip(grow *g, sp_depop_object *o, const uint8_t ref[3], const sp_depop_sun *sun)
 {
     const sp_depop_camera *cam = g->s->camera;
-    const sp_depop_settings *s = g->s;
-    int32_t lo = (int32_t)lround(s->ratio_lo * 1024), hi = (int32_t)lround(s->ratio_hi * 1024);
-    int32_t tol = (int32_t)lround(s->chroma_tol * 1024);
     double psi = (sun->azimuth_deg + 180) * M_PI / 180, sdx = sin(psi), sdy = cos(psi);
     double foot[2], left[2], right[2];
     if (sp_depop_ground_point(cam, 0.5 * (o->x0 + o->x1), o->y1 + 0.5, foot) ||
@@ -385,8 +399,7 @@ static int sun_strip(grow *g, sp_depop_object *o, const uint8_t ref[3], const sp
                 continue;
             double along = (q[0] - foot[0]) * sdx + (q[1] - foot[1]) * sdy;
             double across = fabs((q[0] - foot[0]) * sdy - (q[1] - foot[1]) * sdx);
-            if (along >= 0 && along <= L && across <= hw + slack * along &&
-                probe_shadow_of(g->rgb + (size_t)y * g->stride + 3 * (size_t)x, ref, lo, hi, tol, 3))
+            if (along >= 0 && along <= L && across <= hw + slack * along && shadow_at(g, x, y, ref))
                 g->mask[k] = M_SHADOW, took++;
         }
     o->strip_px = took;
@@ -436,8 +449,7 @@ static void cast_shadows(grow *g, sp_depop_object *objs, size_t n)
             memcpy(g->mask, before, (size_t)g->w * g->h);
         for (size_t i = 0; i < n; i++) {
             sp_depop_object *o = &objs[i];
-            if (pass == 1 && have[i] >= 0 && !o->truncated && o->x1 - o->x0 <= o->y1 - o->y0 &&
-                !sun_strip(g, o, ref[i], &sun))
+            if (pass == 1 && have[i] >= 0 && sp_depop_standing(o) && !sun_strip(g, o, ref[i], &sun))
                 continue;
             if (have[i] == 1)
                 cast_along(g, o, ref[i], g->s->sun_dx / sl, g->s->sun_dy / sl);
@@ -517,7 +529,17 @@ int sp_depop_mask(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t 
     if (ret)
         return ret;
     size_t np = (size_t)width * height;
-    grow g = { rgb, stride, (int)width, (int)height, mask, malloc(np * sizeof(int32_t)), calloc(np, 1), s };
+    grow g = { .rgb = rgb,
+               .stride = stride,
+               .w = (int)width,
+               .h = (int)height,
+               .mask = mask,
+               .queue = malloc(np * sizeof(int32_t)),
+               .seen = calloc(np, 1),
+               .s = s,
+               .lo = (int32_t)lround(s->ratio_lo * 1024),
+               .hi = (int32_t)lround(s->ratio_hi * 1024),
+               .tol = (int32_t)lround(s->chroma_tol * 1024) };
     if (!g.queue || !g.seen) {
         free(g.queue), free(g.seen);
         return -ENOMEM;

@@ -92,8 +92,7 @@ static int object_sun(const sp_depop_object *o, const sp_depop_camera *cam, cons
     /* a cast shadow covers about as much ground as the object's box holds of it; specks are not one */
     if (o->shadow_leak || o->shadow_px < 10 || o->shadow_px < 0.1 * w * h || hypot(o->tip_x - 0.5 * (o->x0 + o->x1), o->tip_y - o->y1) < 0.1 * h)
         return -1;
-    /* the foot or the top may be outside the image; a car's shadow does not start at its box's bottom middle */
-    if (o->truncated || w > h || (!take_open && !sp_depop_closed_shadow(o)))
+    if (!sp_depop_standing(o) || (!take_open && !sp_depop_closed_shadow(o)))
         return -1;
     double foot[2], tip[2];
     if (ground_point(cam, b, 0.5 * (o->x0 + o->x1), o->y1 + 0.5, foot) ||

@@ -77,6 +77,12 @@ SP_PRIVATE void sp_depop_default_settings(sp_depop_settings *s);
 /* 1 when the object's cast shadow (as sp_depop_mask found it) is closed: its tip is its end. */
 SP_PRIVATE int sp_depop_closed_shadow(const sp_depop_object *o);
 /*
+ * 1 when the object stands whole in the image, as a person or a pole does: not touching the image's edge
+ * (its foot or top may be outside) and not wider than tall (a car's shadow does not start at its box's
+ * bottom middle). Only such objects tell the sun and get the sun's strip.
+ */
+int sp_depop_standing(const sp_depop_object *o);
+/*
  * The removal mask of n objects in an RGB24 image: each object's mask (or
  * box), a pixel of dilation for its anti-aliased edge, its contact shadow
  * (dark ground right at the foot) and its cast shadow (dark, chromaticity-

@@ -193,6 +193,18 @@ static void sun_frame(const sp_depop_object *obj, size_t n)
         printf("; error %.1f, %.1f deg\n", da, sun.err_el[sun.found - 1]);
 }
 
+/* Fills mask's pixels of out (the frame) by our exemplar inpainting or by OpenCV's Telea. */
+static int fill(const scene *s, int exemplar, uint8_t *out, const uint8_t *mask)
+{
+    if (exemplar)
+        return sp_inpaint_exemplar(out, s->w, s->h, s->w * 3, mask, NULL, NULL);
+#if HAVE_OPENCV
+    return sp_cv_inpaint_telea(out, s->w, s->h, s->w * 3, mask, 3);
+#else
+    return SP_EDISABLED;
+#endif
+}
+
 /* Runs one method into out; mask_out gets the pixels it replaced. */
 static int run_method(const scene *s, int m, uint8_t *out, uint8_t *mask)
 {
@@ -200,13 +212,7 @@ static int run_method(const scene *s, int m, uint8_t *out, uint8_t *mask)
     if (m >= 4) { /* the oracles */
         memcpy(mask, s->changed, n);
         memcpy(out, s->rgb, 3 * n);
-        if (m == 5)
-            return sp_inpaint_exemplar(out, s->w, s->h, s->w * 3, mask, NULL, NULL);
-#if HAVE_OPENCV
-        return sp_cv_inpaint_telea(out, s->w, s->h, s->w * 3, mask, 3);
-#else
-        return SP_EDISABLED;
-#endif
+        return fill(s, m == 5, out, mask);
     }
     sp_depop_settings ds;
     sp_depop_default_settings(&ds);
@@ -225,15 +231,7 @@ static int run_method(const scene *s, int m, uint8_t *out, uint8_t *mask)
     if (!ret && m == 3 && sun.on && !timing)
         sun_frame(obj, s->n);
     free(silhouettes);
-    if (ret)
-        return ret;
-    if (m == 3)
-        return sp_inpaint_exemplar(out, s->w, s->h, s->w * 3, mask, NULL, NULL);
-#if HAVE_OPENCV
-    return sp_cv_inpaint_telea(out, s->w, s->h, s->w * 3, mask, 3);
-#else
-    return SP_EDISABLED;
-#endif
+    return ret ? ret : fill(s, m == OURS, out, mask);
 }
 
 static int score(const char *label, const scene *s, double psnr[N_METHODS], double ssim[N_METHODS])
