@@ -180,11 +180,8 @@ static void draw_debug(const depop_job *j, uint8_t *debug)
 /* The sun from the shadows (with the given or the assumed camera) and from the clock, as "sun": {...}. */
 static void sun_json(const depop_args *a, const depop_job *j, sp_strbuf *b)
 {
-    sp_depop_camera cam = a->cam;
-    if (!a->have_cam) /* assumed: a 60-degree-wide view, centred, 15 degrees down */
-        cam = depop_assumed_camera(j->w, j->h);
     sp_depop_sun e = { 0 };
-    int shadows = !j->have_probe && !sp_depop_sun_estimate(j->obj, j->n, &cam, &e) && e.found;
+    int shadows = !j->have_probe && !sp_depop_sun_estimate(j->obj, j->n, &j->cam, &e) && e.found;
     sp_strbuf_printf(b, "\"sun\":{\"camera\":\"%s\",\"from_shadows\":", a->have_cam ? "given" : "assumed");
     if (shadows)
         sp_strbuf_printf(b,

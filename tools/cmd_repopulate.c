@@ -234,7 +234,7 @@ static double people_height(const depop_job *j, const sp_depop_camera *cam)
 
 static void scene_light(const repop_args *a, const depop_job *j, scene *sc)
 {
-    sc->cam = a->have_cam ? a->cam : depop_assumed_camera(j->w, j->h);
+    sc->cam = j->cam;
     if (sp_repop_ground_light(j->rgb, j->w, j->h, j->mask, sc->light.ground_rgb))
         memset(sc->light.ground_rgb, 0, sizeof(sc->light.ground_rgb));
     sp_depop_sun e = { 0 };

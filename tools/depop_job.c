@@ -191,8 +191,7 @@ static int find_objects(const depop_input *a, depop_job *j)
         }
     }
     sp_depop_settings ds = a->ds;
-    sp_depop_camera assumed = depop_assumed_camera(j->w, j->h);
-    ds.camera = ds.camera ? ds.camera : &assumed; /* the one the sun's report assumes */
+    ds.camera = &j->cam;
     ret = sp_depop_mask(j->rgb, j->w, j->h, j->w * 3, j->obj, j->n, &ds, j->mask);
     return ret ? sp_cmd_fail(j->cmd, ret, "removal masks") : 0;
 }
@@ -218,6 +217,7 @@ int depop_job_run(const char *cmd, const depop_input *a, depop_job *j)
     int ret = sp_image_read_rgb8(a->in, &j->rgb, &j->w, &j->h);
     if (ret)
         return sp_cmd_fail(cmd, ret, a->in);
+    j->cam = a->ds.camera ? *a->ds.camera : depop_assumed_camera(j->w, j->h);
     size_t np = (size_t)j->w * j->h;
     j->mask = calloc(np, 1), j->result = malloc(np * 3);
     if (!j->mask || !j->result)

@@ -35,6 +35,7 @@ typedef struct depop_job {
     const char *cmd; /* for messages: "depopulate", "repopulate" */
     uint8_t *rgb;    /* the input, RGB24 */
     uint32_t w, h;
+    sp_depop_camera cam; /* in.ds.camera, else the assumed one: the masks', the sun's and the scale's */
     sp_probe_dir pd;
     int have_probe;
     uint8_t *mask, *result; /* 1 object, 2 shadow; the filled image */
