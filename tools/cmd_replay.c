@@ -110,17 +110,19 @@ static int run_stage(const replay_args *a, const sp_stage_ops *ops, const sp_run
 {
     sp_stage stage = { 0 };
     sp_stage_options so = { .output_path = a->output };
+    /* Ctrl-C stops before the next event, without finish: a stage output is not committed. Caught before
+     * the output's temporary file exists and held until it is gone, so no signal ends the process with it left. */
+    sp_cmd_signals sig;
+    sp_cmd_catch_signals(&sig);
     int ret = sp_stage_open(&stage, ops, &so);
-    if (ret)
+    if (ret) {
+        sp_cmd_restore_signals(&sig);
         return a->output && sp_exit_for_error(ret) == SP_EXIT_IO
                    ? sp_cmd_failf("replay", ret, "opening the stage's output %s", a->output)
                    : sp_cmd_fail("replay", ret, "opening the stage");
+    }
     sp_run_stats st;
-    /* Ctrl-C stops before the next event, without finish: a stage output is not committed */
-    sp_cmd_signals sig;
-    sp_cmd_catch_signals(&sig);
     ret = sp_stage_run(a->path, &stage, rs, &st);
-    sp_cmd_restore_signals(&sig);
     int code = SP_EXIT_OK;
     if (sp_cmd_stop_signal) {
         fprintf(stderr, "sunprobe replay: interrupted after %" PRIu64 " frames%s\n", st.frames,
@@ -134,7 +136,8 @@ static int run_stage(const replay_args *a, const sp_stage_ops *ops, const sp_run
         code = sp_cmd_fail("replay", ret, "finishing the stage");
     else if (ret)
         code = sp_tool_capture_error("replay", a->path, ret, st.replay.error_offset);
-    sp_stage_close(&stage);
+    sp_stage_close(&stage); /* removes an uncommitted output: only then may a signal end the process */
+    sp_cmd_restore_signals(&sig);
     if (st.failed_in == SP_RUN_FAILED_OPEN)
         return code;
     if (st.tagged)
