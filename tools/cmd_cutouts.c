@@ -228,13 +228,15 @@ static int cutouts(const cut_args *a)
         if (!r.rgb || !r.mask || !r.crop)
             code = sp_cmd_fail(CMD, -ENOMEM, "frame buffers");
     }
+    if (!code) { /* held from before the partial dir exists through the commit: a signal removes it */
+        sp_cmd_catch_signals(&sig);
+        caught = 1;
+    }
     if (!code && (ret = sp_partial_dir_open(&pd, a->out)))
         code = sp_cmd_fail(CMD, ret, a->out);
     if (!code) {
         r.dir = pd.path;
         scene_light(&r);
-        sp_cmd_catch_signals(&sig); /* held through the commit: a signal before it removes the partial dir */
-        caught = 1;
         code = run(&r, cr);
     }
     if (!code && sp_cmd_stop_signal)

@@ -17,6 +17,7 @@
 #include <errno.h>
 #include <getopt.h>
 #include <math.h>
+#include <signal.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -480,6 +481,10 @@ static int score_set(eval_ctx *c, const char *kind, scored *acc)
         const sp_json *img = sp_json_at(imgs, i);
         if (!img)
             break;
+        if (sp_cmd_stop_signal) { /* between images: each render and pass file is whole or not there */
+            ret = -ECANCELED;
+            break;
+        }
         double sun[3];
         if (!strcmp(kind, "relight")) {
             if (sp_json_numbers(sp_json_get(img, "sun_dir_world"), sun, 3) != 3) {
@@ -675,8 +680,15 @@ static int run(eval_ctx *c)
     if (c->a->renders && (ret = sp_mkdir_p(c->a->renders, 0755)))
         return sp_cmd_fail("evaluate", ret, c->a->renders);
     sun_error(c);
-    if ((ret = score_set(c, "relight", &c->relight)) || (ret = score_set(c, "nvs", &c->nvs)))
+    if ((ret = score_set(c, "relight", &c->relight)) || (ret = score_set(c, "nvs", &c->nvs))) {
+        if (ret == -ECANCELED && sp_cmd_stop_signal) { /* the renders already made are whole files: say so */
+            fprintf(stderr, "sunprobe evaluate: interrupted by %s; no report written%s%s\n",
+                    sp_cmd_stop_signal == SIGINT ? "SIGINT" : "SIGTERM",
+                    c->a->renders ? "; the renders made so far stay in " : "", c->a->renders ? c->a->renders : "");
+            return sp_cmd_stopped_code(SP_EXIT_INTERNAL);
+        }
         return sp_cmd_fail("evaluate", ret, "scoring the held-out images");
+    }
     if (sp_json_string(sp_json_get(c->manifest, "landmarks"), NULL)) { /* the fit ran its landmark tracker */
         char fit_csv[4096], truth_csv[4096], err[512] = "";
         snprintf(fit_csv, sizeof(fit_csv), "%s/landmarks.csv", c->a->face);
@@ -700,7 +712,10 @@ int sp_cmd_evaluate(int argc, char **argv)
     if (p)
         return p > 0 ? SP_EXIT_OK : SP_EXIT_USAGE;
     eval_ctx c = { .a = &a, .sun_err = NAN };
+    sp_cmd_signals sig; /* every file it writes goes through a temporary: held until the last is renamed or removed */
+    sp_cmd_catch_signals(&sig);
     int code = run(&c);
+    sp_cmd_restore_signals(&sig);
     sp_face_asset_free(&c.asset);
     if (c.have_model)
         sp_face_model_free(&c.model);

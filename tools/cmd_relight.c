@@ -972,8 +972,8 @@ int sp_cmd_relight(int argc, char **argv)
     sp_cmd_signals sig; /* a stop signal is acted on before OUT is written; once it is, the run ends with 0 */
     sp_cmd_catch_signals(&sig);
     int ret = run_relight(&c, &pd);
+    sp_partial_dir_abort(&pd); /* nothing once committed; before the restore, so no signal leaves it half removed */
     sp_cmd_restore_signals(&sig);
-    sp_partial_dir_abort(&pd); /* nothing once committed */
     sp_face_asset_free(&c.fa);
     sp_json_free(c.cams);
     sp_json_free(c.manifest);

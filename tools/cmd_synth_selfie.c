@@ -472,8 +472,8 @@ static int run(selfie_args *a)
     sp_cmd_signals sig; /* Ctrl-C: the generator stops between frames and removes what it wrote */
     sp_cmd_catch_signals(&sig);
     ret = sp_synth_selfie_write(g, a->out, truth, &rep);
-    sp_cmd_restore_signals(&sig);
     if (ret) {
+        sp_cmd_restore_signals(&sig);
         sp_synth_selfie_close(&g);
         int code;
         if (ret == -ENOMEM) {
@@ -492,8 +492,9 @@ static int run(selfie_args *a)
            (unsigned long long)rep.imu_samples, (unsigned long long)rep.capture_bytes, t->model->source, rep.seconds);
     if (truth)
         printf("%s: ground truth, %llu held-out frames\n", truth, (unsigned long long)rep.heldout_frames);
-    if (a->sheet && (ret = contact_sheet(g, a)))
+    if (a->sheet && (ret = contact_sheet(g, a))) /* still caught: its temporary is renamed or removed first */
         ret = sp_cmd_fail("synth selfie", ret, a->sheet);
+    sp_cmd_restore_signals(&sig);
     sp_synth_selfie_close(&g);
     free(truth);
     return ret ? ret : SP_EXIT_OK;
