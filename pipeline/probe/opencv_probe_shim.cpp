@@ -3,6 +3,7 @@
 #include "opencv_probe_shim.h"
 
 #include <cerrno>
+#include <cmath>
 #include <algorithm>
 #include <new>
 #include <vector>
@@ -122,10 +123,11 @@ extern "C" int sp_cv_inpaint_telea(uint8_t *rgb, uint32_t width, uint32_t height
 }
 
 extern "C" int sp_cv_grabcut_box(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, int x0, int y0,
-                                 int x1, int y1, int iterations, uint8_t *mask)
+                                 int x1, int y1, int iterations, int min_height, uint8_t *mask)
 {
     if (!rgb || !mask || width == 0 || height == 0 || width > 32768 || height > 32768 || stride < width * 3 || x0 < 0 ||
-        y0 < 0 || x1 < x0 || y1 < y0 || x1 >= (int)width || y1 >= (int)height || iterations < 1 || iterations > 10)
+        y0 < 0 || x1 < x0 || y1 < y0 || x1 >= (int)width || y1 >= (int)height || iterations < 1 || iterations > 10 ||
+        min_height < 0 || min_height > 4096)
         return -EINVAL;
     int bw = x1 - x0 + 1, bh = y1 - y0 + 1;
     /* the colour models learn the background from a frame around the box, not the whole image */
@@ -139,7 +141,17 @@ extern "C" int sp_cv_grabcut_box(const uint8_t *rgb, uint32_t width, uint32_t he
         cv::Mat img((int)height, (int)width, CV_8UC3, const_cast<uint8_t *>(rgb), stride);
         cv::Mat gc, bgd, fgd;
         cv::theRNG().state = 0x5eed; /* the GMMs start from k-means: the same box, the same mask */
-        cv::grabCut(img(crop), gc, box, bgd, fgd, iterations, cv::GC_INIT_WITH_RECT);
+        if (bh < min_height) {       /* a small box has too few pixels for the smoothness term: cut it enlarged */
+            double k = (double)min_height / bh;
+            cv::Mat big, big_gc;
+            cv::resize(img(crop), big, cv::Size(), k, k, cv::INTER_CUBIC);
+            cv::Rect big_box = cv::Rect((int)std::lround(box.x * k), (int)std::lround(box.y * k),
+                                        (int)std::lround(bw * k), (int)std::lround(bh * k)) &
+                cv::Rect(0, 0, big.cols, big.rows);
+            cv::grabCut(big, big_gc, big_box, bgd, fgd, iterations, cv::GC_INIT_WITH_RECT);
+            cv::resize(big_gc, gc, crop.size(), 0, 0, cv::INTER_NEAREST);
+        } else
+            cv::grabCut(img(crop), gc, box, bgd, fgd, iterations, cv::GC_INIT_WITH_RECT);
         for (int y = 0; y < bh; y++)
             for (int x = 0; x < bw; x++) {
                 uint8_t v = gc.at<uint8_t>(box.y + y, box.x + x);

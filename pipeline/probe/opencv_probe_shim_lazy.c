@@ -11,7 +11,7 @@ typedef int (*hog_score_fn)(sp_cv_hog *, const uint8_t *, uint32_t, uint32_t, ui
 typedef void (*hog_close_fn)(sp_cv_hog **);
 typedef int (*hog_detect_fn)(sp_cv_hog *, const uint8_t *, uint32_t, uint32_t, uint32_t, double, int *, unsigned,
                              unsigned *);
-typedef int (*grabcut_fn)(const uint8_t *, uint32_t, uint32_t, uint32_t, int, int, int, int, int, uint8_t *);
+typedef int (*grabcut_fn)(const uint8_t *, uint32_t, uint32_t, uint32_t, int, int, int, int, int, int, uint8_t *);
 typedef int (*telea_fn)(uint8_t *, uint32_t, uint32_t, uint32_t, const uint8_t *, double);
 typedef int (*mog2_open_fn)(sp_cv_mog2 **, int, double, int);
 typedef int (*mog2_apply_fn)(sp_cv_mog2 *, const uint8_t *, uint32_t, uint32_t, uint32_t, uint8_t *, uint32_t);
@@ -62,10 +62,10 @@ int sp_cv_inpaint_telea(uint8_t *rgb, uint32_t width, uint32_t height, uint32_t 
 
 static sp_module_slot sp_cv_grabcut_box_slot;
 int sp_cv_grabcut_box(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, int x0, int y0, int x1,
-                      int y1, int iterations, uint8_t *mask)
+                      int y1, int iterations, int min_height, uint8_t *mask)
 {
     grabcut_fn fn = SYMBOL(grabcut_fn, sp_cv_grabcut_box);
-    return fn ? fn(rgb, width, height, stride, x0, y0, x1, y1, iterations, mask) : SP_EMODULE;
+    return fn ? fn(rgb, width, height, stride, x0, y0, x1, y1, iterations, min_height, mask) : SP_EMODULE;
 }
 
 static sp_module_slot sp_cv_mog2_open_slot;
