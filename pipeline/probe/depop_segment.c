@@ -4,7 +4,7 @@
  * detector holds background around the object; filling that background throws away pixels the image
  * had right. GrabCut (OpenCV) tells the object from the box's background by colour models learnt around
  * the box. Its answer is closed over holes (a person's inside is theirs), grown by a few pixels for
- * edges it missed, and taken only when it covers a fifth to 95% of the box; otherwise the whole box goes.
+ * edges it missed, and taken only when it covers a twentieth to 95% of the box; otherwise the whole box goes.
  * The box's lowest fifth always goes whole: there the object meets the ground and its contact shadow.
  */
 #include "depopulate.h"
@@ -110,7 +110,8 @@ int sp_depop_segment(const uint8_t *rgb, uint32_t width, uint32_t height, uint32
         if (rc == 0 && (ret = fill_holes(box, bw, bh)) == 0)
             for (size_t k = 0; k < area; k++)
                 fg += box[k];
-        int usable = rc == 0 && fg * 5 >= area && fg * 20 <= area * 19;
+        /* GrabCut errs by missing parts, rarely by taking paving: a small answer still beats the whole box */
+        int usable = rc == 0 && fg * 20 >= area && fg * 20 <= area * 19;
         for (int y = bh - (int)lround(LOWER_WHOLE * bh); y < bh && usable; y++)
             memset(box + (size_t)y * bw, 1, (size_t)bw);
         int r = (int)lround(0.03 * bh);
