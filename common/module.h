@@ -17,7 +17,9 @@
 #include "sunprobe/sp_common.h"
 #include "common/private_api.h"
 
-#define SP_MODULE_ABI 1
+/* raised with every change to a shim function's signature: a module built before it is refused, not called wrongly
+   (2: sp_cv_grabcut_box's min_height) */
+#define SP_MODULE_ABI 2
 
 /* What the program hands a module when it is loaded: the module logs through the program's logger. */
 typedef struct sp_module_host {

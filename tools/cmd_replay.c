@@ -124,7 +124,7 @@ static int run_stage(const replay_args *a, const sp_stage_ops *ops, const sp_run
     sp_run_stats st;
     ret = sp_stage_run(a->path, &stage, rs, &st);
     int code = SP_EXIT_OK;
-    if (sp_cmd_stop_signal) {
+    if (sp_cmd_stop_signal && st.stopped) { /* a signal during finish came too late: the output is whole */
         fprintf(stderr, "sunprobe replay: interrupted after %" PRIu64 " frames%s\n", st.frames,
                 a->output ? "; output not written" : "");
         code = sp_exit_for_error(-ECANCELED);

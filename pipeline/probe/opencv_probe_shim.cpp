@@ -141,14 +141,18 @@ extern "C" int sp_cv_grabcut_box(const uint8_t *rgb, uint32_t width, uint32_t he
         cv::Mat img((int)height, (int)width, CV_8UC3, const_cast<uint8_t *>(rgb), stride);
         cv::Mat gc, bgd, fgd;
         cv::theRNG().state = 0x5eed; /* the GMMs start from k-means: the same box, the same mask */
-        if (bh < min_height) {       /* a small box has too few pixels for the smoothness term: cut it enlarged */
-            double k = (double)min_height / bh;
+        /* a small box has too few pixels for the smoothness term: cut it enlarged, the crop within a
+           megapixel (a wide, short box would otherwise grow without bound) */
+        double k = std::min((double)min_height / bh, std::sqrt((double)(1 << 20) / crop.area()));
+        if (k > 1) {
             cv::Mat big, big_gc;
             cv::resize(img(crop), big, cv::Size(), k, k, cv::INTER_CUBIC);
             cv::Rect big_box = cv::Rect((int)std::lround(box.x * k), (int)std::lround(box.y * k),
                                         (int)std::lround(bw * k), (int)std::lround(bh * k)) &
                 cv::Rect(0, 0, big.cols, big.rows);
             cv::grabCut(big, big_gc, big_box, bgd, fgd, iterations, cv::GC_INIT_WITH_RECT);
+            /* each pixel takes its enlarged block's first label, up to half a pixel off its centre: read at
+               the centres, or foreground where any of the block is, measured worse (DEPOPULATE.md) */
             cv::resize(big_gc, gc, crop.size(), 0, 0, cv::INTER_NEAREST);
         } else
             cv::grabCut(img(crop), gc, box, bgd, fgd, iterations, cv::GC_INIT_WITH_RECT);

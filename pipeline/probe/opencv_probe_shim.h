@@ -46,8 +46,9 @@ int sp_cv_inpaint_telea(uint8_t *rgb, uint32_t width, uint32_t height, uint32_t 
  * OpenCV's GrabCut of the object in the box x0..x1, y0..y1 (inclusive pixels) of an RGB24 image: the colour
  * models are learnt on a crop around the box (half its width and a quarter of its height each side, at
  * least 8 px), the box's outside as background. A box shorter than min_height is cut on the crop enlarged
- * (bicubic) until it is that tall, the answer taken back at the image's pixels. Sets mask (image-sized, width
- * bytes a row) to 1 where the box's pixels come out (probably) foreground, leaves the rest. Deterministic.
+ * (bicubic) until it is that tall or the crop is a megapixel, the answer read back at the image's pixels.
+ * Sets mask (image-sized, width bytes a row) to 1 where the box's pixels come out (probably) foreground,
+ * leaves the rest. Deterministic.
  * SP_ENODATA for a box under 3 px or without background around it, -EINVAL, -EIO.
  */
 int sp_cv_grabcut_box(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t stride, int x0, int y0, int x1,
