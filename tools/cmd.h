@@ -43,6 +43,8 @@ int sp_exit_for_error(int err);
 int sp_err_is_write(int err);
 /* Prints "sunprobe CMD: what: error message" to stderr and returns the exit code for err. */
 int sp_cmd_fail(const char *cmd, int err, const char *what);
+/* "SIGINT", "SIGTERM" or "a signal", for messages about a stop. */
+const char *sp_cmd_signal_name(int sig);
 /* The same with what formatted (a path in it, say). */
 int sp_cmd_failf(const char *cmd, int err, const char *fmt, ...) SP_PRINTF(3, 4);
 

@@ -17,7 +17,6 @@
 #include <errno.h>
 #include <getopt.h>
 #include <math.h>
-#include <signal.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -683,9 +682,9 @@ static int run(eval_ctx *c)
     if ((ret = score_set(c, "relight", &c->relight)) || (ret = score_set(c, "nvs", &c->nvs))) {
         if (ret == -ECANCELED && sp_cmd_stop_signal) { /* the renders already made are whole files: say so */
             fprintf(stderr, "sunprobe evaluate: interrupted by %s; no report written%s%s\n",
-                    sp_cmd_stop_signal == SIGINT ? "SIGINT" : "SIGTERM",
-                    c->a->renders ? "; the renders made so far stay in " : "", c->a->renders ? c->a->renders : "");
-            return sp_cmd_stopped_code(SP_EXIT_INTERNAL);
+                    sp_cmd_signal_name(sp_cmd_stop_signal), c->a->renders ? "; the renders made so far stay in " : "",
+                    c->a->renders ? c->a->renders : "");
+            return sp_exit_for_error(ret);
         }
         return sp_cmd_fail("evaluate", ret, "scoring the held-out images");
     }

@@ -73,12 +73,17 @@ int sp_err_is_write(int err)
     return err == -ENOSPC || err == -EDQUOT || err == -EFBIG || err == -EROFS;
 }
 
+const char *sp_cmd_signal_name(int sig)
+{
+    return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal";
+}
+
 int sp_cmd_fail(const char *cmd, int err, const char *what)
 {
     int code = sp_exit_for_error(err);
     if (code > 128)
         fprintf(stderr, "sunprobe %s: %s: interrupted by %s; nothing written\n", cmd, what,
-                code == 128 + SIGINT ? "SIGINT" : code == 128 + SIGTERM ? "SIGTERM" : "a signal");
+                sp_cmd_signal_name(code - 128));
     else
         fprintf(stderr, "sunprobe %s: %s: %s\n", cmd, what, sp_strerror(err));
     return code == SP_EXIT_OK ? SP_EXIT_INTERNAL : code;
