@@ -433,8 +433,13 @@ int sp_cmd_export_video(int argc, char **argv)
     code = sp_tool_open_capture(CMD, o.capture, 0, &r);
     if (code)
         return code;
+    /* Ctrl-C ends the loop, and the failure path below removes what this run wrote; caught before the
+       output directory or the video's temporary exists, so a signal cannot leave either behind */
+    sp_cmd_signals sig;
+    sp_cmd_catch_signals(&sig);
     int rc = prepare_output(&e);
     if (rc) {
+        sp_cmd_restore_signals(&sig);
         if (rc != SP_EDISABLED)
             fprintf(stderr, "sunprobe " CMD ": %s: %s%s\n", o.out, sp_strerror(rc),
                     rc == -EEXIST ? " (use --force to replace it)" : "");
@@ -444,8 +449,6 @@ int sp_cmd_export_video(int argc, char **argv)
     }
     sp_progress bar;
     sp_progress_start(&bar, CMD, sp_capture_reader_info(r)->file_size, o.quiet ? 0 : -1);
-    sp_cmd_signals sig; /* Ctrl-C ends the loop, and the failure path below removes what this run wrote */
-    sp_cmd_catch_signals(&sig);
     code = run(&e, r, &bar);
     sp_progress_finish(&bar);
     if (code == SP_EXIT_OK && e.written == 0) {
