@@ -240,8 +240,8 @@ static int write_report(const depop_args *a, const depop_job *j, const char *pat
                          o->x1 - o->x0 + 1, o->y1 - o->y0 + 1, o->shadow_px, o->contact_px,
                          o->shadow_leak ? "true" : "false");
         sp_strbuf_json_numbers(&b, sh, 3);
-        sp_strbuf_printf(&b, ",\"shadow_closed\":%s,\"shadow_strip_px\":%u}",
-                         sp_depop_closed_shadow(o) ? "true" : "false", o->strip_px);
+        sp_strbuf_printf(&b, ",\"shadow_closed\":%s,\"shadow_strip_px\":%u,\"shadow_thin\":%s}",
+                         sp_depop_closed_shadow(o) ? "true" : "false", o->strip_px, o->shadow_thin ? "true" : "false");
     }
     sp_strbuf_printf(&b, "]}\n");
     int ret = b.failed ? -ENOMEM : sp_write_whole_file_atomic(path, b.data, b.len);

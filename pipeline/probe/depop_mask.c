@@ -237,6 +237,7 @@ static int near_direction(grow *g, const sp_depop_object *o, const uint8_t ref[3
 static void cast_along(grow *g, sp_depop_object *o, const uint8_t ref[3], double dx, double dy)
 {
     o->shadow_px = 0, o->shadow_leak = 0, o->shadow_spill = 0, o->shadow_cut = 0; /* a second pass starts afresh */
+    o->shadow_thin = 0;
     o->shadow_dx = o->shadow_dy = o->shadow_len = 0;
     cone c = object_cone(g, o);
     c.dx = dx, c.dy = dy;
@@ -406,13 +407,214 @@ static int sun_strip(grow *g, sp_depop_object *o, const uint8_t ref[3], const sp
     return 0;
 }
 
+/* ---- thin cast shadows: dark lines leaving the foot ---- */
+
+enum {
+    THIN_ANGLES = 180,   /* image directions 2 degrees apart */
+    THIN_MAX_HALF = 4,   /* half-widths 1..4 px: a far walker's line to a near child's */
+    THIN_MISSES = 2,     /* a run goes on over this many failing samples (grain, a joint in the paving) */
+    THIN_SPREAD = 3,     /* bins either side of a direction that count as it (+-6 degrees) */
+    THIN_PSI_STEPS = 72, /* ground directions 5 degrees apart for the one-sun vote */
+};
+#define THIN_RATIO 0.75 /* the line is at most this bright against each side (the flood's bound is 0.85) */
+#define THIN_MARGIN 2.5 /* the sides are looked at this far beyond the line's edge, pixels */
+
+/* Colour at image point (x, y), bilinear over pixel centres; -1 off the image or on the mask. */
+static int colour_at(const grow *g, double x, double y, double rgb[3])
+{
+    int x0 = (int)floor(x - 0.5), y0 = (int)floor(y - 0.5);
+    double fx = x - 0.5 - x0, fy = y - 0.5 - y0;
+    if (x0 < 0 || y0 < 0 || x0 + 1 >= g->w || y0 + 1 >= g->h)
+        return -1;
+    rgb[0] = rgb[1] = rgb[2] = 0;
+    for (int j = 0; j < 2; j++)
+        for (int i = 0; i < 2; i++) {
+            if (g->mask[(size_t)(y0 + j) * g->w + x0 + i] != M_NONE)
+                return -1;
+            const uint8_t *p = g->rgb + (size_t)(y0 + j) * g->stride + 3 * (size_t)(x0 + i);
+            double wgt = (i ? fx : 1 - fx) * (j ? fy : 1 - fy);
+            for (int c = 0; c < 3; c++)
+                rgb[c] += wgt * p[c];
+        }
+    return 0;
+}
+
+static void to_u8(const double in[3], uint8_t out[3])
+{
+    for (int c = 0; c < 3; c++)
+        out[c] = (uint8_t)clampi((int)lround(in[c]), 0, 255);
+}
+
+/*
+ * Whether a line of half-width hw through (x, y) (unit normal nx, ny) is a shadow, by the probe's test, of
+ * the ground on each of its sides. Its colour: the darkest tap across it when hw is 1 (a line 1-2 px wide
+ * straddles pixels), else the mean of the inner taps. *off: a tap lies off the image or on the mask.
+ */
+static int thin_hit(const grow *g, double x, double y, double nx, double ny, int hw, int *off)
+{
+    double c[3] = { 0, 0, 0 }, v[3], dark = INFINITY, side = hw + THIN_MARGIN, a[3], b[3];
+    int taps = 0;
+    for (int k = -hw; k <= hw; k++) {
+        if (colour_at(g, x + k * nx, y + k * ny, v))
+            return *off = 1, 0;
+        if (hw == 1 && v[0] + v[1] + v[2] < dark)
+            dark = v[0] + v[1] + v[2], memcpy(c, v, sizeof(c));
+        if (hw > 1 && abs(k) < hw)
+            c[0] += v[0], c[1] += v[1], c[2] += v[2], taps++;
+    }
+    for (int i = 0; i < 3 && taps; i++)
+        c[i] /= taps;
+    *off = 0;
+    if (colour_at(g, x + side * nx, y + side * ny, a) || colour_at(g, x - side * nx, y - side * ny, b))
+        return 0;
+    uint8_t pc[3], pa[3], pb[3];
+    to_u8(c, pc), to_u8(a, pa), to_u8(b, pb);
+    int32_t hi = (int32_t)lround(THIN_RATIO * 1024);
+    return probe_shadow_of(pc, pa, g->lo, hi, g->tol, 3) && probe_shadow_of(pc, pb, g->lo, hi, g->tol, 3);
+}
+
+/* How far a dark line runs along (dx, dy) from (ox, oy), pixels; 0 when it does not start within 2 px. */
+static double thin_run(const grow *g, double ox, double oy, double dx, double dy, int hw, double reach)
+{
+    int started = 0, miss = 0;
+    double last = 0;
+    for (double t = 0; t <= reach; t += 1) {
+        int off, hit = thin_hit(g, ox + t * dx, oy + t * dy, -dy, dx, hw, &off);
+        if (hit)
+            started = 1, miss = 0, last = t;
+        else if (!started && t >= 2)
+            return 0;
+        else if (started && (off || ++miss > THIN_MISSES))
+            break;
+    }
+    return started ? last : 0;
+}
+
+/* Per image direction, the longest dark line leaving an object: its run (pixels), origin and half-width. */
+typedef struct thin_rays {
+    double run[THIN_ANGLES], ox[THIN_ANGLES], oy[THIN_ANGLES];
+    int hw[THIN_ANGLES];
+} thin_rays;
+
+/* Rays leave every unmasked pixel next to the object's lower part: a shadow need not pass the box's bottom middle. */
+static void thin_search(const grow *g, const sp_depop_object *o, thin_rays *r)
+{
+    int h = o->y1 - o->y0 + 1, sb[4];
+    seed_box(o, sb);
+    double reach = g->s->max_length * h;
+    memset(r, 0, sizeof(*r));
+    for (int y = clampi(sb[1], 1, g->h - 2); y <= clampi(sb[3], 1, g->h - 2); y++)
+        for (int x = clampi(sb[0], 1, g->w - 2); x <= clampi(sb[2], 1, g->w - 2); x++) {
+            size_t k = (size_t)y * g->w + x;
+            if (g->mask[k] != M_NONE ||
+                (g->mask[k - 1] == M_NONE && g->mask[k + 1] == M_NONE && g->mask[k - g->w] == M_NONE &&
+                 g->mask[k + g->w] == M_NONE))
+                continue;
+            for (int hw = 1; hw <= THIN_MAX_HALF; hw++)
+                for (int a = 0; a < THIN_ANGLES; a++) {
+                    double th = a * 2 * M_PI / THIN_ANGLES;
+                    double run = thin_run(g, x + 0.5, y + 0.5, cos(th), sin(th), hw, reach);
+                    if (run > r->run[a])
+                        r->run[a] = run, r->ox[a] = x + 0.5, r->oy[a] = y + 0.5, r->hw[a] = hw;
+                }
+        }
+}
+
+/* The bin within THIN_SPREAD of image direction (dx, dy) that holds the longest run. */
+static int thin_best_near(const thin_rays *r, double dx, double dy)
+{
+    int a0 = (int)lround(atan2(dy, dx) * THIN_ANGLES / (2 * M_PI)), best = -1;
+    for (int k = -THIN_SPREAD; k <= THIN_SPREAD; k++) {
+        int a = ((a0 + k) % THIN_ANGLES + THIN_ANGLES) % THIN_ANGLES;
+        if (best < 0 || r->run[a] > r->run[best])
+            best = a;
+    }
+    return best;
+}
+
+/* Marks bin a's line as o's cast shadow (its pixels darker than the sides by the flood's bound), with its figures. */
+static void thin_mark(grow *g, sp_depop_object *o, const thin_rays *r, int a)
+{
+    double th = a * 2 * M_PI / THIN_ANGLES, dx = cos(th), dy = sin(th), len = r->run[a];
+    double ox0 = r->ox[a], oy0 = r->oy[a], hw = r->hw[a], side = hw + THIN_MARGIN;
+    int x0 = clampi((int)floor(fmin(ox0, ox0 + len * dx) - side), 0, g->w - 1);
+    int x1 = clampi((int)ceil(fmax(ox0, ox0 + len * dx) + side), 0, g->w - 1);
+    int y0 = clampi((int)floor(fmin(oy0, oy0 + len * dy) - side), 0, g->h - 1);
+    int y1 = clampi((int)ceil(fmax(oy0, oy0 + len * dy) + side), 0, g->h - 1);
+    cone c = object_cone(g, o);
+    double sx = 0, sy = 0;
+    uint32_t took = 0;
+    for (int y = y0; y <= y1; y++)
+        for (int x = x0; x <= x1; x++) {
+            double ox = x + 0.5 - ox0, oy = y + 0.5 - oy0, t = ox * dx + oy * dy, across = -ox * dy + oy * dx;
+            size_t k = (size_t)y * g->w + x;
+            if (t < -1 || t > len + 1 || fabs(across) > hw + 0.5 || g->mask[k] != M_NONE)
+                continue;
+            double cx = ox0 + t * dx, cy = oy0 + t * dy, l[3], m[3];
+            const uint8_t *p = g->rgb + (size_t)y * g->stride + 3 * (size_t)x;
+            if (!colour_at(g, cx - side * dy, cy + side * dx, l) && !colour_at(g, cx + side * dy, cy - side * dx, m) &&
+                p[0] + p[1] + p[2] <= g->s->ratio_hi * fmin(l[0] + l[1] + l[2], m[0] + m[1] + m[2]))
+                g->mask[k] = M_SHADOW, took++, sx += x - c.fx, sy += y - c.fy;
+        }
+    if (!took)
+        return;
+    double tx = ox0 + len * dx, ty = oy0 + len * dy;
+    o->shadow_px = took, o->shadow_dx = sx / took, o->shadow_dy = sy / took, o->shadow_thin = 1;
+    o->tip_x = tx, o->tip_y = ty, o->shadow_len = hypot(tx - c.fx, ty - c.fy), o->shadow_spill = 0;
+    o->shadow_cut = tx < 2 || ty < 2 || tx > g->w - 3 || ty > g->h - 3 || len >= c.reach - 2;
+}
+
+/*
+ * Thin cast shadows the flood did not follow: lines a few pixels wide, a shadow of the ground on both their
+ * sides, leaving an object's lower part (a far walker's shadow under a low sun is 2-3 px wide and broken by
+ * grain, a kerb or a lamp post; the flood's reference is the brightest paving near the foot, and a line's
+ * pixels straddle it). For the standing objects with a ground reference that got no cast shadow. Their
+ * direction: the given image direction; else the sun's ground direction psi_known when the closed shadows
+ * told it; else one sun again, the ground direction whose image directions hold the longest runs summed
+ * over the objects as shares of their heights (a crossing's dark gaps run every way from one foot, a shadow
+ * one way from every foot). A run shorter than a quarter of the height (or 6 px) is no shadow.
+ */
+static void thin_shadows(grow *g, sp_depop_object *objs, size_t n, const int *have, double psi_known)
+{
+    const sp_depop_camera *cam = g->s->camera;
+    double sl = hypot(g->s->sun_dx, g->s->sun_dy), psi = psi_known, best = 0;
+    if (!(sl > 0) && !cam)
+        return;
+    thin_rays *r = calloc(n + 1, sizeof(*r));
+    int *use = calloc(n + 1, sizeof(int)), any = 0;
+    if (!r || !use) {
+        free(r), free(use);
+        return;
+    }
+    for (size_t i = 0; i < n; i++)
+        if (have[i] >= 0 && sp_depop_standing(&objs[i]) && objs[i].shadow_px == 0 && objs[i].strip_px == 0)
+            use[i] = 1, any = 1, thin_search(g, &objs[i], &r[i]);
+    for (int k = 0; any && !(sl > 0) && !isfinite(psi_known) && k < THIN_PSI_STEPS; k++) {
+        double score = 0, ps = k * 2 * M_PI / THIN_PSI_STEPS, d[2];
+        for (size_t i = 0; i < n; i++)
+            if (use[i] && !ground_to_image(cam, &objs[i], ps, d))
+                score += fmin(1, r[i].run[thin_best_near(&r[i], d[0], d[1])] / (objs[i].y1 - objs[i].y0 + 1));
+        if (score > best)
+            best = score, psi = ps;
+    }
+    for (size_t i = 0; i < n; i++) {
+        double d[2] = { g->s->sun_dx / sl, g->s->sun_dy / sl };
+        if (!use[i] || (!(sl > 0) && (!isfinite(psi) || ground_to_image(cam, &objs[i], psi, d))))
+            continue;
+        int a = thin_best_near(&r[i], d[0], d[1]);
+        if (r[i].run[a] >= fmax(6, 0.25 * (objs[i].y1 - objs[i].y0 + 1)))
+            thin_mark(g, &objs[i], &r[i], a);
+    }
+    free(r), free(use);
+}
+
 /*
  * Every object's cast shadow. With the sun's image direction given, along it. With a camera, along the one
  * ground direction that closes the most shadows (one_sun); then, where those closed shadows tell the sun,
  * again from the mask before any cast shadow: each standing object's shadow in the sun's strip (sun_strip).
  * Without, each object's own lean where it agrees with the others' (within 40 degrees of their mean
  * direction), else the mean's: one sun casts every shadow, and a lone lean is more often dark ground than a
- * shadow.
+ * shadow. Last, a thin line for the standing objects still without one (thin_shadows).
  */
 static void cast_shadows(grow *g, sp_depop_object *objs, size_t n)
 {
@@ -438,6 +640,7 @@ static void cast_shadows(grow *g, sp_depop_object *objs, size_t n)
     }
     double ml = hypot(sx, sy);
     int consensus = agree >= 2 && ml > 0.5 * agree; /* several leans, and they roughly agree */
+    double psi_known = NAN;                         /* the sun's ground direction, where the closed shadows told it */
     for (int pass = 0; pass < 2; pass++) {
         sp_depop_sun sun = { 0 };
         /* the second pass only where the first one's closed shadows tell the sun */
@@ -446,7 +649,7 @@ static void cast_shadows(grow *g, sp_depop_object *objs, size_t n)
              !(sun.elevation_deg > 1)))
             break;
         if (pass == 1)
-            memcpy(g->mask, before, (size_t)g->w * g->h);
+            memcpy(g->mask, before, (size_t)g->w * g->h), psi_known = (sun.azimuth_deg + 180) * M_PI / 180;
         for (size_t i = 0; i < n; i++) {
             sp_depop_object *o = &objs[i];
             if (pass == 1 && have[i] >= 0 && sp_depop_standing(o) && !sun_strip(g, o, ref[i], &sun))
@@ -459,6 +662,7 @@ static void cast_shadows(grow *g, sp_depop_object *objs, size_t n)
                 cast_along(g, o, ref[i], dir[i][0], dir[i][1]);
         }
     }
+    thin_shadows(g, objs, n, have, psi_known);
     free(ref), free(dir), free(have), free(before);
 }
 
@@ -549,7 +753,7 @@ int sp_depop_mask(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t 
         objs[i].shadow_px = objs[i].contact_px = 0, objs[i].shadow_leak = 0;
         objs[i].shadow_dx = objs[i].shadow_dy = objs[i].shadow_len = 0, objs[i].shadow_spill = 0;
         objs[i].shadow_cut = 0;
-        objs[i].strip_px = 0;
+        objs[i].strip_px = 0, objs[i].shadow_thin = 0;
         objs[i].truncated =
             objs[i].x0 == 0 || objs[i].y0 == 0 || objs[i].x1 == (int)width - 1 || objs[i].y1 == (int)height - 1;
         mark_object(&g, &objs[i]);

@@ -90,7 +90,9 @@ static int object_sun(const sp_depop_object *o, const sp_depop_camera *cam, cons
 {
     int h = o->y1 - o->y0 + 1, w = o->x1 - o->x0 + 1;
     /* a cast shadow covers about as much ground as the object's box holds of it; specks are not one */
-    if (o->shadow_leak || o->shadow_px < 10 || o->shadow_px < 0.1 * w * h || hypot(o->tip_x - 0.5 * (o->x0 + o->x1), o->tip_y - o->y1) < 0.1 * h)
+    /* a thin line's tip is where the line test stops (grain, a lamp post across it), not where the shadow ends */
+    if (o->shadow_leak || o->shadow_thin || o->shadow_px < 10 || o->shadow_px < 0.1 * w * h ||
+        hypot(o->tip_x - 0.5 * (o->x0 + o->x1), o->tip_y - o->y1) < 0.1 * h)
         return -1;
     if (!sp_depop_standing(o) || (!take_open && !sp_depop_closed_shadow(o)))
         return -1;

@@ -56,6 +56,9 @@ typedef struct sp_depop_object {
     int shadow_cut;              /* the cast shadow went on past the search's reach (max_length heights) or
                                     out of the image */
     int truncated;               /* the box touches the image's edge: its foot or top may be outside */
+    int shadow_thin;             /* the cast shadow is a thin dark line from the foot, found where no flood took
+                                    one (depop_mask.c); its tip is where the line test stops, so the sun from
+                                    one image does not use it */
     uint32_t strip_px;           /* with a camera, where the closed shadows tell the sun: the cast shadow's
                                     pixels, taken in the strip that sun casts from the foot instead of by the
                                     search (whose figures above stay); 0 otherwise */

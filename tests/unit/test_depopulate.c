@@ -5,7 +5,8 @@
  * texture, and handles its extremes (empty hole, no source left, holes at the
  * border, tiny images, bad settings); the masks take a cast shadow attached
  * to the foot and leave dark ground that is not attached, follow a given sun
- * direction, refuse a leak into dark material, and the plate-based path finds
+ * direction, refuse a leak into dark material, take a thin broken line from the
+ * foot along the sun (and not against it, detached, or on a road's edge), and the plate-based path finds
  * an object and keeps the one the user keeps; the sun from shadows projected
  * through a known camera, over azimuths all round and elevations 10-60
  * degrees, with an outlier, and nothing from no shadows or a bad camera;
@@ -238,6 +239,79 @@ static void test_shadow_masks(void)
     CHECK_EQ_INT(sp_depop_mask(rgb, W, H, W * 3, &bad, 1, &s, mask), -EINVAL);
     s.ratio_hi = 1.5;
     CHECK_EQ_INT(sp_depop_mask(rgb, W, H, W * 3, &o, 1, &s, mask), -EINVAL);
+}
+
+/*
+ * A far walker's shadow under a low sun: a line one pixel wide at half the light, leaving the figure of
+ * shadow_scene's ground one lit pixel past its contact area (so no flood from the foot reaches it) and broken
+ * every fifth pixel by grain, up and to the right from x = from to 100. line[] marks its dark pixels.
+ */
+static void thin_line_scene(uint8_t *rgb, uint8_t *line, int from)
+{
+    memset(line, 0, W * H);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            int i = y * W + x,
+                on = x >= from && x <= 100 && (x - from) % 5 != 4 && y == (int)lround(58 - 0.2 * (x - 61));
+            double k = on ? 0.5 : 1.0;
+            line[i] = (uint8_t)on;
+            rgb[3 * i] = clamp8((int)(150 * k) + noise(3));
+            rgb[3 * i + 1] = clamp8((int)(140 * k) + noise(3));
+            rgb[3 * i + 2] = clamp8((int)(130 * k) + noise(3));
+            if (x >= 50 && x <= 57 && y >= 20 && y <= 59)
+                rgb[3 * i] = 200, rgb[3 * i + 1] = 40, rgb[3 * i + 2] = 40;
+        }
+}
+
+/* Pixels of mask set farther than 2 px from every set pixel of near (the object's box counts as near). */
+static int stray(const uint8_t *mask, const uint8_t *near)
+{
+    int n = 0;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            int close = x >= 47 && x <= 60 && y >= 17 && y <= 62;
+            for (int v = y - 2; v <= y + 2 && !close; v++)
+                for (int u = x - 2; u <= x + 2 && !close; u++)
+                    close = u >= 0 && v >= 0 && u < W && v < H && near[v * W + u];
+            n += mask[y * W + x] && !close;
+        }
+    return n;
+}
+
+static void test_thin_shadow(void)
+{
+    static uint8_t rgb[W * H * 3], line[W * H], mask[W * H];
+    sp_depop_object o = { .x0 = 50, .y0 = 20, .x1 = 57, .y1 = 59 };
+    sp_depop_settings s;
+    sp_depop_default_settings(&s);
+    s.sun_dx = 1, s.sun_dy = -0.2;
+    int hit, n;
+    thin_line_scene(rgb, line, 61);
+    CHECK_EQ_INT(sp_depop_mask(rgb, W, H, W * 3, &o, 1, &s, mask), 0);
+    count(mask, line, &hit, &n);
+    CHECK_MSG(hit >= 0.8 * n && o.shadow_thin, "thin line: %d of %d pixels, thin %d", hit, n, o.shadow_thin);
+    CHECK_MSG(stray(mask, line) == 0, "%d pixels taken off the line", stray(mask, line));
+    CHECK_MSG(o.shadow_len > 30 && o.tip_x > 90, "tip at %.1f, %.1f", o.tip_x, o.tip_y);
+    /* the sun the other way: the line is not its shadow */
+    s.sun_dx = -1, s.sun_dy = 0.2;
+    CHECK_EQ_INT(sp_depop_mask(rgb, W, H, W * 3, &o, 1, &s, mask), 0);
+    count(mask, line, &hit, &n);
+    CHECK_MSG(hit == 0 && !o.shadow_thin, "against the sun: %d of %d line pixels", hit, n);
+    /* a line that starts 10 px from the foot belongs to something else */
+    s.sun_dx = 1, s.sun_dy = -0.2;
+    thin_line_scene(rgb, line, 70);
+    CHECK_EQ_INT(sp_depop_mask(rgb, W, H, W * 3, &o, 1, &s, mask), 0);
+    count(mask, line, &hit, &n);
+    CHECK_MSG(hit == 0 && !o.shadow_thin, "detached line: %d of %d pixels", hit, n);
+    /* the line on a dark road's edge (dark below it): not a shadow of both its sides */
+    thin_line_scene(rgb, line, 61);
+    for (int y = 0; y < H; y++)
+        for (int x = 61; x <= 100; x++)
+            if (y > (int)lround(58 - 0.2 * (x - 61)))
+                for (int c = 0; c < 3; c++)
+                    rgb[3 * (y * W + x) + c] = (uint8_t)(rgb[3 * (y * W + x) + c] * 2 / 5);
+    CHECK_EQ_INT(sp_depop_mask(rgb, W, H, W * 3, &o, 1, &s, mask), 0);
+    CHECK_MSG(!o.shadow_thin, "a kerb's edge taken as a thin shadow (%u px)", o.shadow_px);
 }
 
 static void test_from_plate(void)
@@ -578,6 +652,7 @@ int main(void)
     test_edge_continues();
     test_inpaint_extremes();
     test_shadow_masks();
+    test_thin_shadow();
     test_from_plate();
     test_sun();
     test_one_sun();
