@@ -565,6 +565,32 @@ static void thin_mark(grow *g, sp_depop_object *o, const thin_rays *r, int a)
 }
 
 /*
+ * Whether bin a's line goes on past the object's other side: from where the line, followed back through the
+ * box, leaves it, a dark line of the same width runs on for half the length (within a bin's angle and 2 px
+ * across of the way back: the origin and direction are the search's grid). A road marking's gap, a kerb or a
+ * lamp post's shadow passes under the object; the object's own shadow starts at it.
+ */
+static int thin_through(const grow *g, const sp_depop_object *o, const thin_rays *r, int a)
+{
+    for (int da = -1; da <= 1; da++)
+        for (int across = -2; across <= 2; across++) {
+            double th = (a + da) * 2 * M_PI / THIN_ANGLES, dx = -cos(th), dy = -sin(th);
+            double x = r->ox[a] - across * dy, y = r->oy[a] + across * dx;
+            int was_in = 0;
+            for (int step = 0; step < g->w + g->h; step++, x += dx, y += dy) {
+                int in = x >= o->x0 - 2 && x <= o->x1 + 3 && y >= o->y0 - 2 && y <= o->y1 + 3;
+                if (was_in && !in) {
+                    if (thin_run(g, x, y, dx, dy, r->hw[a], r->run[a]) >= 0.5 * r->run[a])
+                        return 1;
+                    break;
+                }
+                was_in |= in;
+            }
+        }
+    return 0;
+}
+
+/*
  * Thin cast shadows the flood did not follow: lines a few pixels wide, a shadow of the ground on both their
  * sides, leaving an object's lower part (a far walker's shadow under a low sun is 2-3 px wide and broken by
  * grain, a kerb or a lamp post; the flood's reference is the brightest paving near the foot, and a line's
@@ -602,7 +628,7 @@ static void thin_shadows(grow *g, sp_depop_object *objs, size_t n, const int *ha
         if (!use[i] || (!(sl > 0) && (!isfinite(psi) || ground_to_image(cam, &objs[i], psi, d))))
             continue;
         int a = thin_best_near(&r[i], d[0], d[1]);
-        if (r[i].run[a] >= fmax(6, 0.25 * (objs[i].y1 - objs[i].y0 + 1)))
+        if (r[i].run[a] >= fmax(6, 0.25 * (objs[i].y1 - objs[i].y0 + 1)) && !thin_through(g, &objs[i], &r[i], a))
             thin_mark(g, &objs[i], &r[i], a);
     }
     free(r), free(use);

@@ -6,7 +6,8 @@
  * border, tiny images, bad settings); the masks take a cast shadow attached
  * to the foot and leave dark ground that is not attached, follow a given sun
  * direction, refuse a leak into dark material, take a thin broken line from the
- * foot along the sun (and not against it, detached, or on a road's edge), and the plate-based path finds
+ * foot along the sun (and not against it, detached, going on past the figure, or
+ * on a road's edge), and the plate-based path finds
  * an object and keeps the one the user keeps; the sun from shadows projected
  * through a known camera, over azimuths all round and elevations 10-60
  * degrees, with an outlier, and nothing from no shadows or a bad camera;
@@ -303,6 +304,15 @@ static void test_thin_shadow(void)
     CHECK_EQ_INT(sp_depop_mask(rgb, W, H, W * 3, &o, 1, &s, mask), 0);
     count(mask, line, &hit, &n);
     CHECK_MSG(hit == 0 && !o.shadow_thin, "detached line: %d of %d pixels", hit, n);
+    /* the line going on past the figure's other side (a road marking's gap under it): not its shadow */
+    thin_line_scene(rgb, line, 61);
+    for (int x = 15; x <= 48; x++) {
+        int i = (int)lround(58 - 0.2 * (x - 61)) * W + x;
+        for (int c = 0; c < 3; c++)
+            rgb[3 * i + c] = (uint8_t)(rgb[3 * i + c] / 2);
+    }
+    CHECK_EQ_INT(sp_depop_mask(rgb, W, H, W * 3, &o, 1, &s, mask), 0);
+    CHECK_MSG(!o.shadow_thin, "a line through the figure taken as its shadow (%u px)", o.shadow_px);
     /* the line on a dark road's edge (dark below it): not a shadow of both its sides */
     thin_line_scene(rgb, line, 61);
     for (int y = 0; y < H; y++)
