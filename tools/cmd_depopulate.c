@@ -31,6 +31,7 @@ typedef struct depop_args {
     const char *utc;
     double lat, lon, heading;
     int have_location, have_heading;
+    sp_depop_sun clock; /* the sun from the clock relative to the camera, for the masks (in.ds.clock_sun) */
     int quiet;
 } depop_args;
 
@@ -55,7 +56,8 @@ static void usage(FILE *out)
             "                        (degrees) for the sun from the shadows (default: assumed, 60 deg wide,\n"
             "                        centred, 15 deg down)\n"
             "      --utc ISO --location LAT,LON --heading DEG  the sun from the clock as well (heading: the\n"
-            "                        view's compass bearing), and how far the two disagree\n"
+            "                        view's compass bearing), and how far the two disagree; the masks\n"
+            "                        use it where no closed shadow tells the sun\n"
             "      --report FILE     the JSON report (default OUT without .png + .json)\n"
             "      --debug FILE      the input with the masks drawn (default OUT without .png + .debug.png)\n"
             "  -o, --output PNG      the emptied image\n"
@@ -156,6 +158,15 @@ static int parse_args(int argc, char **argv, depop_args *a)
         fprintf(stderr, "sunprobe depopulate: the sun from the clock needs --utc, --location and --heading together\n");
         return SP_EXIT_USAGE;
     }
+    double t;
+    sp_sun_position p;
+    if (a->utc && !sp_utc_parse(a->utc, &t) && !sp_sun_position_at(t, a->lat, a->lon, &p)) {
+        a->clock = (sp_depop_sun){ .found = 1,
+                                   .closed = 1,
+                                   .azimuth_deg = fmod(p.azimuth_deg - a->heading + 540.0, 360.0) - 180.0,
+                                   .elevation_deg = p.elevation_deg };
+        a->in.ds.clock_sun = &a->clock; /* the masks use it where no closed shadow tells the sun */
+    }
     return 0;
 }
 
@@ -192,14 +203,13 @@ static void sun_json(const depop_args *a, const depop_job *j, sp_strbuf *b)
     else
         sp_strbuf_printf(b, "\"%s\"", j->have_probe ? "not estimated with --probe" : "no sun shadows");
     sp_strbuf_printf(b, ",\"from_clock\":");
-    double t;
-    sp_sun_position p;
-    if (a->utc && !sp_utc_parse(a->utc, &t) && !sp_sun_position_at(t, a->lat, a->lon, &p)) {
-        double az = fmod(p.azimuth_deg - a->heading + 540.0, 360.0) - 180.0;
-        sp_strbuf_printf(b, "{\"azimuth_deg\":%.2f,\"elevation_deg\":%.2f}", az, p.elevation_deg);
+    if (a->in.ds.clock_sun) {
+        double az = a->clock.azimuth_deg, el = a->clock.elevation_deg;
+        sp_strbuf_printf(b, "{\"azimuth_deg\":%.2f,\"elevation_deg\":%.2f}", az, el);
         if (shadows) { /* the angle between the two directions */
-            double r = M_PI / 180, c = sin(e.elevation_deg * r) * sin(p.elevation_deg * r) +
-                                       cos(e.elevation_deg * r) * cos(p.elevation_deg * r) * cos((az - e.azimuth_deg) * r);
+            double r = M_PI / 180,
+                   c = sin(e.elevation_deg * r) * sin(el * r) +
+                cos(e.elevation_deg * r) * cos(el * r) * cos((az - e.azimuth_deg) * r);
             sp_strbuf_printf(b, ",\"disagreement_deg\":%.2f", acos(c > 1 ? 1 : c < -1 ? -1 : c) / r);
         }
     } else {

@@ -669,10 +669,13 @@ static void cast_shadows(grow *g, sp_depop_object *objs, size_t n)
     double psi_known = NAN;                         /* the sun's ground direction, where the closed shadows told it */
     for (int pass = 0; pass < 2; pass++) {
         sp_depop_sun sun = { 0 };
-        /* the second pass only where the first one's closed shadows tell the sun */
-        if (pass == 1 &&
-            (!before || sp_depop_sun_estimate(objs, n, g->s->camera, &sun) || !sun.found || !sun.closed ||
-             !(sun.elevation_deg > 1)))
+        /* the second pass only where the first one's closed shadows tell the sun, or the clock does */
+        if (pass == 1 && before &&
+            (sp_depop_sun_estimate(objs, n, g->s->camera, &sun) || !sun.found || !sun.closed ||
+             !(sun.elevation_deg > 1)) &&
+            g->s->clock_sun && g->s->clock_sun->elevation_deg > 1)
+            sun = *g->s->clock_sun, sun.found = sun.closed = 1;
+        if (pass == 1 && (!before || !sun.found || !sun.closed || !(sun.elevation_deg > 1)))
             break;
         if (pass == 1)
             memcpy(g->mask, before, (size_t)g->w * g->h), psi_known = (sun.azimuth_deg + 180) * M_PI / 180;
@@ -741,6 +744,8 @@ static int check(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t s
     if (s->camera &&
         (!(s->camera->f > 0 && s->camera->f < 1e6) || !isfinite(s->camera->cx) || !isfinite(s->camera->cy) ||
          !(s->camera->pitch_deg >= 0 && s->camera->pitch_deg < 89)))
+        return -EINVAL;
+    if (s->clock_sun && (!isfinite(s->clock_sun->azimuth_deg) || !(fabs(s->clock_sun->elevation_deg) <= 90)))
         return -EINVAL;
     for (size_t i = 0; i < n; i++)
         if (objs[i].x0 < 0 || objs[i].y0 < 0 || objs[i].x1 < objs[i].x0 || objs[i].y1 < objs[i].y0 ||

@@ -74,6 +74,9 @@ typedef struct sp_depop_settings {
     /* the camera (borrowed, may be NULL): without sun_dx, sun_dy, the shadows' one ground direction is
        searched for through it (depop_mask.c, "one sun") */
     const struct sp_depop_camera *camera;
+    /* the sun from the clock (borrowed, may be NULL; azimuth and elevation as sp_depop_sun's, relative to the
+       camera): with the camera, the sun's strips and thin shadows use it where no closed shadow tells the sun */
+    const struct sp_depop_sun *clock_sun;
 } sp_depop_settings;
 
 SP_PRIVATE void sp_depop_default_settings(sp_depop_settings *s);

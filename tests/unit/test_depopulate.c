@@ -13,7 +13,8 @@
  * degrees, with an outlier, and nothing from no shadows or a bad camera;
  * one sun searched through a camera past a static shadow by a foot, open
  * shadows told from closed ones, and a shadow cut from its foot taken in the
- * sun's strip; an object's silhouette in its box keeps the box's background.
+ * sun's strip (also from the clock's sun where no shadow closes); an object's
+ * silhouette in its box keeps the box's background.
  */
 #include <errno.h>
 #include <math.h>
@@ -546,6 +547,35 @@ static void test_one_sun(void)
                   c.took, c.nd);
     }
     CHECK_MSG(leaks >= 1, "no search leaked: the strip was not needed");
+    /* the first person alone: no closed shadow tells the sun; the clock's (sp_depop_settings.clock_sun) does */
+    for (int use_clock = 0; use_clock < 3; use_clock++) {
+        static uint8_t ct[SW * SH], cd[SW * SH], cm[SW * SH];
+        sp_depop_object co[3];
+        one_sun_scene(-30, 40, 1, rgb, ct, cd, co);
+        sp_depop_sun clock = { .found = 1, .azimuth_deg = -30, .elevation_deg = use_clock == 2 ? -5 : 40 };
+        sp_depop_settings cs;
+        sp_depop_default_settings(&cs);
+        cs.camera = &scene_cam, cs.clock_sun = use_clock ? &clock : NULL;
+        CHECK_EQ_INT(sp_depop_mask(rgb, SW, SH, SW * 3, co, 1, &cs, cm), 0);
+        int hit = 0, n = 0;
+        for (int i = 0; i < SW * SH; i++)
+            if (ct[i] == 1 && !(i % SW >= co[0].x0 - 1 && i % SW <= co[0].x1 + 1 && i / SW <= co[0].y1 + 1))
+                n++, hit += cm[i] != 0;
+        if (use_clock == 1)
+            CHECK_MSG(co[0].strip_px > 0 && hit >= 0.85 * n, "clock sun: strip %u, shadow %d of %d", co[0].strip_px,
+                      hit, n);
+        else
+            CHECK_MSG(co[0].strip_px == 0, "%s: strip %u", use_clock ? "clock sun below the horizon" : "no clock",
+                      co[0].strip_px);
+    }
+    sp_depop_sun night = { .found = 1, .azimuth_deg = NAN, .elevation_deg = 10 };
+    sp_depop_settings ns;
+    sp_depop_default_settings(&ns);
+    ns.camera = &scene_cam, ns.clock_sun = &night;
+    sp_depop_object no[3];
+    static uint8_t nt[SW * SH], nd[SW * SH], nm[SW * SH];
+    one_sun_scene(-30, 40, 1, rgb, nt, nd, no);
+    CHECK_EQ_INT(sp_depop_mask(rgb, SW, SH, SW * 3, no, 1, &ns, nm), -EINVAL);
     /* no cast shadows (overcast): nothing is voted, nothing found */
     static uint8_t truth[SW * SH], decoy[SW * SH], mask[SW * SH];
     sp_depop_object o[3];

@@ -13,6 +13,8 @@
  * elevation), also the sun from each frame's shadows (depop_sun.c) and its error.
  *
  * usage: bench_depopulate [--whole-boxes] [--time FRAME.png BACKGROUND.png] [--camera F,CX,CY,PITCH [--sun AZ,EL]]
+ *   [--clock-sun AZ,EL] (the sun the command gets from --utc, --location and --heading; masks use it where
+ *   no closed shadow tells the sun)
  *   (--time runs with the camera when one is given, as the commands do)
  *                         LABEL FRAME BACKGROUND IDS SHADOWS ...
  *   IDS "-": objects are the pixels that differ from the background and are no shadow of it;
@@ -54,8 +56,9 @@ typedef struct sun_eval {
 } sun_eval;
 
 static sun_eval sun;
-static int whole_boxes; /* --whole-boxes: every method removes the boxes as given (no silhouettes) */
-static int timing;      /* in time_one: no sun figures */
+static sp_depop_sun clock_sun; /* --clock-sun: what the command is given with --utc, --location and --heading */
+static int whole_boxes;        /* --whole-boxes: every method removes the boxes as given (no silhouettes) */
+static int timing;             /* in time_one: no sun figures */
 
 typedef struct scene {
     uint8_t *rgb, *bg, *objpx; /* objpx: the truth's object pixels */
@@ -217,6 +220,7 @@ static int run_method(const scene *s, int m, uint8_t *out, uint8_t *mask)
     sp_depop_settings ds;
     sp_depop_default_settings(&ds);
     ds.camera = sun.on ? &sun.cam : NULL;
+    ds.clock_sun = sun.on && clock_sun.found ? &clock_sun : NULL;
     ds.shadows = m >= 2;
     sp_depop_object obj[MAX_OBJ];
     memcpy(obj, s->obj, sizeof(obj));
@@ -360,6 +364,11 @@ int main(int argc, char **argv)
     }
     if (i + 1 < argc && !strcmp(argv[i], "--sun") && sscanf(argv[i + 1], "%lf,%lf", &sun.az, &sun.el) == 2) {
         sun.truth = 1;
+        i += 2;
+    }
+    if (i + 1 < argc && !strcmp(argv[i], "--clock-sun") &&
+        sscanf(argv[i + 1], "%lf,%lf", &clock_sun.azimuth_deg, &clock_sun.elevation_deg) == 2) {
+        clock_sun.found = 1;
         i += 2;
     }
     if (time_frame) /* with the camera when given: the one-sun search and the strips are timed too */
