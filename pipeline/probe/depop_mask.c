@@ -8,7 +8,9 @@
  * reference (probe_shadow_of, the probe's own test), no farther than a few
  * object heights, within a cone around the sun's image direction (when not
  * given, the direction the dark ground near the foot leans to) and no wider
- * than the object across it.
+ * than the object across it. Where the sun is known (closed shadows, the
+ * clock), the ground strip it casts from each foot instead; last, a thin
+ * dark line from the foot where nothing else was found.
  */
 #include "depopulate.h"
 
@@ -237,7 +239,6 @@ static int near_direction(grow *g, const sp_depop_object *o, const uint8_t ref[3
 static void cast_along(grow *g, sp_depop_object *o, const uint8_t ref[3], double dx, double dy)
 {
     o->shadow_px = 0, o->shadow_leak = 0, o->shadow_spill = 0, o->shadow_cut = 0; /* a second pass starts afresh */
-    o->shadow_thin = 0;
     o->shadow_dx = o->shadow_dy = o->shadow_len = 0;
     cone c = object_cone(g, o);
     c.dx = dx, c.dy = dy;
@@ -276,7 +277,8 @@ static int closed(uint32_t spill, int cut, size_t n)
 
 int sp_depop_closed_shadow(const sp_depop_object *o)
 {
-    return o->shadow_px > 0 && closed(o->shadow_spill, o->shadow_cut, o->shadow_px);
+    /* a thin line's tip is where the line test stops, not the shadow's end */
+    return o->shadow_px > 0 && !o->shadow_thin && closed(o->shadow_spill, o->shadow_cut, o->shadow_px);
 }
 
 /* The image direction at object o's foot of the ground direction psi (radians from the view direction to the right). */
@@ -416,8 +418,12 @@ enum {
     THIN_SPREAD = 3,     /* bins either side of a direction that count as it (+-6 degrees) */
     THIN_PSI_STEPS = 72, /* ground directions 5 degrees apart for the one-sun vote */
 };
-#define THIN_RATIO 0.75 /* the line is at most this bright against each side (the flood's bound is 0.85) */
-#define THIN_MARGIN 2.5 /* the sides are looked at this far beyond the line's edge, pixels */
+#define THIN_RATIO 0.75     /* the line is at most this bright against each side (the flood's: ratio_hi, 0.85) */
+#define THIN_MARGIN 2.5     /* the sides are looked at this far beyond the line's edge, pixels */
+#define THIN_START 2        /* a run starts within this many pixels of its origin */
+#define THIN_MIN_SHARE 0.25 /* of the object's height: a shorter run is no shadow (nor one under THIN_MIN_PX) */
+#define THIN_MIN_PX 6
+#define THIN_THROUGH 0.5 /* of its length: a line going on this far past the object's other side passes under it */
 
 /* Colour at image point (x, y), bilinear over pixel centres; -1 off the image or on the mask. */
 static int colour_at(const grow *g, double x, double y, double rgb[3])
@@ -482,7 +488,7 @@ static double thin_run(const grow *g, double ox, double oy, double dx, double dy
         int off, hit = thin_hit(g, ox + t * dx, oy + t * dy, -dy, dx, hw, &off);
         if (hit)
             started = 1, miss = 0, last = t;
-        else if (!started && t >= 2)
+        else if (!started && t >= THIN_START)
             return 0;
         else if (started && (off || ++miss > THIN_MISSES))
             break;
@@ -496,8 +502,11 @@ typedef struct thin_rays {
     int hw[THIN_ANGLES];
 } thin_rays;
 
-/* Rays leave every unmasked pixel next to the object's lower part: a shadow need not pass the box's bottom middle. */
-static void thin_search(const grow *g, const sp_depop_object *o, thin_rays *r)
+/*
+ * Rays leave every unmasked pixel next to the object's lower part: a shadow need not pass the box's bottom
+ * middle. Only the bins within THIN_SPREAD of bin a0 when it is not negative (the direction is known).
+ */
+static void thin_search(const grow *g, const sp_depop_object *o, int a0, thin_rays *r)
 {
     int h = o->y1 - o->y0 + 1, sb[4];
     seed_box(o, sb);
@@ -512,6 +521,9 @@ static void thin_search(const grow *g, const sp_depop_object *o, thin_rays *r)
                 continue;
             for (int hw = 1; hw <= THIN_MAX_HALF; hw++)
                 for (int a = 0; a < THIN_ANGLES; a++) {
+                    int off = ((a - a0) % THIN_ANGLES + THIN_ANGLES + THIN_ANGLES / 2) % THIN_ANGLES - THIN_ANGLES / 2;
+                    if (a0 >= 0 && abs(off) > THIN_SPREAD)
+                        continue;
                     double th = a * 2 * M_PI / THIN_ANGLES;
                     double run = thin_run(g, x + 0.5, y + 0.5, cos(th), sin(th), hw, reach);
                     if (run > r->run[a])
@@ -520,10 +532,17 @@ static void thin_search(const grow *g, const sp_depop_object *o, thin_rays *r)
         }
 }
 
+/* The bin nearest image direction (dx, dy). */
+static int thin_bin(double dx, double dy)
+{
+    int a = (int)lround(atan2(dy, dx) * THIN_ANGLES / (2 * M_PI));
+    return (a % THIN_ANGLES + THIN_ANGLES) % THIN_ANGLES;
+}
+
 /* The bin within THIN_SPREAD of image direction (dx, dy) that holds the longest run. */
 static int thin_best_near(const thin_rays *r, double dx, double dy)
 {
-    int a0 = (int)lround(atan2(dy, dx) * THIN_ANGLES / (2 * M_PI)), best = -1;
+    int a0 = thin_bin(dx, dy), best = -1;
     for (int k = -THIN_SPREAD; k <= THIN_SPREAD; k++) {
         int a = ((a0 + k) % THIN_ANGLES + THIN_ANGLES) % THIN_ANGLES;
         if (best < 0 || r->run[a] > r->run[best])
@@ -550,10 +569,12 @@ static void thin_mark(grow *g, sp_depop_object *o, const thin_rays *r, int a)
             size_t k = (size_t)y * g->w + x;
             if (t < -1 || t > len + 1 || fabs(across) > hw + 0.5 || g->mask[k] != M_NONE)
                 continue;
-            double cx = ox0 + t * dx, cy = oy0 + t * dy, l[3], m[3];
+            double cx = ox0 + t * dx, cy = oy0 + t * dy, left[3], right[3];
             const uint8_t *p = g->rgb + (size_t)y * g->stride + 3 * (size_t)x;
-            if (!colour_at(g, cx - side * dy, cy + side * dx, l) && !colour_at(g, cx + side * dy, cy - side * dx, m) &&
-                p[0] + p[1] + p[2] <= g->s->ratio_hi * fmin(l[0] + l[1] + l[2], m[0] + m[1] + m[2]))
+            if (!colour_at(g, cx - side * dy, cy + side * dx, left) &&
+                !colour_at(g, cx + side * dy, cy - side * dx, right) &&
+                p[0] + p[1] + p[2] <=
+                    g->s->ratio_hi * fmin(left[0] + left[1] + left[2], right[0] + right[1] + right[2]))
                 g->mask[k] = M_SHADOW, took++, sx += x - c.fx, sy += y - c.fy;
         }
     if (!took)
@@ -565,22 +586,26 @@ static void thin_mark(grow *g, sp_depop_object *o, const thin_rays *r, int a)
 }
 
 /*
- * Whether bin a's line goes on past the object's other side: from where the line, followed back through the
- * box, leaves it, a dark line of the same width runs on for half the length (within a bin's angle and 2 px
- * across of the way back: the origin and direction are the search's grid). A road marking's gap, a kerb or a
- * lamp post's shadow passes under the object; the object's own shadow starts at it.
+ * Whether bin a's line goes on past the object's other side: from the first unmasked pixel after the line,
+ * followed back, leaves the box and its contact area, a dark line of the same width runs on for
+ * THIN_THROUGH of the length (within a bin's angle and 2 px across of the way back: the origin and direction
+ * are the search's grid). A road marking's gap, a kerb or a lamp post's shadow passes under the object; the
+ * object's own shadow starts at it.
  */
 static int thin_through(const grow *g, const sp_depop_object *o, const thin_rays *r, int a)
 {
+    int sb[4]; /* the box with its contact area, where the search's origins lie */
+    seed_box(o, sb);
     for (int da = -1; da <= 1; da++)
         for (int across = -2; across <= 2; across++) {
-            double th = (a + da) * 2 * M_PI / THIN_ANGLES, dx = -cos(th), dy = -sin(th);
+            double th = (a + da) * 2 * M_PI / THIN_ANGLES, dx = -cos(th), dy = -sin(th), rgb[3];
             double x = r->ox[a] - across * dy, y = r->oy[a] + across * dx;
             int was_in = 0;
-            for (int step = 0; step < g->w + g->h; step++, x += dx, y += dy) {
-                int in = x >= o->x0 - 2 && x <= o->x1 + 3 && y >= o->y0 - 2 && y <= o->y1 + 3;
-                if (was_in && !in) {
-                    if (thin_run(g, x, y, dx, dy, r->hw[a], r->run[a]) >= 0.5 * r->run[a])
+            for (int step = 0; step < g->w + g->h && x >= 0 && y >= 0 && x < g->w && y < g->h;
+                 step++, x += dx, y += dy) {
+                int in = x >= sb[0] && x <= sb[2] + 1 && y >= o->y0 && y <= sb[3] + 1;
+                if (was_in && !in && !colour_at(g, x, y, rgb)) {
+                    if (thin_run(g, x, y, dx, dy, r->hw[a], r->run[a]) >= THIN_THROUGH * r->run[a])
                         return 1;
                     break;
                 }
@@ -590,45 +615,71 @@ static int thin_through(const grow *g, const sp_depop_object *o, const thin_rays
     return 0;
 }
 
+/* Bin a's run as a share of the object's height (at most 1) when it can be its shadow, else 0. */
+static double thin_shadow_run(const grow *g, const sp_depop_object *o, const thin_rays *r, int a)
+{
+    int h = o->y1 - o->y0 + 1;
+    if (r->run[a] < fmax(THIN_MIN_PX, THIN_MIN_SHARE * h) || thin_through(g, o, r, a))
+        return 0;
+    return fmin(1, r->run[a] / h);
+}
+
 /*
- * Thin cast shadows the flood did not follow: lines a few pixels wide, a shadow of the ground on both their
- * sides, leaving an object's lower part (a far walker's shadow under a low sun is 2-3 px wide and broken by
- * grain, a kerb or a lamp post; the flood's reference is the brightest paving near the foot, and a line's
- * pixels straddle it). For the standing objects with a ground reference that got no cast shadow. Their
- * direction: the given image direction; else the sun's ground direction psi_known when the closed shadows
- * told it; else one sun again, the ground direction whose image directions hold the longest runs summed
- * over the objects as shares of their heights (a crossing's dark gaps run every way from one foot, a shadow
- * one way from every foot). A run shorter than a quarter of the height (or 6 px) is no shadow.
+ * Thin cast shadows the flood did not follow (a far walker's line under a low sun; DEPOPULATE.md, "Thin
+ * shadows"), for the standing objects with a ground reference and no cast shadow yet. Along the given image
+ * direction, the sun's ground direction psi_known, or else the ground direction whose image directions hold
+ * the longest runs that can be shadows over the objects (a crossing's dark gaps run every way from one foot,
+ * a shadow one way from every foot); refused, as one_sun's, when a second direction over 60 degrees away
+ * scores 80% as much.
  */
 static void thin_shadows(grow *g, sp_depop_object *objs, size_t n, const int *have, double psi_known)
 {
     const sp_depop_camera *cam = g->s->camera;
-    double sl = hypot(g->s->sun_dx, g->s->sun_dy), psi = psi_known, best = 0;
+    double sl = hypot(g->s->sun_dx, g->s->sun_dy), psi = psi_known, score[THIN_PSI_STEPS] = { 0 };
     if (!(sl > 0) && !cam)
         return;
     thin_rays *r = calloc(n + 1, sizeof(*r));
-    int *use = calloc(n + 1, sizeof(int)), any = 0;
+    int *use = calloc(n + 1, sizeof(int)), any = 0, best = -1;
     if (!r || !use) {
         free(r), free(use);
         return;
     }
-    for (size_t i = 0; i < n; i++)
-        if (have[i] >= 0 && sp_depop_standing(&objs[i]) && objs[i].shadow_px == 0 && objs[i].strip_px == 0)
-            use[i] = 1, any = 1, thin_search(g, &objs[i], &r[i]);
+    for (size_t i = 0; i < n; i++) {
+        double d[2] = { 0, 0 };
+        if (have[i] < 0 || !sp_depop_standing(&objs[i]) || objs[i].shadow_px || objs[i].strip_px)
+            continue;
+        if (sl > 0)
+            d[0] = g->s->sun_dx / sl, d[1] = g->s->sun_dy / sl;
+        else if (isfinite(psi_known) && ground_to_image(cam, &objs[i], psi_known, d))
+            continue;
+        use[i] = 1, any = 1, thin_search(g, &objs[i], d[0] == 0 && d[1] == 0 ? -1 : thin_bin(d[0], d[1]), &r[i]);
+    }
     for (int k = 0; any && !(sl > 0) && !isfinite(psi_known) && k < THIN_PSI_STEPS; k++) {
-        double score = 0, ps = k * 2 * M_PI / THIN_PSI_STEPS, d[2];
+        double ps = k * 2 * M_PI / THIN_PSI_STEPS, d[2];
         for (size_t i = 0; i < n; i++)
             if (use[i] && !ground_to_image(cam, &objs[i], ps, d))
-                score += fmin(1, r[i].run[thin_best_near(&r[i], d[0], d[1])] / (objs[i].y1 - objs[i].y0 + 1));
-        if (score > best)
-            best = score, psi = ps;
+                score[k] += thin_shadow_run(g, &objs[i], &r[i], thin_best_near(&r[i], d[0], d[1]));
+        if (score[k] > 0 && (best < 0 || score[k] > score[best]))
+            best = k;
+    }
+    if (best >= 0) {
+        psi = best * 2 * M_PI / THIN_PSI_STEPS;
+        for (int k = 0; k < THIN_PSI_STEPS; k++) {
+            int apart = abs(k - best) < THIN_PSI_STEPS / 2 ? abs(k - best) : THIN_PSI_STEPS - abs(k - best);
+            if (apart * 360 > 60 * THIN_PSI_STEPS && score[k] >= 0.8 * score[best])
+                psi = NAN; /* two ways, each as good: no sun tells itself here */
+        }
     }
     for (size_t i = 0; i < n; i++) {
-        double d[2] = { g->s->sun_dx / sl, g->s->sun_dy / sl };
-        if (!use[i] || (!(sl > 0) && (!isfinite(psi) || ground_to_image(cam, &objs[i], psi, d))))
+        double d[2] = { 0, 0 };
+        if (!use[i])
+            continue;
+        if (sl > 0)
+            d[0] = g->s->sun_dx / sl, d[1] = g->s->sun_dy / sl;
+        else if (!isfinite(psi) || ground_to_image(cam, &objs[i], psi, d))
             continue;
         int a = thin_best_near(&r[i], d[0], d[1]);
-        if (r[i].run[a] >= fmax(6, 0.25 * (objs[i].y1 - objs[i].y0 + 1)) && !thin_through(g, &objs[i], &r[i], a))
+        if (thin_shadow_run(g, &objs[i], &r[i], a) > 0)
             thin_mark(g, &objs[i], &r[i], a);
     }
     free(r), free(use);

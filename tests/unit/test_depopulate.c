@@ -314,6 +314,31 @@ static void test_thin_shadow(void)
     }
     CHECK_EQ_INT(sp_depop_mask(rgb, W, H, W * 3, &o, 1, &s, mask), 0);
     CHECK_MSG(!o.shadow_thin, "a line through the figure taken as its shadow (%u px)", o.shadow_px);
+    /* the same under a tall figure (h 100), whose contact shadow reaches past its box: not its shadow either */
+    {
+        enum { TW = 200, TH = 160 };
+        static uint8_t tall[TW * TH * 3], tmask[TW * TH];
+        for (int y = 0; y < TH; y++)
+            for (int x = 0; x < TW; x++) {
+                int i = y * TW + x, on = y == 125; /* two rows below its contact area: no flood reaches it */
+                for (int c = 0; c < 3; c++)
+                    tall[3 * i + c] = clamp8((int)((150 - 10 * c) * (on ? 0.5 : 1.0)) + noise(3));
+                if (x >= 90 && x <= 104 && y >= 20 && y <= 119)
+                    tall[3 * i] = 200, tall[3 * i + 1] = 40, tall[3 * i + 2] = 40;
+            }
+        sp_depop_object t = { .x0 = 90, .y0 = 20, .x1 = 104, .y1 = 119 };
+        s.sun_dx = 1, s.sun_dy = 0;
+        CHECK_EQ_INT(sp_depop_mask(tall, TW, TH, TW * 3, &t, 1, &s, tmask), 0);
+        CHECK_MSG(!t.shadow_thin, "a line through a tall figure taken as its shadow (%u px)", t.shadow_px);
+        for (int y = 0; y < TH; y++) /* the line on one side only, from just past the contact area: its shadow */
+            for (int x = 0; x < 110; x++)
+                for (int c = 0; c < 3 && !(x >= 90 && x <= 104 && y >= 20 && y <= 119); c++)
+                    tall[3 * (y * TW + x) + c] = clamp8(150 - 10 * c + noise(3));
+        CHECK_EQ_INT(sp_depop_mask(tall, TW, TH, TW * 3, &t, 1, &s, tmask), 0);
+        CHECK_MSG(t.shadow_thin && !sp_depop_closed_shadow(&t), "a tall figure's thin shadow: thin %d, %u px",
+                  t.shadow_thin, t.shadow_px);
+        s.sun_dx = 1, s.sun_dy = -0.2;
+    }
     /* the line on a dark road's edge (dark below it): not a shadow of both its sides */
     thin_line_scene(rgb, line, 61);
     for (int y = 0; y < H; y++)
