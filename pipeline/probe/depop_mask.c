@@ -496,6 +496,18 @@ static double thin_run(const grow *g, double ox, double oy, double dx, double dy
     return started ? last : 0;
 }
 
+/* Bin a taken round the circle into 0..THIN_ANGLES-1. */
+static int thin_wrap(int a)
+{
+    return (a % THIN_ANGLES + THIN_ANGLES) % THIN_ANGLES;
+}
+
+/* The bin nearest image direction (dx, dy). */
+static int thin_bin(double dx, double dy)
+{
+    return thin_wrap((int)lround(atan2(dy, dx) * THIN_ANGLES / (2 * M_PI)));
+}
+
 /* Per image direction, the longest dark line leaving an object: its run (pixels), origin and half-width. */
 typedef struct thin_rays {
     double run[THIN_ANGLES], ox[THIN_ANGLES], oy[THIN_ANGLES];
@@ -521,8 +533,7 @@ static void thin_search(const grow *g, const sp_depop_object *o, int a0, thin_ra
                 continue;
             for (int hw = 1; hw <= THIN_MAX_HALF; hw++)
                 for (int a = 0; a < THIN_ANGLES; a++) {
-                    int off = ((a - a0) % THIN_ANGLES + THIN_ANGLES + THIN_ANGLES / 2) % THIN_ANGLES - THIN_ANGLES / 2;
-                    if (a0 >= 0 && abs(off) > THIN_SPREAD)
+                    if (a0 >= 0 && abs(thin_wrap(a - a0 + THIN_ANGLES / 2) - THIN_ANGLES / 2) > THIN_SPREAD)
                         continue;
                     double th = a * 2 * M_PI / THIN_ANGLES;
                     double run = thin_run(g, x + 0.5, y + 0.5, cos(th), sin(th), hw, reach);
@@ -532,19 +543,12 @@ static void thin_search(const grow *g, const sp_depop_object *o, int a0, thin_ra
         }
 }
 
-/* The bin nearest image direction (dx, dy). */
-static int thin_bin(double dx, double dy)
-{
-    int a = (int)lround(atan2(dy, dx) * THIN_ANGLES / (2 * M_PI));
-    return (a % THIN_ANGLES + THIN_ANGLES) % THIN_ANGLES;
-}
-
 /* The bin within THIN_SPREAD of image direction (dx, dy) that holds the longest run. */
 static int thin_best_near(const thin_rays *r, double dx, double dy)
 {
     int a0 = thin_bin(dx, dy), best = -1;
     for (int k = -THIN_SPREAD; k <= THIN_SPREAD; k++) {
-        int a = ((a0 + k) % THIN_ANGLES + THIN_ANGLES) % THIN_ANGLES;
+        int a = thin_wrap(a0 + k);
         if (best < 0 || r->run[a] > r->run[best])
             best = a;
     }
@@ -624,6 +628,15 @@ static double thin_shadow_run(const grow *g, const sp_depop_object *o, const thi
     return fmin(1, r->run[a] / h);
 }
 
+/* Object o's shadow direction in the image, d: the given one, else ground direction psi's; -1 when unknown. */
+static int thin_direction(const grow *g, const sp_depop_object *o, double psi, double d[2])
+{
+    double sl = hypot(g->s->sun_dx, g->s->sun_dy);
+    if (sl > 0)
+        return d[0] = g->s->sun_dx / sl, d[1] = g->s->sun_dy / sl, 0;
+    return isfinite(psi) ? ground_to_image(g->s->camera, o, psi, d) : -1;
+}
+
 /*
  * Thin cast shadows the flood did not follow (a far walker's line under a low sun; DEPOPULATE.md, "Thin
  * shadows"), for the standing objects with a ground reference and no cast shadow yet. Along the given image
@@ -644,17 +657,17 @@ static void thin_shadows(grow *g, sp_depop_object *objs, size_t n, const int *ha
         free(r), free(use);
         return;
     }
+    int voted = !(sl > 0) && !isfinite(psi_known); /* no direction yet: the objects' runs vote for one */
     for (size_t i = 0; i < n; i++) {
-        double d[2] = { 0, 0 };
+        double d[2];
         if (have[i] < 0 || !sp_depop_standing(&objs[i]) || objs[i].shadow_px || objs[i].strip_px)
             continue;
-        if (sl > 0)
-            d[0] = g->s->sun_dx / sl, d[1] = g->s->sun_dy / sl;
-        else if (isfinite(psi_known) && ground_to_image(cam, &objs[i], psi_known, d))
+        int known = !thin_direction(g, &objs[i], psi_known, d);
+        if (!known && !voted)
             continue;
-        use[i] = 1, any = 1, thin_search(g, &objs[i], d[0] == 0 && d[1] == 0 ? -1 : thin_bin(d[0], d[1]), &r[i]);
+        use[i] = 1, any = 1, thin_search(g, &objs[i], known ? thin_bin(d[0], d[1]) : -1, &r[i]);
     }
-    for (int k = 0; any && !(sl > 0) && !isfinite(psi_known) && k < THIN_PSI_STEPS; k++) {
+    for (int k = 0; any && voted && k < THIN_PSI_STEPS; k++) {
         double ps = k * 2 * M_PI / THIN_PSI_STEPS, d[2];
         for (size_t i = 0; i < n; i++)
             if (use[i] && !ground_to_image(cam, &objs[i], ps, d))
@@ -671,12 +684,8 @@ static void thin_shadows(grow *g, sp_depop_object *objs, size_t n, const int *ha
         }
     }
     for (size_t i = 0; i < n; i++) {
-        double d[2] = { 0, 0 };
-        if (!use[i])
-            continue;
-        if (sl > 0)
-            d[0] = g->s->sun_dx / sl, d[1] = g->s->sun_dy / sl;
-        else if (!isfinite(psi) || ground_to_image(cam, &objs[i], psi, d))
+        double d[2];
+        if (!use[i] || thin_direction(g, &objs[i], psi, d))
             continue;
         int a = thin_best_near(&r[i], d[0], d[1]);
         if (thin_shadow_run(g, &objs[i], &r[i], a) > 0)
@@ -721,15 +730,16 @@ static void cast_shadows(grow *g, sp_depop_object *objs, size_t n)
     for (int pass = 0; pass < 2; pass++) {
         sp_depop_sun sun = { 0 };
         /* the second pass only where the first one's closed shadows tell the sun, or the clock does */
-        if (pass == 1 && before &&
-            (sp_depop_sun_estimate(objs, n, g->s->camera, &sun) || !sun.found || !sun.closed ||
-             !(sun.elevation_deg > 1)) &&
-            g->s->clock_sun && g->s->clock_sun->elevation_deg > 1)
-            sun = *g->s->clock_sun, sun.found = sun.closed = 1;
-        if (pass == 1 && (!before || !sun.found || !sun.closed || !(sun.elevation_deg > 1)))
-            break;
-        if (pass == 1)
+        if (pass == 1) {
+            const sp_depop_sun *clock = g->s->clock_sun;
+            int told = before && !sp_depop_sun_estimate(objs, n, g->s->camera, &sun) && sun.found && sun.closed &&
+                sun.elevation_deg > 1;
+            if (!told && before && clock && clock->elevation_deg > 1)
+                sun = *clock, told = 1;
+            if (!told)
+                break;
             memcpy(g->mask, before, (size_t)g->w * g->h), psi_known = (sun.azimuth_deg + 180) * M_PI / 180;
+        }
         for (size_t i = 0; i < n; i++) {
             sp_depop_object *o = &objs[i];
             if (pass == 1 && have[i] >= 0 && sp_depop_standing(o) && !sun_strip(g, o, ref[i], &sun))
