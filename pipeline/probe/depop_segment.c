@@ -3,8 +3,9 @@
  * An object's own silhouette inside its box (DEPOPULATE.md, "Silhouettes"). A box from a user or a
  * detector holds background around the object; filling that background throws away pixels the image
  * had right. GrabCut (OpenCV) tells the object from the box's background by colour models learnt around
- * the box. Its answer is closed over holes (a person's inside is theirs), grown by a few pixels for
- * edges it missed, and taken only when it covers a twentieth to 95% of the box; otherwise the whole box goes.
+ * the box. Its answer is closed over holes (a person's inside is theirs) and over rows it left empty (a
+ * standing object is one piece from head to foot), grown by a few pixels for edges it missed, and taken only
+ * when it covers a twentieth to 95% of the box; otherwise the whole box goes.
  * The box's lowest fifth always goes whole: there the object meets the ground and its contact shadow.
  */
 #include "depopulate.h"
@@ -48,6 +49,42 @@ static int fill_holes(uint8_t *m, int w, int h)
         m[i] = m[i] != 2; /* reached from the border: background; the rest, holes included: object */
     free(queue);
     return 0;
+}
+
+/*
+ * A standing object is one piece from head to foot: every row of its box above the lowest fifth holds some
+ * of it. A row the cut left empty (dark trousers on dark paving between a torso and the legs, a head against
+ * dark windows) takes the columns of the nearest non-empty rows above and below it, both where both exist.
+ */
+static void close_rows(uint8_t *m, int w, int h)
+{
+    int *lo = malloc(sizeof(int) * 2 * (size_t)h);
+    if (!lo)
+        return; /* the cut as it is: only a coarser mask is lost */
+    int *hi = lo + h;
+    for (int y = 0; y < h; y++) {
+        lo[y] = w, hi[y] = -1;
+        for (int x = 0; x < w; x++)
+            if (m[(size_t)y * w + x])
+                lo[y] = x < lo[y] ? x : lo[y], hi[y] = x;
+    }
+    for (int y = 0; y < h; y++) {
+        if (hi[y] >= 0)
+            continue;
+        int a = y, b = y;
+        while (a >= 0 && hi[a] < 0)
+            a--;
+        while (b < h && hi[b] < 0)
+            b++;
+        int x0 = w, x1 = -1;
+        if (a >= 0)
+            x0 = lo[a], x1 = hi[a];
+        if (b < h)
+            x0 = lo[b] < x0 ? lo[b] : x0, x1 = hi[b] > x1 ? hi[b] : x1;
+        for (int x = x0; x <= x1; x++)
+            m[(size_t)y * w + x] = 1;
+    }
+    free(lo);
 }
 
 /* Square dilation by r inside the box, separable (rows, then columns), into out. */
@@ -114,6 +151,8 @@ int sp_depop_segment(const uint8_t *rgb, uint32_t width, uint32_t height, uint32
         int usable = rc == 0 && fg * 20 >= area && fg * 20 <= area * 19;
         for (int y = bh - (int)lround(LOWER_WHOLE * bh); y < bh && usable; y++)
             memset(box + (size_t)y * bw, 1, (size_t)bw);
+        if (usable)
+            close_rows(box, bw, bh);
         int r = (int)lround(0.03 * bh);
         dilate(box, tmp, grown, bw, bh, r < 1 ? 1 : r);
         for (int y = 0; y < bh; y++)

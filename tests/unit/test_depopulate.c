@@ -667,6 +667,42 @@ static void test_silhouettes(void)
     CHECK_EQ_INT(sp_depop_segment(NULL, W, H, W * 3, &o, 1, masks, &cut), -EINVAL);
 }
 
+/*
+ * A figure whose waist is the wall's own colour: GrabCut leaves those rows empty, and the person would be
+ * removed as a torso and legs with a band of themselves between. The rows it left are taken across the
+ * columns of the rows above and below, so the whole figure goes.
+ */
+static void test_silhouette_rows(void)
+{
+    static uint8_t rgb[W * H * 3], masks[W * H];
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            int fig = x >= 52 && x <= 68 && y >= 16 && y <= 80, waist = fig && y >= 40 && y <= 52;
+            uint8_t *p = rgb + 3 * (y * W + x);
+            int wall = (x / 6) % 2 ? 200 : 150;
+            p[0] = clamp8((fig && !waist ? 180 : wall) + noise(6)),
+            p[1] = clamp8((fig && !waist ? 40 : wall) + noise(6));
+            p[2] = clamp8((fig && !waist ? 30 : wall - 20) + noise(6));
+        }
+    sp_depop_object o = { .x0 = 40, .y0 = 10, .x1 = 80, .y1 = 82 };
+    size_t cut = 0;
+    int ret = sp_depop_segment(rgb, W, H, W * 3, &o, 1, masks, &cut);
+    if (ret == SP_EMODULE)
+        return; /* no OpenCV: every box goes whole (test_silhouettes) */
+    CHECK_EQ_INT(ret, 0);
+    CHECK(cut == 1);
+    int waist = 0, waist_hit = 0, wall = 0, wall_kept = 0;
+    for (int y = o.y0; y <= o.y1; y++)
+        for (int x = o.x0; x <= o.x1; x++) {
+            int f = x >= 52 && x <= 68 && y >= 16 && y <= 80, m = masks[y * W + x] != 0;
+            waist += f && y >= 40 && y <= 52, waist_hit += f && y >= 40 && y <= 52 && m;
+            if (y < 40 || y > 52)
+                wall += !f, wall_kept += !f && !m;
+        }
+    CHECK(waist_hit == waist);
+    CHECK(wall_kept >= 0.5 * wall);
+}
+
 /* The far walker below: head, tapering body and two striding legs, 11 px wide at most, feet at y = 66. */
 static int walker_at(int x, int y)
 {
@@ -722,6 +758,7 @@ int main(void)
     test_sun();
     test_one_sun();
     test_silhouettes();
+    test_silhouette_rows();
     test_small_silhouette();
     return check_exit();
 }

@@ -7,7 +7,8 @@
  * on the object masks alone (the baseline), with the two ablations between
  * them, and two oracles (each fill on the truth's own region: what a perfect mask would give); then the
  * time of one 1280x720 depopulation on one core. Each frame's line also says how much of the truth's object
- * and shadow pixels our mask left.
+ * and shadow pixels our mask left, and where our squared error lies: left in, filled, and of the filled part
+ * how much lies outside the truth's region (and there, in the objects' own masks).
  *
  * With --camera (and --sun, the truth's sun as azimuth from the view direction to the right and
  * elevation), also the sun from each frame's shadows (depop_sun.c) and its error.
@@ -282,12 +283,15 @@ static int score(const char *label, const scene *s, double psnr[N_METHODS], doub
         snprintf(path, sizeof(path), "%s/%s.masks.png", dump, label);
         sp_png_write(path, out[0], s->w, s->h, s->w * 3, 3);
     }
-    /* our squared error where the truth changed and we kept the pixel, and where we filled */
-    double err_missed = 0, err_filled = 0;
+    /* our squared error where the truth changed and we kept the pixel, where we filled it, and where we filled
+       a pixel the truth did not change (a mask larger than needed) */
+    double err_missed = 0, err_filled = 0, err_extra = 0, err_extra_obj = 0;
     for (size_t i = 0; !ret && i < n; i++)
         for (int c = 0; c < 3; c++) {
             double d = ((double)out[OURS][3 * i + c] - s->bg[3 * i + c]) / 255.0;
             err_missed += s->changed[i] && !mask[OURS][i] ? d * d : 0, err_filled += mask[OURS][i] ? d * d : 0;
+            err_extra += !s->changed[i] && mask[OURS][i] ? d * d : 0;
+            err_extra_obj += !s->changed[i] && mask[OURS][i] == 1 ? d * d : 0; /* 1: an object's own mask */
         }
     size_t truth = 0, hit = 0, extra = 0, objs = 0, objs_left = 0;
     for (size_t i = 0; !ret && i < n; i++) {
@@ -298,11 +302,13 @@ static int score(const char *label, const scene *s, double psnr[N_METHODS], doub
     if (!ret)
         printf("%-28s %2zu objects  Telea %6.2f dB %.3f  ours %6.2f dB %.3f  (grown mask holds %.1f%% of the truth's "
                "region, %.1f%% more; left: %.0f%% of its object pixels, %.0f%% of its shadow pixels; of our squared "
-               "error %.0f%% is left in, %.0f%% filled)\n",
+               "error %.0f%% is left in, %.0f%% filled, %.0f%% of it outside the truth's region, %.0f%% by object "
+               "masks)\n",
                label, s->n, psnr[0], ssim[0], psnr[OURS], ssim[OURS], 100.0 * hit / truth, 100.0 * extra / truth,
                100.0 * objs_left / (objs ? objs : 1), 100.0 * shadows_left / (shadows ? shadows : 1),
                100.0 * err_missed / (err_missed + err_filled + 1e-30),
-               100.0 * err_filled / (err_missed + err_filled + 1e-30));
+               100.0 * err_filled / (err_missed + err_filled + 1e-30), 100.0 * err_extra / (err_filled + 1e-30),
+               100.0 * err_extra_obj / (err_extra + 1e-30));
     for (int m = 0; m < N_METHODS; m++)
         free(out[m]), free(mask[m]);
     free(region), free(a), free(b);
