@@ -235,10 +235,8 @@ int sp_cmd_record(int argc, char **argv)
         sp_imu_device_close(&imu);
         sp_camera_close(&cam);
     }
-    if (code) {
-        sp_cmd_restore_signals(&sig);
+    if (code)
         return code;
-    }
     a.rec.camera = cam;
     a.rec.imu = imu;
     sp_recorder *rec = NULL;
