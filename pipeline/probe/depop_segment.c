@@ -52,16 +52,13 @@ static int fill_holes(uint8_t *m, int w, int h)
 }
 
 /*
- * A standing object is one piece from head to foot: every row of its box above the lowest fifth holds some
- * of it. A row the cut left empty (dark trousers on dark paving between a torso and the legs, a head against
- * dark windows) takes the columns of the nearest non-empty rows above and below it, both where both exist.
+ * A standing object is one piece from head to foot: every row of its box holds some of it. A row the cut
+ * left empty (dark trousers on dark paving between a torso and the legs, a head against dark windows) takes
+ * the columns of the cut's nearest non-empty rows above and below it, both where both exist. lo and hi
+ * are scratch of h ints each.
  */
-static void close_rows(uint8_t *m, int w, int h)
+static void close_rows(uint8_t *m, int w, int h, int *lo, int *hi)
 {
-    int *lo = malloc(sizeof(int) * 2 * (size_t)h);
-    if (!lo)
-        return; /* the cut as it is: only a coarser mask is lost */
-    int *hi = lo + h;
     for (int y = 0; y < h; y++) {
         lo[y] = w, hi[y] = -1;
         for (int x = 0; x < w; x++)
@@ -84,7 +81,6 @@ static void close_rows(uint8_t *m, int w, int h)
         for (int x = x0; x <= x1; x++)
             m[(size_t)y * w + x] = 1;
     }
-    free(lo);
 }
 
 /* Square dilation by r inside the box, separable (rows, then columns), into out. */
@@ -121,7 +117,8 @@ int sp_depop_segment(const uint8_t *rgb, uint32_t width, uint32_t height, uint32
         return SP_EMODULE; /* every box stays a box */
     size_t np = (size_t)width * height;
     uint8_t *cut = calloc(np, 1), *box = malloc(np), *tmp = malloc(np), *grown = malloc(np);
-    int ret = cut && box && tmp && grown ? 0 : -ENOMEM;
+    int *spans = malloc(sizeof(int) * 2 * (size_t)height);
+    int ret = cut && box && tmp && grown && spans ? 0 : -ENOMEM;
     memset(masks, 0, ret ? 0 : np);
     for (size_t i = 0; i < n && !ret; i++) {
         sp_depop_object *o = &objs[i];
@@ -149,10 +146,10 @@ int sp_depop_segment(const uint8_t *rgb, uint32_t width, uint32_t height, uint32
                 fg += box[k];
         /* GrabCut errs by missing parts, rarely by taking paving: a small answer still beats the whole box */
         int usable = rc == 0 && fg * 20 >= area && fg * 20 <= area * 19;
+        if (usable) /* from the cut's own rows, before the lowest fifth goes whole */
+            close_rows(box, bw, bh, spans, spans + bh);
         for (int y = bh - (int)lround(LOWER_WHOLE * bh); y < bh && usable; y++)
             memset(box + (size_t)y * bw, 1, (size_t)bw);
-        if (usable)
-            close_rows(box, bw, bh);
         int r = (int)lround(0.03 * bh);
         dilate(box, tmp, grown, bw, bh, r < 1 ? 1 : r);
         for (int y = 0; y < bh; y++)
@@ -164,6 +161,6 @@ int sp_depop_segment(const uint8_t *rgb, uint32_t width, uint32_t height, uint32
     for (size_t i = 0; i < n && ret; i++)
         if (objs[i].mask == masks)
             objs[i].mask = NULL; /* nothing half done: every box stays a box */
-    free(cut), free(box), free(tmp), free(grown);
+    free(cut), free(box), free(tmp), free(grown), free(spans);
     return ret;
 }

@@ -100,9 +100,9 @@ SP_PRIVATE int sp_depop_mask(const uint8_t *rgb, uint32_t width, uint32_t height
                   size_t n, const sp_depop_settings *s, uint8_t *mask);
 
 /*
- * Each box object's own silhouette (depop_segment.c): GrabCut inside the box, holes closed, grown by 3% of
- * the box height (at least a pixel), the box's lowest fifth whole (where it meets the ground); a cut under a
- * fifth or over 95% of the box keeps the whole box. Objects
+ * Each box object's own silhouette (depop_segment.c): GrabCut inside the box, holes and the rows it left
+ * empty closed, grown by 3% of the box height (at least a pixel), the box's lowest fifth whole (where it meets
+ * the ground); a cut under a twentieth or over 95% of the box keeps the whole box. Objects
  * that came with a mask keep it. masks (image-sized) is cleared and gets the union of the silhouettes;
  * each box object's mask points to it (masks must outlive objs' use). *segmented: how many boxes were cut.
  * SP_EMODULE where OpenCV is not built or cannot be loaded (no object changed), -EINVAL, -ENOMEM.

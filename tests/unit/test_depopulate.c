@@ -675,6 +675,7 @@ static void test_silhouettes(void)
 static void test_silhouette_rows(void)
 {
     static uint8_t rgb[W * H * 3], masks[W * H];
+    rng = 777; /* its own noise, whatever ran before */
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
             int fig = x >= 52 && x <= 68 && y >= 16 && y <= 80, waist = fig && y >= 40 && y <= 52;
@@ -691,16 +692,18 @@ static void test_silhouette_rows(void)
         return; /* no OpenCV: every box goes whole (test_silhouettes) */
     CHECK_EQ_INT(ret, 0);
     CHECK(cut == 1);
-    int waist = 0, waist_hit = 0, wall = 0, wall_kept = 0;
-    for (int y = o.y0; y <= o.y1; y++)
+    /* the waist goes; the wall beside it, and elsewhere above the lowest fifth, mostly stays */
+    int waist = 0, waist_hit = 0, wall = 0, wall_kept = 0, beside = 0, beside_kept = 0;
+    for (int y = o.y0; y < o.y1 - (o.y1 - o.y0) / 5; y++)
         for (int x = o.x0; x <= o.x1; x++) {
-            int f = x >= 52 && x <= 68 && y >= 16 && y <= 80, m = masks[y * W + x] != 0;
-            waist += f && y >= 40 && y <= 52, waist_hit += f && y >= 40 && y <= 52 && m;
-            if (y < 40 || y > 52)
-                wall += !f, wall_kept += !f && !m;
+            int f = x >= 52 && x <= 68 && y >= 16 && y <= 80, m = masks[y * W + x] != 0, w = y >= 40 && y <= 52;
+            waist += f && w, waist_hit += f && w && m;
+            beside += !f && w, beside_kept += !f && w && !m;
+            wall += !f && !w, wall_kept += !f && !w && !m;
         }
     CHECK(waist_hit == waist);
-    CHECK(wall_kept >= 0.5 * wall);
+    CHECK(beside_kept >= 0.6 * beside);
+    CHECK(wall_kept >= 0.6 * wall);
 }
 
 /* The far walker below: head, tapering body and two striding legs, 11 px wide at most, feet at y = 66. */

@@ -291,7 +291,7 @@ static int score(const char *label, const scene *s, double psnr[N_METHODS], doub
             double d = ((double)out[OURS][3 * i + c] - s->bg[3 * i + c]) / 255.0;
             err_missed += s->changed[i] && !mask[OURS][i] ? d * d : 0, err_filled += mask[OURS][i] ? d * d : 0;
             err_extra += !s->changed[i] && mask[OURS][i] ? d * d : 0;
-            err_extra_obj += !s->changed[i] && mask[OURS][i] == 1 ? d * d : 0; /* 1: an object's own mask */
+            err_extra_obj += !s->changed[i] && mask[OURS][i] == 1 ? d * d : 0; /* sp_depop_mask: 1 object, 2 shadow */
         }
     size_t truth = 0, hit = 0, extra = 0, objs = 0, objs_left = 0;
     for (size_t i = 0; !ret && i < n; i++) {
@@ -302,8 +302,8 @@ static int score(const char *label, const scene *s, double psnr[N_METHODS], doub
     if (!ret)
         printf("%-28s %2zu objects  Telea %6.2f dB %.3f  ours %6.2f dB %.3f  (grown mask holds %.1f%% of the truth's "
                "region, %.1f%% more; left: %.0f%% of its object pixels, %.0f%% of its shadow pixels; of our squared "
-               "error %.0f%% is left in, %.0f%% filled, %.0f%% of it outside the truth's region, %.0f%% by object "
-               "masks)\n",
+               "error %.0f%% is left in, %.0f%% filled, %.0f%% of it outside the truth's region, of that %.0f%% in "
+               "object masks)\n",
                label, s->n, psnr[0], ssim[0], psnr[OURS], ssim[OURS], 100.0 * hit / truth, 100.0 * extra / truth,
                100.0 * objs_left / (objs ? objs : 1), 100.0 * shadows_left / (shadows ? shadows : 1),
                100.0 * err_missed / (err_missed + err_filled + 1e-30),
