@@ -185,9 +185,13 @@ static int composite(composite_args *a, const sp_probe_dir *d, uint8_t *rgb)
         return sp_cmd_fail("composite", ret, a->out);
     if (!a->quiet)
         printf("%s: %u object(s); last: %.1f px tall, lighting gain %.2f %.2f %.2f; %llu pixels drawn, %llu hidden, "
-               "%llu shadow pixels%s\n", a->out, a->n, rep.height_px, rep.gain[0], rep.gain[1], rep.gain[2],
-               (unsigned long long)rep.pixels_drawn, (unsigned long long)rep.pixels_hidden,
-               (unsigned long long)rep.shadow_pixels, d->shadow.present ? "" : " (no shadow model)");
+               "%llu shadow pixels%s\n",
+               a->out, a->n, rep.height_px, rep.gain[0], rep.gain[1], rep.gain[2], (unsigned long long)rep.pixels_drawn,
+               (unsigned long long)rep.pixels_hidden,
+               (unsigned long long)(d->shadow.present ? rep.shadow_pixels : rep.contact_pixels),
+               d->shadow.present               ? ""
+                   : d->shadow.contact_present ? " (no sun model: the contact shadow)"
+                                               : " (no shadow model)");
     return SP_EXIT_OK;
 }
 

@@ -85,6 +85,8 @@ typedef struct sp_probe_plane {
     char note[200];           /* what could not be estimated, for people */
 } sp_probe_plane;
 
+#define SP_PROBE_CONTACT_BINS 6 /* sp_probe_shadow.contact: rings at 0-1.5 x 0.25 h from the foot */
+
 /*
  * The shadow model: a person's shadow is the person's image mask projected
  * along the image-space shadow direction onto the ground: a point at height
@@ -101,6 +103,14 @@ typedef struct sp_probe_shadow {
     unsigned n_candidates;    /* person observations examined */
     double direction_spread_deg; /* circular spread of the observed directions */
     char note[200];
+    /* the contact shadow: how people darken the ground at their feet, used where there is no sun model
+       (PROBE.md, "Contact shadow"). contact[k]: the median ground/plate luminance ratio beside the feet at
+       horizontal distance (k + 0.5) / 4 x 0.25 h from the foot, h the person's height in pixels, over that
+       at 1.5-2 x 0.25 h */
+    int contact_present;
+    double contact[SP_PROBE_CONTACT_BINS];
+    unsigned n_contact; /* person observations measured */
+    char contact_note[120];
 } sp_probe_shadow;
 
 typedef struct sp_probe_stats {
@@ -227,6 +237,7 @@ typedef struct sp_composite_report {
     double height_px;         /* of the last object drawn */
     double gain[3];           /* its lighting gain */
     uint64_t pixels_drawn, pixels_hidden, shadow_pixels;
+    uint64_t contact_pixels; /* darkened by the contact shadow (scenes without a sun model) */
 } sp_composite_report;
 
 SP_API void sp_composite_default_settings(sp_composite_settings *s);

@@ -66,7 +66,15 @@ static void shadow_json(sp_strbuf *b, const sp_probe_shadow *sh)
     number(b, "direction_spread_deg", sh->direction_spread_deg);
     sp_strbuf_printf(b, ",\"note\":");
     sp_strbuf_json_string(b, sh->note);
-    sp_strbuf_printf(b, "}");
+    sp_strbuf_printf(b,
+                     ",\"contact\":{\"present\":%s,\"model\":\"ground/plate luminance around the feet over "
+                     "that at 1.5-2; ellipse 0.25 h across, a third as deep; ring k at (k + 0.5) / 4\"",
+                     sh->contact_present ? "true" : "false");
+    numbers(b, "rings", sh->contact, SP_PROBE_CONTACT_BINS);
+    number(b, "observations", sh->n_contact);
+    sp_strbuf_printf(b, ",\"note\":");
+    sp_strbuf_json_string(b, sh->contact_note);
+    sp_strbuf_printf(b, "}}");
 }
 
 int sp_probe_params_to_json(const sp_probe_plane *plane, const sp_probe_shadow *shadow,
@@ -164,6 +172,19 @@ static int parse_shadow(const sp_json *o, sp_probe_shadow *sh)
     read_note(o, sh->note, sizeof(sh->note));
     for (int i = 0; sh->present && i < 3; i++)
         if (!isfinite(sh->ox[i]) || !isfinite(sh->oy[i]) || !(sh->ratio[i] >= 0 && sh->ratio[i] <= 2))
+            return SP_ECORRUPT;
+    const sp_json *c = sp_json_get(o, "contact"); /* optional: probe directories before it lack it */
+    if (!c)
+        return 0;
+    const sp_json *cp = sp_json_get(c, "present");
+    if (c->type != SP_JSON_OBJECT || !cp || cp->type != SP_JSON_BOOL ||
+        read_numbers(c, "rings", sh->contact, SP_PROBE_CONTACT_BINS))
+        return SP_ECORRUPT;
+    sh->contact_present = cp->number != 0;
+    sh->n_contact = read_count(c, "observations");
+    read_note(c, sh->contact_note, sizeof(sh->contact_note));
+    for (int i = 0; sh->contact_present && i < SP_PROBE_CONTACT_BINS; i++)
+        if (!(sh->contact[i] >= 0 && sh->contact[i] <= 2))
             return SP_ECORRUPT;
     return 0;
 }

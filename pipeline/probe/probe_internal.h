@@ -278,11 +278,16 @@ double plane_median_error(const sp_probe_plane *pl, const float *rec, unsigned n
 /* ---- shadow model (shadow.c) ---- */
 
 #define PROBE_RATIO_BINS 256  /* shadow/lit ratio histogram over [0, 2) */
+#define PROBE_CONTACT_RINGS 8 /* normalised distance from the foot in quarters, 0-2 */
 
 typedef struct probe_shadows {
     probe_reservoir obs;     /* {u, v, dx, dy} per hard shadow */
     uint64_t candidates, hard;
     uint32_t ratio_hist[3][PROBE_RATIO_BINS];
+    /* the ground around each person's feet: luminance ratio to the plate by normalised distance, 0-2 in
+       quarters (the last two bins are the reference), and the observations that gave any */
+    uint32_t contact_hist[PROBE_CONTACT_RINGS][PROBE_RATIO_BINS];
+    uint64_t contact_obs;
 } probe_shadows;
 
 int shadows_open(probe_shadows *sh, unsigned cap, uint64_t seed);

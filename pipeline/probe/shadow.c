@@ -65,10 +65,46 @@ static void add_ratios(probe_shadows *sh, const probe_segment *sg, const probe_o
     }
 }
 
+/*
+ * The ground beside a person's feet against the plate, by distance from the foot across the image in units
+ * of CONTACT_ACROSS h, in quarter rings out to twice that: rows within a band around the foot row only, so
+ * the camera's foreshortening of the ground (unknown here) does not enter. Object pixels (the person's
+ * legs, anyone else) do not count; ground and shadow pixels do.
+ */
+#define CONTACT_ACROSS 0.25
+static void add_contact(probe_shadows *sh, const probe_segment *sg, const probe_object *o, const uint8_t *rgb,
+                        const uint8_t *plate)
+{
+    double a = CONTACT_ACROSS * o->height;
+    if (!(a >= 2))
+        return; /* too small a figure for rings */
+    int band = (int)fmax(1, 0.03 * o->height), yf = (int)floor(o->foot_y);
+    int x0 = (int)floor(o->foot_x - 2 * a), x1 = (int)ceil(o->foot_x + 2 * a);
+    uint64_t got = 0;
+    for (int y = yf - band < 0 ? 0 : yf - band; y <= yf + band && y < (int)sg->height; y++)
+        for (int x = x0 < 0 ? 0 : x0; x <= x1 && x < (int)sg->width; x++) {
+            size_t i = (size_t)y * sg->width + (size_t)x;
+            double rho = fabs(x + 0.5 - o->foot_x) / a;
+            if (rho >= 2 || sg->cls[i] == PROBE_CLS_OBJECT)
+                continue;
+            const uint8_t *c = rgb + 3 * i, *q = plate + 3 * i;
+            int lit = q[0] + q[1] + q[2];
+            if (lit < 12)
+                continue; /* black plate: no ratio to tell */
+            double r = (double)(c[0] + c[1] + c[2]) / lit;
+            size_t bin = (size_t)(r * 0.5 * PROBE_RATIO_BINS);
+            sh->contact_hist[(int)(rho * 4)][bin < PROBE_RATIO_BINS ? bin : PROBE_RATIO_BINS - 1]++;
+            got++;
+        }
+    sh->contact_obs += got > 0;
+}
+
 int shadows_add(probe_shadows *sh, const probe_segment *sg, const probe_object *o, const uint8_t *rgb,
                 const uint8_t *plate)
 {
     sh->candidates++;
+    if (o->height > 0)
+        add_contact(sh, sg, o, rgb, plate);
     if (o->shadow_area < MIN_AREA_FRACTION * o->area || !(o->tbar > 0.1) || !(o->height > 0) ||
         !(o->shadow_ratio <= MAX_RATIO))
         return 0;
@@ -188,9 +224,44 @@ static int fit_offsets(const probe_shadows *sh, sp_probe_shadow *out)
     return p;
 }
 
+#define CONTACT_MIN_OBS 10      /* person observations */
+#define CONTACT_MEASURABLE 0.97 /* the darker of the two inner rings against the reference: less is no darkening */
+
+/* The contact profile from the rings (sp_probe_shadow.contact), or the reason there is none. */
+static void contact_fit(const probe_shadows *sh, sp_probe_shadow *out)
+{
+    out->n_contact = (unsigned)(sh->contact_obs < UINT32_MAX ? sh->contact_obs : UINT32_MAX);
+    uint32_t ref[PROBE_RATIO_BINS];
+    for (size_t i = 0; i < PROBE_RATIO_BINS; i++)
+        ref[i] = sh->contact_hist[PROBE_CONTACT_RINGS - 2][i] + sh->contact_hist[PROBE_CONTACT_RINGS - 1][i];
+    double r0 = hist_median(ref);
+    int ok = out->n_contact >= CONTACT_MIN_OBS && r0 > 0;
+    for (int k = 0; k < SP_PROBE_CONTACT_BINS; k++) {
+        double r = hist_median(sh->contact_hist[k]) / r0;
+        out->contact[k] = isfinite(r) ? r : 1.0;
+        ok = ok && isfinite(r);
+    }
+    if (!ok) {
+        snprintf(out->contact_note, sizeof(out->contact_note),
+                 "left out: %u person observations with ground around the feet, need %d", out->n_contact,
+                 CONTACT_MIN_OBS);
+        return;
+    }
+    double inner = fmin(out->contact[0], out->contact[1]);
+    if (!(inner <= CONTACT_MEASURABLE)) {
+        snprintf(out->contact_note, sizeof(out->contact_note),
+                 "left out: people do not darken the ground at their feet (%.3f of the ground around)", inner);
+        return;
+    }
+    out->contact_present = 1;
+    snprintf(out->contact_note, sizeof(out->contact_note),
+             "learned from %u person observations: %.3f of the ground around at the feet", out->n_contact, inner);
+}
+
 void shadows_fit(const probe_shadows *sh, uint32_t width, uint32_t height, sp_probe_shadow *out)
 {
     memset(out, 0, sizeof(*out));
+    contact_fit(sh, out);
     out->n_shadows = (unsigned)(sh->hard < UINT32_MAX ? sh->hard : UINT32_MAX);
     out->n_candidates = (unsigned)(sh->candidates < UINT32_MAX ? sh->candidates : UINT32_MAX);
     double R = direction_spread(&sh->obs, &out->direction_spread_deg);

@@ -5,7 +5,8 @@
  * at known depths (a lamp pole with a sign board, a second pole); an unseen wall to
  * the left whose shadow is "pre-existing shadow"; walking figures of known
  * height (billboards with a head, torso and swinging legs); a sun casting
- * shadows of everything onto the ground, or an overcast sky with none.
+ * shadows of everything onto the ground, or an overcast sky with none but the
+ * soft darkening at each figure's feet.
  * Optional camera pan (a moving camera) and no figures at all, for the
  * bad-input tests.
  *
@@ -382,6 +383,32 @@ static void draw_figure_shadow(scene *s, const figure *f, double fx, double fy, 
         }
 }
 
+/*
+ * Under an overcast sky a person still darkens the ground at their feet: their body hides part of the sky
+ * from it (ambient occlusion). A soft disc, CONTACT_DEPTH darker at the feet and fading quadratically to
+ * nothing at CONTACT_REACH of the height, about what a 1.7 m person does to the sky's light on paving.
+ */
+#define CONTACT_DEPTH 0.35
+#define CONTACT_REACH 0.35
+static void draw_figure_contact(scene *s, const figure *f, double fx, double fy)
+{
+    if (!s->a.overcast)
+        return;
+    double R = CONTACT_REACH * f->height;
+    sp_vec3 pts[4] = { { fx - R, fy - R, 0 }, { fx + R, fy - R, 0 }, { fx - R, fy + R, 0 }, { fx + R, fy + R, 0 } };
+    box b = box_of(s, pts, 4);
+    for (int y = b.y0; y <= b.y1; y++)
+        for (int x = b.x0; x <= b.x1; x++) {
+            size_t i = (size_t)y * s->cam.w + (size_t)x;
+            double r = hypot((double)s->gx[i] - fx, (double)s->gy[i] - fy);
+            if (s->kind[i] != KIND_GROUND || !(r < R))
+                continue;
+            double k = 1 - CONTACT_DEPTH * (1 - r / R) * (1 - r / R);
+            for (int c = 0; c < 3; c++)
+                s->frame[3 * i + c] = (uint8_t)lrint(s->frame[3 * i + c] * k);
+        }
+}
+
 static void truth_min(uint16_t *m, size_t i, uint16_t v)
 {
     if (!m[i] || v < m[i])
@@ -439,6 +466,7 @@ static void render_frame(scene *s, uint64_t index, double t)
         on[i] = figure_at(&s->fig[i], t, &fx[i], &fy[i], &ph[i]);
         if (on[i]) {
             draw_figure_shadow(s, &s->fig[i], fx[i], fy[i], ph[i]);
+            draw_figure_contact(s, &s->fig[i], fx[i], fy[i]);
             order[n++] = (int)i;
         }
     }
@@ -508,14 +536,18 @@ static int truth_sample(const scene *s, double gx, double gy, double mean_h, sp_
 static void truth_json(const scene *s, sp_strbuf *b)
 {
     const camera *c = &s->cam;
-    sp_strbuf_printf(b, "{\"format\":\"sunprobe-street-truth\",\"version\":1,\"width\":%u,\"height\":%u,"
-                        "\"fps\":%.17g,\"frames\":%.0f,\n\"camera\":{\"height_m\":%.17g,\"pitch_deg\":%.17g,"
-                        "\"hfov_deg\":%.17g,\"fx\":%.17g,\"cx\":%.17g,\"cy\":%.17g,\"pan_deg_s\":%.17g},\n"
-                        "\"sun\":{\"overcast\":%s,\"azimuth_deg\":%.17g,\"elevation_deg\":%.17g,"
-                        "\"direction\":[%.17g,%.17g,%.17g]},\n\"occluders\":[",
-                     c->w, c->h, s->a.fps, floor(s->a.seconds * s->a.fps + 1e-9), s->a.camera_height_m, s->a.pitch_deg,
-                     s->a.hfov_deg, c->f, c->cx, c->cy, s->a.pan_deg_s, s->a.overcast ? "true" : "false",
-                     s->a.sun_azimuth_deg, s->a.sun_elevation_deg, s->sun.x, s->sun.y, s->sun.z);
+    sp_strbuf_printf(
+        b,
+        "{\"format\":\"sunprobe-street-truth\",\"version\":1,\"width\":%u,\"height\":%u,"
+        "\"fps\":%.17g,\"frames\":%.0f,\n\"camera\":{\"height_m\":%.17g,\"pitch_deg\":%.17g,"
+        "\"hfov_deg\":%.17g,\"fx\":%.17g,\"cx\":%.17g,\"cy\":%.17g,\"pan_deg_s\":%.17g},\n"
+        "\"sun\":{\"overcast\":%s,\"azimuth_deg\":%.17g,\"elevation_deg\":%.17g,"
+        "\"direction\":[%.17g,%.17g,%.17g]},\n\"contact\":{\"model\":\"ground x (1 - depth (1 - r / (reach h))^2) "
+        "within reach h of a figure's foot, h its height; overcast only\",\"depth\":%.17g,"
+        "\"reach\":%.17g},\n\"occluders\":[",
+        c->w, c->h, s->a.fps, floor(s->a.seconds * s->a.fps + 1e-9), s->a.camera_height_m, s->a.pitch_deg,
+        s->a.hfov_deg, c->f, c->cx, c->cy, s->a.pan_deg_s, s->a.overcast ? "true" : "false", s->a.sun_azimuth_deg,
+        s->a.sun_elevation_deg, s->sun.x, s->sun.y, s->sun.z, s->a.overcast ? CONTACT_DEPTH : 0.0, CONTACT_REACH);
     for (int i = 0; i < N_STATIC; i++)
         sp_strbuf_printf(b, "%s{\"x\":%.3f,\"y\":%.3f,\"half_width\":%.3f,\"z0\":%.3f,\"z1\":%.3f}", i ? "," : "",
                          s->occ[i].x, s->occ[i].y, s->occ[i].half_w, s->occ[i].z0, s->occ[i].z1);

@@ -122,6 +122,8 @@ static void test_scene(void)
     CHECK_EQ_INT(pl.status, SP_PROBE_PLANE_OK);
     CHECK_MSG(fabs(sp_probe_plane_height(&pl, 60, 90) - 45) < 4.5, "h(60, 90) = %f", sp_probe_plane_height(&pl, 60, 90));
     CHECK(!sh.present && strstr(sh.note, "overcast") != NULL);
+    /* walkers drawn over the background do not darken it: no contact shadow, and the reason */
+    CHECK_MSG(!sh.contact_present && strstr(sh.contact_note, "do not darken") != NULL, "%s", sh.contact_note);
     CHECK(sp_probe_push_rgb(p, img, W * 3, INT64_MAX) == -EALREADY);
     sp_probe_close(&p);
     CHECK(p == NULL);

@@ -135,6 +135,37 @@ static void test_shadow(void)
     CHECK(sp_composite(&m, NULL, &sh, &s, &o, 1, img, W * 3, &rep) == 0 && rep.shadow_pixels == 0);
 }
 
+/*
+ * Without a sun model, the contact shadow: the ground around the foot darkened by the profile at its
+ * normalised distance (ellipse 0.25 h across, a third as deep), nothing beyond 1.75; not with a sun model
+ * (its cast shadow holds the contact), not with shadows off.
+ */
+static void test_contact(void)
+{
+    sp_probe_maps m = { W, H, bg, NULL, NULL };
+    sp_probe_shadow sh = { .contact_present = 1, .contact = { 0.6, 0.7, 0.8, 0.85, 0.9, 0.95 } };
+    sp_composite_settings s;
+    sp_composite_default_settings(&s);
+    sp_composite_report rep;
+    memcpy(img, bg, sizeof(img));
+    sp_composite_object o = object_at(50, 60, 40); /* 20 px wide: columns 40-59, rows up to 60 */
+    CHECK(sp_composite(&m, NULL, &sh, &s, &o, 1, img, W * 3, &rep) == 0);
+    CHECK(rep.contact_pixels > 0 && rep.shadow_pixels == 0);
+    /* (50, 62): rho = 0.60, between the rings at 0.375 (0.7) and 0.625 (0.8) */
+    CHECK_MSG(abs(px(50, 62) - 79) <= 1, "below the foot %d", px(50, 62));
+    /* (64, 61): rho = 1.48, between 1.375 (0.95) and the reference at 1.75 (1) */
+    CHECK_MSG(abs(px(64, 61) - 96) <= 1, "beside the foot %d", px(64, 61));
+    CHECK(px(50, 70) == 100 && px(75, 60) == 100);
+    /* a sun model: its shadow instead; shadows off: nothing */
+    sh.present = 1, sh.ox[0] = 1.0, sh.oy[0] = 0.3, sh.ratio[0] = sh.ratio[1] = sh.ratio[2] = 0.5;
+    memcpy(img, bg, sizeof(img));
+    CHECK(sp_composite(&m, NULL, &sh, &s, &o, 1, img, W * 3, &rep) == 0 && rep.contact_pixels == 0);
+    sh.present = 0, s.shadow = 0;
+    memcpy(img, bg, sizeof(img));
+    CHECK(sp_composite(&m, NULL, &sh, &s, &o, 1, img, W * 3, &rep) == 0 && rep.contact_pixels == 0);
+    CHECK(px(50, 62) == 100);
+}
+
 static void test_order_and_args(void)
 {
     sp_probe_maps m = { W, H, bg, NULL, NULL };
@@ -415,6 +446,7 @@ int main(void)
     test_occlusion();
     test_lighting_and_height();
     test_shadow();
+    test_contact();
     test_order_and_args();
     test_png_filters();
     test_png_kinds();
