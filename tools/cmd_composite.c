@@ -38,19 +38,21 @@ typedef struct composite_args {
 
 static void usage(FILE *out)
 {
-    fprintf(out, "usage: sunprobe composite PROBE_DIR --object CUT.png --at X,Y [--object ... --at ...] -o OUT.png\n\n"
-                 "Inserts cut-outs (PNG with alpha) at ground points of the probed scene: the height comes from\n"
-                 "the ground plane, hidden pixels from the occlusion map, the brightness from the lighting map,\n"
-                 "and a shadow from the shadow model when one was learned. Objects are drawn back to front.\n\n"
-                 "options:\n"
-                 "      --object PNG      a cut-out; the next --at/--height-px/--scale apply to it\n"
-                 "      --at X,Y          where its bottom middle stands (pixels of the background)\n"
-                 "      --height-px H     its height on screen instead of the plane's\n"
-                 "      --scale S         its height relative to a person's (default 1)\n"
-                 "      --background PNG  draw into this image (default: the clean plate)\n"
-                 "      --no-occlusion --no-lighting --no-shadow   leave one effect out\n"
-                 "  -o, --output PNG      the result\n"
-                 "  -q, --quiet           no summary\n");
+    fprintf(out,
+            "usage: sunprobe composite PROBE_DIR --object CUT.png --at X,Y [--object ... --at ...] -o OUT.png\n\n"
+            "Inserts cut-outs (PNG with alpha) at ground points of the probed scene: the height comes from\n"
+            "the ground plane, hidden pixels from the occlusion map, the brightness from the lighting map,\n"
+            "and a shadow from the shadow model when one was learned (else the contact shadow people were seen\n"
+            "to make at their feet, when learned). Objects are drawn back to front.\n\n"
+            "options:\n"
+            "      --object PNG      a cut-out; the next --at/--height-px/--scale apply to it\n"
+            "      --at X,Y          where its bottom middle stands (pixels of the background)\n"
+            "      --height-px H     its height on screen instead of the plane's\n"
+            "      --scale S         its height relative to a person's (default 1)\n"
+            "      --background PNG  draw into this image (default: the clean plate)\n"
+            "      --no-occlusion --no-lighting --no-shadow   leave one effect out\n"
+            "  -o, --output PNG      the result\n"
+            "  -q, --quiet           no summary\n");
 }
 
 static int bad(const char *what, const char *v)
@@ -185,13 +187,11 @@ static int composite(composite_args *a, const sp_probe_dir *d, uint8_t *rgb)
         return sp_cmd_fail("composite", ret, a->out);
     if (!a->quiet)
         printf("%s: %u object(s); last: %.1f px tall, lighting gain %.2f %.2f %.2f; %llu pixels drawn, %llu hidden, "
-               "%llu shadow pixels%s\n",
+               "%llu shadow pixels, %llu contact shadow pixels%s\n",
                a->out, a->n, rep.height_px, rep.gain[0], rep.gain[1], rep.gain[2], (unsigned long long)rep.pixels_drawn,
-               (unsigned long long)rep.pixels_hidden,
-               (unsigned long long)(d->shadow.present ? rep.shadow_pixels : rep.contact_pixels),
-               d->shadow.present               ? ""
-                   : d->shadow.contact_present ? " (no sun model: the contact shadow)"
-                                               : " (no shadow model)");
+               (unsigned long long)rep.pixels_hidden, (unsigned long long)rep.shadow_pixels,
+               (unsigned long long)rep.contact_pixels,
+               d->shadow.present || d->shadow.contact_present ? "" : " (no shadow model)");
     return SP_EXIT_OK;
 }
 

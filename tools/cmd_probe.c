@@ -349,7 +349,8 @@ static void summary(const probe_args *a, sp_probe *p, double secs)
         printf("  held out: %u observations, median relative height error %.4f\n", pl.holdout_n,
                pl.holdout_error_rel);
     printf("  shadow: %s\n", sh.note);
-    printf("  contact shadow: %s\n", sh.contact_note);
+    printf("  contact shadow: %s%s\n", sh.contact_note,
+           sh.present && sh.contact_present ? " (unused: the sun model holds it)" : "");
     if (a->s.detector == SP_PROBE_DETECT_HOG)
         printf("  HOG: %" PRIu64 " of %" PRIu64 " person-shaped observations confirmed\n", st.hog_confirmed,
                st.hog_checked);

@@ -12,21 +12,22 @@
 
 static void usage(FILE *out)
 {
-    fprintf(out, "usage: sunprobe synth street -o OUT.spcap [options]\n\n"
-                 "A static camera watching a street: figures of known height walk past a lamp pole with a sign\n"
-                 "and a pillar, under a sun (shadows, a wall's shadow on the left) or an overcast sky. Ground\n"
-                 "truth beside OUT: .truth.json, .background.png, .hidden-far/.hidden-near/.seen-far/.hidden-count.pgm.\n"
-                 "  --width W --height H   frame size (default 320x240)\n"
-                 "  --fps F                frame rate (default 10)\n"
-                 "  --seconds S            duration (default 40)\n"
-                 "  --figures N            walking figures, 0..%d (default 10)\n"
-                 "  --overcast             no sun, no shadows\n"
-                 "  --sun-azimuth DEG      from the view direction towards the right (default -30: front left)\n"
-                 "  --sun-elevation DEG    5..85 (default 40)\n"
-                 "  --pan DEG_PER_S        turn the camera (a moving camera, for bad-input tests)\n"
-                 "  --linger S             every other figure stops once, for 5 s up to S s (default 0: none)\n"
-                 "  --noise SIGMA          sensor noise, standard deviation in 8-bit levels (default 0)\n"
-                 "  --seed N               (default 1)\n",
+    fprintf(out,
+            "usage: sunprobe synth street -o OUT.spcap [options]\n\n"
+            "A static camera watching a street: figures of known height walk past a lamp pole with a sign\n"
+            "and a pillar, under a sun (shadows, a wall's shadow on the left) or an overcast sky. Ground\n"
+            "truth beside OUT: .truth.json, .background.png, .hidden-far/.hidden-near/.seen-far/.hidden-count.pgm.\n"
+            "  --width W --height H   frame size (default 320x240)\n"
+            "  --fps F                frame rate (default 10)\n"
+            "  --seconds S            duration (default 40)\n"
+            "  --figures N            walking figures, 0..%d (default 10)\n"
+            "  --overcast             no sun, no cast shadows (the ground darkens at each figure's feet)\n"
+            "  --sun-azimuth DEG      from the view direction towards the right (default -30: front left)\n"
+            "  --sun-elevation DEG    5..85 (default 40)\n"
+            "  --pan DEG_PER_S        turn the camera (a moving camera, for bad-input tests)\n"
+            "  --linger S             every other figure stops once, for 5 s up to S s (default 0: none)\n"
+            "  --noise SIGMA          sensor noise, standard deviation in 8-bit levels (default 0)\n"
+            "  --seed N               (default 1)\n",
             SP_SYNTH_STREET_MAX_FIGURES);
 }
 

@@ -222,14 +222,16 @@ static double contact_at(const sp_probe_shadow *sh, double rho)
 
 /*
  * Without a sun model, the soft darkening people were seen to make around their feet (the probe's contact
- * profile): the same ellipse as the probe measured, 0.25 h across and a third as deep, scaled to this
- * object's height. Ground the occlusion map hides is left; the object is drawn over its own part.
+ * profile, measured across the foot row in units of 0.25 h): here an ellipse around this object's foot
+ * whose semi-axes are 0.25 h across and a third of that deep (the probe does not know the camera's
+ * foreshortening), out to 1.75 of them. Ground the occlusion map hides is left; the object is drawn over its
+ * own part.
  */
 static void draw_contact(const sp_probe_maps *m, const sp_composite_settings *s, const sp_probe_shadow *sh,
                          const placed *p, uint8_t *rgb, uint32_t stride, sp_composite_report *rep)
 {
     double a = 0.25 * p->h, b = a / 3;
-    if (!(a > 0.5) || !(b > 0.25))
+    if (!(b > 0.25))
         return;
     int X0 = (int)fmax(0, floor(p->x - 1.75 * a)), X1 = (int)fmin(m->width - 1, ceil(p->x + 1.75 * a));
     int Y0 = (int)fmax(0, floor(p->yb - 1.75 * b)), Y1 = (int)fmin(m->height - 1, ceil(p->yb + 1.75 * b));
@@ -240,8 +242,10 @@ static void draw_contact(const sp_probe_maps *m, const sp_composite_settings *s,
             if (!(f < 1) || hidden(m, s, i, Y))
                 continue;
             uint8_t *d = rgb + (size_t)Y * stride + 3 * (size_t)X;
-            for (int c = 0; c < 3; c++)
-                d[c] = (uint8_t)lrint(fmin(255, d[c] * f));
+            for (int c = 0; c < 3; c++) {
+                double out = d[c] * f; /* a caller's profile may be anything: clamped */
+                d[c] = (uint8_t)(out < 0 ? 0 : out > 255 ? 255 : lrint(out));
+            }
             rep->contact_pixels++;
         }
 }

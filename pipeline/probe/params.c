@@ -68,7 +68,7 @@ static void shadow_json(sp_strbuf *b, const sp_probe_shadow *sh)
     sp_strbuf_json_string(b, sh->note);
     sp_strbuf_printf(b,
                      ",\"contact\":{\"present\":%s,\"model\":\"ground/plate luminance around the feet over "
-                     "that at 1.5-2; ellipse 0.25 h across, a third as deep; ring k at (k + 0.5) / 4\"",
+                     "that at 1.5-2, across the foot row; ring k at (k + 0.5) / 4 x 0.25 h from the foot\"",
                      sh->contact_present ? "true" : "false");
     numbers(b, "rings", sh->contact, SP_PROBE_CONTACT_BINS);
     number(b, "observations", sh->n_contact);

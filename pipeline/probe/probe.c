@@ -116,7 +116,8 @@ static size_t memory_bound(uint32_t w, uint32_t h, const sp_probe_settings *s)
                     3 /* denoised */ + 1 /* classes */ + 4 * PROBE_EVIDENCE * 2 /* occlusion slots */ + 16 /* lighting */ + 16 /* long-term plate */ +
                     3 + 4 + 12 /* final maps */ + 5 /* checkpoint */;
     return px * per_px + px / 8 /* motion thumbnails */ + cells * 32 + PROBE_MAX_TRACKS * sizeof(probe_track) +
-           (size_t)s->max_observations * 4 * (3 * PERSON_REC + 4) + RECENT_MAX * PERSON_REC * 4;
+        (size_t)s->max_observations * 4 * (3 * PERSON_REC + 4) + RECENT_MAX * PERSON_REC * 4 +
+        sizeof(probe_shadows) /* its ratio and contact histograms */;
 }
 
 static int open_report(sp_probe *p)

@@ -286,7 +286,7 @@ typedef struct probe_shadows {
     uint32_t ratio_hist[3][PROBE_RATIO_BINS];
     /* the ground around each person's feet: luminance ratio to the plate by normalised distance, 0-2 in
        quarters (the last two bins are the reference), and the observations that gave any */
-    uint32_t contact_hist[PROBE_CONTACT_RINGS][PROBE_RATIO_BINS];
+    uint64_t contact_hist[PROBE_CONTACT_RINGS][PROBE_RATIO_BINS]; /* 64 bits: a ring gains ~1000 a person */
     uint64_t contact_obs;
 } probe_shadows;
 

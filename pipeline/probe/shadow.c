@@ -66,7 +66,7 @@ static void add_ratios(probe_shadows *sh, const probe_segment *sg, const probe_o
 }
 
 /*
- * The ground beside a person's feet against the plate, by distance from the foot across the image in units
+ * The ground beside a person's feet against the plate (R + G + B over the plate's), by distance from the foot across the image in units
  * of CONTACT_ACROSS h, in quarter rings out to twice that: rows within a band around the foot row only, so
  * the camera's foreshortening of the ground (unknown here) does not enter. Object pixels (the person's
  * legs, anyone else) do not count; ground and shadow pixels do.
@@ -103,7 +103,7 @@ int shadows_add(probe_shadows *sh, const probe_segment *sg, const probe_object *
                 const uint8_t *plate)
 {
     sh->candidates++;
-    if (o->height > 0)
+    if (o->height > 0 && !isfinite(o->cut_foot)) /* a foot behind a low occluder: its top edge is no ground */
         add_contact(sh, sg, o, rgb, plate);
     if (o->shadow_area < MIN_AREA_FRACTION * o->area || !(o->tbar > 0.1) || !(o->height > 0) ||
         !(o->shadow_ratio <= MAX_RATIO))
@@ -227,25 +227,46 @@ static int fit_offsets(const probe_shadows *sh, sp_probe_shadow *out)
 #define CONTACT_MIN_OBS 10      /* person observations */
 #define CONTACT_MEASURABLE 0.97 /* the darker of the two inner rings against the reference: less is no darkening */
 
+/* Median ratio of a contact ring's histogram (bins over [0, 2)); NaN when empty. */
+static double ring_median(const uint64_t *hist)
+{
+    uint64_t total = 0, acc = 0;
+    for (size_t i = 0; i < PROBE_RATIO_BINS; i++)
+        total += hist[i];
+    for (size_t i = 0; total && i < PROBE_RATIO_BINS; i++) {
+        acc += hist[i];
+        if (2 * acc >= total)
+            return ((double)i + 0.5) * 2.0 / PROBE_RATIO_BINS;
+    }
+    return (double)NAN;
+}
+
 /* The contact profile from the rings (sp_probe_shadow.contact), or the reason there is none. */
 static void contact_fit(const probe_shadows *sh, sp_probe_shadow *out)
 {
     out->n_contact = (unsigned)(sh->contact_obs < UINT32_MAX ? sh->contact_obs : UINT32_MAX);
-    uint32_t ref[PROBE_RATIO_BINS];
-    for (size_t i = 0; i < PROBE_RATIO_BINS; i++)
-        ref[i] = sh->contact_hist[PROBE_CONTACT_RINGS - 2][i] + sh->contact_hist[PROBE_CONTACT_RINGS - 1][i];
-    double r0 = hist_median(ref);
-    int ok = out->n_contact >= CONTACT_MIN_OBS && r0 > 0;
-    for (int k = 0; k < SP_PROBE_CONTACT_BINS; k++) {
-        double r = hist_median(sh->contact_hist[k]) / r0;
-        out->contact[k] = isfinite(r) ? r : 1.0;
-        ok = ok && isfinite(r);
-    }
-    if (!ok) {
+    if (out->n_contact < CONTACT_MIN_OBS) {
         snprintf(out->contact_note, sizeof(out->contact_note),
-                 "left out: %u person observations with ground around the feet, need %d", out->n_contact,
+                 "left out: %u person observations with ground beside the feet, need %d", out->n_contact,
                  CONTACT_MIN_OBS);
         return;
+    }
+    uint64_t ref[PROBE_RATIO_BINS];
+    for (size_t i = 0; i < PROBE_RATIO_BINS; i++)
+        ref[i] = sh->contact_hist[PROBE_CONTACT_RINGS - 2][i] + sh->contact_hist[PROBE_CONTACT_RINGS - 1][i];
+    double r0 = ring_median(ref);
+    if (!(r0 > 0)) {
+        snprintf(out->contact_note, sizeof(out->contact_note), "left out: no ground seen beyond the feet");
+        return;
+    }
+    for (int k = 0; k < SP_PROBE_CONTACT_BINS; k++) {
+        double r = ring_median(sh->contact_hist[k]) / r0;
+        out->contact[k] = isfinite(r) ? r : 1.0;
+        if (!isfinite(r)) {
+            snprintf(out->contact_note, sizeof(out->contact_note),
+                     "left out: no ground seen at ring %d beside the feet (always covered)", k);
+            return;
+        }
     }
     double inner = fmin(out->contact[0], out->contact[1]);
     if (!(inner <= CONTACT_MEASURABLE)) {

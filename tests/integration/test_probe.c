@@ -460,10 +460,10 @@ static void test_noise(void)
 
 /*
  * The contact shadow the overcast street draws at each figure's feet (truth.json "contact": the ground times
- * 1 - depth (1 - r / (reach h))^2), against the probe's rings (k at (k + 0.5) / 4 of 0.25 h across). The
+ * 1 - depth (1 - r / (reach h))^2), against the probe's rings (k at (k + 0.5) / 4 x 0.25 h from the foot). The
  * probe measures it across the foot row, and the figures' pixels, their legs' edges and the plate's grain
  * blur it: it must be there, darkest at the feet, and off the truth by at most 0.08 on average over the
- * rings (seeds 1-3 measured 0.057, 0.044, 0.024; a probe that saw no darkening at all would be 0.11 off).
+ * rings (seeds 1-3 measured 0.057, 0.043, 0.024; a probe that saw no darkening at all would be 0.11 off).
  */
 static void check_contact(const sp_probe_dir *d, const char *truth)
 {

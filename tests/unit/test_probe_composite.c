@@ -137,13 +137,13 @@ static void test_shadow(void)
 
 /*
  * Without a sun model, the contact shadow: the ground around the foot darkened by the profile at its
- * normalised distance (ellipse 0.25 h across, a third as deep), nothing beyond 1.75; not with a sun model
+ * normalised distance (ellipse semi-axes 0.25 h across, a third of that deep), nothing beyond 1.75; not with a sun model
  * (its cast shadow holds the contact), not with shadows off.
  */
 static void test_contact(void)
 {
     sp_probe_maps m = { W, H, bg, NULL, NULL };
-    sp_probe_shadow sh = { .contact_present = 1, .contact = { 0.6, 0.7, 0.8, 0.85, 0.9, 0.95 } };
+    sp_probe_shadow sh = { .contact_present = 1, .contact = { 0.2, 0.4, 0.6, 0.8, 0.9, 0.95 } };
     sp_composite_settings s;
     sp_composite_default_settings(&s);
     sp_composite_report rep;
@@ -151,8 +151,10 @@ static void test_contact(void)
     sp_composite_object o = object_at(50, 60, 40); /* 20 px wide: columns 40-59, rows up to 60 */
     CHECK(sp_composite(&m, NULL, &sh, &s, &o, 1, img, W * 3, &rep) == 0);
     CHECK(rep.contact_pixels > 0 && rep.shadow_pixels == 0);
-    /* (50, 62): rho = 0.60, between the rings at 0.375 (0.7) and 0.625 (0.8) */
-    CHECK_MSG(abs(px(50, 62) - 79) <= 1, "below the foot %d", px(50, 62));
+    /* linear between the rings' centres (a ring's own value would give 40 and 60): (50, 61), rho = 0.304,
+       between 0.125 (0.2) and 0.375 (0.4); (50, 62), rho = 0.602, between 0.375 (0.4) and 0.625 (0.6) */
+    CHECK_MSG(abs(px(50, 61) - 34) <= 1, "just below the foot %d", px(50, 61));
+    CHECK_MSG(abs(px(50, 62) - 58) <= 1, "below the foot %d", px(50, 62));
     /* (64, 61): rho = 1.48, between 1.375 (0.95) and the reference at 1.75 (1) */
     CHECK_MSG(abs(px(64, 61) - 96) <= 1, "beside the foot %d", px(64, 61));
     CHECK(px(50, 70) == 100 && px(75, 60) == 100);
@@ -164,6 +166,19 @@ static void test_contact(void)
     memcpy(img, bg, sizeof(img));
     CHECK(sp_composite(&m, NULL, &sh, &s, &o, 1, img, W * 3, &rep) == 0 && rep.contact_pixels == 0);
     CHECK(px(50, 62) == 100);
+    /* a profile out of range from a caller: clamped, never wrapped to bright */
+    s.shadow = 1, sh.contact[0] = sh.contact[1] = -3;
+    memcpy(img, bg, sizeof(img));
+    CHECK(sp_composite(&m, NULL, &sh, &s, &o, 1, img, W * 3, &rep) == 0 && px(50, 61) == 0);
+    /* ground the occlusion map hides: an occluder whose foot is below the object's (nearer) hides it */
+    static float near[W * H];
+    for (int i = 0; i < W * H; i++)
+        near[i] = i % W >= 60 && i % W <= 70 ? 75.0f : -1.0f;
+    sp_probe_maps mo = { W, H, bg, near, NULL };
+    sh.contact[0] = 0.2, sh.contact[1] = 0.4;
+    memcpy(img, bg, sizeof(img));
+    CHECK(sp_composite(&mo, NULL, &sh, &s, &o, 1, img, W * 3, &rep) == 0);
+    CHECK(px(64, 61) == 100 && px(50, 62) < 70);
 }
 
 static void test_order_and_args(void)

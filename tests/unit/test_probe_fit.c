@@ -194,8 +194,17 @@ static void test_params_json(void)
     sp_probe_plane pl = { .status = SP_PROBE_PLANE_OK, .a = 0.0123, .b = 0.3456, .c = -7.5, .n_observations = 321,
                           .n_inliers = 300, .residual_rel = 0.041, .holdout_n = 17, .holdout_error_rel = NAN };
     snprintf(pl.note, sizeof(pl.note), "a \"quoted\" note\nwith a newline");
-    sp_probe_shadow sh = { .present = 1, .ox = { 0.5, 0.1, -0.2 }, .oy = { 0.8, 0, -0.7 }, .ratio = { 0.4, 0.42, 0.5 },
-                           .n_shadows = 40, .n_candidates = 50, .direction_spread_deg = 12 };
+    sp_probe_shadow sh = { .present = 1,
+                           .ox = { 0.5, 0.1, -0.2 },
+                           .oy = { 0.8, 0, -0.7 },
+                           .ratio = { 0.4, 0.42, 0.5 },
+                           .n_shadows = 40,
+                           .n_candidates = 50,
+                           .direction_spread_deg = 12,
+                           .contact_present = 1,
+                           .contact = { 0.81, 0.87, 0.93, 0.97, 0.99, 1 },
+                           .n_contact = 77 };
+    snprintf(sh.contact_note, sizeof(sh.contact_note), "learned \"here\"");
     char *json = NULL;
     CHECK(sp_probe_params_to_json(&pl, &sh, NULL, 320, 240, &json) == 0);
     sp_probe_plane p2;
@@ -206,7 +215,14 @@ static void test_params_json(void)
     CHECK(p2.status == SP_PROBE_PLANE_OK && p2.a == pl.a && p2.b == pl.b && p2.c == pl.c);
     CHECK(p2.n_inliers == 300 && isnan(p2.holdout_error_rel) && !strcmp(p2.note, pl.note));
     CHECK(s2.present && s2.ox[2] == -0.2 && s2.oy[0] == 0.8 && s2.ratio[1] == 0.42);
+    CHECK(s2.contact_present && s2.contact[0] == 0.81 && s2.contact[5] == 1 && s2.n_contact == 77 &&
+          !strcmp(s2.contact_note, sh.contact_note));
     free(json);
+    /* a probe directory from before the contact shadow: loads, without one */
+    static const char old_dir[] =
+        "{\"format\":\"sunprobe-probe\",\"width\":3,\"height\":3,\"plane\":{\"status\":\"none\",\"line\":[0,0,0,0]},"
+        "\"shadow\":{\"present\":false,\"ox\":[0,0,0],\"oy\":[0,0,0],\"ratio\":[0,0,0]}}";
+    CHECK(sp_probe_params_from_json(old_dir, strlen(old_dir), &p2, &s2, &w, &h) == 0 && !s2.contact_present);
 
     static const char *const bad[] = {
         "{}",
@@ -214,11 +230,27 @@ static void test_params_json(void)
         "{\"format\":\"sunprobe-probe\",\"width\":0,\"height\":3,\"plane\":{},\"shadow\":{}}",
         "{\"format\":\"sunprobe-probe\",\"width\":3,\"height\":3,\"plane\":{\"status\":\"weird\",\"line\":[0,0,0,0]},"
         "\"shadow\":{\"present\":false,\"ox\":[0,0,0],\"oy\":[0,0,0],\"ratio\":[0,0,0]}}",
-        "{\"format\":\"sunprobe-probe\",\"width\":3,\"height\":3,\"plane\":{\"status\":\"ok\",\"a\":null,\"b\":1,\"c\":1,"
+        "{\"format\":\"sunprobe-probe\",\"width\":3,\"height\":3,\"plane\":{\"status\":\"ok\",\"a\":null,\"b\":1,\"c\":"
+        "1,"
         "\"line\":[0,0,0,0]},\"shadow\":{\"present\":false,\"ox\":[0,0,0],\"oy\":[0,0,0],\"ratio\":[0,0,0]}}",
         "{\"format\":\"sunprobe-probe\",\"width\":3,\"height\":3,\"plane\":{\"status\":\"none\",\"line\":[0,0,0,0]},"
         "\"shadow\":{\"present\":true,\"ox\":[0,0,0],\"oy\":[0,0,0],\"ratio\":[null,0,0]}}",
         "not json",
+        /* the contact shadow: not an object, no "present", a short ring list, a ring missing or out of range */
+        "{\"format\":\"sunprobe-probe\",\"width\":3,\"height\":3,\"plane\":{\"status\":\"none\",\"line\":[0,0,0,0]},"
+        "\"shadow\":{\"present\":false,\"ox\":[0,0,0],\"oy\":[0,0,0],\"ratio\":[0,0,0],\"contact\":1}}",
+        "{\"format\":\"sunprobe-probe\",\"width\":3,\"height\":3,\"plane\":{\"status\":\"none\",\"line\":[0,0,0,0]},"
+        "\"shadow\":{\"present\":false,\"ox\":[0,0,0],\"oy\":[0,0,0],\"ratio\":[0,0,0],\"contact\":{\"rings\":[1,1,1,1,"
+        "1,1]}}}",
+        "{\"format\":\"sunprobe-probe\",\"width\":3,\"height\":3,\"plane\":{\"status\":\"none\",\"line\":[0,0,0,0]},"
+        "\"shadow\":{\"present\":false,\"ox\":[0,0,0],\"oy\":[0,0,0],\"ratio\":[0,0,0],"
+        "\"contact\":{\"present\":true,\"rings\":[1,1,1,1,1]}}}",
+        "{\"format\":\"sunprobe-probe\",\"width\":3,\"height\":3,\"plane\":{\"status\":\"none\",\"line\":[0,0,0,0]},"
+        "\"shadow\":{\"present\":false,\"ox\":[0,0,0],\"oy\":[0,0,0],\"ratio\":[0,0,0],"
+        "\"contact\":{\"present\":true,\"rings\":[null,1,1,1,1,1]}}}",
+        "{\"format\":\"sunprobe-probe\",\"width\":3,\"height\":3,\"plane\":{\"status\":\"none\",\"line\":[0,0,0,0]},"
+        "\"shadow\":{\"present\":false,\"ox\":[0,0,0],\"oy\":[0,0,0],\"ratio\":[0,0,0],"
+        "\"contact\":{\"present\":true,\"rings\":[1,1,1,1,1,2.5]}}}",
     };
     for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++)
         CHECK_MSG(sp_probe_params_from_json(bad[i], strlen(bad[i]), &p2, &s2, &w, &h) == SP_ECORRUPT, "bad[%zu]", i);
