@@ -283,7 +283,7 @@ double plane_median_error(const sp_probe_plane *pl, const float *rec, unsigned n
 typedef struct probe_shadows {
     probe_reservoir obs;     /* {u, v, dx, dy} per hard shadow */
     uint64_t candidates, hard;
-    uint32_t ratio_hist[3][PROBE_RATIO_BINS];
+    uint64_t ratio_hist[3][PROBE_RATIO_BINS]; /* 64 bits, like the rings: one median for both */
     /* the ground around each person's feet: luminance ratio to the plate by normalised distance, 0-2 in
        quarters (the last two bins are the reference), and the observations that gave any */
     uint64_t contact_hist[PROBE_CONTACT_RINGS][PROBE_RATIO_BINS]; /* 64 bits: a ring gains ~1000 a person */

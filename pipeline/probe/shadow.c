@@ -39,6 +39,13 @@ void shadows_close(probe_shadows *sh)
     reservoir_close(&sh->obs);
 }
 
+/* The bin of a shadow/lit ratio in the ratio histograms (over [0, 2); 2 and above in the last). */
+static size_t ratio_bin(double r)
+{
+    size_t b = (size_t)(r * 0.5 * PROBE_RATIO_BINS);
+    return b < PROBE_RATIO_BINS ? b : PROBE_RATIO_BINS - 1;
+}
+
 static void add_ratios(probe_shadows *sh, const probe_segment *sg, const probe_object *o, const uint8_t *rgb,
                        const uint8_t *plate)
 {
@@ -57,9 +64,7 @@ static void add_ratios(probe_shadows *sh, const probe_segment *sg, const probe_o
             for (int k = 0; k < 3; k++) {
                 if (!plate[i + k])
                     continue;
-                double r = (double)rgb[i + k] / plate[i + k];
-                size_t b = (size_t)(r * 0.5 * PROBE_RATIO_BINS);
-                sh->ratio_hist[k][b < PROBE_RATIO_BINS ? b : PROBE_RATIO_BINS - 1]++;
+                sh->ratio_hist[k][ratio_bin((double)rgb[i + k] / plate[i + k])]++;
             }
         }
     }
@@ -91,9 +96,7 @@ static void add_contact(probe_shadows *sh, const probe_segment *sg, const probe_
             int lit = q[0] + q[1] + q[2];
             if (lit < 12)
                 continue; /* black plate: no ratio to tell */
-            double r = (double)(c[0] + c[1] + c[2]) / lit;
-            size_t bin = (size_t)(r * 0.5 * PROBE_RATIO_BINS);
-            sh->contact_hist[(int)(rho * 4)][bin < PROBE_RATIO_BINS ? bin : PROBE_RATIO_BINS - 1]++;
+            sh->contact_hist[(int)(rho * 4)][ratio_bin((double)(c[0] + c[1] + c[2]) / lit)]++;
             got++;
         }
     sh->contact_obs += got > 0;
@@ -157,7 +160,8 @@ static int huber_fit(const float *rec, unsigned n, unsigned col, unsigned p, dou
     return 0;
 }
 
-static double hist_median(const uint32_t *hist)
+/* Median ratio of a ratio histogram (bins over [0, 2)); NaN when empty. */
+static double hist_median(const uint64_t *hist)
 {
     uint64_t total = 0, acc = 0;
     for (size_t i = 0; i < PROBE_RATIO_BINS; i++)
@@ -227,20 +231,6 @@ static int fit_offsets(const probe_shadows *sh, sp_probe_shadow *out)
 #define CONTACT_MIN_OBS 10      /* person observations */
 #define CONTACT_MEASURABLE 0.97 /* the darker of the two inner rings against the reference: less is no darkening */
 
-/* Median ratio of a contact ring's histogram (bins over [0, 2)); NaN when empty. */
-static double ring_median(const uint64_t *hist)
-{
-    uint64_t total = 0, acc = 0;
-    for (size_t i = 0; i < PROBE_RATIO_BINS; i++)
-        total += hist[i];
-    for (size_t i = 0; total && i < PROBE_RATIO_BINS; i++) {
-        acc += hist[i];
-        if (2 * acc >= total)
-            return ((double)i + 0.5) * 2.0 / PROBE_RATIO_BINS;
-    }
-    return (double)NAN;
-}
-
 /* The contact profile from the rings (sp_probe_shadow.contact), or the reason there is none. */
 static void contact_fit(const probe_shadows *sh, sp_probe_shadow *out)
 {
@@ -254,13 +244,13 @@ static void contact_fit(const probe_shadows *sh, sp_probe_shadow *out)
     uint64_t ref[PROBE_RATIO_BINS];
     for (size_t i = 0; i < PROBE_RATIO_BINS; i++)
         ref[i] = sh->contact_hist[PROBE_CONTACT_RINGS - 2][i] + sh->contact_hist[PROBE_CONTACT_RINGS - 1][i];
-    double r0 = ring_median(ref);
+    double r0 = hist_median(ref);
     if (!(r0 > 0)) {
         snprintf(out->contact_note, sizeof(out->contact_note), "left out: no ground seen beyond the feet");
         return;
     }
     for (int k = 0; k < SP_PROBE_CONTACT_BINS; k++) {
-        double r = ring_median(sh->contact_hist[k]) / r0;
+        double r = hist_median(sh->contact_hist[k]) / r0;
         out->contact[k] = isfinite(r) ? r : 1.0;
         if (!isfinite(r)) {
             snprintf(out->contact_note, sizeof(out->contact_note),
