@@ -4,7 +4,9 @@
  * a multi-scale patch optimisation in which each iteration cuts the output into
  * crops at a random offset, matches every crop's patches to the exemplar
  * (PatchMatch with a penalty on reusing one exemplar region) and sets each pixel
- * to the mean of the votes covering it. Large outputs are made tile by tile,
+ * to the mean of the votes covering it; the finest level is then laid again in
+ * image-quilting-style blocks joined along minimum-error cuts, and the band
+ * about the cuts optimised towards exemplar patches. Large outputs are made tile by tile,
  * each tile constrained by the finished pixels around it, and handed out in
  * bands of rows as they finish. The result depends on the seed only, never on
  * the thread count.
@@ -31,7 +33,8 @@ typedef struct sp_texture_settings {
     int levels;         /* pyramid levels, 0 (default): as many as the exemplar allows, at most 4 */
     int iterations;     /* optimisation passes at the finest level (doubled per coarser one), 1..16, default 3 */
     int threads;        /* 0 (default): every online CPU */
-    double reuse;       /* penalty on reusing an exemplar region, 0..10, default 0.5 */
+    double reuse;       /* penalty on reusing an exemplar region, 0..10, default 0.5 (the blocks: a block
+                           within 0.4 x reuse of the best fit goes to the least used region) */
     uint64_t seed;      /* default 1 */
     int tileable;       /* 1: the output wraps left-right and top-bottom (default 0) */
 } sp_texture_settings;

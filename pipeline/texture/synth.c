@@ -12,6 +12,7 @@
 
 #include <errno.h>
 #include <float.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -307,17 +308,21 @@ static int run_level(const tex_job *job, level_win *W, int level)
 /*
  * ---- The finest level in whole blocks ----
  * The vote of the finest level is replaced by image-quilting-style blocks
- * (4 patches a side, overlapping by a patch) laid in raster order, each copying
- * one exemplar offset found for the block as a whole: candidates from the voted
- * layout (its source map), continued from the neighbouring blocks, drawn at
- * random, on a coarse grid (subsampled cost) refined around its best, and
- * searched around the best, costed by the block's error against the pixels
- * already settled (held fixed or laid by earlier blocks) plus, weaker, against
- * the voted image, plus the reuse penalty. A block may not continue its
- * neighbours' copy beyond BLOCK_RUN blocks, nor (at BLOCK_RUN 1) reproduce a
- * patch side of settled pixels exactly (a diagonal's or an earlier tile's copy),
- * which bounds verbatim repetition the way quilting's fixed block does; borders
- * are minimum-error cuts. Sequential, so the result depends on the seed only.
+ * (4 patches a side, overlapping by a sixth of that, as quilting does) laid in
+ * raster order, each copying one exemplar offset found for the block as a whole:
+ * candidates from the voted layout (its source map), continued from the
+ * neighbouring blocks, drawn at random, on a coarse grid (subsampled cost)
+ * refined around its best, and searched around the best, costed by the block's
+ * error against the pixels already settled (held fixed or laid by earlier
+ * blocks) plus, weaker, against the voted image. Of the candidates within a
+ * tolerance of the best (the reuse setting's share), the one whose exemplar
+ * region the window has used least is laid: a penalty in the cost itself would
+ * trade every block's fit for spread, this only breaks near-ties. A block may
+ * not continue its neighbours' copy beyond BLOCK_RUN blocks, nor (at BLOCK_RUN
+ * 1) reproduce a patch side of settled pixels exactly (a diagonal's or an
+ * earlier tile's copy), which bounds verbatim repetition the way quilting's
+ * fixed block does; borders are minimum-error cuts, then the band about them is
+ * optimised (refine_seams below). Sequential, so the result depends on the seed only.
  */
 #define BLOCK_PATCHES 4   /* block side in patches */
 #define BLOCK_RANDOM 24   /* random offsets tried per block */
@@ -326,6 +331,8 @@ static int run_level(const tex_job *job, level_win *W, int level)
 #define REFINE_SIDE (BLOCK_STRIDE + 1) /* full-cost offsets around the grid's best, a side */
 #define N_REFINE (REFINE_SIDE * REFINE_SIDE)
 #define BLOCK_RUN 1       /* blocks one verbatim copy may span */
+#define BLOCK_TOLERANCE 0.4 /* x reuse: the cost above the best at which a less used region may still be laid */
+#define MAX_NEAR 256        /* candidates kept within that tolerance */
 #define LAYOUT_WEIGHT 0.1f /* the voted image's weight where nothing is settled yet */
 #define UNSETTLED_COST 1e6f /* a cut through a pixel nothing has laid yet: kept inside the overlap */
 
@@ -338,14 +345,14 @@ typedef struct block_pass {
     int w, h, B, x0, y0, bw, bh;
     float *cnt;              /* blocks covering each patch-sized exemplar bin */
     int bins_w, P;
-    double fair, pen_unit;
+    double fair, tolerance;
     int exact_max;           /* settled pixels a candidate may reproduce exactly */
+    int32_t *src;            /* exemplar pixel each window pixel was laid from, -1 where no block laid it */
 } block_pass;
 
-/* Weighted distance of the block to exemplar offset (ox, oy), with the reuse penalty; FLT_MAX at or past bound. */
-static float block_cost(const block_pass *b, int ox, int oy, float bound, int check_exact, int step)
+/* How far over their fair share the window already uses the exemplar bins under offset (ox, oy), per bin. */
+static double block_overuse(const block_pass *b, int ox, int oy)
 {
-    const tex_level *ex = b->ex;
     double over = 0;
     int nb = 0;
     for (int y = oy + b->P / 2; y < oy + b->bh; y += b->P)
@@ -353,7 +360,14 @@ static float block_cost(const block_pass *b, int ox, int oy, float bound, int ch
             double o = (double)b->cnt[(y / b->P) * b->bins_w + x / b->P] / b->fair - 1.0;
             over += o > 0 ? o : 0;
         }
-    float d = (float)(b->pen_unit * over / (nb ? nb : 1));
+    return over / (nb ? nb : 1);
+}
+
+/* Weighted distance of the block to exemplar offset (ox, oy); FLT_MAX at or past bound. */
+static float block_cost(const block_pass *b, int ox, int oy, float bound, int check_exact, int step)
+{
+    const tex_level *ex = b->ex;
+    float d = 0;
     int exact = 0;
     float area = (float)(step * step); /* a subsampled cost stands for the whole block */
     for (int y = 0; y < b->bh && d < bound; y += step) {
@@ -467,13 +481,14 @@ static void lay_block(block_pass *b, int ox, int oy, float *err, int *path, floa
                 continue;
             memcpy(b->out + 3 * p, ex->px + 3 * ((size_t)(oy + y) * ex->w + ox + x), 3 * sizeof(float));
             b->settled[p] = 1;
+            b->src[p] = (oy + y) * ex->w + ox + x;
         }
     for (int y = oy + b->P / 2; y < oy + b->bh; y += b->P)
         for (int x = ox + b->P / 2; x < ox + b->bw; x += b->P)
             b->cnt[(y / b->P) * b->bins_w + x / b->P] += 1;
 }
 
-/* Block origins along one axis: steps of B - P, the last one flush with the end. */
+/* Block origins along one axis: the given steps, the last one flush with the end. */
 static int block_origins(int n, int B, int step, int *pos)
 {
     int k = 0;
@@ -489,10 +504,17 @@ static int clampi(int v, int lo, int hi)
     return v < lo ? lo : v > hi ? hi : v;
 }
 
+/* The overlap of neighbouring blocks: a sixth of the block, as image quilting lays its own. */
+static int block_overlap(int B)
+{
+    return B / 6 > 2 ? B / 6 : 2;
+}
+
 static void settle_blocks(const tex_job *job, level_win *W, const tex_level *ex, int *xs, int *ys, int *off,
                           int *parent, int *size, block_pass *b)
 {
-    int P = b->P, B = b->B, nx = block_origins(W->w, B, B - P, xs), ny = block_origins(W->h, B, B - P, ys);
+    int B = b->B, step = B - block_overlap(B), nx = block_origins(W->w, B, step, xs),
+        ny = block_origins(W->h, B, step, ys);
     uint64_t rng = tex_hash(job->key ^ 0xB10Cull, 0);
     float *err = b->wt + (size_t)B * B, *acc = err + (size_t)B * B;
     int *path = (int *)(acc + (size_t)B * B);
@@ -516,8 +538,8 @@ static void settle_blocks(const tex_job *job, level_win *W, const tex_level *ex,
                 }
             /* a block closing onto a finished tile across the wrap has to continue what lies on both sides */
             int closing = settled_depth(b, 1, 1) || settled_depth(b, 0, 1);
-            int bx = -1, by = -1, gx = 0, gy = 0;
-            float gbest = FLT_MAX;
+            int bx = -1, by = -1, gx = 0, gy = 0, near_x[MAX_NEAR], near_y[MAX_NEAR], n_near = 0;
+            float near_d[MAX_NEAR], gbest = FLT_MAX;
             float best = FLT_MAX;
             int n_grid = ((ex->w - B) / BLOCK_STRIDE + 1) * ((ex->h - B) / BLOCK_STRIDE + 1);
             int n_cand = 5 + 2 + n_grid + N_REFINE + BLOCK_RANDOM + 16;
@@ -568,10 +590,21 @@ static void settle_blocks(const tex_job *job, level_win *W, const tex_level *ex,
                         gbest = d, gx = cx, gy = cy;
                     continue;
                 }
-                float d = block_cost(b, cx, cy, best, run == 1 && !closing, 1);
+                float bound = best == FLT_MAX ? FLT_MAX : best * (float)(1 + b->tolerance);
+                float d = block_cost(b, cx, cy, bound, run == 1 && !closing, 1);
+                if (d < FLT_MAX && n_near < MAX_NEAR)
+                    near_x[n_near] = cx, near_y[n_near] = cy, near_d[n_near++] = d;
                 if (d < best)
                     best = d, bx = cx, by = cy;
             }
+            /* near-ties go to the least used region, and among equals to the earliest tried (the voted layout first) */
+            double least = DBL_MAX;
+            for (int k = 0; k < n_near && b->tolerance > 0; k++)
+                if (near_d[k] <= best * (float)(1 + b->tolerance)) {
+                    double o = block_overuse(b, near_x[k], near_y[k]);
+                    if (o < least)
+                        least = o, bx = near_x[k], by = near_y[k];
+                }
             if (bx < 0) { /* every candidate continued a full run: the first random one not doing so */
                 bx = clampi((int)(rng_next(&rng) % (uint64_t)(ex->w - B + 1)), 0, ex->w - B);
                 by = clampi((int)(rng_next(&rng) % (uint64_t)(ex->h - B + 1)), 0, ex->h - B);
@@ -588,6 +621,168 @@ static void settle_blocks(const tex_job *job, level_win *W, const tex_level *ex,
         }
 }
 
+/*
+ * ---- Seams ----
+ * A patch across a cut matches no exemplar patch exactly: that is where the
+ * blocks depart from the exemplar. A few passes of texture optimisation (Kwatra
+ * et al. 2005) restricted to a band about the cuts lower that distance: each
+ * patch touching the band takes the nearest exemplar patch among the
+ * continuations of the copies it spans, their neighbours, its neighbours'
+ * matches and a local search; then each band pixel becomes the mean of the
+ * matches covering it, weighted by the robust weight d^(r-2)/2 with r = 0.8, so
+ * the better matches win over a blur of all of them. Pixels outside the band
+ * stay verbatim copies. Raster order in one thread, as the blocks.
+ */
+#define SEAM_RADIUS 3 /* band half-width about a cut, pixels */
+#define SEAM_PASSES 3
+#define SEAM_STRIDE 2     /* between the optimised patches */
+#define SEAM_ROBUST -0.6f /* the vote weight's exponent on a match's distance per pixel */
+
+/* Patch origins along one axis: every SEAM_STRIDE, the last one flush with the end. */
+static int seam_origins(int n, int P, int *pos)
+{
+    int k = 0;
+    for (int x = 0; x + P <= n; x += SEAM_STRIDE)
+        pos[k++] = x;
+    if (k && pos[k - 1] != n - P)
+        pos[k++] = n - P;
+    return k;
+}
+
+/* Whether neighbouring pixels p and q = p + (dx, dy) come from different copies (or one from none). */
+static int seam_between(const int32_t *src, int ew, size_t p, size_t q, int dx, int dy)
+{
+    if (src[p] < 0 || src[q] < 0)
+        return src[p] != src[q];
+    return src[q] % ew - src[p] % ew != dx || src[q] / ew - src[p] / ew != dy;
+}
+
+/* band[p] = 1 for pixels the synthesis may change (in the first rows) within SEAM_RADIUS of a cut; near is scratch. */
+static void seam_band(const level_win *W, int rows, const int32_t *src, int ew, uint8_t *band, uint8_t *near)
+{
+    int w = W->w, h = W->h, R = SEAM_RADIUS;
+    memset(near, 0, (size_t)w * h);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            size_t p = (size_t)y * w + x;
+            if (x + 1 < w && seam_between(src, ew, p, p + 1, 1, 0))
+                near[p] = near[p + 1] = 1;
+            if (y + 1 < h && seam_between(src, ew, p, p + (size_t)w, 0, 1))
+                near[p] = near[p + (size_t)w] = 1;
+        }
+    for (int y = 0; y < h; y++) /* the square about each: rows first, then columns */
+        for (int x = 0; x < w; x++) {
+            int in = 0;
+            for (int k = -R; k <= R && !in; k++)
+                in = x + k >= 0 && x + k < w && near[(size_t)y * w + x + k] == 1;
+            band[(size_t)y * w + x] = (uint8_t)in;
+        }
+    for (int x = 0; x < w; x++)
+        for (int y = 0; y < h; y++) {
+            int in = 0;
+            for (int k = -R; k <= R && !in; k++)
+                in = y + k >= 0 && y + k < h && band[(size_t)(y + k) * w + x];
+            near[(size_t)y * w + x] = (uint8_t)(in && y < rows && W->fixed[(size_t)y * w + x] != TEX_FIXED);
+        }
+    memcpy(band, near, (size_t)w * h);
+}
+
+/* The nearest exemplar patch to the window's patch at (px, py) among the candidates above; -1 if none is usable. */
+static int32_t seam_match(const tex_level *ex, int P, const float *img, int w, const int32_t *src, int px, int py,
+                          const int32_t *prior, int n_prior, uint64_t *rng, float *dist)
+{
+    int ew = ex->w;
+    const float *a = img + 3 * ((size_t)py * w + px);
+    int32_t cand[5 * 9 + 4], best = -1;
+    int nc = 0;
+    for (int k = 0; k < n_prior; k++)
+        cand[nc++] = prior[k];
+    for (int k = 0; k < 5; k++) { /* the copies at the corners and the centre, each shifted by up to a pixel */
+        int qx = px + (k == 4 ? P / 2 : (k & 1) * (P - 1)), qy = py + (k == 4 ? P / 2 : (k >> 1) * (P - 1));
+        int32_t s = src[(size_t)qy * w + qx];
+        for (int d = 0; d < 9 && s >= 0; d++)
+            cand[nc++] = usable(ex, P, s % ew - (qx - px) + d % 3 - 1, s / ew - (qy - py) + d / 3 - 1);
+    }
+    float bd = FLT_MAX;
+    for (int k = 0; k < nc; k++) {
+        if (cand[k] < 0 || cand[k] == best)
+            continue;
+        float d = patch_dist(a, 3 * w, ex->px + 3 * (size_t)cand[k], 3 * ew, P, bd);
+        if (d < bd)
+            bd = d, best = cand[k];
+    }
+    for (int r = P; r >= 1 && best >= 0; r /= 2) { /* around the best, the radius halving */
+        uint64_t u = rng_next(rng);
+        int32_t c = usable(ex, P, best % ew + (int)(u % (uint64_t)(2 * r + 1)) - r,
+                           best / ew + (int)((u >> 32) % (uint64_t)(2 * r + 1)) - r);
+        float d = c < 0 || c == best ? FLT_MAX : patch_dist(a, 3 * w, ex->px + 3 * (size_t)c, 3 * ew, P, bd);
+        if (d < bd)
+            bd = d, best = c;
+    }
+    *dist = bd;
+    return best;
+}
+
+static int refine_seams(const tex_job *job, level_win *W, const tex_level *ex, const block_pass *b)
+{
+    int w = W->w, h = W->h, P = job->ex->patch, ew = ex->w;
+    size_t n = (size_t)w * h;
+    int *xs = malloc(sizeof(int) * ((size_t)w + h + 4)), *ys = xs ? xs + w + 2 : NULL;
+    int nx = xs ? seam_origins(w, P, xs) : 0, ny = xs ? seam_origins(h, P, ys) : 0;
+    uint8_t *band = malloc(n), *scratch = malloc(n);
+    float *acc = malloc(sizeof(float) * 4 * n);
+    int32_t *z = malloc(sizeof(int32_t) * ((size_t)nx * ny + 1));
+    if (!xs || !band || !scratch || !acc || !z) {
+        free(xs), free(band), free(scratch), free(acc), free(z);
+        return -ENOMEM;
+    }
+    seam_band(W, job->seam_rows, b->src, ew, band, scratch);
+    for (size_t k = 0; k < (size_t)nx * ny; k++)
+        z[k] = -1;
+    float *img = b->out;
+    uint64_t rng = tex_hash(job->key ^ 0x5EA4ull, 0);
+    for (int pass = 0; pass < SEAM_PASSES; pass++) {
+        memset(acc, 0, sizeof(float) * 4 * n);
+        for (int j = 0; j < ny; j++)
+            for (int i = 0; i < nx; i++) {
+                int px = xs[i], py = ys[j], touches = 0;
+                for (int y = 0; y < P && !touches; y++)
+                    for (int x = 0; x < P && !touches; x++)
+                        touches = band[(size_t)(py + y) * w + px + x];
+                if (!touches)
+                    continue;
+                int32_t prior[3];
+                int np = 0;
+                if (z[j * nx + i] >= 0)
+                    prior[np++] = z[j * nx + i];
+                if (i > 0 && z[j * nx + i - 1] >= 0) /* the neighbours' matches, shifted along */
+                    prior[np++] = usable(ex, P, z[j * nx + i - 1] % ew + px - xs[i - 1], z[j * nx + i - 1] / ew);
+                if (j > 0 && z[(j - 1) * nx + i] >= 0)
+                    prior[np++] = usable(ex, P, z[(j - 1) * nx + i] % ew, z[(j - 1) * nx + i] / ew + py - ys[j - 1]);
+                float d;
+                int32_t m = seam_match(ex, P, img, w, b->src, px, py, prior, np, &rng, &d);
+                z[j * nx + i] = m;
+                if (m < 0)
+                    continue;
+                float wt = powf(d / (float)(P * P) + 1e-6f, SEAM_ROBUST);
+                for (int y = 0; y < P; y++)
+                    for (int x = 0; x < P; x++) {
+                        size_t q = (size_t)(py + y) * w + px + x;
+                        const float *e = ex->px + 3 * ((size_t)m + (size_t)y * ew + x);
+                        if (band[q])
+                            acc[4 * q] += wt * e[0], acc[4 * q + 1] += wt * e[1], acc[4 * q + 2] += wt * e[2],
+                                acc[4 * q + 3] += wt;
+                    }
+            }
+        for (size_t q = 0; q < n; q++)
+            if (band[q] && acc[4 * q + 3] > 0)
+                for (int c = 0; c < 3; c++)
+                    img[3 * q + c] = acc[4 * q + c] / acc[4 * q + 3];
+    }
+    free(xs), free(band), free(scratch), free(acc), free(z);
+    return 0;
+}
+
 /* The finest level's window in blocks (above); left as voted where the exemplar or window is smaller than a block. */
 int tex_blocks_apply(const tex_exemplar *ex, int w, int h)
 {
@@ -600,12 +795,27 @@ static int block_level(const tex_job *job, level_win *W, const tex_level *ex, co
     int P = job->ex->patch, B = BLOCK_PATCHES * P;
     if (!tex_blocks_apply(job->ex, W->w, W->h))
         return 0;
-    int nx = (W->w + B - P - 1) / (B - P) + 1, ny = (W->h + B - P - 1) / (B - P) + 1;
+    int step = B - block_overlap(B), nx = (W->w + step - 1) / step + 1, ny = (W->h + step - 1) / step + 1;
     size_t n = (size_t)W->w * W->h, nb = (size_t)nx * ny;
     int bins_w = (ex->w + P - 1) / P, bins_h = (ex->h + P - 1) / P;
-    block_pass b = { ex, W->img, W->next, calloc(n, 1), malloc(sizeof(float) * (size_t)B * B * 7 + sizeof(int) * 4 * B),
-                     NULL, W->w, W->h, B, 0, 0, 0, 0, calloc((size_t)bins_w * bins_h, sizeof(float)), bins_w, P,
-                     (double)n / ((double)ex->w * ex->h), job->s->reuse * ex->scale * (double)(B * B) / (P * P) };
+    block_pass b = { ex,
+                     W->img,
+                     W->next,
+                     calloc(n, 1),
+                     malloc(sizeof(float) * (size_t)B * B * 7 + sizeof(int) * 4 * B),
+                     NULL,
+                     W->w,
+                     W->h,
+                     B,
+                     0,
+                     0,
+                     0,
+                     0,
+                     calloc((size_t)bins_w * bins_h, sizeof(float)),
+                     bins_w,
+                     P,
+                     (double)n / ((double)ex->w * ex->h),
+                     BLOCK_TOLERANCE * job->s->reuse };
     int *idx = malloc(sizeof(int) * ((size_t)nx + ny + 4 * nb));
     if (!b.settled || !b.tgt || !b.cnt || !idx) {
         free(b.settled), free(b.tgt), free(b.cnt), free(idx);
@@ -613,16 +823,20 @@ static int block_level(const tex_job *job, level_win *W, const tex_level *ex, co
     }
     b.wt = b.tgt + (size_t)3 * B * B;
     b.exact_max = P; /* a patch side: a copy touching its diagonal neighbour through a corner still counts */
+    b.src = W->src_next; /* free after the last vote: the blocks' own source map */
+    for (size_t p = 0; p < n; p++)
+        b.src[p] = -1;
     /* blended pixels count as laid by an earlier block: the cut may pass through them, no cross-fade follows */
     for (size_t p = 0; p < n; p++) {
         b.settled[p] = W->fixed[p] == TEX_FIXED ? TEX_FIXED + 1 : W->fixed[p] == TEX_SOFT;
         memcpy(W->next + 3 * p, W->fixed[p] == TEX_FREE ? W->img + 3 * p : held + 3 * p, 3 * sizeof(float));
     }
     settle_blocks(job, W, ex, idx, idx + nx, idx + nx + ny, idx + nx + ny + 2 * nb, idx + nx + ny + 3 * nb, &b);
+    int ret = job->seams ? refine_seams(job, W, ex, &b) : 0;
     float *t = W->img;
     W->img = W->next, W->next = t;
     free(b.settled), free(b.tgt), free(b.cnt), free(idx);
-    return 0;
+    return ret;
 }
 
 static void win_free(level_win *W)

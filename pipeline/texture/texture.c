@@ -46,7 +46,7 @@ static int exemplar_levels(const sp_texture_settings *s, uint32_t ew, uint32_t e
 typedef struct tiler {
     const sp_texture_settings *s;
     int W, H, nx, ny, halo, blend, rows;
-    int blocks;          /* the finest level in whole blocks (tex_job) */
+    int blocks, seams;   /* the finest level in whole blocks, their cuts optimised (tex_job) */
     int *xs, *ys;        /* tile boundaries, nx + 1 and ny + 1 */
     int fd;              /* scratch file: output row y of the band at row y % rows; tileable: rows [0, halo) after */
     float *win, *old;    /* the window; the band's values under it */
@@ -226,7 +226,10 @@ static int run_tile(tiler *t, const tex_exemplar *ex, sp_pool *pool, int i, int 
     span(t, t->xs, i, t->W, &x0, &x1);
     span(t, t->ys, j, t->H, &y0, &y1);
     int w = x1 - x0, h = y1 - y0, ret = gather(t, i, j, x0, y0, w, h);
-    tex_job job = { ex, t->s, pool, tex_hash(t->s->seed, ((uint64_t)j << 32) | (uint64_t)i), t->blocks };
+    tex_job job = { ex, t->s, pool, tex_hash(t->s->seed, ((uint64_t)j << 32) | (uint64_t)i), t->blocks, t->seams, h };
+    for (int y = 0; y < h; y++) /* the first rows across the bottom wrap went out long ago (wrap_ramp) */
+        if (t->kind[y] == 1 && y < job.seam_rows)
+            job.seam_rows = y;
     if (!ret)
         ret = tex_synth_window(&job, t->win, t->fixed, w, h, tex_window_levels(w, h, ex->patch, ex->levels));
     if (ret)
@@ -268,6 +271,7 @@ static int tiler_open(tiler *t, const sp_texture_settings *s, int W, int H)
     t->fd = -1;
     t->s = s, t->W = W, t->H = H, t->halo = 4 * s->patch, t->blend = 2 * s->patch;
     t->blocks = !getenv("SP_TEX_NOBLOCKS");
+    t->seams = !getenv("SP_TEX_NOSEAMS");
     int T = s->tile;
     t->nx = (W + T - 1) / T, t->ny = (H + T - 1) / T;
     if (s->tileable) /* a tile never wraps onto itself */
@@ -383,7 +387,7 @@ int sp_texture_fill(float *rgb, uint32_t w, uint32_t h, const uint8_t *fill, con
             memcpy(win + 3 * p, rgb + 3 * q, 3 * sizeof(float));
             fixed[p] = fill[q] ? TEX_FREE : TEX_FIXED;
         }
-    tex_job job = { &ex, s, pool, tex_hash(s->seed, 0xF111ull), 0 };
+    tex_job job = { &ex, s, pool, tex_hash(s->seed, 0xF111ull), 0, 0, 0 };
     if (!ret)
         ret = tex_synth_window(&job, win, fixed, bw, bh, tex_window_levels(bw, bh, s->patch, ex.levels));
     for (int y = 0; !ret && y < bh; y++)

@@ -8,7 +8,9 @@
  * (blender-data, GPL-2+). Measures: coherence, repetition, seams, colour
  * histogram and autocorrelation distances (texture_eval.h), and time.
  *
- *   bench_texture [quality] [--size N] [--captures DIR] [--seed N]   (sunprobe's seed; quilting's is fixed)
+ *   bench_texture [quality] [--size N] [--captures DIR] [--seed N] [--coherence-step S]
+ *       (--seed: sunprobe's; quilting's is fixed. Coherence samples a 7 x 7 patch every S pixels, default 7:
+ *       every pixel once, and prime to both methods' block steps, so no sample grid lines up with their cuts)
  *   bench_texture scale --size WxH [--out FILE.png] [--threads N]   (one size per process: peak RSS)
  */
 #include <errno.h>
@@ -201,10 +203,14 @@ typedef struct scores {
     double coh, rep, seam, hist, ac, secs;
 } scores;
 
+static int coherence_step = 7;
+
 static scores score(const tev_image *out, const tev_image *ex, int tile, double secs)
 {
-    return (scores){ tev_coherence(out, ex, 7, 13), tev_repetition(out, ex), tev_seam_ratio(out, tile),
-                     tev_histogram_distance(out, ex), tev_autocorr_distance(out, ex, 8), secs };
+    return (scores){
+        tev_coherence(out, ex, 7, coherence_step), tev_repetition(out, ex),           tev_seam_ratio(out, tile),
+        tev_histogram_distance(out, ex),           tev_autocorr_distance(out, ex, 8), secs
+    };
 }
 
 static int cmp_double(const void *a, const void *b)
@@ -249,7 +255,7 @@ static int gather_exemplars(const char *cap, tev_image *ex, const char **name)
 
 static void print_row(const char *who, const scores *s)
 {
-    printf("  %-9s coherence %6.3f  repetition %6.3f  seams %6.3f  histogram %6.3f  autocorr %6.4f  %6.2f s\n", who,
+    printf("  %-9s coherence %6.3f  repetition %6.3f  seams %6.3f  histogram %7.4f  autocorr %6.4f  %6.2f s\n", who,
            s->coh, s->rep, s->seam, s->hist, s->ac, s->secs);
 }
 
@@ -265,7 +271,8 @@ static int quality(int N, const char *cap, uint64_t seed)
     s.tile = tile;
     s.seed = seed;
     printf("%dx%d from each exemplar; sunprobe tiles of %d (seams across them), quilting blocks of %d (seams across "
-           "its block steps of %d)\n", N, N, tile, B, B - B / 6);
+           "its block steps of %d); coherence sampled every %d pixels\n",
+           N, N, tile, B, B - B / 6, coherence_step);
     for (int k = 0; k < n; k++) {
         tev_image a = { malloc(sizeof(float) * 3 * (size_t)N * N), N, N };
         tev_image q = { calloc((size_t)N * N * 3, sizeof(float)), N, N };
@@ -365,9 +372,14 @@ int main(int argc, char **argv)
             seed = strtoull(argv[i + 1], NULL, 10);
         else if (!strcmp(argv[i], "--threads"))
             threads = atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--coherence-step") && !scale_mode && atoi(argv[i + 1]) >= 1)
+            coherence_step = atoi(argv[i + 1]);
         else
-            return fprintf(stderr, "usage: bench_texture [quality] [--size N] [--captures DIR] [--seed N] | "
-                                   "scale --size WxH [--out F.png] [--threads N]\n"), 1;
+            return fprintf(
+                       stderr,
+                       "usage: bench_texture [quality] [--size N] [--captures DIR] [--seed N] [--coherence-step S] | "
+                       "scale --size WxH [--out F.png] [--threads N]\n"),
+                   1;
     }
     return scale_mode ? scale(W, H, out, threads) : quality(N, cap, seed);
 }
