@@ -227,7 +227,7 @@ static int run_tile(tiler *t, const tex_exemplar *ex, sp_pool *pool, int i, int 
     span(t, t->ys, j, t->H, &y0, &y1);
     int w = x1 - x0, h = y1 - y0, ret = gather(t, i, j, x0, y0, w, h);
     tex_job job = { ex, t->s, pool, tex_hash(t->s->seed, ((uint64_t)j << 32) | (uint64_t)i), t->blocks, t->seams, h };
-    for (int y = 0; y < h; y++) /* the first rows across the bottom wrap went out long ago (wrap_ramp) */
+    for (int y = 0; !ret && y < h; y++) /* the first rows across the bottom wrap went out long ago (wrap_ramp) */
         if (t->kind[y] == 1 && y < job.seam_rows)
             job.seam_rows = y;
     if (!ret)

@@ -10,7 +10,8 @@
  *
  *   bench_texture [quality] [--size N] [--captures DIR] [--seed N] [--coherence-step S]
  *       (--seed: sunprobe's; quilting's is fixed. Coherence samples a 7 x 7 patch every S pixels, default 7:
- *       every pixel once, and prime to both methods' block steps, so no sample grid lines up with their cuts)
+ *       the patches tile the output, and 7 is prime to both methods' block steps, so no sample grid lines up with
+ *       their cuts)
  *   bench_texture scale --size WxH [--out FILE.png] [--threads N]   (one size per process: peak RSS)
  */
 #include <errno.h>
