@@ -32,25 +32,27 @@ typedef struct texture_args {
 
 static void usage(FILE *out)
 {
-    fprintf(out, "usage: sunprobe texture EXEMPLAR.png -o OUT.png|.tif|.exr --size WxH [options]\n\n"
-                 "Synthesises a texture of any size that looks like the exemplar: multi-scale patch\n"
-                 "optimisation over random crops, each pixel the mean of the patch votes covering it, made\n"
-                 "in tiles and written as they finish; memory does not grow with the size (the finished\n"
-                 "rows wait in a scratch file in $TMPDIR, else /tmp).\n"
-                 "The same seed gives the same image whatever the thread count.\n\n"
-                 "options:\n"
-                 "  -o, --output FILE     the texture: .png (row by row), or .tif / .exr (tiled, 8-bit / float;\n"
-                 "                        needs -Dopenimageio); made under a .partial name, renamed when complete\n"
-                 "      --size WxH        its size in pixels, each side %d..%u\n"
-                 "      --seed N          random seed (default 1)\n"
-                 "      --patch P         patch side, 4..32 (default 8)\n"
-                 "      --tile T          tile side, 8 patches..4096 (default 256)\n"
-                 "      --tileable        the result wraps left-right and top-bottom (sides >= 16 patches)\n"
-                 "      --iterations N    passes per pyramid level, 1..16 (default 3)\n"
-                 "      --reuse R         penalty on reusing one exemplar region, 0..10 (default 0.5)\n"
-                 "      --threads N       worker threads (default: every CPU; the result does not change)\n"
-                 "  -f, --force           replace an existing OUT\n"
-                 "  -q, --quiet           no summary\n",
+    fprintf(out,
+            "usage: sunprobe texture EXEMPLAR.png -o OUT.png|.tif|.exr --size WxH [options]\n\n"
+            "Synthesises a texture of any size that looks like the exemplar: multi-scale patch\n"
+            "optimisation over random crops, each pixel the mean of the patch votes covering it, the\n"
+            "finest level laid again in image-quilting blocks whose cuts are then optimised; made\n"
+            "in tiles and written as they finish; memory does not grow with the size (the finished\n"
+            "rows wait in a scratch file in $TMPDIR, else /tmp).\n"
+            "The same seed gives the same image whatever the thread count.\n\n"
+            "options:\n"
+            "  -o, --output FILE     the texture: .png (row by row), or .tif / .exr (tiled, 8-bit / float;\n"
+            "                        needs -Dopenimageio); made under a .partial name, renamed when complete\n"
+            "      --size WxH        its size in pixels, each side %d..%u\n"
+            "      --seed N          random seed (default 1)\n"
+            "      --patch P         patch side, 4..32 (default 8)\n"
+            "      --tile T          tile side, 8 patches..4096 (default 256)\n"
+            "      --tileable        the result wraps left-right and top-bottom (sides >= 16 patches)\n"
+            "      --iterations N    passes per pyramid level, 1..16 (default 3)\n"
+            "      --reuse R         penalty on reusing one exemplar region, 0..10 (default 0.5)\n"
+            "      --threads N       worker threads (default: every CPU; the result does not change)\n"
+            "  -f, --force           replace an existing OUT\n"
+            "  -q, --quiet           no summary\n",
             4, SP_TEXTURE_MAX_SIDE);
 }
 
