@@ -742,19 +742,22 @@ static int refine_seams(const tex_job *job, level_win *W, const tex_level *ex, c
         return -ENOMEM;
     }
     seam_band(W, job->seam_rows, b->src, ew, band, scratch);
-    for (size_t k = 0; k < (size_t)nx * ny; k++)
-        z[k] = -1;
+    for (int j = 0; j < ny; j++) /* -1: no match yet; -2: the patch lies outside the band, never matched */
+        for (int i = 0; i < nx; i++) {
+            int touches = 0;
+            for (int y = 0; y < P && !touches; y++)
+                for (int x = 0; x < P && !touches; x++)
+                    touches = band[(size_t)(ys[j] + y) * w + xs[i] + x];
+            z[j * nx + i] = touches ? -1 : -2;
+        }
     float *img = b->out;
     uint64_t rng = tex_hash(job->key ^ 0x5EA4ull, 0);
     for (int pass = 0; pass < SEAM_PASSES; pass++) {
         memset(acc, 0, sizeof(float) * 4 * n);
         for (int j = 0; j < ny; j++)
             for (int i = 0; i < nx; i++) {
-                int px = xs[i], py = ys[j], touches = 0;
-                for (int y = 0; y < P && !touches; y++)
-                    for (int x = 0; x < P && !touches; x++)
-                        touches = band[(size_t)(py + y) * w + px + x];
-                if (!touches)
+                int px = xs[i], py = ys[j];
+                if (z[j * nx + i] == -2)
                     continue;
                 int32_t prior[3];
                 int np = 0;
