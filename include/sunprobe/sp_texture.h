@@ -34,7 +34,8 @@ typedef struct sp_texture_settings {
     int iterations;     /* optimisation passes at the finest level (doubled per coarser one), 1..16, default 3 */
     int threads;        /* 0 (default): every online CPU */
     double reuse;       /* penalty on reusing an exemplar region, 0..10, default 0.5 (the blocks: of those
-                           within a factor 1 + 0.4 x reuse of the best fit, the least used region is laid) */
+                           within a factor 1 + 0.25 x reuse of the best fit, the least used region and
+                           colours are laid) */
     uint64_t seed;      /* default 1 */
     int tileable;       /* 1: the output wraps left-right and top-bottom (default 0) */
 } sp_texture_settings;

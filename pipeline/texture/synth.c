@@ -314,41 +314,74 @@ static int run_level(const tex_job *job, level_win *W, int level)
  * neighbouring blocks, drawn at random, on a coarse grid (subsampled cost)
  * refined around its best, and searched around the best, costed by the block's
  * error against the pixels already settled (held fixed or laid by earlier
- * blocks) plus, weaker, against the voted image. Of the candidates within a
- * factor 1 + 0.4 x reuse of the best cost, the one whose exemplar region the
- * window has used least is laid: a penalty in the cost itself would trade every
- * block's fit for spread, this only chooses among near-ties. A block may
- * not continue its neighbours' copy beyond BLOCK_RUN blocks, nor (at BLOCK_RUN
- * 1) reproduce a patch side of settled pixels exactly (a diagonal's or an
- * earlier tile's copy), which bounds verbatim repetition the way quilting's
- * fixed block does; borders are minimum-error cuts, then the band about them is
- * optimised (refine_seams below). Sequential, so the result depends on the seed only.
+ * blocks; not against the voted image, whose blur favours featureless
+ * regions). Of the candidates within a factor 1 + 0.25 x reuse of the best
+ * cost, the one whose exemplar region and colours the window has used most
+ * sparingly is laid: a penalty in the cost itself would trade every block's fit
+ * for spread, this only chooses among near-ties. A block may not continue its
+ * neighbours' copy beyond BLOCK_RUN blocks, nor (at BLOCK_RUN 1) reproduce half
+ * a patch side of settled pixels from the same exemplar pixels (a diagonal's
+ * copy; an earlier tile's pixels, whose source is not kept, by equal values),
+ * which bounds verbatim repetition the way quilting's fixed block does; borders
+ * are minimum-error cuts, then the band about them is optimised (refine_seams
+ * below). Sequential, so the result depends on the seed only.
  */
 #define BLOCK_PATCHES 4   /* block side in patches */
 #define BLOCK_RANDOM 24   /* random offsets tried per block */
-#define BLOCK_STRIDE 4    /* the exhaustive search's grid step */
-#define GRID_SUB 4        /* and its pixel subsampling (the grid only picks where to refine) */
+#define BLOCK_STRIDE 2    /* the exhaustive search's grid step */
+#define GRID_SUB 2        /* and its pixel subsampling (the grid only picks where to refine) */
 #define REFINE_SIDE (BLOCK_STRIDE + 1) /* full-cost offsets around the grid's best, a side */
 #define N_REFINE (REFINE_SIDE * REFINE_SIDE)
 #define BLOCK_RUN 1       /* blocks one verbatim copy may span */
-#define BLOCK_TOLERANCE 0.4 /* x reuse: how far over the best cost (relative) a less used region may still be laid */
-#define MAX_NEAR 256        /* candidates kept within that tolerance */
-#define LAYOUT_WEIGHT 0.1f /* the voted image's weight where nothing is settled yet */
+#define BLOCK_TOLERANCE 0.25 /* x reuse: how far over the best cost (relative) a less used region may still be laid */
+#define MAX_NEAR 256         /* candidates kept within that tolerance */
 #define UNSETTLED_COST 1e6f /* a cut through a pixel nothing has laid yet: kept inside the overlap */
 
 typedef struct block_pass {
     const tex_level *ex;
-    const float *voted;
     float *out;
     uint8_t *settled;        /* 0 free, 1 laid by a block, TEX_FIXED + 1 held fixed */
-    float *tgt, *wt;         /* the block's target pixels and their weights */
+    float *tgt;              /* the block's settled pixels, the grid's subsample first */
+    int32_t *tpos, *tsrc;    /* each one's place (y * exemplar width + x) and its src (-1 held or blended) */
+    int n_tgt, n_sub;
     int w, h, B, x0, y0, bw, bh;
     float *cnt;              /* blocks covering each patch-sized exemplar bin */
     int bins_w, P;
     double fair, tolerance;
     int exact_max;           /* settled pixels a candidate may reproduce exactly */
     int32_t *src;            /* exemplar pixel each window pixel was laid from, -1 where no block laid it */
+    uint16_t *bin;           /* colour bin of each exemplar pixel */
+    float *hex, *hout;       /* pixels per colour bin: the exemplar's (share), the laid ones' (count) */
+    double n_out;
 } block_pass;
+
+#define COLOUR_LEVELS 16 /* per channel, for the colours' share */
+
+static int colour_bin(const float *c)
+{
+    int k = 0;
+    for (int i = 0; i < 3; i++) {
+        int v = (int)(c[i] * COLOUR_LEVELS);
+        k = k * COLOUR_LEVELS + (v < 0 ? 0 : v >= COLOUR_LEVELS ? COLOUR_LEVELS - 1 : v);
+    }
+    return k;
+}
+
+/* How far over their share of the exemplar the laid pixels already hold the colours of offset (ox, oy). */
+static double colour_overuse(const block_pass *b, int ox, int oy)
+{
+    if (b->n_out <= 0)
+        return 0;
+    double over = 0;
+    int n = 0;
+    for (int y = 0; y < b->bh; y += 2)
+        for (int x = 0; x < b->bw; x += 2, n++) {
+            int k = b->bin[(size_t)(oy + y) * b->ex->w + ox + x];
+            double o = (double)b->hout[k] / b->n_out / (double)b->hex[k] - 1.0;
+            over += o > 0 ? o : 0;
+        }
+    return over / n;
+}
 
 /* How far over their fair share the window already uses the exemplar bins under offset (ox, oy), per bin. */
 static double block_overuse(const block_pass *b, int ox, int oy)
@@ -363,26 +396,29 @@ static double block_overuse(const block_pass *b, int ox, int oy)
     return over / (nb ? nb : 1);
 }
 
-/* Weighted distance of the block to exemplar offset (ox, oy); FLT_MAX at or past bound. */
-static float block_cost(const block_pass *b, int ox, int oy, float bound, int check_exact, int step)
+/*
+ * Distance of the block's settled pixels to exemplar offset (ox, oy), over the
+ * grid's subsample (scaled to the whole) or all of them; FLT_MAX at or past bound.
+ */
+static float block_cost(const block_pass *b, int ox, int oy, float bound, int check_exact, int sub)
 {
-    const tex_level *ex = b->ex;
-    float d = 0;
-    int exact = 0;
-    float area = (float)(step * step); /* a subsampled cost stands for the whole block */
-    for (int y = 0; y < b->bh && d < bound; y += step) {
-        const float *e = ex->px + 3 * ((size_t)(oy + y) * ex->w + ox), *t = b->tgt + 3 * (size_t)y * b->bw;
-        const float *wr = b->wt + (size_t)y * b->bw;
-        for (int x = 0; x < b->bw; x += step) {
-            float t0 = e[3 * x] - t[3 * x], t1 = e[3 * x + 1] - t[3 * x + 1], t2 = e[3 * x + 2] - t[3 * x + 2];
-            float q = t0 * t0 + t1 * t1 + t2 * t2;
-            d += area * wr[x] * q;
-            exact += q == 0.0f && wr[x] == 1.0f;
-        }
+    const float *base = b->ex->px + 3 * ((size_t)oy * b->ex->w + ox);
+    int32_t s0 = oy * b->ex->w + ox;
+    int n = sub ? b->n_sub : b->n_tgt, exact = 0;
+    float d = 0, area = sub ? (float)(GRID_SUB * GRID_SUB) : 1.0f;
+    for (int k = 0; k < n; k++) {
+        const float *e = base + 3 * (size_t)b->tpos[k], *t = b->tgt + 3 * (size_t)k;
+        float t0 = e[0] - t[0], t1 = e[1] - t[1], t2 = e[2] - t[2], q = t0 * t0 + t1 * t1 + t2 * t2;
+        d += q;
+        /* the same exemplar pixel where the source is known; else (held or blended pixels) the same value */
+        exact += b->tsrc[k] >= 0 ? b->tsrc[k] == s0 + b->tpos[k] : q == 0.0f;
+        if ((k & 31) == 31 && d * area >= bound)
+            return FLT_MAX;
     }
     /* reproducing settled pixels verbatim (a neighbour's, a diagonal's or an earlier tile's copy) extends that copy */
     if (check_exact && exact >= b->exact_max)
         return FLT_MAX;
+    d *= area;
     return d < bound ? d : FLT_MAX;
 }
 
@@ -480,6 +516,9 @@ static void lay_block(block_pass *b, int ox, int oy, float *err, int *path, floa
             if (b->settled[p] == TEX_FIXED + 1 || keep)
                 continue;
             memcpy(b->out + 3 * p, ex->px + 3 * ((size_t)(oy + y) * ex->w + ox + x), 3 * sizeof(float));
+            if (b->src[p] >= 0)
+                b->hout[b->bin[b->src[p]]] -= 1, b->n_out -= 1;
+            b->hout[b->bin[(size_t)(oy + y) * ex->w + ox + x]] += 1, b->n_out += 1;
             b->settled[p] = 1;
             b->src[p] = (oy + y) * ex->w + ox + x;
         }
@@ -516,18 +555,26 @@ static void settle_blocks(const tex_job *job, level_win *W, const tex_level *ex,
     int B = b->B, step = B - block_overlap(B), nx = block_origins(W->w, B, step, xs),
         ny = block_origins(W->h, B, step, ys);
     uint64_t rng = tex_hash(job->key ^ 0xB10Cull, 0);
-    float *err = b->wt + (size_t)B * B, *acc = err + (size_t)B * B;
+    float *err = b->tgt + (size_t)3 * B * B, *acc = err + (size_t)B * B;
     int *path = (int *)(acc + (size_t)B * B);
     for (int j = 0; j < ny; j++)
         for (int i = 0; i < nx; i++) {
             int id = j * nx + i;
             b->x0 = xs[i], b->y0 = ys[j], b->bw = B, b->bh = B;
-            for (int y = 0; y < B; y++)
-                for (int x = 0; x < B; x++) {
-                    size_t p = (size_t)(b->y0 + y) * W->w + b->x0 + x, q = (size_t)y * B + x;
-                    memcpy(b->tgt + 3 * q, b->settled[p] ? b->out + 3 * p : b->voted + 3 * p, 3 * sizeof(float));
-                    b->wt[q] = b->settled[p] ? 1.0f : LAYOUT_WEIGHT;
-                }
+            b->n_tgt = 0; /* the settled pixels the cost compares: the grid's subsample, then the rest */
+            for (int pass = 0; pass < 2; pass++) {
+                for (int y = 0; y < B; y++)
+                    for (int x = 0; x < B; x++) {
+                        size_t p = (size_t)(b->y0 + y) * W->w + b->x0 + x;
+                        if (!b->settled[p] || (y % GRID_SUB == 0 && x % GRID_SUB == 0) == pass)
+                            continue;
+                        memcpy(b->tgt + 3 * (size_t)b->n_tgt, b->out + 3 * p, 3 * sizeof(float));
+                        b->tpos[b->n_tgt] = y * ex->w + x;
+                        b->tsrc[b->n_tgt++] = b->src[p];
+                    }
+                if (pass == 0)
+                    b->n_sub = b->n_tgt;
+            }
             /* neighbours whose copy a candidate would continue, and the run it would make */
             int nbr[2] = { i > 0 ? id - 1 : -1, j > 0 ? id - nx : -1 };
             int cont[2][2];
@@ -585,28 +632,29 @@ static void settle_blocks(const tex_job *job, level_win *W, const tex_level *ex,
                 if (run > BLOCK_RUN)
                     continue;
                 if (t >= 7 && t < 7 + n_grid) { /* the grid only picks where to refine: a subsampled cost */
-                    float d = block_cost(b, cx, cy, gbest, 0, GRID_SUB);
+                    float d = block_cost(b, cx, cy, gbest, 0, 1);
                     if (d < gbest)
                         gbest = d, gx = cx, gy = cy;
                     continue;
                 }
                 float bound = best == FLT_MAX ? FLT_MAX : best * (float)(1 + b->tolerance);
-                float d = block_cost(b, cx, cy, bound, run == 1 && !closing, 1);
+                float d = block_cost(b, cx, cy, bound, run == 1 && !closing, 0);
                 if (d < FLT_MAX && n_near < MAX_NEAR)
                     near_x[n_near] = cx, near_y[n_near] = cy, near_d[n_near++] = d;
                 if (d < best)
                     best = d, bx = cx, by = cy;
             }
             /*
-             * Within the tolerance the least used region wins; among equals (early in a window nothing is over
-             * its share) the first tried, i.e. the voted layout, which carries the coarse levels' arrangement,
-             * even where a later candidate fits a little better (measured: autocorrelation 0.70-0.86 against
-             * quilting this way, 0.72-1.12 taking the best fit among equals; TEXTURE.md).
+             * Within the tolerance the region and colours least used beyond their share win (both relative
+             * to the share, so they add); among equals (early in a window nothing is over its share) the first
+             * tried, i.e. the voted layout, which carries the coarse levels' arrangement, even where a later
+             * candidate fits a little better (measured: autocorrelation 0.70-0.86 against quilting this way,
+             * 0.72-1.12 taking the best fit among equals; TEXTURE.md).
              */
             double least = DBL_MAX;
             for (int k = 0; k < n_near && b->tolerance > 0; k++)
                 if (near_d[k] <= best * (float)(1 + b->tolerance)) {
-                    double o = block_overuse(b, near_x[k], near_y[k]);
+                    double o = block_overuse(b, near_x[k], near_y[k]) + colour_overuse(b, near_x[k], near_y[k]);
                     if (o < least)
                         least = o, bx = near_x[k], by = near_y[k];
                 }
@@ -806,32 +854,33 @@ static int block_level(const tex_job *job, level_win *W, const tex_level *ex, co
     int step = B - block_overlap(B), nx = (W->w + step - 1) / step + 1, ny = (W->h + step - 1) / step + 1;
     size_t n = (size_t)W->w * W->h, nb = (size_t)nx * ny;
     int bins_w = (ex->w + P - 1) / P, bins_h = (ex->h + P - 1) / P;
-    block_pass b = { ex,
-                     W->img,
-                     W->next,
-                     calloc(n, 1),
-                     malloc(sizeof(float) * (size_t)B * B * 7 + sizeof(int) * 4 * B),
-                     NULL,
-                     W->w,
-                     W->h,
-                     B,
-                     0,
-                     0,
-                     0,
-                     0,
-                     calloc((size_t)bins_w * bins_h, sizeof(float)),
-                     bins_w,
-                     P,
-                     (double)n / ((double)ex->w * ex->h),
-                     BLOCK_TOLERANCE * job->s->reuse };
+    block_pass b = { .ex = ex,
+                     .out = W->next,
+                     .settled = calloc(n, 1),
+                     .tgt = malloc(sizeof(float) * (size_t)B * B * 5 + sizeof(int) * 4 * B),
+                     .tpos = malloc(sizeof(int32_t) * 2 * (size_t)B * B),
+                     .w = W->w,
+                     .h = W->h,
+                     .B = B,
+                     .cnt = calloc((size_t)bins_w * bins_h, sizeof(float)),
+                     .bins_w = bins_w,
+                     .P = P,
+                     .fair = (double)n / ((double)ex->w * ex->h),
+                     .tolerance = BLOCK_TOLERANCE * job->s->reuse,
+                     .bin = malloc(sizeof(uint16_t) * (size_t)ex->w * ex->h),
+                     .hex = calloc(2 * COLOUR_LEVELS * COLOUR_LEVELS * COLOUR_LEVELS, sizeof(float)) };
     int *idx = malloc(sizeof(int) * ((size_t)nx + ny + 4 * nb));
-    if (!b.settled || !b.tgt || !b.cnt || !idx) {
-        free(b.settled), free(b.tgt), free(b.cnt), free(idx);
+    if (!b.settled || !b.tgt || !b.tpos || !b.cnt || !idx || !b.bin || !b.hex) {
+        free(b.settled), free(b.tgt), free(b.tpos), free(b.cnt), free(idx), free(b.bin), free(b.hex);
         return -ENOMEM;
     }
-    b.wt = b.tgt + (size_t)3 * B * B;
+    b.tsrc = b.tpos + (size_t)B * B;
+    b.hout = b.hex + COLOUR_LEVELS * COLOUR_LEVELS * COLOUR_LEVELS;
+    for (int k = 0; k < ex->w * ex->h; k++)
+        b.hex[b.bin[k] = (uint16_t)colour_bin(ex->px + 3 * (size_t)k)] += 1.0f / (float)(ex->w * ex->h);
     int ov = block_overlap(B); /* a copy touching its diagonal neighbour through the overlaps' corner still counts */
-    b.exact_max = P < ov * ov / 2 ? P : ov * ov / 2;
+    b.exact_max = P / 2 < ov * ov / 2 ? P / 2 : ov * ov / 2;
+    b.exact_max = b.exact_max > 1 ? b.exact_max : 1;
     b.src = W->src_next; /* free after the last vote: the blocks' own source map */
     for (size_t p = 0; p < n; p++)
         b.src[p] = -1;
@@ -844,7 +893,7 @@ static int block_level(const tex_job *job, level_win *W, const tex_level *ex, co
     int ret = job->seams ? refine_seams(job, W, ex, &b) : 0;
     float *t = W->img;
     W->img = W->next, W->next = t;
-    free(b.settled), free(b.tgt), free(b.cnt), free(idx);
+    free(b.settled), free(b.tgt), free(b.tpos), free(b.cnt), free(idx), free(b.bin), free(b.hex);
     return ret;
 }
 
