@@ -351,8 +351,8 @@ typedef struct block_pass {
     int exact_max;           /* settled pixels a candidate may reproduce exactly */
     int32_t *src;            /* exemplar pixel each window pixel was laid from, -1 where no block laid it */
     uint16_t *bin;           /* colour bin of each exemplar pixel */
-    float *hex, *hout;       /* pixels per colour bin: the exemplar's (share), the laid ones' (count) */
-    double n_out;
+    uint32_t *hex, *hout;    /* pixels per colour bin: the exemplar's, those the blocks laid */
+    uint32_t n_ex, n_out;
 } block_pass;
 
 #define COLOUR_LEVELS 16 /* per channel, for the colours' share */
@@ -361,8 +361,8 @@ static int colour_bin(const float *c)
 {
     int k = 0;
     for (int i = 0; i < 3; i++) {
-        int v = (int)(c[i] * COLOUR_LEVELS);
-        k = k * COLOUR_LEVELS + (v < 0 ? 0 : v >= COLOUR_LEVELS ? COLOUR_LEVELS - 1 : v);
+        float v = c[i] * COLOUR_LEVELS; /* clamped before the cast: HDR or NaN input stays in range */
+        k = k * COLOUR_LEVELS + (v >= 1 ? (v < COLOUR_LEVELS - 1 ? (int)v : COLOUR_LEVELS - 1) : 0);
     }
     return k;
 }
@@ -370,14 +370,14 @@ static int colour_bin(const float *c)
 /* How far over their share of the exemplar the laid pixels already hold the colours of offset (ox, oy). */
 static double colour_overuse(const block_pass *b, int ox, int oy)
 {
-    if (b->n_out <= 0)
+    if (!b->n_out)
         return 0;
     double over = 0;
     int n = 0;
     for (int y = 0; y < b->bh; y += 2)
         for (int x = 0; x < b->bw; x += 2, n++) {
             int k = b->bin[(size_t)(oy + y) * b->ex->w + ox + x];
-            double o = (double)b->hout[k] / b->n_out / (double)b->hex[k] - 1.0;
+            double o = ((double)b->hout[k] / b->n_out) / ((double)b->hex[k] / b->n_ex) - 1.0;
             over += o > 0 ? o : 0;
         }
     return over / n;
@@ -412,14 +412,14 @@ static float block_cost(const block_pass *b, int ox, int oy, float bound, int ch
         d += q;
         /* the same exemplar pixel where the source is known; else (held or blended pixels) the same value */
         exact += b->tsrc[k] >= 0 ? b->tsrc[k] == s0 + b->tpos[k] : q == 0.0f;
-        if ((k & 31) == 31 && d * area >= bound)
+        if ((k & 31) == 31 && d * area > bound)
             return FLT_MAX;
     }
     /* reproducing settled pixels verbatim (a neighbour's, a diagonal's or an earlier tile's copy) extends that copy */
     if (check_exact && exact >= b->exact_max)
         return FLT_MAX;
     d *= area;
-    return d < bound ? d : FLT_MAX;
+    return d <= bound ? d : FLT_MAX;
 }
 
 /* Union-find over the block grid: blocks joined when one continues the other's copy. */
@@ -645,11 +645,13 @@ static void settle_blocks(const tex_job *job, level_win *W, const tex_level *ex,
                     best = d, bx = cx, by = cy;
             }
             /*
-             * Within the tolerance the region and colours least used beyond their share win (both relative
-             * to the share, so they add); among equals (early in a window nothing is over its share) the first
-             * tried, i.e. the voted layout, which carries the coarse levels' arrangement, even where a later
-             * candidate fits a little better (measured: autocorrelation 0.70-0.86 against quilting this way,
-             * 0.72-1.12 taking the best fit among equals; TEXTURE.md).
+             * Within the tolerance the candidate least over its share wins: its exemplar bins against their
+             * fair share of the window's blocks (nothing is over it early in a window), plus its colours against
+             * their share of the exemplar among the pixels the blocks laid so far (from the first block on).
+             * Among equals the first tried, i.e. the voted layout, which carries the coarse levels'
+             * arrangement, even where a later candidate fits a little better (measured before the colours
+             * were added: autocorrelation 0.70-0.86 against quilting this way, 0.72-1.12 taking the best fit
+             * among equals; TEXTURE.md).
              */
             double least = DBL_MAX;
             for (int k = 0; k < n_near && b->tolerance > 0; k++)
@@ -868,7 +870,8 @@ static int block_level(const tex_job *job, level_win *W, const tex_level *ex, co
                      .fair = (double)n / ((double)ex->w * ex->h),
                      .tolerance = BLOCK_TOLERANCE * job->s->reuse,
                      .bin = malloc(sizeof(uint16_t) * (size_t)ex->w * ex->h),
-                     .hex = calloc(2 * COLOUR_LEVELS * COLOUR_LEVELS * COLOUR_LEVELS, sizeof(float)) };
+                     .hex = calloc(2 * COLOUR_LEVELS * COLOUR_LEVELS * COLOUR_LEVELS, sizeof(uint32_t)),
+                     .n_ex = (uint32_t)(ex->w * ex->h) };
     int *idx = malloc(sizeof(int) * ((size_t)nx + ny + 4 * nb));
     if (!b.settled || !b.tgt || !b.tpos || !b.cnt || !idx || !b.bin || !b.hex) {
         free(b.settled), free(b.tgt), free(b.tpos), free(b.cnt), free(idx), free(b.bin), free(b.hex);
@@ -877,10 +880,8 @@ static int block_level(const tex_job *job, level_win *W, const tex_level *ex, co
     b.tsrc = b.tpos + (size_t)B * B;
     b.hout = b.hex + COLOUR_LEVELS * COLOUR_LEVELS * COLOUR_LEVELS;
     for (int k = 0; k < ex->w * ex->h; k++)
-        b.hex[b.bin[k] = (uint16_t)colour_bin(ex->px + 3 * (size_t)k)] += 1.0f / (float)(ex->w * ex->h);
-    int ov = block_overlap(B); /* a copy touching its diagonal neighbour through the overlaps' corner still counts */
-    b.exact_max = P / 2 < ov * ov / 2 ? P / 2 : ov * ov / 2;
-    b.exact_max = b.exact_max > 1 ? b.exact_max : 1;
+        b.hex[b.bin[k] = (uint16_t)colour_bin(ex->px + 3 * (size_t)k)] += 1;
+    b.exact_max = P / 2 > 1 ? P / 2 : 1;
     b.src = W->src_next; /* free after the last vote: the blocks' own source map */
     for (size_t p = 0; p < n; p++)
         b.src[p] = -1;

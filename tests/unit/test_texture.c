@@ -111,25 +111,34 @@ static void test_seams(void)
  * A low-contrast exemplar in 8-bit steps (skin, asphalt: many neighbouring
  * pixels equal by chance) is laid coherently: a block is refused for continuing
  * a settled copy (the same exemplar pixels), not for matching settled values
- * exactly, which such an exemplar does everywhere (refused by value, as until
- * 2026-12-06: 0.357 here; by source: 0.234, and 0.177 unquantised).
+ * exactly, which such an exemplar does everywhere. Pixels held from an earlier
+ * tile keep no source and are still compared by value (tiles of 64). Refused
+ * by value throughout, as until 2026-12-06: 0.357 in one tile, 0.386 in tiles
+ * of 64; by source: 0.234 and 0.283 (0.177 and 0.222 unquantised).
  */
 static void test_quantised(void)
 {
-    double c[2];
-    for (int q = 0; q < 2; q++) {
-        tev_image ex, out;
-        tev_procedural(&ex, TEV_BLOBS, 128, 128, 7);
-        for (size_t i = 0; q && i < (size_t)3 * 128 * 128; i++)
-            ex.px[i] = roundf((0.45f + 0.06f * ex.px[i]) * 255.0f) / 255.0f;
-        sp_texture_settings s;
-        sp_texture_default_settings(&s);
-        CHECK_EQ_INT(synth(&ex, 256, 256, &s, &out), 0);
-        c[q] = tev_coherence(&out, &ex, 7, 7);
-        tev_free(&ex), tev_free(&out);
+    static const int tiles[2] = { 256, 64 };
+    static const double limit[2] = { 0.29, 0.33 };
+    for (int t = 0; t < 2; t++) {
+        double c[2];
+        for (int q = 0; q < 2; q++) {
+            tev_image ex, out;
+            tev_procedural(&ex, TEV_BLOBS, 128, 128, 7);
+            for (size_t i = 0; q && i < (size_t)3 * 128 * 128; i++)
+                ex.px[i] = roundf((0.45f + 0.06f * ex.px[i]) * 255.0f) / 255.0f;
+            sp_texture_settings s;
+            sp_texture_default_settings(&s);
+            s.tile = tiles[t];
+            CHECK_EQ_INT(synth(&ex, 256, 256, &s, &out), 0);
+            c[q] = tev_coherence(&out, &ex, 7, 7);
+            tev_free(&ex), tev_free(&out);
+        }
+        printf("blobs, tiles of %d: coherence %.3f, in 8-bit steps at 6%% contrast %.3f\n", tiles[t], c[0], c[1]);
+        CHECK_MSG(c[1] < limit[t],
+                  "the quantised exemplar was laid incoherently in tiles of %d (%.3f; %.3f unquantised)", tiles[t],
+                  c[1], c[0]);
     }
-    printf("blobs: coherence %.3f, in 8-bit steps at 6%% contrast %.3f\n", c[0], c[1]);
-    CHECK_MSG(c[1] < 0.29, "the quantised exemplar was laid incoherently (%.3f; %.3f unquantised)", c[1], c[0]);
 }
 
 /*
