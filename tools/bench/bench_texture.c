@@ -8,8 +8,9 @@
  * (blender-data, GPL-2+). Measures: coherence, repetition, seams, colour
  * histogram and autocorrelation distances (texture_eval.h), and time.
  *
- *   bench_texture [quality] [--size N] [--captures DIR] [--seed N] [--coherence-step S]
- *       (--seed: sunprobe's; quilting's is fixed. Coherence samples a 7 x 7 patch every S pixels, default 7:
+ *   bench_texture [quality] [--size N] [--captures DIR] [--seed N] [--quilt-seed N] [--coherence-step S]
+ *       (--seed: sunprobe's; --quilt-seed: quilting's, 11 unless given, so runs over sunprobe's seeds compare
+ *       against one draw of the baseline and runs over both show the baseline's own spread. Coherence samples a 7 x 7 patch every S pixels, default 7:
  *       the patches tile the output, and 7 is prime to both methods' block steps, so no sample grid lines up with
  *       their cuts)
  *   bench_texture scale --size WxH [--out FILE.png] [--threads N]   (one size per process: peak RSS)
@@ -260,7 +261,7 @@ static void print_row(const char *who, const scores *s)
            s->coh, s->rep, s->seam, s->hist, s->ac, s->secs);
 }
 
-static int quality(int N, const char *cap, uint64_t seed)
+static int quality(int N, const char *cap, uint64_t seed, uint64_t quilt_seed)
 {
     tev_image ex[MAX_EX];
     const char *name[MAX_EX];
@@ -272,8 +273,8 @@ static int quality(int N, const char *cap, uint64_t seed)
     s.tile = tile;
     s.seed = seed;
     printf("%dx%d from each exemplar; sunprobe tiles of %d (seams across them), quilting blocks of %d (seams across "
-           "its block steps of %d); coherence sampled every %d pixels\n",
-           N, N, tile, B, B - B / 6, coherence_step);
+           "its block steps of %d); coherence sampled every %d pixels; seeds %llu (sunprobe), %llu (quilting)\n",
+           N, N, tile, B, B - B / 6, coherence_step, (unsigned long long)seed, (unsigned long long)quilt_seed);
     for (int k = 0; k < n; k++) {
         tev_image a = { malloc(sizeof(float) * 3 * (size_t)N * N), N, N };
         tev_image q = { calloc((size_t)N * N * 3, sizeof(float)), N, N };
@@ -283,7 +284,7 @@ static int quality(int N, const char *cap, uint64_t seed)
                                                      (uint32_t)N, &s, to_memory, &ms))
             return 1;
         double t1 = now_s();
-        quilt(&ex[k], &q, B, 11);
+        quilt(&ex[k], &q, B, quilt_seed);
         double t2 = now_s();
         scores sa = score(&a, &ex[k], tile, t1 - t0), sq = score(&q, &ex[k], B - B / 6, t2 - t1);
         printf("%s (%dx%d):\n", name[k], ex[k].w, ex[k].h);
@@ -359,7 +360,7 @@ int main(int argc, char **argv)
     int scale_mode = argc > 1 && !strcmp(argv[1], "scale"), threads = 0, N = 384;
     uint32_t W = 2304, H = 2304;
     const char *cap = "../shared/captures", *out = "/dev/null";
-    uint64_t seed = 1;
+    uint64_t seed = 1, quilt_seed = 11;
     for (int i = 1 + (argc > 1 && (scale_mode || !strcmp(argv[1], "quality"))); i + 1 < argc; i += 2) {
         if (!strcmp(argv[i], "--size") && scale_mode && sscanf(argv[i + 1], "%ux%u", &W, &H) == 2)
             continue;
@@ -371,16 +372,18 @@ int main(int argc, char **argv)
             out = argv[i + 1];
         else if (!strcmp(argv[i], "--seed") && !scale_mode)
             seed = strtoull(argv[i + 1], NULL, 10);
+        else if (!strcmp(argv[i], "--quilt-seed") && !scale_mode)
+            quilt_seed = strtoull(argv[i + 1], NULL, 10);
         else if (!strcmp(argv[i], "--threads"))
             threads = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--coherence-step") && !scale_mode && atoi(argv[i + 1]) >= 1)
             coherence_step = atoi(argv[i + 1]);
         else
-            return fprintf(
-                       stderr,
-                       "usage: bench_texture [quality] [--size N] [--captures DIR] [--seed N] [--coherence-step S] | "
-                       "scale --size WxH [--out F.png] [--threads N]\n"),
+            return fprintf(stderr,
+                           "usage: bench_texture [quality] [--size N] [--captures DIR] [--seed N] [--quilt-seed N] "
+                           "[--coherence-step S] | "
+                           "scale --size WxH [--out F.png] [--threads N]\n"),
                    1;
     }
-    return scale_mode ? scale(W, H, out, threads) : quality(N, cap, seed);
+    return scale_mode ? scale(W, H, out, threads) : quality(N, cap, seed, quilt_seed);
 }
