@@ -96,6 +96,29 @@ static double patch_scale(const tex_level *l, const uint8_t *mask, int patch)
     return (double)patch * patch * 2.0 * (var > 1e-6 ? var : 1e-6);
 }
 
+static int colour_bin(const float *c)
+{
+    int k = 0;
+    for (int i = 0; i < 3; i++) {
+        float v = c[i] * TEX_COLOUR_LEVELS; /* clamped before the cast: HDR or NaN input stays in range */
+        k = k * TEX_COLOUR_LEVELS + (v >= 1 ? (v < TEX_COLOUR_LEVELS - 1 ? (int)v : TEX_COLOUR_LEVELS - 1) : 0);
+    }
+    return k;
+}
+
+/* The finest level's colour bins and their counts (the exemplar does not change between windows). */
+static int colour_bins(tex_level *L)
+{
+    size_t n = (size_t)L->w * L->h;
+    L->colour = malloc(sizeof(uint16_t) * n);
+    L->colour_count = calloc(TEX_COLOUR_BINS, sizeof(uint32_t));
+    if (!L->colour || !L->colour_count)
+        return -ENOMEM;
+    for (size_t k = 0; k < n; k++)
+        L->colour_count[L->colour[k] = (uint16_t)colour_bin(L->px + 3 * k)] += 1;
+    return 0;
+}
+
 int tex_exemplar_build(tex_exemplar *ex, const float *rgb, int ew, int eh, const uint8_t *source, int patch,
                        int levels)
 {
@@ -121,14 +144,14 @@ int tex_exemplar_build(tex_exemplar *ex, const float *rgb, int ew, int eh, const
             const tex_level *F = &ex->lv[l - 1];
             tex_reduce(F->px, mask[l - 1], F->w, F->h, L->px, mask[l], L->w, L->h);
         }
-        if ((ret = mark_valid(L, mask[l], patch)))
+        if ((ret = mark_valid(L, mask[l], patch)) || (!l && (ret = colour_bins(L))))
             goto out;
         if (!L->n_list) {
             if (!l) {
                 ret = SP_ENODATA;
                 goto out;
             }
-            free(L->px), free(L->valid), free(L->list);
+            free(L->px), free(L->valid), free(L->list), free(L->colour), free(L->colour_count);
             memset(L, 0, sizeof(*L));
             break;
         }
@@ -150,6 +173,8 @@ void tex_exemplar_free(tex_exemplar *ex)
         free(ex->lv[l].px);
         free(ex->lv[l].valid);
         free(ex->lv[l].list);
+        free(ex->lv[l].colour);
+        free(ex->lv[l].colour_count);
     }
     memset(ex, 0, sizeof(*ex));
 }

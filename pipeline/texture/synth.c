@@ -350,34 +350,21 @@ typedef struct block_pass {
     double fair, tolerance;
     int exact_max;           /* settled pixels a candidate may reproduce exactly */
     int32_t *src;            /* exemplar pixel each window pixel was laid from, -1 where no block laid it */
-    uint16_t *bin;           /* colour bin of each exemplar pixel */
-    uint32_t *hex, *hout;    /* pixels per colour bin: the exemplar's, those the blocks laid */
-    uint32_t n_ex, n_out;
+    uint32_t *hout;          /* pixels per colour bin (tex_level.colour) among those the blocks laid */
+    uint32_t n_out;
 } block_pass;
-
-#define COLOUR_LEVELS 16 /* per channel, for the colours' share */
-
-static int colour_bin(const float *c)
-{
-    int k = 0;
-    for (int i = 0; i < 3; i++) {
-        float v = c[i] * COLOUR_LEVELS; /* clamped before the cast: HDR or NaN input stays in range */
-        k = k * COLOUR_LEVELS + (v >= 1 ? (v < COLOUR_LEVELS - 1 ? (int)v : COLOUR_LEVELS - 1) : 0);
-    }
-    return k;
-}
 
 /* How far over their share of the exemplar the laid pixels already hold the colours of offset (ox, oy). */
 static double colour_overuse(const block_pass *b, int ox, int oy)
 {
     if (!b->n_out)
         return 0;
-    double over = 0;
+    double over = 0, n_ex = (double)b->ex->w * b->ex->h;
     int n = 0;
     for (int y = 0; y < b->bh; y += 2)
         for (int x = 0; x < b->bw; x += 2, n++) {
-            int k = b->bin[(size_t)(oy + y) * b->ex->w + ox + x];
-            double o = ((double)b->hout[k] / b->n_out) / ((double)b->hex[k] / b->n_ex) - 1.0;
+            int k = b->ex->colour[(size_t)(oy + y) * b->ex->w + ox + x];
+            double o = ((double)b->hout[k] / b->n_out) / ((double)b->ex->colour_count[k] / n_ex) - 1.0;
             over += o > 0 ? o : 0;
         }
     return over / n;
@@ -517,8 +504,8 @@ static void lay_block(block_pass *b, int ox, int oy, float *err, int *path, floa
                 continue;
             memcpy(b->out + 3 * p, ex->px + 3 * ((size_t)(oy + y) * ex->w + ox + x), 3 * sizeof(float));
             if (b->src[p] >= 0)
-                b->hout[b->bin[b->src[p]]] -= 1, b->n_out -= 1;
-            b->hout[b->bin[(size_t)(oy + y) * ex->w + ox + x]] += 1, b->n_out += 1;
+                b->hout[ex->colour[b->src[p]]] -= 1, b->n_out -= 1;
+            b->hout[ex->colour[(size_t)(oy + y) * ex->w + ox + x]] += 1, b->n_out += 1;
             b->settled[p] = 1;
             b->src[p] = (oy + y) * ex->w + ox + x;
         }
@@ -869,18 +856,13 @@ static int block_level(const tex_job *job, level_win *W, const tex_level *ex, co
                      .P = P,
                      .fair = (double)n / ((double)ex->w * ex->h),
                      .tolerance = BLOCK_TOLERANCE * job->s->reuse,
-                     .bin = malloc(sizeof(uint16_t) * (size_t)ex->w * ex->h),
-                     .hex = calloc(2 * COLOUR_LEVELS * COLOUR_LEVELS * COLOUR_LEVELS, sizeof(uint32_t)),
-                     .n_ex = (uint32_t)(ex->w * ex->h) };
+                     .hout = calloc(TEX_COLOUR_BINS, sizeof(uint32_t)) };
     int *idx = malloc(sizeof(int) * ((size_t)nx + ny + 4 * nb));
-    if (!b.settled || !b.tgt || !b.tpos || !b.cnt || !idx || !b.bin || !b.hex) {
-        free(b.settled), free(b.tgt), free(b.tpos), free(b.cnt), free(idx), free(b.bin), free(b.hex);
+    if (!b.settled || !b.tgt || !b.tpos || !b.cnt || !idx || !b.hout) {
+        free(b.settled), free(b.tgt), free(b.tpos), free(b.cnt), free(idx), free(b.hout);
         return -ENOMEM;
     }
     b.tsrc = b.tpos + (size_t)B * B;
-    b.hout = b.hex + COLOUR_LEVELS * COLOUR_LEVELS * COLOUR_LEVELS;
-    for (int k = 0; k < ex->w * ex->h; k++)
-        b.hex[b.bin[k] = (uint16_t)colour_bin(ex->px + 3 * (size_t)k)] += 1;
     b.exact_max = P / 2 > 1 ? P / 2 : 1;
     b.src = W->src_next; /* free after the last vote: the blocks' own source map */
     for (size_t p = 0; p < n; p++)
@@ -894,7 +876,7 @@ static int block_level(const tex_job *job, level_win *W, const tex_level *ex, co
     int ret = job->seams ? refine_seams(job, W, ex, &b) : 0;
     float *t = W->img;
     W->img = W->next, W->next = t;
-    free(b.settled), free(b.tgt), free(b.tpos), free(b.cnt), free(idx), free(b.bin), free(b.hex);
+    free(b.settled), free(b.tgt), free(b.tpos), free(b.cnt), free(idx), free(b.hout);
     return ret;
 }
 

@@ -18,7 +18,12 @@ typedef struct tex_level {
     int32_t *list;      /* the valid positions (y * w + x) */
     int n_list;
     double scale;       /* a typical patch distance, so the reuse penalty is relative */
+    uint16_t *colour;   /* finest level only (else NULL): each pixel's colour bin, TEX_COLOUR_LEVELS a channel */
+    uint32_t *colour_count; /* and the pixels per bin: the exemplar's colours, for the blocks' share of them */
 } tex_level;
+
+#define TEX_COLOUR_LEVELS 16
+#define TEX_COLOUR_BINS (TEX_COLOUR_LEVELS * TEX_COLOUR_LEVELS * TEX_COLOUR_LEVELS)
 
 typedef struct tex_exemplar {
     tex_level lv[TEX_MAX_LEVELS];

@@ -10,9 +10,9 @@
  *
  *   bench_texture [quality] [--size N] [--captures DIR] [--seed N] [--quilt-seed N] [--coherence-step S]
  *       (--seed: sunprobe's; --quilt-seed: quilting's, 11 unless given, so runs over sunprobe's seeds compare
- *       against one draw of the baseline and runs over both show the baseline's own spread. Coherence samples a 7 x 7 patch every S pixels, default 7:
- *       the patches tile the output, and 7 is prime to both methods' block steps, so no sample grid lines up with
- *       their cuts)
+ *       against one draw of the baseline and runs over both show the baseline's own spread. Coherence samples a
+ *       7 x 7 patch every S pixels, default 7: the patches tile the output, and 7 is prime to both methods' block
+ *       steps, so no sample grid lines up with their cuts)
  *   bench_texture scale --size WxH [--out FILE.png] [--threads N]   (one size per process: peak RSS)
  */
 #include <errno.h>
