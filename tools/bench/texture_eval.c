@@ -152,13 +152,24 @@ static double nearest(const tev_image *a, int x, int y, const tev_image *ex, int
     return best;
 }
 
+/*
+ * One patch per step x step cell, at a fixed pseudo-random place in the cell: a
+ * regular grid beats against the methods' own periods (blocks, tiles) and
+ * biased the mean by up to 8 % depending on the step.
+ */
 static double mean_nearest(const tev_image *a, const tev_image *ex, int p, int step, int self)
 {
     double s = 0;
     int n = 0;
-    for (int y = 0; y + p <= a->h; y += step)
-        for (int x = 0; x + p <= a->w; x += step, n++)
+    for (int cy = 0; cy + p <= a->h; cy += step)
+        for (int cx = 0; cx + p <= a->w; cx += step, n++) {
+            uint64_t r = ((uint64_t)cy << 32 | (uint64_t)cx) * 0x9E3779B97F4A7C15ull;
+            r = (r ^ (r >> 29)) * 0xBF58476D1CE4E5B9ull;
+            r ^= r >> 32;
+            int x = cx + (int)(r % (uint64_t)step), y = cy + (int)((r >> 16) % (uint64_t)step);
+            x = x + p <= a->w ? x : a->w - p, y = y + p <= a->h ? y : a->h - p;
             s += sqrt(nearest(a, x, y, ex, p, self));
+        }
     return n ? s / n : 0;
 }
 

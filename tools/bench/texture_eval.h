@@ -22,7 +22,8 @@ const char *tev_kind_name(enum tev_kind kind);
 void tev_free(tev_image *im);
 
 /*
- * Mean over output patches (p x p, on a grid of stride step) of the distance to
+ * Mean over output patches (p x p, one at a fixed random place in each step x
+ * step cell) of the distance to
  * their nearest exemplar patch (exhaustive search on the exemplar at stride 1),
  * divided by the same for the exemplar's own patches excluding matches that
  * overlap them (leave-one-out). ~1: as coherent as the exemplar with itself.
