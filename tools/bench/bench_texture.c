@@ -11,8 +11,8 @@
  *   bench_texture [quality] [--size N] [--captures DIR] [--seed N] [--quilt-seed N] [--coherence-step S]
  *       (--seed: sunprobe's; --quilt-seed: quilting's, 11 unless given, so runs over sunprobe's seeds compare
  *       against one draw of the baseline and runs over both show the baseline's own spread. Coherence samples a
- *       7 x 7 patch every S pixels, default 7: the patches tile the output, and 7 is prime to both methods' block
- *       steps, so no sample grid lines up with their cuts)
+ *       7 x 7 patch at a fixed random place in every S x S cell, default 5; a regular grid, of any step, lined
+ *       up unequally with the two methods' cuts)
  *   bench_texture scale --size WxH [--out FILE.png] [--threads N]   (one size per process: peak RSS)
  */
 #include <errno.h>
@@ -205,7 +205,7 @@ typedef struct scores {
     double coh, rep, seam, hist, ac, secs;
 } scores;
 
-static int coherence_step = 7;
+static int coherence_step = 5;
 
 static scores score(const tev_image *out, const tev_image *ex, int tile, double secs)
 {
@@ -273,8 +273,8 @@ static int quality(int N, const char *cap, uint64_t seed, uint64_t quilt_seed)
     s.tile = tile;
     s.seed = seed;
     printf("%dx%d from each exemplar; sunprobe tiles of %d (seams across them), quilting blocks of %d (seams across "
-           "its block steps of %d); coherence sampled every %d pixels; seeds %llu (sunprobe), %llu (quilting)\n",
-           N, N, tile, B, B - B / 6, coherence_step, (unsigned long long)seed, (unsigned long long)quilt_seed);
+           "its block steps of %d); coherence sampled once per %d x %d cell; seeds %llu (sunprobe), %llu (quilting)\n",
+           N, N, tile, B, B - B / 6, coherence_step, coherence_step, (unsigned long long)seed, (unsigned long long)quilt_seed);
     for (int k = 0; k < n; k++) {
         tev_image a = { malloc(sizeof(float) * 3 * (size_t)N * N), N, N };
         tev_image q = { calloc((size_t)N * N * 3, sizeof(float)), N, N };
