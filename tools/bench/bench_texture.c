@@ -274,7 +274,8 @@ static int quality(int N, const char *cap, uint64_t seed, uint64_t quilt_seed)
     s.seed = seed;
     printf("%dx%d from each exemplar; sunprobe tiles of %d (seams across them), quilting blocks of %d (seams across "
            "its block steps of %d); coherence sampled once per %d x %d cell; seeds %llu (sunprobe), %llu (quilting)\n",
-           N, N, tile, B, B - B / 6, coherence_step, coherence_step, (unsigned long long)seed, (unsigned long long)quilt_seed);
+           N, N, tile, B, B - B / 6, coherence_step, coherence_step, (unsigned long long)seed,
+           (unsigned long long)quilt_seed);
     for (int k = 0; k < n; k++) {
         tev_image a = { malloc(sizeof(float) * 3 * (size_t)N * N), N, N };
         tev_image q = { calloc((size_t)N * N * 3, sizeof(float)), N, N };
