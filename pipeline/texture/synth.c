@@ -383,12 +383,15 @@ static double block_overuse(const block_pass *b, int ox, int oy)
     return over / (nb ? nb : 1);
 }
 
+enum cost_pixels { COST_ALL, COST_SUBSAMPLE };
+
 /*
- * Distance of the block's settled pixels to exemplar offset (ox, oy), over the
- * grid's subsample (scaled to the whole) or all of them; FLT_MAX at or past bound.
+ * Distance of the block's settled pixels to exemplar offset (ox, oy), over all
+ * of them or the grid's subsample (scaled to the whole); FLT_MAX past bound.
  */
-static float block_cost(const block_pass *b, int ox, int oy, float bound, int check_exact, int sub)
+static float block_cost(const block_pass *b, int ox, int oy, float bound, int check_exact, enum cost_pixels which)
 {
+    int sub = which == COST_SUBSAMPLE;
     const float *base = b->ex->px + 3 * ((size_t)oy * b->ex->w + ox);
     int32_t s0 = oy * b->ex->w + ox;
     int n = sub ? b->n_sub : b->n_tgt, exact = 0;
@@ -619,13 +622,13 @@ static void settle_blocks(const tex_job *job, level_win *W, const tex_level *ex,
                 if (run > BLOCK_RUN)
                     continue;
                 if (t >= 7 && t < 7 + n_grid) { /* the grid only picks where to refine: a subsampled cost */
-                    float d = block_cost(b, cx, cy, gbest, 0, 1);
+                    float d = block_cost(b, cx, cy, gbest, 0, COST_SUBSAMPLE);
                     if (d < gbest)
                         gbest = d, gx = cx, gy = cy;
                     continue;
                 }
                 float bound = best == FLT_MAX ? FLT_MAX : best * (float)(1 + b->tolerance);
-                float d = block_cost(b, cx, cy, bound, run == 1 && !closing, 0);
+                float d = block_cost(b, cx, cy, bound, run == 1 && !closing, COST_ALL);
                 if (d < FLT_MAX && n_near < MAX_NEAR)
                     near_x[n_near] = cx, near_y[n_near] = cy, near_d[n_near++] = d;
                 if (d < best)
