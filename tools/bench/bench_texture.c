@@ -8,9 +8,10 @@
  * (blender-data, GPL-2+). Measures: coherence, repetition, seams, colour
  * histogram and autocorrelation distances (texture_eval.h), and time.
  *
- *   bench_texture [quality] [--size N] [--captures DIR] [--seed N] [--quilt-seed N] [--coherence-step S]
- *       (--seed: sunprobe's; --quilt-seed: quilting's, 11 unless given, so runs over sunprobe's seeds compare
- *       against one draw of the baseline and runs over both show the baseline's own spread. Coherence samples a
+ *   bench_texture [quality] [--size N] [--captures DIR] [--seed N|A-B] [--quilt-seed N|A-B] [--coherence-step S]
+ *       (--seed: sunprobe's, 1 unless given; --quilt-seed: quilting's, 11 unless given. With a range of either,
+ *       every pair of seeds is compared and the spread reported: the median ratio over the exemplars per pair, its
+ *       range and how many pairs are below 1, and each exemplar's range over the pairs. Coherence samples a
  *       7 x 7 patch at a fixed random place in every S x S cell, default 5; a regular grid, of any step, lined
  *       up unequally with the two methods' cuts)
  *   bench_texture scale --size WxH [--out FILE.png] [--threads N]   (one size per process: peak RSS)
@@ -257,52 +258,147 @@ static int gather_exemplars(const char *cap, tev_image *ex, const char **name)
 
 static void print_row(const char *who, const scores *s)
 {
-    printf("  %-9s coherence %6.3f  repetition %6.3f  seams %6.3f  histogram %7.4f  autocorr %6.4f  %6.2f s\n", who,
+    printf("  %-11s coherence %6.3f  repetition %6.3f  seams %6.3f  histogram %7.4f  autocorr %6.4f  %6.2f s\n", who,
            s->coh, s->rep, s->seam, s->hist, s->ac, s->secs);
 }
 
-static int quality(int N, const char *cap, uint64_t seed, uint64_t quilt_seed)
+#define MAX_SEEDS 16
+
+/* Seeds lo..hi from "N" or "A-B" (at most MAX_SEEDS of them); 0 when the text is not one. */
+typedef struct seed_range {
+    uint64_t lo, hi;
+} seed_range;
+
+static int parse_seeds(const char *v, seed_range *r)
+{
+    char *end;
+    if (*v < '0' || *v > '9')
+        return 0;
+    r->lo = r->hi = strtoull(v, &end, 10);
+    if (*end == '-') {
+        if (end[1] < '0' || end[1] > '9')
+            return 0;
+        r->hi = strtoull(end + 1, &end, 10);
+    }
+    return !*end && r->hi >= r->lo && r->hi - r->lo < MAX_SEEDS;
+}
+
+static double metric_of(const scores *s, int m)
+{
+    const double v[5] = { s->coh, s->rep, s->seam, s->hist, s->ac };
+    return v[m];
+}
+
+static double ratio(const scores *a, const scores *q, int m)
+{
+    double d = metric_of(q, m);
+    return metric_of(a, m) / (d > 1e-12 ? d : 1e-12);
+}
+
+static const char *const metric_name[5] = { "coherence", "repetition", "seams", "histogram", "autocorr" };
+
+/* One seed each: the median ratio over the exemplars and on how many sunprobe is better. */
+static void summary_one(scores sa[][MAX_EX], scores sq[][MAX_EX], int n)
+{
+    printf("median ratio sunprobe / quilting over %d exemplars (below 1: sunprobe better):\n", n);
+    for (int m = 0; m < 5; m++) {
+        double r[MAX_EX];
+        int wins = 0;
+        for (int k = 0; k < n; k++) {
+            double a = metric_of(&sa[0][k], m), q = metric_of(&sq[0][k], m);
+            r[k] = ratio(&sa[0][k], &sq[0][k], m);
+            wins += m == 2 ? a < q || a < 1.1 : a < q;
+        }
+        printf("  %-10s %.3f  (sunprobe better on %d of %d%s)\n", metric_name[m], median(r, n), wins, n,
+               m == 2 ? "; or no seam: ratio < 1.1" : "");
+    }
+}
+
+/* Seed ranges: the median ratio of every (sunprobe, quilting) pair of seeds, its spread, and each exemplar's. */
+static void summary_spread(scores sa[][MAX_EX], scores sq[][MAX_EX], int n, int ns, int nq, const char **name)
+{
+    printf("median ratio sunprobe / quilting over %d exemplars, for each of %d pairs of seeds (below 1: sunprobe "
+           "better):\n",
+           n, ns * nq);
+    for (int m = 0; m < 5; m++) {
+        double med[MAX_SEEDS * MAX_SEEDS], r[MAX_EX];
+        int below = 0;
+        for (int i = 0; i < ns; i++)
+            for (int j = 0; j < nq; j++) {
+                for (int k = 0; k < n; k++)
+                    r[k] = ratio(&sa[i][k], &sq[j][k], m);
+                med[i * nq + j] = median(r, n);
+                below += med[i * nq + j] < 1.0;
+            }
+        int np = ns * nq;
+        double mid = median(med, np); /* sorts med */
+        printf("  %-10s median %.3f, range %.3f-%.3f, below 1 in %d of %d pairs\n", metric_name[m], mid, med[0],
+               med[np - 1], below, np);
+    }
+    printf("each exemplar's ratio over the pairs, lowest-highest:\n");
+    for (int k = 0; k < n; k++) {
+        printf("  %-30s", name[k]);
+        for (int m = 0; m < 5; m++) {
+            double lo = DBL_MAX, hi = 0;
+            for (int i = 0; i < ns; i++)
+                for (int j = 0; j < nq; j++) {
+                    double v = ratio(&sa[i][k], &sq[j][k], m);
+                    lo = v < lo ? v : lo, hi = v > hi ? v : hi;
+                }
+            printf("  %s %.2f-%.2f", metric_name[m], lo, hi);
+        }
+        printf("\n");
+    }
+}
+
+static int quality(int N, const char *cap, seed_range seeds, seed_range quilt_seeds)
 {
     tev_image ex[MAX_EX];
     const char *name[MAX_EX];
     int n = gather_exemplars(cap, ex, name), tile = 128, B = 32;
-    double r[5][MAX_EX];
-    int wins[5] = { 0 };
+    int ns = (int)(seeds.hi - seeds.lo + 1), nq = (int)(quilt_seeds.hi - quilt_seeds.lo + 1);
+    static scores sa[MAX_SEEDS][MAX_EX], sq[MAX_SEEDS][MAX_EX];
     sp_texture_settings s;
     sp_texture_default_settings(&s);
     s.tile = tile;
-    s.seed = seed;
     printf("%dx%d from each exemplar; sunprobe tiles of %d (seams across them), quilting blocks of %d (seams across "
-           "its block steps of %d); coherence sampled once per %d x %d cell; seeds %llu (sunprobe), %llu (quilting)\n",
-           N, N, tile, B, B - B / 6, coherence_step, coherence_step, (unsigned long long)seed,
-           (unsigned long long)quilt_seed);
+           "its block steps of %d); coherence sampled once per %d x %d cell; seeds %llu-%llu (sunprobe), %llu-%llu "
+           "(quilting)\n",
+           N, N, tile, B, B - B / 6, coherence_step, coherence_step, (unsigned long long)seeds.lo,
+           (unsigned long long)seeds.hi, (unsigned long long)quilt_seeds.lo, (unsigned long long)quilt_seeds.hi);
+    tev_image a = { malloc(sizeof(float) * 3 * (size_t)N * N), N, N };
+    if (!a.px)
+        return 1;
     for (int k = 0; k < n; k++) {
-        tev_image a = { malloc(sizeof(float) * 3 * (size_t)N * N), N, N };
-        tev_image q = { calloc((size_t)N * N * 3, sizeof(float)), N, N };
-        mem_sink ms = { &a };
-        double t0 = now_s();
-        if (!a.px || !q.px || sp_texture_synthesize(ex[k].px, (uint32_t)ex[k].w, (uint32_t)ex[k].h, (uint32_t)N,
-                                                     (uint32_t)N, &s, to_memory, &ms))
-            return 1;
-        double t1 = now_s();
-        quilt(&ex[k], &q, B, quilt_seed);
-        double t2 = now_s();
-        scores sa = score(&a, &ex[k], tile, t1 - t0), sq = score(&q, &ex[k], B - B / 6, t2 - t1);
         printf("%s (%dx%d):\n", name[k], ex[k].w, ex[k].h);
-        print_row("sunprobe", &sa);
-        print_row("quilting", &sq);
-        double va[5] = { sa.coh, sa.rep, sa.seam, sa.hist, sa.ac }, vq[5] = { sq.coh, sq.rep, sq.seam, sq.hist, sq.ac };
-        for (int m = 0; m < 5; m++) {
-            r[m][k] = va[m] / (vq[m] > 1e-12 ? vq[m] : 1e-12);
-            wins[m] += m == 2 ? va[m] < vq[m] || va[m] < 1.1 : va[m] < vq[m];
+        for (int i = 0; i < ns + nq; i++) {
+            char who[32];
+            double t0 = now_s();
+            if (i < ns) {
+                mem_sink ms = { &a };
+                s.seed = seeds.lo + (uint64_t)i;
+                if (sp_texture_synthesize(ex[k].px, (uint32_t)ex[k].w, (uint32_t)ex[k].h, (uint32_t)N, (uint32_t)N, &s,
+                                          to_memory, &ms))
+                    return 1;
+                sa[i][k] = score(&a, &ex[k], tile, now_s() - t0);
+                snprintf(who, sizeof(who), ns > 1 ? "sunprobe %llu" : "sunprobe", (unsigned long long)s.seed);
+                print_row(who, &sa[i][k]);
+            } else {
+                uint64_t qs = quilt_seeds.lo + (uint64_t)(i - ns);
+                memset(a.px, 0, sizeof(float) * 3 * (size_t)N * N);
+                quilt(&ex[k], &a, B, qs);
+                sq[i - ns][k] = score(&a, &ex[k], B - B / 6, now_s() - t0);
+                snprintf(who, sizeof(who), nq > 1 ? "quilting %llu" : "quilting", (unsigned long long)qs);
+                print_row(who, &sq[i - ns][k]);
+            }
         }
-        tev_free(&a), tev_free(&q), tev_free(&ex[k]);
+        tev_free(&ex[k]);
     }
-    static const char *metric[5] = { "coherence", "repetition", "seams", "histogram", "autocorr" };
-    printf("median ratio sunprobe / quilting over %d exemplars (below 1: sunprobe better):\n", n);
-    for (int m = 0; m < 5; m++)
-        printf("  %-10s %.3f  (sunprobe better on %d of %d%s)\n", metric[m], median(r[m], n), wins[m], n,
-               m == 2 ? "; or no seam: ratio < 1.1" : "");
+    tev_free(&a);
+    if (ns * nq == 1)
+        summary_one(sa, sq, n);
+    else
+        summary_spread(sa, sq, n, ns, nq, name);
     return 0;
 }
 
@@ -361,7 +457,7 @@ int main(int argc, char **argv)
     int scale_mode = argc > 1 && !strcmp(argv[1], "scale"), threads = 0, N = 384;
     uint32_t W = 2304, H = 2304;
     const char *cap = "../shared/captures", *out = "/dev/null";
-    uint64_t seed = 1, quilt_seed = 11;
+    seed_range seeds = { 1, 1 }, quilt_seeds = { 11, 11 };
     for (int i = 1 + (argc > 1 && (scale_mode || !strcmp(argv[1], "quality"))); i + 1 < argc; i += 2) {
         if (!strcmp(argv[i], "--size") && scale_mode && sscanf(argv[i + 1], "%ux%u", &W, &H) == 2)
             continue;
@@ -371,20 +467,20 @@ int main(int argc, char **argv)
             cap = argv[i + 1];
         else if (!strcmp(argv[i], "--out"))
             out = argv[i + 1];
-        else if (!strcmp(argv[i], "--seed") && !scale_mode)
-            seed = strtoull(argv[i + 1], NULL, 10);
-        else if (!strcmp(argv[i], "--quilt-seed") && !scale_mode)
-            quilt_seed = strtoull(argv[i + 1], NULL, 10);
+        else if (!strcmp(argv[i], "--seed") && !scale_mode && parse_seeds(argv[i + 1], &seeds))
+            continue;
+        else if (!strcmp(argv[i], "--quilt-seed") && !scale_mode && parse_seeds(argv[i + 1], &quilt_seeds))
+            continue;
         else if (!strcmp(argv[i], "--threads"))
             threads = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--coherence-step") && !scale_mode && atoi(argv[i + 1]) >= 1)
             coherence_step = atoi(argv[i + 1]);
         else
             return fprintf(stderr,
-                           "usage: bench_texture [quality] [--size N] [--captures DIR] [--seed N] [--quilt-seed N] "
-                           "[--coherence-step S] | "
+                           "usage: bench_texture [quality] [--size N] [--captures DIR] [--seed N|A-B] "
+                           "[--quilt-seed N|A-B] [--coherence-step S] | "
                            "scale --size WxH [--out F.png] [--threads N]\n"),
                    1;
     }
-    return scale_mode ? scale(W, H, out, threads) : quality(N, cap, seed, quilt_seed);
+    return scale_mode ? scale(W, H, out, threads) : quality(N, cap, seeds, quilt_seeds);
 }
