@@ -337,12 +337,14 @@ static int run_level(const tex_job *job, level_win *W, int level)
 #define MAX_NEAR 256         /* candidates kept within that tolerance */
 #define UNSETTLED_COST 1e6f /* a cut through a pixel nothing has laid yet: kept inside the overlap */
 
+enum { LAID = 1, PENDING = 2 }; /* settled: laid by this window's blocks; an earlier tile's, that they may lay again */
+
 typedef struct block_pass {
     const tex_level *ex;
     float *out;
-    uint8_t *settled;        /* 0 free, 1 laid by a block, TEX_FIXED + 1 held fixed */
-    float *tgt;              /* the block's settled pixels, the grid's subsample first */
-    int32_t *tpos, *tsrc;    /* each one's place (y * exemplar width + x) and its src (-1 held or blended) */
+    uint8_t *settled;     /* 0 free, LAID, PENDING, or TEX_FIXED + 1 held fixed */
+    float *tgt;           /* the block's settled pixels, the grid's subsample first */
+    int32_t *tpos, *tsrc; /* each one's place (y * exemplar width + x) and its src (-1: a blend) */
     int n_tgt, n_sub;
     int w, h, B, x0, y0, bw, bh;
     float *cnt;              /* blocks covering each patch-sized exemplar bin */
@@ -400,7 +402,7 @@ static float block_cost(const block_pass *b, int ox, int oy, float bound, int ch
         const float *e = base + 3 * (size_t)b->tpos[k], *t = b->tgt + 3 * (size_t)k;
         float t0 = e[0] - t[0], t1 = e[1] - t[1], t2 = e[2] - t[2], q = t0 * t0 + t1 * t1 + t2 * t2;
         d += q;
-        /* the same exemplar pixel where the source is known; else (held or blended pixels) the same value */
+        /* the same exemplar pixel where the source is known; else (a blend: a seams band, a cross-fade) the same value */
         exact += b->tsrc[k] >= 0 ? b->tsrc[k] == s0 + b->tpos[k] : q == 0.0f;
         if ((k & 31) == 31 && d * area > bound)
             return FLT_MAX;
@@ -506,10 +508,10 @@ static void lay_block(block_pass *b, int ox, int oy, float *err, int *path, floa
             if (b->settled[p] == TEX_FIXED + 1 || keep)
                 continue;
             memcpy(b->out + 3 * p, ex->px + 3 * ((size_t)(oy + y) * ex->w + ox + x), 3 * sizeof(float));
-            if (b->src[p] >= 0)
+            if (b->settled[p] == LAID && b->src[p] >= 0) /* laid again: the colour counts move */
                 b->hout[ex->colour[b->src[p]]] -= 1, b->n_out -= 1;
             b->hout[ex->colour[(size_t)(oy + y) * ex->w + ox + x]] += 1, b->n_out += 1;
-            b->settled[p] = 1;
+            b->settled[p] = LAID;
             b->src[p] = (oy + y) * ex->w + ox + x;
         }
     for (int y = oy + b->P / 2; y < oy + b->bh; y += b->P)
@@ -823,9 +825,11 @@ static int refine_seams(const tex_job *job, level_win *W, const tex_level *ex, c
                     }
             }
         for (size_t q = 0; q < n; q++)
-            if (band[q] && acc[4 * q + 3] > 0)
+            if (band[q] && acc[4 * q + 3] > 0) {
                 for (int c = 0; c < 3; c++)
                     img[3 * q + c] = acc[4 * q + c] / acc[4 * q + 3];
+                b->src[q] = -1; /* a blend of matches: no exemplar pixel's value */
+            }
     }
     free(xs), free(band), free(scratch), free(acc), free(z);
     return 0;
@@ -838,7 +842,7 @@ int tex_blocks_apply(const tex_exemplar *ex, int w, int h)
     return !ex->lv[0].valid && ex->lv[0].w >= B && ex->lv[0].h >= B && w >= B && h >= B;
 }
 
-static int block_level(const tex_job *job, level_win *W, const tex_level *ex, const float *held)
+static int block_level(const tex_job *job, level_win *W, const tex_level *ex, const float *held, int32_t *src)
 {
     int P = job->ex->patch, B = BLOCK_PATCHES * P;
     if (!tex_blocks_apply(job->ex, W->w, W->h))
@@ -868,15 +872,17 @@ static int block_level(const tex_job *job, level_win *W, const tex_level *ex, co
     b.tsrc = b.tpos + (size_t)B * B;
     b.exact_max = P / 2 > 1 ? P / 2 : 1;
     b.src = W->src_next; /* free after the last vote: the blocks' own source map */
-    for (size_t p = 0; p < n; p++)
-        b.src[p] = -1;
     /* blended pixels count as laid by an earlier block: the cut may pass through them, no cross-fade follows */
     for (size_t p = 0; p < n; p++) {
-        b.settled[p] = W->fixed[p] == TEX_FIXED ? TEX_FIXED + 1 : W->fixed[p] == TEX_SOFT;
+        b.settled[p] = W->fixed[p] == TEX_FIXED ? TEX_FIXED + 1 : W->fixed[p] == TEX_SOFT ? PENDING : 0;
         memcpy(W->next + 3 * p, W->fixed[p] == TEX_FREE ? W->img + 3 * p : held + 3 * p, 3 * sizeof(float));
+        /* an earlier tile's pixels keep the source it laid them from (the exact test compares sources) */
+        b.src[p] = src && W->fixed[p] != TEX_FREE ? src[p] : -1;
     }
     settle_blocks(job, W, ex, idx, idx + nx, idx + nx + ny, idx + nx + ny + 2 * nb, idx + nx + ny + 3 * nb, &b);
     int ret = job->seams ? refine_seams(job, W, ex, &b) : 0;
+    if (src)
+        memcpy(src, b.src, sizeof(int32_t) * n);
     float *t = W->img;
     W->img = W->next, W->next = t;
     free(b.settled), free(b.tgt), free(b.tpos), free(b.cnt), free(idx), free(b.hout);
@@ -932,7 +938,7 @@ static void upsample(const level_win *C, const tex_level *cex, level_win *F, con
         }
 }
 
-int tex_synth_window(const tex_job *job, float *img, const uint8_t *fixed, int w, int h, int levels)
+int tex_synth_window(const tex_job *job, float *img, const uint8_t *fixed, int32_t *src, int w, int h, int levels)
 {
     float *pimg[TEX_MAX_LEVELS] = { img };
     uint8_t *pfix[TEX_MAX_LEVELS] = { (uint8_t *)fixed };
@@ -957,12 +963,15 @@ int tex_synth_window(const tex_job *job, float *img, const uint8_t *fixed, int w
             upsample(&C, &job->ex->lv[l + 1], &W, ex);
         win_free(&C);
         paint(&W, ex, pimg[l], pfix[l]);
-        if ((ret = run_level(job, &W, l)) || (l == 0 && job->blocks && (ret = block_level(job, &W, ex, img))))
+        if ((ret = run_level(job, &W, l)) || (l == 0 && job->blocks && (ret = block_level(job, &W, ex, img, src))))
             goto out;
         C = W;
         memset(&W, 0, sizeof(W));
     }
     memcpy(img, C.img, sizeof(float) * 3 * (size_t)w * h);
+    if (src && !(job->blocks && tex_blocks_apply(job->ex, w, h))) /* the vote's pixels are means, not copies */
+        for (size_t p = 0; p < (size_t)w * h; p++)
+            src[p] = -1;
     ret = 0;
 out:
     win_free(&W), win_free(&C);

@@ -5,7 +5,9 @@
  * across the wrap for a tileable output) are held fixed so the tile continues
  * them, except the 2 patches nearest the core that the sink has not had yet:
  * those are synthesised again and cross-faded from the old values to the new.
- * The band of one tile row (plus the halo above) waits in a scratch file, so
+ * The band of one tile row (plus the halo above), each pixel with the exemplar
+ * pixel it was laid from (the blocks refuse to continue an earlier tile's
+ * copy by source), waits in a scratch file, so
  * memory does not grow with the width; its rows go to the sink one at a time
  * when the row is done.
  */
@@ -48,8 +50,10 @@ typedef struct tiler {
     int W, H, nx, ny, halo, blend, rows;
     int blocks, seams;   /* the finest level in whole blocks, their cuts optimised (tex_job) */
     int *xs, *ys;        /* tile boundaries, nx + 1 and ny + 1 */
-    int fd;              /* scratch file: output row y of the band at row y % rows; tileable: rows [0, halo) after */
+    int fd;              /* scratch file: output row y of the band at row y % rows; tileable: rows [0, halo) after;
+                            then the same rows' sources (int32, the exemplar pixel + 1, 0 for none) */
     float *win, *old;    /* the window; the band's values under it */
+    int32_t *wsrc, *osrc; /* the window's sources (tex_synth_window), the band's under it (+ 1) */
     uint8_t *fixed;
     int8_t *kind;        /* per window row: -1 not in the band, 0 band, 1 the kept first rows */
     float *line;         /* one output row for the sink */
@@ -60,11 +64,17 @@ static int wrap(int v, int n)
     return ((v % n) + n) % n;
 }
 
-/* Reads (write = 0) or writes n pixels of scratch row frow from column x; bytes never written read as 0. */
-static int store_io(const tiler *t, int write, int frow, int x, int n, float *buf)
+enum { PIXELS, SOURCES }; /* the scratch file's two parts */
+
+/*
+ * Reads (write = 0) or writes n pixels (RGB floats) or their sources (int32) of
+ * scratch row frow from column x; bytes never written read as 0.
+ */
+static int store_io(const tiler *t, int part, int write, int frow, int x, int n, void *buf)
 {
-    size_t len = sizeof(float) * 3 * (size_t)n, done = 0;
-    off_t at = (off_t)(sizeof(float) * 3) * ((off_t)frow * t->W + x);
+    size_t px = part == PIXELS ? sizeof(float) * 3 : sizeof(int32_t), len = px * (size_t)n, done = 0;
+    off_t base = part == PIXELS ? 0 : (off_t)(sizeof(float) * 3) * (off_t)(t->rows + t->halo) * t->W;
+    off_t at = base + (off_t)px * ((off_t)frow * t->W + x);
     while (done < len) {
         ssize_t r = write ? pwrite(t->fd, (char *)buf + done, len - done, at + (off_t)done)
                           : pread(t->fd, (char *)buf + done, len - done, at + (off_t)done);
@@ -84,12 +94,13 @@ static int store_io(const tiler *t, int write, int frow, int x, int n, float *bu
 }
 
 /* One window row's span of columns [x0, x0 + w) (wrapped when tileable) from or to scratch row frow. */
-static int row_io(const tiler *t, int write, int frow, int x0, int w, float *buf)
+static int row_io(const tiler *t, int part, int write, int frow, int x0, int w, void *buf)
 {
     if (!t->s->tileable)
-        return store_io(t, write, frow, x0, w, buf);
-    int a = wrap(x0, t->W), n1 = t->W - a < w ? t->W - a : w, ret = store_io(t, write, frow, a, n1, buf);
-    return ret || n1 == w ? ret : store_io(t, write, frow, 0, w - n1, buf + 3 * (size_t)n1);
+        return store_io(t, part, write, frow, x0, w, buf);
+    size_t px = part == PIXELS ? sizeof(float) * 3 : sizeof(int32_t);
+    int a = wrap(x0, t->W), n1 = t->W - a < w ? t->W - a : w, ret = store_io(t, part, write, frow, a, n1, buf);
+    return ret || n1 == w ? ret : store_io(t, part, write, frow, 0, w - n1, (char *)buf + px * (size_t)n1);
 }
 
 /*
@@ -159,7 +170,9 @@ static int gather(tiler *t, int i, int j, int x0, int y0, int w, int h)
     for (int y = 0, ret; y < h; y++) {
         int k, frow = scratch_row(t, j, y0 + y, &k);
         t->kind[y] = (int8_t)k;
-        if (frow >= 0 && (ret = row_io(t, 0, frow, x0, w, t->old + 3 * (size_t)y * w)))
+        if (frow >= 0 &&
+            ((ret = row_io(t, PIXELS, 0, frow, x0, w, t->old + 3 * (size_t)y * w)) ||
+             (ret = row_io(t, SOURCES, 0, frow, x0, w, t->osrc + (size_t)y * w))))
             return ret;
     }
     for (int y = 0; y < h; y++)
@@ -171,6 +184,7 @@ static int gather(tiler *t, int i, int j, int x0, int y0, int w, int h)
                 t->fixed[p] = TEX_SOFT;
             if (st >= 0)
                 memcpy(t->win + 3 * p, t->old + 3 * p, 3 * sizeof(float));
+            t->wsrc[p] = st >= 0 ? t->osrc[p] - 1 : -1;
         }
     return 0;
 }
@@ -194,6 +208,7 @@ static void wrap_ramp(tiler *t, int y0, int w, int h)
                 float *v = &t->win[3 * ((size_t)(yw - k) * w + x) + c];
                 *v += d * (float)(t->blend + 1 - k) / (float)(t->blend + 1);
                 *v = *v < 0 ? 0 : *v > 1 ? 1 : *v;
+                t->wsrc[(size_t)(yw - k) * w + x] = -1;
             }
         }
 }
@@ -211,10 +226,13 @@ static int scatter(tiler *t, const tex_exemplar *ex, int i, int j, int x0, int y
             float *v = t->old + 3 * p, a = cut ? 1.0f : (float)(t->blend + 1 - d) / (float)(t->blend + 1);
             for (int c = 0; c < 3; c++) /* the core is new: its old band values are not pixels yet */
                 v[c] = d > 0 ? v[c] + a * (t->win[3 * p + c] - v[c]) : t->win[3 * p + c];
+            t->osrc[p] = a == 1.0f || d == 0 ? t->wsrc[p] + 1 : 0; /* a cross-fade is no exemplar pixel */
         }
     for (int y = 0, ret; y < h; y++) {
         int k, frow = scratch_row(t, j, y0 + y, &k);
-        if (k == 0 && (ret = row_io(t, 1, frow, x0, w, t->old + 3 * (size_t)y * w)))
+        if (k == 0 &&
+            ((ret = row_io(t, PIXELS, 1, frow, x0, w, t->old + 3 * (size_t)y * w)) ||
+             (ret = row_io(t, SOURCES, 1, frow, x0, w, t->osrc + (size_t)y * w))))
             return ret;
     }
     return 0;
@@ -231,7 +249,7 @@ static int run_tile(tiler *t, const tex_exemplar *ex, sp_pool *pool, int i, int 
         if (t->kind[y] == 1 && y < job.seam_rows)
             job.seam_rows = y;
     if (!ret)
-        ret = tex_synth_window(&job, t->win, t->fixed, w, h, tex_window_levels(w, h, ex->patch, ex->levels));
+        ret = tex_synth_window(&job, t->win, t->fixed, t->wsrc, w, h, tex_window_levels(w, h, ex->patch, ex->levels));
     if (ret)
         return ret;
     if (t->s->tileable && j == t->ny - 1)
@@ -282,19 +300,22 @@ static int tiler_open(tiler *t, const sp_texture_settings *s, int W, int H)
     t->win = malloc(sizeof(float) * 3 * side * side);
     t->old = malloc(sizeof(float) * 3 * side * side);
     t->fixed = malloc(side * side);
+    t->wsrc = malloc(sizeof(int32_t) * side * side);
+    t->osrc = malloc(sizeof(int32_t) * side * side);
     t->kind = malloc(side);
     t->line = malloc(sizeof(float) * 3 * (size_t)W);
     t->fd = scratch_open();
     if (t->fd < 0)
         return t->fd;
-    return t->xs && t->ys && t->win && t->old && t->fixed && t->kind && t->line ? 0 : -ENOMEM;
+    return t->xs && t->ys && t->win && t->old && t->fixed && t->wsrc && t->osrc && t->kind && t->line ? 0 : -ENOMEM;
 }
 
 static void tiler_close(tiler *t)
 {
     if (t->fd >= 0)
         close(t->fd);
-    free(t->xs), free(t->ys), free(t->win), free(t->old), free(t->fixed), free(t->kind), free(t->line);
+    free(t->xs), free(t->ys), free(t->win), free(t->old), free(t->fixed), free(t->wsrc), free(t->osrc), free(t->kind),
+        free(t->line);
     memset(t, 0, sizeof(*t));
 }
 
@@ -303,11 +324,12 @@ static int finish_row(tiler *t, int j, sp_texture_sink sink, void *ctx)
 {
     int e0 = j ? t->ys[j] - t->blend : 0, e1 = j < t->ny - 1 ? t->ys[j + 1] - t->blend : t->H, ret = 0;
     for (int y = e0; !ret && y < e1; y++)
-        if (!(ret = store_io(t, 0, y % t->rows, 0, t->W, t->line)))
+        if (!(ret = store_io(t, PIXELS, 0, y % t->rows, 0, t->W, t->line)))
             ret = sink(ctx, (uint32_t)y, 1, t->line);
-    for (int y = 0; !ret && t->s->tileable && j == 0 && y < t->halo; y++)
-        if (!(ret = store_io(t, 0, y % t->rows, 0, t->W, t->line)))
-            ret = store_io(t, 1, t->rows + y, 0, t->W, t->line);
+    for (int y = 0; !ret && t->s->tileable && j == 0 && y < t->halo; y++) /* pixels, then sources (W <= 3 W floats) */
+        for (int part = PIXELS; !ret && part <= SOURCES; part++)
+            if (!(ret = store_io(t, part, 0, y % t->rows, 0, t->W, t->line)))
+                ret = store_io(t, part, 1, t->rows + y, 0, t->W, t->line);
     return ret;
 }
 static int sizes_ok(const sp_texture_settings *s, uint32_t ew, uint32_t eh, uint32_t W, uint32_t H)
@@ -389,7 +411,7 @@ int sp_texture_fill(float *rgb, uint32_t w, uint32_t h, const uint8_t *fill, con
         }
     tex_job job = { &ex, s, pool, tex_hash(s->seed, 0xF111ull), 0, 0, 0 };
     if (!ret)
-        ret = tex_synth_window(&job, win, fixed, bw, bh, tex_window_levels(bw, bh, s->patch, ex.levels));
+        ret = tex_synth_window(&job, win, fixed, NULL, bw, bh, tex_window_levels(bw, bh, s->patch, ex.levels));
     for (int y = 0; !ret && y < bh; y++)
         memcpy(rgb + 3 * ((size_t)(y + box[1]) * w + (size_t)box[0]), win + 3 * (size_t)y * bw,
                3 * sizeof(float) * (size_t)bw);

@@ -55,9 +55,11 @@ typedef struct tex_job {
 /*
  * Synthesises the w x h window img (x 3 floats) in place; TEX_FIXED pixels keep
  * their values and constrain the rest, TEX_SOFT ones start from their values. levels: pyramid levels used
- * (<= ex->levels; coarse windows must keep a patch). 0 or -ENOMEM.
+ * (<= ex->levels; coarse windows must keep a patch). src (or NULL), per pixel: in, the finest-level exemplar
+ * pixel (y * ew + x) a held pixel was laid from, -1 unknown; out, each pixel's, -1 where it is a blend (the
+ * seams' band, the vote). 0 or -ENOMEM.
  */
-int tex_synth_window(const tex_job *job, float *img, const uint8_t *fixed, int w, int h, int levels);
+int tex_synth_window(const tex_job *job, float *img, const uint8_t *fixed, int32_t *src, int w, int h, int levels);
 
 /* Whether a w x h window's finest level is laid in whole blocks (when the job asks): exemplar and window hold one. */
 int tex_blocks_apply(const tex_exemplar *ex, int w, int h);

@@ -111,16 +111,17 @@ static void test_seams(void)
  * A low-contrast exemplar in 8-bit steps (skin, asphalt: many neighbouring
  * pixels equal by chance) is laid coherently: a block is refused for continuing
  * a settled copy (the same exemplar pixels), not for matching settled values
- * exactly, which such an exemplar does everywhere. Pixels held from an earlier
- * tile keep no source and are still compared by value (tiles of 64). Refused
- * by value throughout, as until 2026-12-06 (at today's threshold): 0.367 in
- * one tile, 0.398 in tiles of 64; by source: 0.246 and 0.288 (0.195 and 0.243
+ * exactly, which such an exemplar does everywhere, and that holds for the
+ * pixels held from an earlier tile (tiles of 64), whose sources the band keeps.
+ * Refused by value throughout, as until 2026-12-06 (at today's threshold):
+ * 0.367 in one tile, 0.398 in tiles of 64; by source but held pixels by value:
+ * 0.246 and 0.288; by source throughout: 0.246 and 0.251 (0.195 and 0.232
  * unquantised; tev_coherence's jittered samples since 2026-12-06's third session).
  */
 static void test_quantised(void)
 {
     static const int tiles[2] = { 256, 64 };
-    static const double limit[2] = { 0.29, 0.33 };
+    static const double limit[2] = { 0.27, 0.27 };
     for (int t = 0; t < 2; t++) {
         double c[2];
         for (int q = 0; q < 2; q++) {
