@@ -351,8 +351,8 @@ typedef struct block_pass {
     int bins_w, P;
     double fair, tolerance;
     int exact_max;           /* settled pixels a candidate may reproduce exactly */
-    int32_t *src;            /* exemplar pixel each window pixel was laid from, -1 where no block laid it */
-    uint32_t *hout;          /* pixels per colour bin (tex_level.colour) among those the blocks laid */
+    int32_t *src;   /* exemplar pixel each window pixel was laid from (here or by an earlier tile), -1 unknown */
+    uint32_t *hout; /* pixels per colour bin (tex_level.colour) among those the blocks laid */
     uint32_t n_out;
 } block_pass;
 
@@ -402,7 +402,7 @@ static float block_cost(const block_pass *b, int ox, int oy, float bound, int ch
         const float *e = base + 3 * (size_t)b->tpos[k], *t = b->tgt + 3 * (size_t)k;
         float t0 = e[0] - t[0], t1 = e[1] - t[1], t2 = e[2] - t[2], q = t0 * t0 + t1 * t1 + t2 * t2;
         d += q;
-        /* the same exemplar pixel where the source is known; else (a blend: a seams band, a cross-fade) the same value */
+        /* the same exemplar pixel where the source is known; else (a blend: seams band, cross-fade, wrap ramp) the same value */
         exact += b->tsrc[k] >= 0 ? b->tsrc[k] == s0 + b->tpos[k] : q == 0.0f;
         if ((k & 31) == 31 && d * area > bound)
             return FLT_MAX;
@@ -784,6 +784,7 @@ static int refine_seams(const tex_job *job, level_win *W, const tex_level *ex, c
         return -ENOMEM;
     }
     seam_band(W, job->seam_rows, b->src, ew, band, scratch);
+    memset(scratch, 0, n);       /* now: the pixels the passes blended */
     for (int j = 0; j < ny; j++) /* -1: no match yet; -2: the patch lies outside the band, never matched */
         for (int i = 0; i < nx; i++) {
             int touches = 0;
@@ -828,9 +829,13 @@ static int refine_seams(const tex_job *job, level_win *W, const tex_level *ex, c
             if (band[q] && acc[4 * q + 3] > 0) {
                 for (int c = 0; c < 3; c++)
                     img[3 * q + c] = acc[4 * q + c] / acc[4 * q + 3];
-                b->src[q] = -1; /* a blend of matches: no exemplar pixel's value */
+                scratch[q] = 1;
             }
     }
+    /* a blend of matches is no exemplar pixel's value; kept until now: the passes start from the copies' sources */
+    for (size_t q = 0; q < n; q++)
+        if (scratch[q])
+            b->src[q] = -1;
     free(xs), free(band), free(scratch), free(acc), free(z);
     return 0;
 }
@@ -872,7 +877,7 @@ static int block_level(const tex_job *job, level_win *W, const tex_level *ex, co
     b.tsrc = b.tpos + (size_t)B * B;
     b.exact_max = P / 2 > 1 ? P / 2 : 1;
     b.src = W->src_next; /* free after the last vote: the blocks' own source map */
-    /* blended pixels count as laid by an earlier block: the cut may pass through them, no cross-fade follows */
+    /* pending pixels (an earlier tile's, not yet out) are settled: a cut may pass through them, no cross-fade follows */
     for (size_t p = 0; p < n; p++) {
         b.settled[p] = W->fixed[p] == TEX_FIXED ? TEX_FIXED + 1 : W->fixed[p] == TEX_SOFT ? PENDING : 0;
         memcpy(W->next + 3 * p, W->fixed[p] == TEX_FREE ? W->img + 3 * p : held + 3 * p, 3 * sizeof(float));

@@ -225,7 +225,7 @@ static int scatter(tiler *t, const tex_exemplar *ex, int i, int j, int x0, int y
                 continue;
             float *v = t->old + 3 * p, a = cut ? 1.0f : (float)(t->blend + 1 - d) / (float)(t->blend + 1);
             for (int c = 0; c < 3; c++) /* the core is new: its old band values are not pixels yet */
-                v[c] = d > 0 ? v[c] + a * (t->win[3 * p + c] - v[c]) : t->win[3 * p + c];
+                v[c] = d > 0 && !cut ? v[c] + a * (t->win[3 * p + c] - v[c]) : t->win[3 * p + c];
             t->osrc[p] = a == 1.0f || d == 0 ? t->wsrc[p] + 1 : 0; /* a cross-fade is no exemplar pixel */
         }
     for (int y = 0, ret; y < h; y++) {

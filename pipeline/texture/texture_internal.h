@@ -57,7 +57,7 @@ typedef struct tex_job {
  * their values and constrain the rest, TEX_SOFT ones start from their values. levels: pyramid levels used
  * (<= ex->levels; coarse windows must keep a patch). src (or NULL), per pixel: in, the finest-level exemplar
  * pixel (y * ew + x) a held pixel was laid from, -1 unknown; out, each pixel's, -1 where it is a blend (the
- * seams' band, the vote). 0 or -ENOMEM.
+ * seams' band, the vote, a cross-fade). 0 or -ENOMEM.
  */
 int tex_synth_window(const tex_job *job, float *img, const uint8_t *fixed, int32_t *src, int w, int h, int levels);
 
