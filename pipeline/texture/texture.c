@@ -66,14 +66,19 @@ static int wrap(int v, int n)
 
 enum { PIXELS, SOURCES }; /* the scratch file's two parts */
 
+static size_t part_bytes(int part)
+{
+    return part == PIXELS ? sizeof(float) * 3 : sizeof(int32_t);
+}
+
 /*
  * Reads (write = 0) or writes n pixels (RGB floats) or their sources (int32) of
  * scratch row frow from column x; bytes never written read as 0.
  */
 static int store_io(const tiler *t, int part, int write, int frow, int x, int n, void *buf)
 {
-    size_t px = part == PIXELS ? sizeof(float) * 3 : sizeof(int32_t), len = px * (size_t)n, done = 0;
-    off_t base = part == PIXELS ? 0 : (off_t)(sizeof(float) * 3) * (off_t)(t->rows + t->halo) * t->W;
+    size_t px = part_bytes(part), len = px * (size_t)n, done = 0;
+    off_t base = part == PIXELS ? 0 : (off_t)part_bytes(PIXELS) * (off_t)(t->rows + t->halo) * t->W;
     off_t at = base + (off_t)px * ((off_t)frow * t->W + x);
     while (done < len) {
         ssize_t r = write ? pwrite(t->fd, (char *)buf + done, len - done, at + (off_t)done)
@@ -98,9 +103,9 @@ static int row_io(const tiler *t, int part, int write, int frow, int x0, int w, 
 {
     if (!t->s->tileable)
         return store_io(t, part, write, frow, x0, w, buf);
-    size_t px = part == PIXELS ? sizeof(float) * 3 : sizeof(int32_t);
     int a = wrap(x0, t->W), n1 = t->W - a < w ? t->W - a : w, ret = store_io(t, part, write, frow, a, n1, buf);
-    return ret || n1 == w ? ret : store_io(t, part, write, frow, 0, w - n1, (char *)buf + px * (size_t)n1);
+    return ret || n1 == w ? ret
+                          : store_io(t, part, write, frow, 0, w - n1, (char *)buf + part_bytes(part) * (size_t)n1);
 }
 
 /*
@@ -223,10 +228,11 @@ static int scatter(tiler *t, const tex_exemplar *ex, int i, int j, int x0, int y
             int d = core_dist(t, i, j, x0 + x, y0 + y);
             if (d > 0 && t->fixed[p] != TEX_SOFT)
                 continue;
-            float *v = t->old + 3 * p, a = cut ? 1.0f : (float)(t->blend + 1 - d) / (float)(t->blend + 1);
-            for (int c = 0; c < 3; c++) /* the core is new: its old band values are not pixels yet */
-                v[c] = d > 0 && !cut ? v[c] + a * (t->win[3 * p + c] - v[c]) : t->win[3 * p + c];
-            t->osrc[p] = a == 1.0f || d == 0 ? t->wsrc[p] + 1 : 0; /* a cross-fade is no exemplar pixel */
+            int fade = d > 0 && !cut; /* the core is new: its old band values are not pixels yet */
+            float *v = t->old + 3 * p, a = (float)(t->blend + 1 - d) / (float)(t->blend + 1);
+            for (int c = 0; c < 3; c++)
+                v[c] = fade ? v[c] + a * (t->win[3 * p + c] - v[c]) : t->win[3 * p + c];
+            t->osrc[p] = fade ? 0 : t->wsrc[p] + 1; /* a cross-fade is no exemplar pixel */
         }
     for (int y = 0, ret; y < h; y++) {
         int k, frow = scratch_row(t, j, y0 + y, &k);
