@@ -704,8 +704,8 @@ static int seam_between(const int32_t *src, int ew, size_t p, size_t q, int dx, 
     return src[q] % ew - src[p] % ew != dx || src[q] / ew - src[p] / ew != dy;
 }
 
-/* band[p] = 1 for pixels the synthesis may change (in the first rows) within SEAM_RADIUS of a cut; near is scratch. */
-static void seam_band(const level_win *W, int rows, const int32_t *src, int ew, uint8_t *band, uint8_t *near)
+/* band[p] = 1 for pixels the synthesis may change within SEAM_RADIUS of a cut; near is scratch. */
+static void seam_band(const level_win *W, const int32_t *src, int ew, uint8_t *band, uint8_t *near)
 {
     int w = W->w, h = W->h, R = SEAM_RADIUS;
     memset(near, 0, (size_t)w * h);
@@ -729,7 +729,7 @@ static void seam_band(const level_win *W, int rows, const int32_t *src, int ew, 
             int in = 0;
             for (int k = -R; k <= R && !in; k++)
                 in = y + k >= 0 && y + k < h && band[(size_t)(y + k) * w + x];
-            near[(size_t)y * w + x] = (uint8_t)(in && y < rows && W->fixed[(size_t)y * w + x] != TEX_FIXED);
+            near[(size_t)y * w + x] = (uint8_t)(in && W->fixed[(size_t)y * w + x] != TEX_FIXED);
         }
     memcpy(band, near, (size_t)w * h);
 }
@@ -783,7 +783,7 @@ static int refine_seams(const tex_job *job, level_win *W, const tex_level *ex, c
         free(xs), free(band), free(scratch), free(acc), free(z);
         return -ENOMEM;
     }
-    seam_band(W, job->seam_rows, b->src, ew, band, scratch);
+    seam_band(W, b->src, ew, band, scratch);
     memset(scratch, 0, n);       /* now: the pixels the passes blended */
     for (int j = 0; j < ny; j++) /* -1: no match yet; -2: the patch lies outside the band, never matched */
         for (int i = 0; i < nx; i++) {

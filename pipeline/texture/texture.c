@@ -5,6 +5,10 @@
  * across the wrap for a tileable output) are held fixed so the tile continues
  * them, except the 2 patches nearest the core that the sink has not had yet:
  * those are synthesised again and cross-faded from the old values to the new.
+ * A tileable output's first tile row also makes the last halo rows (the strip
+ * above row 0 across the wrap) and keeps them back from the sink, so the last
+ * tile row closes onto rows it may still blend into, as the last tile of a row
+ * does onto the first: the top-bottom wrap is joined like every other border.
  * The band of one tile row (plus the halo above), each pixel with the exemplar
  * pixel it was laid from (the blocks refuse to continue an earlier tile's
  * copy by source), waits in a scratch file, so
@@ -48,14 +52,15 @@ static int exemplar_levels(const sp_texture_settings *s, uint32_t ew, uint32_t e
 typedef struct tiler {
     const sp_texture_settings *s;
     int W, H, nx, ny, halo, blend, rows;
+    int strip;           /* tileable: rows [H - strip, H) belong to the first tile row (ys[0] = -strip) */
     int blocks, seams;   /* the finest level in whole blocks, their cuts optimised (tex_job) */
     int *xs, *ys;        /* tile boundaries, nx + 1 and ny + 1 */
-    int fd;              /* scratch file: output row y of the band at row y % rows; tileable: rows [0, halo) after;
+    int fd;              /* scratch file: output row y of the band at row y % rows; tileable: the strip after;
                             then the same rows' sources (int32, the exemplar pixel + 1, 0 for none) */
     float *win, *old;    /* the window; the band's values under it */
     int32_t *wsrc, *osrc; /* the window's sources (tex_synth_window), the band's under it (+ 1) */
     uint8_t *fixed;
-    int8_t *kind;        /* per window row: -1 not in the band, 0 band, 1 the kept first rows */
+    int8_t *kind;        /* per window row: -1 not in the band, 0 band */
     float *line;         /* one output row for the sink */
 } tiler;
 
@@ -108,41 +113,57 @@ static int row_io(const tiler *t, int part, int write, int frow, int x0, int w, 
                           : store_io(t, part, write, frow, 0, w - n1, (char *)buf + part_bytes(part) * (size_t)n1);
 }
 
+/* Output row y (any integer) in the tile rows' coordinates: wrapped when tileable, the strip as [-strip, 0). */
+static int tile_row_y(const tiler *t, int y)
+{
+    if (!t->s->tileable)
+        return y;
+    y = wrap(y, t->H);
+    return y >= t->H - t->strip ? y - t->H : y;
+}
+
+/* The tile row whose core holds row y (tile_row_y), -1 outside the output. */
+static int row_owner(const tiler *t, int y)
+{
+    if (y < t->ys[0] || y >= t->ys[t->ny])
+        return -1;
+    int k = 0;
+    while (y >= t->ys[k + 1])
+        k++;
+    return k;
+}
+
 /*
  * Whether output (x, y) is finished while tile (i, j) runs: -1 still to make,
- * 0 finished, 1 finished but not handed to the sink yet (this tile row, and the
- * last rows of the one above), so the tile may still blend into it.
+ * 0 finished, 1 finished but not handed to the sink yet (this tile row, the
+ * last rows of the one above, and a tileable output's strip), so the tile may
+ * still blend into it.
  */
 static int finished(const tiler *t, int i, int j, int x, int y)
 {
     if (t->s->tileable)
-        x = wrap(x, t->W), y = wrap(y, t->H);
-    if (x < 0 || y < 0 || x >= t->W || y >= t->H)
+        x = wrap(x, t->W);
+    y = tile_row_y(t, y);
+    int k = row_owner(t, y);
+    if (x < 0 || x >= t->W || k < 0 || k > j)
         return -1;
-    if (y >= t->ys[j] - t->halo && y < t->ys[j]) /* the halo rows above: all finished */
-        return j > 0 && y >= t->ys[j] - t->blend;
-    if (y >= t->ys[j] && y < t->ys[j + 1]) { /* this tile row: the tiles left of i */
-        int col = 0;
-        while (x >= t->xs[col + 1])
-            col++;
-        return col < i ? 1 : -1;
-    }
-    if (t->s->tileable && j == t->ny - 1 && j > 0 && y < t->halo) /* across the bottom wrap */
-        return 0;
-    return -1;
+    if (k < j) /* rows above (and, for the last tile row, the strip below): the sink has rows [0, ys[j] - blend) */
+        return y < 0 || y >= t->ys[j] - t->blend;
+    int col = 0; /* this tile row: the tiles left of i */
+    while (x >= t->xs[col + 1])
+        col++;
+    return col < i ? 1 : -1;
 }
 
-/* Scratch row of output row y (wrapped) for tile row j, and its kind (-1 when the band does not hold it). */
+/* Scratch row of output row y for tile row j, and its kind (-1 when the band does not hold it). */
 static int scratch_row(const tiler *t, int j, int y, int *kind)
 {
-    if (t->s->tileable)
-        y = wrap(y, t->H);
+    y = tile_row_y(t, y);
     *kind = 0;
+    if (y < 0 && y >= -t->strip) /* the strip: kept apart until the end */
+        return t->rows + t->strip + y;
     if (y >= 0 && y >= t->ys[j] - t->halo && y < t->ys[j + 1])
         return y % t->rows;
-    *kind = 1;
-    if (t->s->tileable && j == t->ny - 1 && j > 0 && y < t->halo)
-        return t->rows + y;
     *kind = -1;
     return -1;
 }
@@ -184,38 +205,13 @@ static int gather(tiler *t, int i, int j, int x0, int y0, int w, int h)
         for (int x = 0; x < w; x++) {
             int st = finished(t, i, j, x0 + x, y0 + y);
             size_t p = (size_t)y * w + x;
-            t->fixed[p] = st < 0 ? TEX_FREE : st && core_dist(t, i, j, x0 + x, y0 + y) <= t->blend ? TEX_SOFT : TEX_FIXED;
-            if (t->kind[y] == 1) /* the first rows across the wrap: free, started from their values (wrap_ramp) */
-                t->fixed[p] = TEX_SOFT;
+            int soft = st > 0 && core_dist(t, i, j, x0 + x, y0 + y) <= t->blend;
+            t->fixed[p] = st < 0 ? TEX_FREE : soft ? TEX_SOFT : TEX_FIXED;
             if (st >= 0)
                 memcpy(t->win + 3 * p, t->old + 3 * p, 3 * sizeof(float));
             t->wsrc[p] = st >= 0 ? t->osrc[p] - 1 : -1;
         }
     return 0;
-}
-
-/*
- * The top-bottom wrap: the first rows went to the sink long ago, so they
- * cannot be cross-faded. The window synthesised them again (started from their
- * values); the last rows before the wrap get the difference between the real
- * first row and its new version, ramped in over the blend, so they run on into it.
- */
-static void wrap_ramp(tiler *t, int y0, int w, int h)
-{
-    int yw = t->H - y0; /* window row of the first row across the wrap */
-    if (yw <= t->blend || yw >= h || t->kind[yw] != 1)
-        return;
-    for (int x = 0; x < w; x++)
-        for (int c = 0; c < 3; c++) {
-            size_t q = 3 * ((size_t)yw * w + x) + c;
-            float d = t->old[q] - t->win[q];
-            for (int k = 1; k <= t->blend; k++) {
-                float *v = &t->win[3 * ((size_t)(yw - k) * w + x) + c];
-                *v += d * (float)(t->blend + 1 - k) / (float)(t->blend + 1);
-                *v = *v < 0 ? 0 : *v > 1 ? 1 : *v;
-                t->wsrc[(size_t)(yw - k) * w + x] = -1;
-            }
-        }
 }
 
 /* The core into the band; blended pixels become a mix of old and new that moves to the new towards the core. */
@@ -250,16 +246,11 @@ static int run_tile(tiler *t, const tex_exemplar *ex, sp_pool *pool, int i, int 
     span(t, t->xs, i, t->W, &x0, &x1);
     span(t, t->ys, j, t->H, &y0, &y1);
     int w = x1 - x0, h = y1 - y0, ret = gather(t, i, j, x0, y0, w, h);
-    tex_job job = { ex, t->s, pool, tex_hash(t->s->seed, ((uint64_t)j << 32) | (uint64_t)i), t->blocks, t->seams, h };
-    for (int y = 0; !ret && y < h; y++) /* the first rows across the bottom wrap went out long ago (wrap_ramp) */
-        if (t->kind[y] == 1 && y < job.seam_rows)
-            job.seam_rows = y;
+    tex_job job = { ex, t->s, pool, tex_hash(t->s->seed, ((uint64_t)j << 32) | (uint64_t)i), t->blocks, t->seams };
     if (!ret)
         ret = tex_synth_window(&job, t->win, t->fixed, t->wsrc, w, h, tex_window_levels(w, h, ex->patch, ex->levels));
     if (ret)
         return ret;
-    if (t->s->tileable && j == t->ny - 1)
-        wrap_ramp(t, y0, w, h);
     return scatter(t, ex, i, j, x0, y0, w, h);
 }
 
@@ -302,6 +293,9 @@ static int tiler_open(tiler *t, const sp_texture_settings *s, int W, int H)
         t->nx = t->nx < 2 ? 2 : t->nx, t->ny = t->ny < 2 ? 2 : t->ny;
     t->xs = cuts(W, t->nx), t->ys = cuts(H, t->ny);
     t->rows = (H + t->ny - 1) / t->ny + t->halo;
+    t->strip = s->tileable ? t->halo : 0;
+    for (int k = 0; t->ys && k <= t->ny; k++)
+        t->ys[k] -= t->strip;
     size_t side = (size_t)T + 2 * (size_t)t->halo + 2; /* a core is at most T (or half a tileable side) */
     t->win = malloc(sizeof(float) * 3 * side * side);
     t->old = malloc(sizeof(float) * 3 * side * side);
@@ -325,19 +319,22 @@ static void tiler_close(tiler *t)
     memset(t, 0, sizeof(*t));
 }
 
-/* Hands the rows of tile row j that no later tile blends into to the sink, one at a time; keeps the first rows. */
+/* Hands the rows of tile row j that no later tile blends into to the sink, one at a time; the strip comes last. */
 static int finish_row(tiler *t, int j, sp_texture_sink sink, void *ctx)
 {
-    int e0 = j ? t->ys[j] - t->blend : 0, e1 = j < t->ny - 1 ? t->ys[j + 1] - t->blend : t->H, ret = 0;
-    for (int y = e0; !ret && y < e1; y++)
+    int last = j == t->ny - 1, e0 = j ? t->ys[j] - t->blend : 0, e1 = last ? t->ys[t->ny] : t->ys[j + 1] - t->blend;
+    int ret = 0;
+    for (int y = e0 < 0 ? 0 : e0; !ret && y < e1; y++)
         if (!(ret = store_io(t, PIXELS, 0, y % t->rows, 0, t->W, t->line)))
             ret = sink(ctx, (uint32_t)y, 1, t->line);
-    for (int y = 0; !ret && t->s->tileable && j == 0 && y < t->halo; y++) /* pixels, then sources (W <= 3 W floats) */
-        for (int part = PIXELS; !ret && part <= SOURCES; part++)
-            if (!(ret = store_io(t, part, 0, y % t->rows, 0, t->W, t->line)))
-                ret = store_io(t, part, 1, t->rows + y, 0, t->W, t->line);
+    for (int y = t->H - t->strip; !ret && last && y < t->H; y++) {
+        int k, frow = scratch_row(t, j, y, &k);
+        if (!(ret = store_io(t, PIXELS, 0, frow, 0, t->W, t->line)))
+            ret = sink(ctx, (uint32_t)y, 1, t->line);
+    }
     return ret;
 }
+
 static int sizes_ok(const sp_texture_settings *s, uint32_t ew, uint32_t eh, uint32_t W, uint32_t H)
 {
     uint32_t P = (uint32_t)s->patch;
@@ -415,7 +412,7 @@ int sp_texture_fill(float *rgb, uint32_t w, uint32_t h, const uint8_t *fill, con
             memcpy(win + 3 * p, rgb + 3 * q, 3 * sizeof(float));
             fixed[p] = fill[q] ? TEX_FREE : TEX_FIXED;
         }
-    tex_job job = { &ex, s, pool, tex_hash(s->seed, 0xF111ull), 0, 0, 0 };
+    tex_job job = { &ex, s, pool, tex_hash(s->seed, 0xF111ull), 0, 0 };
     if (!ret)
         ret = tex_synth_window(&job, win, fixed, NULL, bw, bh, tex_window_levels(bw, bh, s->patch, ex.levels));
     for (int y = 0; !ret && y < bh; y++)

@@ -49,7 +49,6 @@ typedef struct tex_job {
     uint64_t key;       /* per window: mixed into every random draw */
     int blocks;         /* 1: the finest level is laid in whole blocks (synth.c), 0: left as voted */
     int seams;          /* 1: the band about the blocks' cuts is optimised after them (synth.c) */
-    int seam_rows;      /* window rows from the top that pass may change (the rest are rows across a wrap) */
 } tex_job;
 
 /*
