@@ -9,11 +9,13 @@
  * histogram and autocorrelation distances (texture_eval.h), and time.
  *
  *   bench_texture [quality] [--size N] [--captures DIR] [--seed N|A-B] [--quilt-seed N|A-B] [--coherence-step S]
+ *       [--dump DIR]
  *       (--seed: sunprobe's, 1 unless given; --quilt-seed: quilting's, 11 unless given. With a range of either,
  *       every pair of seeds is compared and the spread reported: the median ratio over the exemplars per pair, its
  *       range and how many pairs are below 1, and each exemplar's range over the pairs. Coherence samples a
  *       7 x 7 patch at a fixed random place in every S x S cell, default 5; a regular grid, of any step, lined
- *       up unequally with the two methods' cuts)
+ *       up unequally with the two methods' cuts; --dump writes every output and exemplar as DIR/NAME-WHO[-SEED].png
+ *       to look at what a figure comes from)
  *   bench_texture scale --size WxH [--out FILE.png] [--threads N]   (one size per process: peak RSS)
  */
 #include <errno.h>
@@ -351,7 +353,28 @@ static void summary_spread(scores sa[][MAX_EX], scores sq[][MAX_EX], int n, int 
     }
 }
 
-static int quality(int N, const char *cap, seed_range seeds, seed_range quilt_seeds)
+/* dir/<exemplar's first word>-<who>.png (8-bit sRGB-agnostic: the values as they are); errors are reported, not fatal. */
+static void dump_png(const char *dir, const char *name, const char *who, const tev_image *im)
+{
+    char path[4096];
+    int k = snprintf(path, sizeof(path), "%s/%.*s-%s.png", dir, (int)strcspn(name, " "), name, who);
+    uint8_t *rgb = malloc((size_t)im->w * im->h * 3);
+    if (k < 0 || (size_t)k >= sizeof(path) || !rgb) {
+        free(rgb);
+        fprintf(stderr, "bench_texture: cannot dump %s %s\n", name, who);
+        return;
+    }
+    for (size_t i = 0; i < (size_t)im->w * im->h * 3; i++) {
+        float v = im->px[i];
+        rgb[i] = (uint8_t)(v <= 0 ? 0 : v >= 1 ? 255 : v * 255.0f + 0.5f);
+    }
+    int ret = sp_png_write(path, rgb, (uint32_t)im->w, (uint32_t)im->h, (uint32_t)im->w * 3, 3);
+    if (ret)
+        fprintf(stderr, "bench_texture: %s: %s\n", path, strerror(-ret));
+    free(rgb);
+}
+
+static int quality(int N, const char *cap, seed_range seeds, seed_range quilt_seeds, const char *dump)
 {
     tev_image ex[MAX_EX];
     const char *name[MAX_EX];
@@ -371,6 +394,8 @@ static int quality(int N, const char *cap, seed_range seeds, seed_range quilt_se
         return 1;
     for (int k = 0; k < n; k++) {
         printf("%s (%dx%d):\n", name[k], ex[k].w, ex[k].h);
+        if (dump)
+            dump_png(dump, name[k], "exemplar", &ex[k]);
         for (int i = 0; i < ns + nq; i++) {
             char who[32];
             double t0 = now_s();
@@ -383,6 +408,8 @@ static int quality(int N, const char *cap, seed_range seeds, seed_range quilt_se
                 sa[i][k] = score(&a, &ex[k], tile, now_s() - t0);
                 snprintf(who, sizeof(who), ns > 1 ? "sunprobe %llu" : "sunprobe", (unsigned long long)s.seed);
                 print_row(who, &sa[i][k]);
+                if (dump)
+                    dump_png(dump, name[k], strchr(who, ' ') ? (*strchr(who, ' ') = '-', who) : who, &a);
             } else {
                 uint64_t qs = quilt_seeds.lo + (uint64_t)(i - ns);
                 memset(a.px, 0, sizeof(float) * 3 * (size_t)N * N);
@@ -390,6 +417,8 @@ static int quality(int N, const char *cap, seed_range seeds, seed_range quilt_se
                 sq[i - ns][k] = score(&a, &ex[k], B - B / 6, now_s() - t0);
                 snprintf(who, sizeof(who), nq > 1 ? "quilting %llu" : "quilting", (unsigned long long)qs);
                 print_row(who, &sq[i - ns][k]);
+                if (dump)
+                    dump_png(dump, name[k], strchr(who, ' ') ? (*strchr(who, ' ') = '-', who) : who, &a);
             }
         }
         tev_free(&ex[k]);
@@ -456,7 +485,7 @@ int main(int argc, char **argv)
 {
     int scale_mode = argc > 1 && !strcmp(argv[1], "scale"), threads = 0, N = 384;
     uint32_t W = 2304, H = 2304;
-    const char *cap = "../shared/captures", *out = "/dev/null";
+    const char *cap = "../shared/captures", *out = "/dev/null", *dump = NULL;
     seed_range seeds = { 1, 1 }, quilt_seeds = { 11, 11 };
     for (int i = 1 + (argc > 1 && (scale_mode || !strcmp(argv[1], "quality"))); i + 1 < argc; i += 2) {
         if (!strcmp(argv[i], "--size") && scale_mode && sscanf(argv[i + 1], "%ux%u", &W, &H) == 2)
@@ -467,6 +496,8 @@ int main(int argc, char **argv)
             cap = argv[i + 1];
         else if (!strcmp(argv[i], "--out"))
             out = argv[i + 1];
+        else if (!strcmp(argv[i], "--dump") && !scale_mode)
+            dump = argv[i + 1];
         else if (!strcmp(argv[i], "--seed") && !scale_mode && parse_seeds(argv[i + 1], &seeds))
             continue;
         else if (!strcmp(argv[i], "--quilt-seed") && !scale_mode && parse_seeds(argv[i + 1], &quilt_seeds))
@@ -478,9 +509,9 @@ int main(int argc, char **argv)
         else
             return fprintf(stderr,
                            "usage: bench_texture [quality] [--size N] [--captures DIR] [--seed N|A-B] "
-                           "[--quilt-seed N|A-B] [--coherence-step S] | "
+                           "[--quilt-seed N|A-B] [--coherence-step S] [--dump DIR] | "
                            "scale --size WxH [--out F.png] [--threads N]\n"),
                    1;
     }
-    return scale_mode ? scale(W, H, out, threads) : quality(N, cap, seeds, quilt_seeds);
+    return scale_mode ? scale(W, H, out, threads) : quality(N, cap, seeds, quilt_seeds, dump);
 }
