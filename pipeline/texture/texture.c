@@ -60,7 +60,6 @@ typedef struct tiler {
     float *win, *old;    /* the window; the band's values under it */
     int32_t *wsrc, *osrc; /* the window's sources (tex_synth_window), the band's under it (+ 1) */
     uint8_t *fixed;
-    int8_t *kind;        /* per window row: -1 not in the band, 0 band */
     float *line;         /* one output row for the sink */
 } tiler;
 
@@ -127,10 +126,15 @@ static int row_owner(const tiler *t, int y)
 {
     if (y < t->ys[0] || y >= t->ys[t->ny])
         return -1;
-    int k = 0;
-    while (y >= t->ys[k + 1])
-        k++;
-    return k;
+    int lo = 0, hi = t->ny - 1; /* ys[lo] <= y < ys[hi + 1]; by halves: an output may have 10^5 tile rows */
+    while (lo < hi) {
+        int mid = (lo + hi + 1) / 2;
+        if (y >= t->ys[mid])
+            lo = mid;
+        else
+            hi = mid - 1;
+    }
+    return lo;
 }
 
 /*
@@ -155,16 +159,14 @@ static int finished(const tiler *t, int i, int j, int x, int y)
     return col < i ? 1 : -1;
 }
 
-/* Scratch row of output row y for tile row j, and its kind (-1 when the band does not hold it). */
-static int scratch_row(const tiler *t, int j, int y, int *kind)
+/* Scratch row of output row y for tile row j; -1 when the band does not hold it. */
+static int scratch_row(const tiler *t, int j, int y)
 {
     y = tile_row_y(t, y);
-    *kind = 0;
     if (y < 0 && y >= -t->strip) /* the strip: kept apart until the end */
         return t->rows + t->strip + y;
     if (y >= 0 && y >= t->ys[j] - t->halo && y < t->ys[j + 1])
         return y % t->rows;
-    *kind = -1;
     return -1;
 }
 
@@ -194,8 +196,7 @@ static void span(const tiler *t, const int *cuts, int k, int n, int *a, int *b)
 static int gather(tiler *t, int i, int j, int x0, int y0, int w, int h)
 {
     for (int y = 0, ret; y < h; y++) {
-        int k, frow = scratch_row(t, j, y0 + y, &k);
-        t->kind[y] = (int8_t)k;
+        int frow = scratch_row(t, j, y0 + y);
         if (frow >= 0 &&
             ((ret = row_io(t, PIXELS, 0, frow, x0, w, t->old + 3 * (size_t)y * w)) ||
              (ret = row_io(t, SOURCES, 0, frow, x0, w, t->osrc + (size_t)y * w))))
@@ -231,8 +232,8 @@ static int scatter(tiler *t, const tex_exemplar *ex, int i, int j, int x0, int y
             t->osrc[p] = fade ? 0 : t->wsrc[p] + 1; /* a cross-fade is no exemplar pixel */
         }
     for (int y = 0, ret; y < h; y++) {
-        int k, frow = scratch_row(t, j, y0 + y, &k);
-        if (k == 0 &&
+        int frow = scratch_row(t, j, y0 + y);
+        if (frow >= 0 &&
             ((ret = row_io(t, PIXELS, 1, frow, x0, w, t->old + 3 * (size_t)y * w)) ||
              (ret = row_io(t, SOURCES, 1, frow, x0, w, t->osrc + (size_t)y * w))))
             return ret;
@@ -302,20 +303,18 @@ static int tiler_open(tiler *t, const sp_texture_settings *s, int W, int H)
     t->fixed = malloc(side * side);
     t->wsrc = malloc(sizeof(int32_t) * side * side);
     t->osrc = malloc(sizeof(int32_t) * side * side);
-    t->kind = malloc(side);
     t->line = malloc(sizeof(float) * 3 * (size_t)W);
     t->fd = scratch_open();
     if (t->fd < 0)
         return t->fd;
-    return t->xs && t->ys && t->win && t->old && t->fixed && t->wsrc && t->osrc && t->kind && t->line ? 0 : -ENOMEM;
+    return t->xs && t->ys && t->win && t->old && t->fixed && t->wsrc && t->osrc && t->line ? 0 : -ENOMEM;
 }
 
 static void tiler_close(tiler *t)
 {
     if (t->fd >= 0)
         close(t->fd);
-    free(t->xs), free(t->ys), free(t->win), free(t->old), free(t->fixed), free(t->wsrc), free(t->osrc), free(t->kind),
-        free(t->line);
+    free(t->xs), free(t->ys), free(t->win), free(t->old), free(t->fixed), free(t->wsrc), free(t->osrc), free(t->line);
     memset(t, 0, sizeof(*t));
 }
 
@@ -328,7 +327,7 @@ static int finish_row(tiler *t, int j, sp_texture_sink sink, void *ctx)
         if (!(ret = store_io(t, PIXELS, 0, y % t->rows, 0, t->W, t->line)))
             ret = sink(ctx, (uint32_t)y, 1, t->line);
     for (int y = t->H - t->strip; !ret && last && y < t->H; y++) {
-        int k, frow = scratch_row(t, j, y, &k);
+        int frow = scratch_row(t, j, y);
         if (!(ret = store_io(t, PIXELS, 0, frow, 0, t->W, t->line)))
             ret = sink(ctx, (uint32_t)y, 1, t->line);
     }
