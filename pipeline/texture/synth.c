@@ -704,13 +704,17 @@ static void settle_blocks(const tex_job *job, level_win *W, const tex_level *ex,
  * patch's edges (a sin^2 window): at a stride of 2 two neighbouring rows are
  * covered by the same patches, and with flat votes a near-exact match took both
  * and the next pair switched to another (steps every other row across each
- * cut, 3-6x the texture's own). Pixels outside the band stay verbatim copies.
+ * cut, 3-6x the texture's own). With the edges tapered away a near-exact
+ * match's centre decided a pixel outright and joined the two copies it
+ * continues across the cut (larger verbatim regions), so a match nearer than
+ * SEAM_EXACT weighs as one at SEAM_EXACT. Pixels outside the band stay verbatim copies.
  * Raster order in one thread, as the blocks.
  */
 #define SEAM_RADIUS 3 /* band half-width about a cut, pixels */
 #define SEAM_PASSES 3
 #define SEAM_STRIDE 2     /* between the optimised patches */
 #define SEAM_ROBUST -0.6f /* the vote weight's exponent on a match's distance per pixel */
+#define SEAM_EXACT 0.003  /* a match this near (x the distance of unrelated patches) counts as exact */
 
 /* Patch origins along one axis: every SEAM_STRIDE, the last one flush with the end. */
 static int seam_origins(int n, int P, int *pos)
@@ -821,6 +825,7 @@ static int refine_seams(const tex_job *job, level_win *W, const tex_level *ex, c
             z[j * nx + i] = touches ? -1 : -2;
         }
     float *img = b->out, taper[32]; /* patch <= 32 (settings_ok) */
+    float exact = (float)(SEAM_EXACT * ex->scale);
     for (int k = 0; k < P; k++) {
         float a = sinf(3.14159265f * ((float)k + 0.5f) / (float)P);
         taper[k] = a * a;
@@ -846,7 +851,7 @@ static int refine_seams(const tex_job *job, level_win *W, const tex_level *ex, c
                 z[j * nx + i] = m;
                 if (m < 0)
                     continue;
-                float wt = powf(d / (float)(P * P) + 1e-6f, SEAM_ROBUST);
+                float wt = powf((d > exact ? d : exact) / (float)(P * P) + 1e-6f, SEAM_ROBUST);
                 for (int y = 0; y < P; y++)
                     for (int x = 0; x < P; x++) {
                         size_t q = (size_t)(py + y) * w + px + x;
