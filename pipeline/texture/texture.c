@@ -112,7 +112,7 @@ static int row_io(const tiler *t, int part, int write, int frow, int x0, int w, 
                           : store_io(t, part, write, frow, 0, w - n1, (char *)buf + part_bytes(part) * (size_t)n1);
 }
 
-/* Output row y (any integer) in the tile rows' coordinates: wrapped when tileable, the strip as [-strip, 0). */
+/* Output row y (any integer) in the tile rows' coordinates (ys): wrapped when tileable, the strip as [-strip, 0). */
 static int tile_row_y(const tiler *t, int y)
 {
     if (!t->s->tileable)
@@ -121,15 +121,15 @@ static int tile_row_y(const tiler *t, int y)
     return y >= t->H - t->strip ? y - t->H : y;
 }
 
-/* The tile row whose core holds row y (tile_row_y), -1 outside the output. */
-static int row_owner(const tiler *t, int y)
+/* The piece k of n tile boundaries with cuts[k] <= v < cuts[k + 1], -1 outside them. */
+static int cut_owner(const int *cuts, int n, int v)
 {
-    if (y < t->ys[0] || y >= t->ys[t->ny])
+    if (v < cuts[0] || v >= cuts[n])
         return -1;
-    int lo = 0, hi = t->ny - 1; /* ys[lo] <= y < ys[hi + 1]; by halves: an output may have 10^5 tile rows */
+    int lo = 0, hi = n - 1; /* by halves: a side of 10^6 pixels has 4000 tiles, and every window pixel asks */
     while (lo < hi) {
         int mid = (lo + hi + 1) / 2;
-        if (y >= t->ys[mid])
+        if (v >= cuts[mid])
             lo = mid;
         else
             hi = mid - 1;
@@ -148,15 +148,12 @@ static int finished(const tiler *t, int i, int j, int x, int y)
     if (t->s->tileable)
         x = wrap(x, t->W);
     y = tile_row_y(t, y);
-    int k = row_owner(t, y);
-    if (x < 0 || x >= t->W || k < 0 || k > j)
+    int k = cut_owner(t->ys, t->ny, y), col = cut_owner(t->xs, t->nx, x);
+    if (col < 0 || k < 0 || k > j)
         return -1;
     if (k < j) /* rows above (and, for the last tile row, the strip below): the sink has rows [0, ys[j] - blend) */
         return y < 0 || y >= t->ys[j] - t->blend;
-    int col = 0; /* this tile row: the tiles left of i */
-    while (x >= t->xs[col + 1])
-        col++;
-    return col < i ? 1 : -1;
+    return col < i ? 1 : -1; /* this tile row: the tiles left of i */
 }
 
 /* Scratch row of output row y for tile row j; -1 when the band does not hold it. */

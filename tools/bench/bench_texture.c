@@ -353,7 +353,16 @@ static void summary_spread(scores sa[][MAX_EX], scores sq[][MAX_EX], int n, int 
     }
 }
 
-/* dir/<exemplar's first word>-<who>.png (8-bit sRGB-agnostic: the values as they are); errors are reported, not fatal. */
+/* n values in [0, 1] to bytes, rounded and clamped (the values as they are: no transfer curve). */
+static void to_bytes(const float *in, size_t n, uint8_t *out)
+{
+    for (size_t i = 0; i < n; i++) {
+        float v = in[i] * 255.0f + 0.5f;
+        out[i] = (uint8_t)(v < 0 ? 0 : v > 255 ? 255 : v);
+    }
+}
+
+/* dir/<exemplar's first word>-<who, a space as '-'>.png; errors are reported, not fatal. */
 static void dump_png(const char *dir, const char *name, const char *who, const tev_image *im)
 {
     char path[4096];
@@ -364,10 +373,9 @@ static void dump_png(const char *dir, const char *name, const char *who, const t
         fprintf(stderr, "bench_texture: cannot dump %s %s\n", name, who);
         return;
     }
-    for (size_t i = 0; i < (size_t)im->w * im->h * 3; i++) {
-        float v = im->px[i];
-        rgb[i] = (uint8_t)(v <= 0 ? 0 : v >= 1 ? 255 : v * 255.0f + 0.5f);
-    }
+    for (char *c = path + strlen(dir) + 1; *c; c++)
+        *c = *c == ' ' ? '-' : *c;
+    to_bytes(im->px, (size_t)im->w * im->h * 3, rgb);
     int ret = sp_png_write(path, rgb, (uint32_t)im->w, (uint32_t)im->h, (uint32_t)im->w * 3, 3);
     if (ret)
         fprintf(stderr, "bench_texture: %s: %s\n", path, strerror(-ret));
@@ -409,7 +417,7 @@ static int quality(int N, const char *cap, seed_range seeds, seed_range quilt_se
                 snprintf(who, sizeof(who), ns > 1 ? "sunprobe %llu" : "sunprobe", (unsigned long long)s.seed);
                 print_row(who, &sa[i][k]);
                 if (dump)
-                    dump_png(dump, name[k], strchr(who, ' ') ? (*strchr(who, ' ') = '-', who) : who, &a);
+                    dump_png(dump, name[k], who, &a);
             } else {
                 uint64_t qs = quilt_seeds.lo + (uint64_t)(i - ns);
                 memset(a.px, 0, sizeof(float) * 3 * (size_t)N * N);
@@ -418,7 +426,7 @@ static int quality(int N, const char *cap, seed_range seeds, seed_range quilt_se
                 snprintf(who, sizeof(who), nq > 1 ? "quilting %llu" : "quilting", (unsigned long long)qs);
                 print_row(who, &sq[i - ns][k]);
                 if (dump)
-                    dump_png(dump, name[k], strchr(who, ' ') ? (*strchr(who, ' ') = '-', who) : who, &a);
+                    dump_png(dump, name[k], who, &a);
             }
         }
         tev_free(&ex[k]);
@@ -444,10 +452,7 @@ static int to_png(void *ctx, uint32_t y0, uint32_t n, const float *rgb)
     (void)y0;
     png_sink *k = ctx;
     for (uint32_t y = 0; y < n; y++) {
-        for (size_t i = 0; i < (size_t)k->w * 3; i++) {
-            float v = rgb[(size_t)y * k->w * 3 + i] * 255.0f + 0.5f;
-            k->row[i] = (uint8_t)(v < 0 ? 0 : v > 255 ? 255 : v);
-        }
+        to_bytes(rgb + (size_t)y * k->w * 3, (size_t)k->w * 3, k->row);
         int ret = sp_png_stream_rows(k->png, k->row, 1, k->w * 3);
         if (ret)
             return ret;
