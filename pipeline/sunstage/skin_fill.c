@@ -3,10 +3,11 @@
  * The face's unseen skin. Push-pull (albedo.c) gives every texel no keyframe
  * saw a smooth colour from the observed ones; here each skin cluster's unseen
  * texels then get skin synthesised (pipeline/texture/, hole filling) from the
- * observed texels of the same cluster, the observed texels held fixed so the
- * synthesis continues them across the boundary. The synthesised texture keeps
- * its detail but takes its low frequencies from push-pull, so the colour runs
- * on from the boundary instead of jumping to the cluster's mean. Texels filled
+ * observed plain skin (is_plain_skin), the cluster's own when it is plain and
+ * seen, the observed texels held fixed so the synthesis continues them across
+ * the boundary. The synthesised texture keeps its detail but takes its low
+ * frequencies from push-pull, so the colour runs on from the boundary instead
+ * of jumping to the cluster's mean. Texels filled
  * so are marked SS_TEXEL_SYNTHESISED in `observed`.
  */
 #include "pipeline/sunstage/sunstage_internal.h"
@@ -34,6 +35,16 @@ static int texel_cluster(const uint8_t *map, int cw, int ch, int x, int y, int w
 static int is_skin(int c)
 {
     return c != SP_FACE_CLUSTER_NONE && c != SP_FACE_CLUSTER_LEFT_EYE && c != SP_FACE_CLUSTER_RIGHT_EYE;
+}
+
+/*
+ * Skin without a feature drawn on it: the forehead holds the brows, the lips cluster the vermilion and the
+ * nose the nostrils (pipeline/face/face_regions.c), and none of those is texture to repeat over a scalp,
+ * a neck or even the same cluster's unseen part (the hairline, the corners of the mouth).
+ */
+static int is_plain_skin(int c)
+{
+    return is_skin(c) && c != SP_FACE_CLUSTER_FOREHEAD && c != SP_FACE_CLUSTER_LIPS && c != SP_FACE_CLUSTER_NOSE;
 }
 
 /* Box mean of radius r over the texels where mask is set (in place of out), RGB. */
@@ -149,23 +160,34 @@ static void mark_rim(const uint8_t *observed, const uint8_t *region, int w, int 
         rim[i] = rim[i] == 255 ? 0 : rim[i];
 }
 
-/* One cluster: its unseen texels and its rim from its interior, else from any observed skin interior. */
+/* Which observed texels a cluster's fill copies, most specific first; the last is any observed skin. */
+enum source_kind { SOURCE_OWN, SOURCE_PLAIN, SOURCE_ANY, SOURCE_KINDS };
+
+static int source_texel(enum source_kind kind, int r, int texel_region)
+{
+    return kind == SOURCE_OWN  ? texel_region == r && is_plain_skin(r)
+        : kind == SOURCE_PLAIN ? is_plain_skin(texel_region)
+                               : is_skin(texel_region);
+}
+
+/* One cluster: its unseen texels and its rim, from the first source with a whole observed patch. */
 static int fill_region(float *albedo, int w, int h, const uint8_t *observed, const uint8_t *region, const uint8_t *rim,
                        int r, uint8_t *fill, uint8_t *src, int threads)
 {
     size_t n = (size_t)w * h, k = 0;
     for (size_t i = 0; i < n; i++) {
         fill[i] = region[i] == r && (observed[i] == 0 || rim[i]);
-        src[i] = region[i] == r && observed[i] == 1 && !rim[i];
         k += region[i] == r && observed[i] == 0;
     }
     if (!k)
         return 0;
-    int ret = fill_cluster(albedo, w, h, fill, src, threads);
-    if (ret == SP_ENODATA) { /* too little of this cluster seen: any observed skin */
+    int ret = SP_ENODATA;
+    for (int kind = 0; ret == SP_ENODATA && kind < SOURCE_KINDS; kind++) {
+        size_t m = 0;
         for (size_t i = 0; i < n; i++)
-            src[i] = observed[i] == 1 && is_skin(region[i]) && !rim[i];
-        ret = fill_cluster(albedo, w, h, fill, src, threads);
+            m += src[i] = observed[i] == 1 && !rim[i] && source_texel((enum source_kind)kind, r, region[i]);
+        if (m)
+            ret = fill_cluster(albedo, w, h, fill, src, threads);
     }
     if (ret == SP_ENODATA) /* no observed skin patch at all: push-pull stays */
         memset(fill, 0, n);
