@@ -179,8 +179,10 @@ static int fill_region(float *albedo, int w, int h, const uint8_t *observed, con
         fill[i] = region[i] == r && (observed[i] == 0 || rim[i]);
         k += region[i] == r && observed[i] == 0;
     }
-    if (!k)
+    if (!k) { /* nothing of this cluster unseen: its rim (beside another cluster's unseen texels) stays as seen */
+        memset(fill, 0, n);
         return 0;
+    }
     int ret = SP_ENODATA;
     for (int kind = 0; ret == SP_ENODATA && kind < SOURCE_KINDS; kind++) {
         size_t m = 0;

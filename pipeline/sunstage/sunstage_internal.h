@@ -273,7 +273,7 @@ int ss_albedo_fill_unobserved(float *albedo, int w, int h, const uint8_t *observ
 #define SS_TEXEL_SYNTHESISED 2 /* `observed` value of a texel filled with synthesised skin */
 /*
  * Push-pull for every unobserved texel, then synthesised skin for those of a skin cluster, from the
- * observed texels of the same cluster (marked SS_TEXEL_SYNTHESISED); -ENOMEM.
+ * observed plain skin, the cluster's own first (marked SS_TEXEL_SYNTHESISED); -ENOMEM.
  */
 int ss_albedo_complete(sp_sunstage *ss);
 /*

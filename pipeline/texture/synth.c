@@ -321,9 +321,9 @@ static int run_level(const tex_job *job, level_win *W, int level)
  * for spread, this only chooses among near-ties. A block may not continue the
  * copy of the blocks it overlaps (the sides and the two diagonals above) beyond
  * BLOCK_RUN blocks, nor (at BLOCK_RUN 1) reproduce half
- * a patch side of settled pixels from the same exemplar pixels (a diagonal's
- * copy; an earlier tile's pixels, whose source is not kept, by equal values),
- * which bounds verbatim repetition the way quilting's fixed block does; borders
+ * a patch side of settled pixels from the same exemplar pixels (any other
+ * copy, an earlier tile's included; a blended pixel, which has no source, by
+ * equal value), which bounds verbatim repetition the way quilting's fixed block does; borders
  * are minimum-error cuts, then the band about them is optimised (refine_seams
  * below). Sequential, so the result depends on the seed only.
  */

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * The face's unseen skin (pipeline/sunstage/skin_fill.c) on a small map: unseen
- * skin texels get texture from the observed ones of their cluster (marked
+ * skin texels get texture from the observed plain skin (marked
  * SS_TEXEL_SYNTHESISED), eyes and texels outside the layout keep push-pull's
  * colour, observed texels away from the rim are untouched, the colour follows
  * the observed skin, the thread count changes nothing, and a feature drawn on
@@ -98,19 +98,46 @@ static void test_features_not_copied(void)
     memcpy(wash, m.albedo, sizeof(wash));
     CHECK_EQ_INT(ss_skin_synthesise(m.albedo, W, H, m.observed, m.clusters, W, H, 1), 0);
     double darkest = 0;
-    int synth = 0;
-    for (int i = 0; i < W * H; i++)
+    int synth = 0, seen_changed = 0;
+    for (int i = 0; i < W * H; i++) {
         if (m.observed[i] == SS_TEXEL_SYNTHESISED)
             darkest = fmin(darkest, (double)m.albedo[3 * i + 1] - (double)wash[3 * i + 1]), synth++;
+        seen_changed += m.observed[i] == 1 && memcmp(m.albedo + 3 * i, wash + 3 * i, 3 * sizeof(float)) != 0;
+    }
+    /* a cluster with nothing unseen (forehead, cheek) keeps its rim beside the temple as it was seen */
+    CHECK_MSG(!seen_changed, "%d observed texels of wholly seen clusters changed", seen_changed);
     printf("temple: %d texels synthesised, darkest %.3f below push-pull\n", synth, darkest);
     /* the stones' own detail stays within 0.05 of its mean; the old rule's copied brow reached -0.146 */
     CHECK_MSG(synth > 0 && darkest > -0.1, "%d temple texels synthesised, darkest %.3f below push-pull: a brow copied",
               synth, darkest);
 }
 
+/* A feature cluster (forehead) with no plain skin seen anywhere still gets skin: from any observed skin. */
+static void test_feature_fallback(void)
+{
+    static map m;
+    tev_image t;
+    tev_procedural(&t, TEV_STONES, W, H, 7);
+    for (int i = 0; i < W * H; i++) {
+        m.clusters[i] = SP_FACE_CLUSTER_FOREHEAD;
+        m.observed[i] = i % W < 48;
+        for (int c = 0; c < 3; c++)
+            m.albedo[3 * i + c] = m.observed[i] ? 0.4f + 0.3f * t.px[3 * i + c] : 0.0f;
+    }
+    tev_free(&t);
+    CHECK_EQ_INT(ss_albedo_fill_unobserved(m.albedo, W, H, m.observed), 0);
+    CHECK_EQ_INT(ss_skin_synthesise(m.albedo, W, H, m.observed, m.clusters, W, H, 1), 0);
+    int synth = 0;
+    for (int i = 0; i < W * H; i++)
+        synth += m.observed[i] == SS_TEXEL_SYNTHESISED;
+    CHECK_MSG(synth == (W - 48) * H, "%d of %d unseen forehead texels synthesised from the forehead itself", synth,
+              (W - 48) * H);
+}
+
 int main(void)
 {
     test_features_not_copied();
+    test_feature_fallback();
     static map a, b, orig;
     make_map(&a);
     orig = a;

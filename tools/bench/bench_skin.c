@@ -226,12 +226,18 @@ int main(int argc, char **argv)
     /* Least squares weighs the observed skin's errors by its brightness (an over-bright forehead pulls the
        scale down); matching the observed skin's mean instead leaves the fill's own error in the unseen mean */
     double err = 0;
+    int scalable = 1;
     for (int c = 0; c < 3; c++) {
-        double ratio = sum_a[c] > 0 && k[c] > 0 ? sum_t[c] / sum_a[c] / k[c] : 1;
+        scalable &= sum_a[c] > 0 && k[c] > 0;
+        double ratio = scalable ? sum_t[c] / sum_a[c] / k[c] : 1;
         err = fmax(err, fabs(sy.sum_fit[c] * ratio - sy.sum_true[c]) / fmax(sy.sum_true[c], 1e-9));
     }
-    printf("  %-22s mean colour off by %5.1f %% with the scale that matches the observed skin's mean instead\n",
-           "push-pull + synthesis", 100 * err);
+    if (scalable)
+        printf("  %-22s mean colour off by %5.1f %% with the scale that matches the observed skin's mean instead\n",
+               "push-pull + synthesis", 100 * err);
+    else
+        printf("  %-22s no mean-matching scale: the observed skin's albedo sums to 0 in a channel\n",
+               "push-pull + synthesis");
     /* the exemplar the synthesis copies: the fit's observed skin against the truth there */
     double co_fit = local_contrast(albedo, seen, w, h), co_true = local_contrast(truth, seen, w, h);
     printf("  %-22s local contrast %.4f vs true %.4f (%+5.1f %%)\n", "observed skin (source)", co_fit, co_true,
