@@ -592,10 +592,11 @@ static void settle_blocks(const tex_job *job, level_win *W, const tex_level *ex,
                     b->n_sub = b->n_tgt;
             }
             /*
-             * The laid blocks this one overlaps (left and up first: their continuations are candidates; then
-             * the two above diagonally, which share a corner of overlap with it) and the offset that would
-             * continue each one's copy: continuing a diagonal's joins the two copies through that corner as
-             * surely as a side's does (768 x 768 fabric: a region of two blocks, 0.071 of the exemplar).
+             * The laid blocks this one overlaps (left and up first: their continuations are candidates when
+             * BLOCK_RUN allows a run; then the two above diagonally, which share a corner of overlap with it)
+             * and the offset that would continue each one's copy: continuing a diagonal's joins the two
+             * copies through that corner as surely as a side's does (768 x 768 fabric: a region of two
+             * blocks, 0.071 of the exemplar).
              */
             int nbr[N_OVERLAPPED] = { i > 0 ? id - 1 : -1, j > 0 ? id - nx : -1, i > 0 && j > 0 ? id - nx - 1 : -1,
                                       j > 0 && i + 1 < nx ? id - nx + 1 : -1 };
