@@ -88,6 +88,12 @@ static void test_seams_and_statistics(void)
         s0, s1, h0, h1, a0, a1);
     CHECK_MSG(s0 > 0.7 && s0 < 1.3, "a seamless image shows a seam: %.2f", s0);
     CHECK_MSG(s1 > 3.0, "steps along the tile borders are not seen: %.2f", s1);
+    /* the control at the tile centres: no seam on either image, the borders' steps only among its neighbours */
+    double c0 = tev_seam_ratio_at(&plain, 8, 16), c1 = tev_seam_ratio_at(&stepped, 8, 16);
+    printf("at the tile centres: seams %.2f plain, %.2f stepped\n", c0, c1);
+    CHECK_MSG(c0 > 0.7 && c0 < 1.3, "a seamless image shows a seam at its tile centres: %.2f", c0);
+    CHECK_MSG(c1 < 1.0, "the tile centres of the stepped image show a seam: %.2f", c1);
+    CHECK_MSG(tev_seam_ratio_at(&stepped, 16, 16) == s1, "the borders' ratio differs from tev_seam_ratio's");
     CHECK_MSG(h0 < 1e-12 && h1 > 0.5, "histogram distances %.3f and %.3f", h0, h1);
     CHECK_MSG(a0 < 1e-12 && a1 > a0, "autocorrelation distances %.4f and %.4f", a0, a1);
     tev_free(&plain), tev_free(&stepped), tev_free(&inverse), tev_free(&ex);

@@ -280,15 +280,15 @@ static double line_step(const tev_image *im, int x, int vertical)
     return s / n;
 }
 
-double tev_seam_ratio(const tev_image *out, int tile)
+double tev_seam_ratio_at(const tev_image *out, int first, int period)
 {
     double on = 0, off = 0;
     int non = 0, noff = 0;
-    for (int v = 0; v < 2; v++) {
+    for (int v = 0; v < 2 && first > 0 && period > 0; v++) {
         int n = v ? out->w : out->h;
-        for (int t = tile; t < n; t += tile) {
+        for (int t = first; t < n; t += period) {
             on += line_step(out, t, v), non++;
-            for (int d = -32; d <= 32; d += 2) /* even shifts: the same pixel parity as the border */
+            for (int d = -32; d <= 32; d += 2) /* even shifts: the same pixel parity as the line */
                 if (d && t + d > 0 && t + d < n)
                     off += line_step(out, t + d, v), noff++;
         }
@@ -296,6 +296,11 @@ double tev_seam_ratio(const tev_image *out, int tile)
     if (!non || !noff || off <= 0)
         return 1.0;
     return (on / non) / (off / noff);
+}
+
+double tev_seam_ratio(const tev_image *out, int tile)
+{
+    return tev_seam_ratio_at(out, tile, tile);
 }
 
 static void histogram(const tev_image *im, double *h)
