@@ -22,6 +22,7 @@
 #define REF_WIDTH 128.0
 #define HUBER_PX 1.0
 #define W_JAW 0.5     /* jaw contour landmarks slide along the silhouette: trust them less */
+#define W_BROW 0.25   /* brows mark where the hair grows, which is the person's, not the skull's (SUNSTAGE.md) */
 #define W_ID 1.0      /* px^2 per unit identity coefficient squared */
 #define W_EXP 4.0
 #define W_SCALE 400.0 /* (s - 1)^2 weight: a 5 % scale change costs 1 px^2 */
@@ -51,12 +52,12 @@ static double frame_unit(const sp_sunstage *ss, const ss_frame *f)
     return REF_WIDTH / (double)ss->W;
 }
 
-/* Landmark weight for the point residual (du, dv): Huber on its length times the jaw factor. */
+/* Landmark weight for the point residual (du, dv): Huber on its length times the jaw or brow factor. */
 static double lm_weight(int k, double du, double dv)
 {
     double r = hypot(du, dv);
     double w = r > HUBER_PX ? HUBER_PX / r : 1.0;
-    return k <= 16 ? W_JAW * w : w;
+    return k <= 16 ? W_JAW * w : k <= 26 ? W_BROW * w : w;
 }
 
 static double huber_cost(double r)
@@ -139,7 +140,7 @@ static double evaluate(align_ctx *a, int with_jac)
         for (int k = 0; k < 68; k++) {
             double du = u * (a->uv[2 * k] - f->lm[2 * k]), dv = u * (a->uv[2 * k + 1] - f->lm[2 * k + 1]);
             double w = lm_weight(k, du, dv), wr = w * u, wj = w * u * u; /* the Jacobian is per fit pixel */
-            cost += (k <= 16 ? W_JAW : 1.0) * huber_cost(hypot(du, dv));
+            cost += (k <= 16 ? W_JAW : k <= 26 ? W_BROW : 1.0) * huber_cost(hypot(du, dv));
             if (!with_jac)
                 continue;
             for (int c = 0; c < 2; c++) {
