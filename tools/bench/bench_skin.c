@@ -57,6 +57,7 @@ static double lum(const float *p)
 
 typedef struct measure {
     double mean_err, contrast_fit, contrast_true, seam, inner;
+    double inner_seen, inner_filled; /* the steps inside each set alone */
     double sum_fit[3], sum_true[3]; /* over the filled texels, per channel */
 } measure;
 
@@ -104,8 +105,8 @@ static measure evaluate(const float *fit, const float *truth, const uint8_t *fil
     }
     m.contrast_fit = local_contrast(fit, filled, w, h);
     m.contrast_true = local_contrast(truth, filled, w, h);
-    double sb = 0, si = 0;
-    int nb = 0, ni = 0;
+    double sb = 0, si = 0, ss = 0, sf2 = 0;
+    int nb = 0, ni = 0, ns = 0, nf = 0;
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++)
             for (int d = 0; d < 2; d++) {
@@ -121,11 +122,18 @@ static measure evaluate(const float *fit, const float *truth, const uint8_t *fil
                     q += (double)((fit[3 * a + c] - fit[3 * b + c]) * (fit[3 * a + c] - fit[3 * b + c]));
                 if (filled[a] != filled[b])
                     sb += q, nb++;
-                else
+                else {
                     si += q, ni++;
+                    if (filled[a])
+                        sf2 += q, nf++;
+                    else
+                        ss += q, ns++;
+                }
             }
     m.seam = nb ? sb / nb : 0;
     m.inner = ni ? si / ni : 1e-12;
+    m.inner_seen = ns ? ss / ns : 1e-12;
+    m.inner_filled = nf ? sf2 / nf : 1e-12;
     (void)n;
     return m;
 }
@@ -135,6 +143,9 @@ static void print_measure(const char *who, const measure *m)
     printf("  %-22s mean colour off by %5.1f %%  local contrast %.4f vs true %.4f (%+5.1f %%)  seam / interior %.2f\n",
            who, 100 * m->mean_err, m->contrast_fit, m->contrast_true,
            100 * (m->contrast_fit / fmax(m->contrast_true, 1e-12) - 1), m->seam / fmax(m->inner, 1e-12));
+    /* a step across the boundary between two textures of different roughness sits between their own */
+    printf("  %-22s seam against each side's own steps: seen %.2f, filled %.2f\n", "", m->seam / fmax(m->inner_seen, 1e-12),
+           m->seam / fmax(m->inner_filled, 1e-12));
 }
 
 static void put_block(uint8_t *img, int iw, int x0, int y0, const float *rgb, int w, int h, int z)
