@@ -58,7 +58,7 @@ static double lum(const float *p)
 typedef struct measure {
     double mean_err, contrast_fit, contrast_true, seam, inner;
     double inner_seen, inner_filled; /* the steps inside each set alone */
-    double sum_fit[3], sum_true[3]; /* over the filled texels, per channel */
+    double sum_fit[3], sum_true[3];  /* over the filled texels, per channel */
 } measure;
 
 /* 3x3 luminance standard deviation over the texels of the set, averaged over the set. */
@@ -144,8 +144,8 @@ static void print_measure(const char *who, const measure *m)
            who, 100 * m->mean_err, m->contrast_fit, m->contrast_true,
            100 * (m->contrast_fit / fmax(m->contrast_true, 1e-12) - 1), m->seam / fmax(m->inner, 1e-12));
     /* a step across the boundary between two textures of different roughness sits between their own */
-    printf("  %-22s seam against each side's own steps: seen %.2f, filled %.2f\n", "", m->seam / fmax(m->inner_seen, 1e-12),
-           m->seam / fmax(m->inner_filled, 1e-12));
+    printf("  %-22s seam against each side's own steps: seen %.2f, filled %.2f\n", "",
+           m->seam / fmax(m->inner_seen, 1e-12), m->seam / fmax(m->inner_filled, 1e-12));
 }
 
 static void put_block(uint8_t *img, int iw, int x0, int y0, const float *rgb, int w, int h, int z)
