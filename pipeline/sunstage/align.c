@@ -52,12 +52,17 @@ static double frame_unit(const sp_sunstage *ss, const ss_frame *f)
     return REF_WIDTH / (double)ss->W;
 }
 
-/* Landmark weight for the point residual (du, dv): Huber on its length times the jaw or brow factor. */
+/* How much landmark k (the 68-point scheme: jaw 0-16, brows 17-26) is trusted against the others. */
+static double lm_trust(int k)
+{
+    return k <= 16 ? W_JAW : k <= 26 ? W_BROW : 1.0;
+}
+
+/* Landmark weight for the point residual (du, dv): Huber on its length times the point's trust. */
 static double lm_weight(int k, double du, double dv)
 {
     double r = hypot(du, dv);
-    double w = r > HUBER_PX ? HUBER_PX / r : 1.0;
-    return k <= 16 ? W_JAW * w : k <= 26 ? W_BROW * w : w;
+    return lm_trust(k) * (r > HUBER_PX ? HUBER_PX / r : 1.0);
 }
 
 static double huber_cost(double r)
@@ -140,7 +145,7 @@ static double evaluate(align_ctx *a, int with_jac)
         for (int k = 0; k < 68; k++) {
             double du = u * (a->uv[2 * k] - f->lm[2 * k]), dv = u * (a->uv[2 * k + 1] - f->lm[2 * k + 1]);
             double w = lm_weight(k, du, dv), wr = w * u, wj = w * u * u; /* the Jacobian is per fit pixel */
-            cost += (k <= 16 ? W_JAW : k <= 26 ? W_BROW : 1.0) * huber_cost(hypot(du, dv));
+            cost += lm_trust(k) * huber_cost(hypot(du, dv));
             if (!with_jac)
                 continue;
             for (int c = 0; c < 2; c++) {

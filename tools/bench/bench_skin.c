@@ -105,8 +105,8 @@ static measure evaluate(const float *fit, const float *truth, const uint8_t *fil
     }
     m.contrast_fit = local_contrast(fit, filled, w, h);
     m.contrast_true = local_contrast(truth, filled, w, h);
-    double sb = 0, si = 0, ss = 0, sf2 = 0;
-    int nb = 0, ni = 0, ns = 0, nf = 0;
+    double sb = 0, si = 0, s_seen = 0, s_filled = 0;
+    int nb = 0, ni = 0, n_seen = 0, n_filled = 0;
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++)
             for (int d = 0; d < 2; d++) {
@@ -125,15 +125,15 @@ static measure evaluate(const float *fit, const float *truth, const uint8_t *fil
                 else {
                     si += q, ni++;
                     if (filled[a])
-                        sf2 += q, nf++;
+                        s_filled += q, n_filled++;
                     else
-                        ss += q, ns++;
+                        s_seen += q, n_seen++;
                 }
             }
     m.seam = nb ? sb / nb : 0;
     m.inner = ni ? si / ni : 1e-12;
-    m.inner_seen = ns ? ss / ns : 1e-12;
-    m.inner_filled = nf ? sf2 / nf : 1e-12;
+    m.inner_seen = n_seen ? s_seen / n_seen : 1e-12;
+    m.inner_filled = n_filled ? s_filled / n_filled : 1e-12;
     (void)n;
     return m;
 }

@@ -284,7 +284,9 @@ double tev_seam_ratio_at(const tev_image *out, int first, int period)
 {
     double on = 0, off = 0;
     int non = 0, noff = 0;
-    for (int v = 0; v < 2 && first > 0 && period > 0; v++) {
+    if (first <= 0 || period <= 0)
+        return 1.0;
+    for (int v = 0; v < 2; v++) {
         int n = v ? out->w : out->h;
         for (int t = first; t < n; t += period) {
             on += line_step(out, t, v), non++;

@@ -50,7 +50,7 @@ double tev_seam_ratio(const tev_image *out, int tile);
  * a joint lying on the measured line by chance moves a single image's ratio well past 1 either way; a seam is
  * measurable only when the borders' ratio exceeds the centres' more often than chance over many outputs.
  */
-double tev_seam_ratio_at(const tev_image *out, int first, int period);
+double tev_seam_ratio_at(const tev_image *out, int first, int period); /* 1 for first or period <= 0 */
 
 /* L1 distance of the normalised 8x8x8 colour histograms (0..2). */
 double tev_histogram_distance(const tev_image *a, const tev_image *b);
