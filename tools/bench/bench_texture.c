@@ -7,8 +7,9 @@
  * shirt, skin; when ../shared/captures is there) and a Debian-packaged fabric
  * (blender-data, GPL-2+). Measures: coherence, repetition, seams, colour
  * histogram and autocorrelation distances (texture_eval.h), and time. The
- * seam ratio is also taken at the tile centres, where there is no border: the
- * last summary says how often the borders exceed it (a seam: nearly always).
+ * seam ratio is also taken where there is no tile border, at the tile centres
+ * and at the block cut a block step inside each tile: the last summaries say
+ * how often the borders exceed each.
  *
  *   bench_texture [quality] [--size N] [--captures DIR] [--seed N|A-B] [--quilt-seed N|A-B] [--coherence-step S]
  *       [--dump DIR]
@@ -210,17 +211,33 @@ static int to_memory(void *ctx, uint32_t y0, uint32_t n, const float *rgb)
 typedef struct scores {
     double coh, rep, seam, hist, ac, secs;
     double seam_centres; /* the seam ratio at the tile centres: the control, where there is no border */
+    double seam_cut;     /* at the block cut a block step inside each tile (sunprobe only, else 0) */
 } scores;
 
 static int coherence_step = 5;
 
-static scores score(const tev_image *out, const tev_image *ex, int tile, double secs)
+/*
+ * sunprobe's finest level is laid in blocks of 4 patches overlapping by a sixth, from each window's origin 4
+ * patches before its tile (synth.c, texture.c), so a block cut ends at every tile border and at every block
+ * step inside: the line a block step past the border lies where the border's does on the block grid.
+ */
+static int block_step(int patch)
 {
-    return (scores){
-        tev_coherence(out, ex, 7, coherence_step), tev_repetition(out, ex),           tev_seam_ratio(out, tile),
-        tev_histogram_distance(out, ex),           tev_autocorr_distance(out, ex, 8), secs,
-        tev_seam_ratio_at(out, tile / 2, tile)
-    };
+    int B = 4 * patch;
+    return B - (B / 6 > 2 ? B / 6 : 2);
+}
+
+/* cut_step: sunprobe's block step (its interior cut control is taken), 0 for quilting */
+static scores score(const tev_image *out, const tev_image *ex, int tile, int cut_step, double secs)
+{
+    return (scores){ tev_coherence(out, ex, 7, coherence_step),
+                     tev_repetition(out, ex),
+                     tev_seam_ratio(out, tile),
+                     tev_histogram_distance(out, ex),
+                     tev_autocorr_distance(out, ex, 8),
+                     secs,
+                     tev_seam_ratio_at(out, tile / 2, tile),
+                     cut_step ? tev_seam_ratio_at(out, tile + cut_step, tile) : 0 };
 }
 
 static int cmp_double(const void *a, const void *b)
@@ -265,9 +282,11 @@ static int gather_exemplars(const char *cap, tev_image *ex, const char **name)
 
 static void print_row(const char *who, const scores *s)
 {
-    printf("  %-11s coherence %6.3f  repetition %6.3f  seams %6.3f (centres %5.3f)  histogram %7.4f  autocorr %6.4f  "
-           "%6.2f s\n",
-           who, s->coh, s->rep, s->seam, s->seam_centres, s->hist, s->ac, s->secs);
+    printf("  %-11s coherence %6.3f  repetition %6.3f  seams %6.3f (centres %5.3f", who, s->coh, s->rep, s->seam,
+           s->seam_centres);
+    if (s->seam_cut > 0)
+        printf(", inner cut %5.3f", s->seam_cut);
+    printf(")  histogram %7.4f  autocorr %6.4f  %6.2f s\n", s->hist, s->ac, s->secs);
 }
 
 #define MAX_SEEDS 16
@@ -318,32 +337,42 @@ static double sign_test(int k, int n)
     return p < 1 ? p : 1;
 }
 
+/* The borders' seam ratio against control c's in output o: 1 above, 0 below, -1 tied. */
+static int above_control(const scores *o, int c)
+{
+    double b = o->seam, v = c ? o->seam_cut : o->seam_centres;
+    return b > v ? 1 : b < v ? 0 : -1;
+}
+
 /*
  * Whether sunprobe's tile borders show a step: over its ns outputs of each exemplar, how often the borders' seam
- * ratio exceeds the same ratio at the tile centres (no border there), and over all of them with a sign test
- * (ties left out). The centres fall mid-block and a border on a block cut, which is smoother than mid-block
- * (TEXTURE.md), so without a step the borders are higher less than half the time; a step makes them higher.
+ * ratio exceeds the same ratio at two controls, and over all of them with a sign test (ties left out). The tile
+ * centres have no border but fall mid-block, while a border ends a block cut, which is smoother than mid-block
+ * (TEXTURE.md); the inner cut, a block step inside each tile, has the border's place on the block grid but no
+ * border. Without a step at the borders they are higher about half the time against the inner cut.
  */
 static void summary_borders(scores sa[][MAX_EX], int n, int ns, const char **name)
 {
-    int above = 0, untied = 0;
-    printf("tile borders against the tile centres (the seam ratio where there is no border):\n");
-    for (int k = 0; k < n; k++) {
-        int a = 0, m = 0, nr = 0;
-        double r[MAX_SEEDS];
-        for (int i = 0; i < ns; i++) {
-            double b = sa[i][k].seam, c = sa[i][k].seam_centres;
-            a += b > c, m += b != c;
-            if (c > 0)
-                r[nr++] = b / c;
+    static const char *const control[2] = { "tile centres (mid-block)", "inner cuts (a block step inside)" };
+    for (int c = 0; c < 2; c++) {
+        int above = 0, untied = 0;
+        printf("tile borders against the %s:\n", control[c]);
+        for (int k = 0; k < n; k++) {
+            int a = 0, m = 0, nr = 0;
+            double r[MAX_SEEDS];
+            for (int i = 0; i < ns; i++) {
+                int v = above_control(&sa[i][k], c);
+                double d = c ? sa[i][k].seam_cut : sa[i][k].seam_centres;
+                a += v == 1, m += v >= 0;
+                if (d > 0)
+                    r[nr++] = sa[i][k].seam / d;
+            }
+            printf("  %-30s borders higher in %2d of %d outputs, median ratio %.3f\n", name[k], a, m, median(r, nr));
+            above += a, untied += m;
         }
-        printf("  %-30s borders higher in %2d of %d outputs, median borders / centres %.3f\n", name[k], a, m,
-               median(r, nr));
-        above += a, untied += m;
+        printf("  all: borders higher in %d of %d, two-sided sign test p = %.2g\n", above, untied,
+               sign_test(above, untied));
     }
-    printf("  all: borders higher in %d of %d, two-sided sign test p = %.2g (a step along the borders: most; the "
-           "borders as smooth as the block cuts inside a tile: fewer than half)\n",
-           above, untied, sign_test(above, untied));
 }
 
 /* One seed each: the median ratio over the exemplars and on how many sunprobe is better. */
@@ -460,7 +489,7 @@ static int quality(int N, const char *cap, seed_range seeds, seed_range quilt_se
                 if (sp_texture_synthesize(ex[k].px, (uint32_t)ex[k].w, (uint32_t)ex[k].h, (uint32_t)N, (uint32_t)N, &s,
                                           to_memory, &ms))
                     return 1;
-                sa[i][k] = score(&a, &ex[k], tile, now_s() - t0);
+                sa[i][k] = score(&a, &ex[k], tile, block_step(s.patch), now_s() - t0);
                 snprintf(who, sizeof(who), ns > 1 ? "sunprobe %llu" : "sunprobe", (unsigned long long)s.seed);
                 print_row(who, &sa[i][k]);
                 if (dump)
@@ -469,7 +498,7 @@ static int quality(int N, const char *cap, seed_range seeds, seed_range quilt_se
                 uint64_t qs = quilt_seeds.lo + (uint64_t)(i - ns);
                 memset(a.px, 0, sizeof(float) * 3 * (size_t)N * N);
                 quilt(&ex[k], &a, B, qs);
-                sq[i - ns][k] = score(&a, &ex[k], B - B / 6, now_s() - t0);
+                sq[i - ns][k] = score(&a, &ex[k], B - B / 6, 0, now_s() - t0);
                 snprintf(who, sizeof(who), nq > 1 ? "quilting %llu" : "quilting", (unsigned long long)qs);
                 print_row(who, &sq[i - ns][k]);
                 if (dump)
