@@ -565,10 +565,16 @@ static int block_overlap(int B)
     return B / 6 > 2 ? B / 6 : 2;
 }
 
+int tex_block_step(int patch)
+{
+    int B = BLOCK_PATCHES * patch;
+    return B - block_overlap(B);
+}
+
 static void settle_blocks(const tex_job *job, level_win *W, const tex_level *ex, int *xs, int *ys, int *off,
                           int *parent, int *size, block_pass *b)
 {
-    int B = b->B, step = B - block_overlap(B), nx = block_origins(W->w, B, step, xs),
+    int B = b->B, step = tex_block_step(b->P), nx = block_origins(W->w, B, step, xs),
         ny = block_origins(W->h, B, step, ys);
     uint64_t rng = tex_hash(job->key ^ 0xB10Cull, 0);
     float *err = b->tgt + (size_t)3 * B * B, *acc = err + (size_t)B * B;
@@ -901,7 +907,7 @@ static int block_level(const tex_job *job, level_win *W, const tex_level *ex, co
     int P = job->ex->patch, B = BLOCK_PATCHES * P;
     if (!tex_blocks_apply(job->ex, W->w, W->h))
         return 0;
-    int step = B - block_overlap(B), nx = (W->w + step - 1) / step + 1, ny = (W->h + step - 1) / step + 1;
+    int step = tex_block_step(P), nx = (W->w + step - 1) / step + 1, ny = (W->h + step - 1) / step + 1;
     size_t n = (size_t)W->w * W->h, nb = (size_t)nx * ny;
     int bins_w = (ex->w + P - 1) / P, bins_h = (ex->h + P - 1) / P;
     block_pass b = { .ex = ex,

@@ -62,6 +62,8 @@ int tex_synth_window(const tex_job *job, float *img, const uint8_t *fixed, int32
 
 /* Whether a w x h window's finest level is laid in whole blocks (when the job asks): exemplar and window hold one. */
 int tex_blocks_apply(const tex_exemplar *ex, int w, int h);
+/* The blocks' step at this patch side: laid from each window's origin, a block cut ends every step apart. */
+int tex_block_step(int patch);
 
 /* Levels a w x h window can use: each level's window at least two patches a side. */
 int tex_window_levels(int w, int h, int patch, int max_levels);

@@ -181,6 +181,12 @@ static double angle_deg(const double a[3], const double b[3])
     return acos(d) * 180.0 / M_PI;
 }
 
+/* Between the outer eye corners (points 36 and 45). */
+static double inter_ocular(const double lm[136])
+{
+    return hypot(lm[90] - lm[72], lm[91] - lm[73]);
+}
+
 /* The brows' height over the eyes (points 17-26 against 36-47, image y down), in inter-ocular distances. */
 static double brow_height(const double lm[136])
 {
@@ -189,7 +195,7 @@ static double brow_height(const double lm[136])
         brow += lm[2 * k + 1] / 10;
     for (int k = 36; k <= 47; k++)
         eye += lm[2 * k + 1] / 12;
-    return (eye - brow) / hypot(lm[90] - lm[72], lm[91] - lm[73]);
+    return (eye - brow) / inter_ocular(lm);
 }
 
 static double brow_shift; /* add_frames moves the given brow landmarks up by this many inter-ocular distances */
@@ -207,7 +213,7 @@ static int add_frames(sp_sunstage *ss, sp_renderer *r, const sp_face_model *m, c
         sp_quat q = camera_at_heading(psi);
         ret = render_frame(r, m, t, q, rot, rgb, lm);
         for (int k = 17; k <= 26 && brow_shift != 0; k++)
-            lm[2 * k + 1] -= brow_shift * hypot(lm[90] - lm[72], lm[91] - lm[73]);
+            lm[2 * k + 1] -= brow_shift * inter_ocular(lm);
         if (!ret)
             ret = sp_sunstage_add_keyframe(ss, rgb, W, H, lm, FX, FX, (W - 1) / 2.0, (H - 1) / 2.0, q, heldout);
     }
@@ -357,7 +363,6 @@ static double bounds_reached(sp_sunstage *ss, const sp_sunstage *clipped_as)
     return n ? (double)reached / (double)n : (double)NAN;
 }
 
-/* Clipped highlights are lower bounds: the fit reaches them, where dropping them let it fall below. */
 /*
  * Brows are where a person's hair grows, not a point of the skull (align.c, W_BROW): given brow landmarks
  * a tenth of the eye distance higher than the model's, stage 1's fitted brows follow them by well under half
@@ -401,6 +406,7 @@ static void test_brow_bias(const sp_face_model *m)
     free(t);
 }
 
+/* Clipped highlights are lower bounds: the fit reaches them, where dropping them let it fall below. */
 static void test_clip_bounds(const sp_face_model *m)
 {
     truth *t = calloc(1, sizeof(*t));

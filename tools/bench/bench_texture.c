@@ -33,6 +33,7 @@
 #include "export/png.h"
 #include "export/png_read.h"
 #include "sunprobe/sp_texture.h"
+#include "pipeline/texture/texture_internal.h"
 #include "texture_eval.h"
 
 #define FABRIC "/usr/share/blender/scripts/addons/archimesh/images/fabric_diffuse.png"
@@ -217,17 +218,10 @@ typedef struct scores {
 static int coherence_step = 5;
 
 /*
- * sunprobe's finest level is laid in blocks of 4 patches overlapping by a sixth, from each window's origin 4
- * patches before its tile (synth.c, texture.c), so a block cut ends at every tile border and at every block
- * step inside: the line a block step past the border lies where the border's does on the block grid.
+ * cut_step: sunprobe's block step (tex_block_step), 0 for quilting. sunprobe lays its finest level in blocks
+ * from each window's origin, a block before its tile (texture.c), so a block cut ends at every tile border and
+ * every block step inside: the line a block step past a border has the border's place on the block grid.
  */
-static int block_step(int patch)
-{
-    int B = 4 * patch;
-    return B - (B / 6 > 2 ? B / 6 : 2);
-}
-
-/* cut_step: sunprobe's block step (its interior cut control is taken), 0 for quilting */
 static scores score(const tev_image *out, const tev_image *ex, int tile, int cut_step, double secs)
 {
     return (scores){ tev_coherence(out, ex, 7, coherence_step),
@@ -337,13 +331,6 @@ static double sign_test(int k, int n)
     return p < 1 ? p : 1;
 }
 
-/* The borders' seam ratio against control c's in output o: 1 above, 0 below, -1 tied. */
-static int above_control(const scores *o, int c)
-{
-    double b = o->seam, v = c ? o->seam_cut : o->seam_centres;
-    return b > v ? 1 : b < v ? 0 : -1;
-}
-
 /*
  * Whether sunprobe's tile borders show a step: over its ns outputs of each exemplar, how often the borders' seam
  * ratio exceeds the same ratio at two controls, and over all of them with a sign test (ties left out). The tile
@@ -361,11 +348,10 @@ static void summary_borders(scores sa[][MAX_EX], int n, int ns, const char **nam
             int a = 0, m = 0, nr = 0;
             double r[MAX_SEEDS];
             for (int i = 0; i < ns; i++) {
-                int v = above_control(&sa[i][k], c);
-                double d = c ? sa[i][k].seam_cut : sa[i][k].seam_centres;
-                a += v == 1, m += v >= 0;
+                double b = sa[i][k].seam, d = c ? sa[i][k].seam_cut : sa[i][k].seam_centres;
+                a += b > d, m += b != d; /* ties left out */
                 if (d > 0)
-                    r[nr++] = sa[i][k].seam / d;
+                    r[nr++] = b / d;
             }
             printf("  %-30s borders higher in %2d of %d outputs, median ratio %.3f\n", name[k], a, m, median(r, nr));
             above += a, untied += m;
@@ -489,7 +475,7 @@ static int quality(int N, const char *cap, seed_range seeds, seed_range quilt_se
                 if (sp_texture_synthesize(ex[k].px, (uint32_t)ex[k].w, (uint32_t)ex[k].h, (uint32_t)N, (uint32_t)N, &s,
                                           to_memory, &ms))
                     return 1;
-                sa[i][k] = score(&a, &ex[k], tile, block_step(s.patch), now_s() - t0);
+                sa[i][k] = score(&a, &ex[k], tile, tex_block_step(s.patch), now_s() - t0);
                 snprintf(who, sizeof(who), ns > 1 ? "sunprobe %llu" : "sunprobe", (unsigned long long)s.seed);
                 print_row(who, &sa[i][k]);
                 if (dump)

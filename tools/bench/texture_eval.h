@@ -45,10 +45,10 @@ double tev_repetition(const tev_image *out, const tev_image *ex);
  */
 double tev_seam_ratio(const tev_image *out, int tile);
 /*
- * The same ratio across the lines first, first + period, ...: at the tile centres (first = tile / 2, period =
- * tile) it is the control, what the ratio is where there is no border. On a structured texture a mortar line or
- * a joint lying on the measured line by chance moves a single image's ratio well past 1 either way; a seam is
- * measurable only when the borders' ratio exceeds the centres' more often than chance over many outputs.
+ * The same ratio across the lines first, first + period, ...: a control, what the ratio is on lines that are no
+ * tile border. On a structured texture a mortar line or a joint lying on the measured line by chance moves a
+ * single image's ratio well past 1 either way; a seam is measurable only when the borders' ratio exceeds a
+ * control's, taken on lines like them in all but the border, more often than chance over many outputs.
  */
 double tev_seam_ratio_at(const tev_image *out, int first, int period); /* 1 for first or period <= 0 */
 
