@@ -309,7 +309,7 @@ static void apply(adam_ctx *a, int t, int total)
             ss->fit.sun_dir[k] = n > 1e-9 ? ss->fit.sun_dir[k] / n : (k == 2);
         adam_update(&a->logI, &a->logI_x, NULL, 0.03 * decay, t, -10.0, 5.0);
         ss->fit.sun_I = exp(a->logI_x);
-        adam_update(&a->ks, ss->fit.ks, NULL, 0.01 * decay, t, 0.0, 10.0);
+        adam_update(&a->ks, ss->fit.ks, NULL, 0.01 * decay, t, 0.0, SS_KS_MAX);
         adam_update(&a->logs, a->logs_x, NULL, 0.03 * decay, t, 0.0, log(SP_RENDER_SHININESS_MAX));
         for (int k = 0; k < SP_RENDER_CLUSTERS; k++)
             ss->fit.shin[k] = exp(a->logs_x[k]);

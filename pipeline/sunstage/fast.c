@@ -523,7 +523,7 @@ static void lighting_task(void *ctx, int k)
     }
 }
 
-/* Lighting unknowns by NNLS given the albedo; terms switched off stay 0. */
+/* Lighting unknowns by NNLS given the albedo, each cluster's ks at most SS_KS_MAX; terms switched off stay 0. */
 static int solve_lighting(fast_ctx *c)
 {
     double A[PART], x[NL];
@@ -538,7 +538,7 @@ static int solve_lighting(fast_ctx *c)
         tr += A[i * NL + i];
     for (int i = 0; i < NL; i++) /* environment L2 (and a floor for unused unknowns) */
         A[i * NL + i] += 1e-6 * tr / NL + 1e-12;
-    int ret = ss_nnls(A, b, NL, x);
+    int ret = ss_nnls_capped(A, b, NL, 1 + 3 * NK, c->use_spec ? SP_RENDER_CLUSTERS : 0, SS_KS_MAX, x);
     if (ret)
         return ret;
     if (!c->use_sun)

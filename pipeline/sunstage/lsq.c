@@ -95,6 +95,40 @@ int ss_nnls(const double *A, const double *b, int n, double *x)
     return ret;
 }
 
+/* Substitutes x_s = k x_0 into the normal equations (A, b): the congruence, then s's row and column cleared. */
+static void tie_to_first(double *A, double *b, int n, int s, double k)
+{
+    for (int j = 0; j < n; j++)
+        A[j] += k * A[s * n + j];
+    for (int i = 0; i < n; i++)
+        A[i * n] += k * A[i * n + s];
+    b[0] += k * b[s];
+    for (int j = 0; j < n; j++)
+        A[s * n + j] = A[j * n + s] = 0.0;
+    A[s * n + s] = 1.0;
+    b[s] = 0.0;
+}
+
+int ss_nnls_capped(double *A, double *b, int n, int first, int count, double cap, double *x)
+{
+    if (n <= 0 || n > 64 || first < 1 || count < 0 || first + count > n || !(cap >= 0.0))
+        return -EINVAL;
+    uint8_t tied[64] = { 0 };
+    int more = 1, ret = 0;
+    while (more && !(ret = ss_nnls(A, b, n, x))) {
+        more = 0;
+        for (int s = first; s < first + count; s++)
+            if (!tied[s] && x[s] > cap * x[0]) {
+                tie_to_first(A, b, n, s, cap);
+                tied[s] = more = 1;
+            }
+    }
+    for (int s = first; !ret && s < first + count; s++)
+        if (tied[s])
+            x[s] = cap * x[0];
+    return ret;
+}
+
 #define GAMMA 2.2
 #define TOE 1e-6
 

@@ -83,6 +83,13 @@ typedef struct ss_reservoir {
     ss_frame *slots;
 } ss_reservoir;
 
+/*
+ * Upper bound of a cluster's specular ks (the normalised Blinn-Phong lobe's albedo): a dielectric of
+ * refractive index 1.5 reflects 9.2 % of light averaged over incidence (cosine-weighted Fresnel), skin
+ * (1.4) 7.7 %. Above it the chin's ks reached 0.5-0.7 on path-traced selfies, a sheen painted over shading.
+ */
+#define SS_KS_MAX 0.1
+
 /* The shared fitted state: what stage 1 and the solvers write, the result and the face directory read. */
 typedef struct ss_fit_state {
     double *id;                 /* n_id identity coefficients */
@@ -288,6 +295,13 @@ int ss_skin_synthesise(float *albedo, int w, int h, uint8_t *observed, const uin
 int ss_cholesky_solve(double *A, double *b, int n);
 /* Non-negative least squares by active-set clamping on normal equations A (n x n), b (n); x out. */
 int ss_nnls(const double *A, const double *b, int n, double *x);
+/*
+ * NNLS with x[s] <= cap * x[0] for s in [first, first + count) (a cluster's ks against the sun's intensity).
+ * A bound the solution breaks is held (x[s] = cap x[0] substituted into A and b, which change) and the rest
+ * solved again until none breaks. With one bounded unknown holding it loses nothing (a convex problem whose
+ * relaxed optimum breaks one constraint has it active at the optimum); with more, a feasible point. -EINVAL.
+ */
+int ss_nnls_capped(double *A, double *b, int n, int first, int count, double cap, double *x);
 
 /* Tone map and its inverse (display value <-> linear radiance, exposure 1). */
 double ss_tonemap(double x);

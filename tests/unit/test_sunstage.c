@@ -55,6 +55,81 @@ static void test_cholesky_nnls(void)
     CHECK(ss_cholesky_solve(sing, sb, 2) != 0); /* singular: an error, no NaN */
 }
 
+/* Half the least-squares cost x^T A x / 2 - b^T x of normal equations A (4 x 4), b. */
+static double normal_cost(const double A[16], const double b[4], const double x[4])
+{
+    double e = 0.0;
+    for (int i = 0; i < 4; i++) {
+        double ax = 0.0;
+        for (int j = 0; j < 4; j++)
+            ax += A[i * 4 + j] * x[j];
+        e += 0.5 * x[i] * ax - b[i] * x[i];
+    }
+    return e;
+}
+
+/* NNLS with x[s] <= cap x[0] (a cluster's ks against the sun): held where broken, else plain NNLS. */
+static void test_nnls_capped(void)
+{
+    double M[16] = { 2, 0.3, 0, 0.1, 0.2, 1.5, 0.4, 0, 0, 0.1, 1.2, 0.3, 0.5, 0, 0.2, 1.8 }, A[16] = { 0 };
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++)
+            for (int k = 0; k < 4; k++)
+                A[i * 4 + j] += M[k * 4 + i] * M[k * 4 + j];
+    const double cap = 0.1;
+    double targets[3][4] = { { 0.7, 0.4, 1.3, 0.05 }, { 0.7, 0.4, 1.3, 0.5 }, { 0.0, 0.4, 1.3, 0.5 } };
+    for (int t = 0; t < 3; t++) {
+        double b[4] = { 0 }, A2[16], b2[4], x[4], xp[4];
+        for (int i = 0; i < 4; i++)
+            for (int j = 0; j < 4; j++)
+                b[i] += A[i * 4 + j] * targets[t][j];
+        memcpy(A2, A, sizeof(A));
+        memcpy(b2, b, sizeof(b));
+        CHECK(ss_nnls_capped(A2, b2, 4, 3, 1, cap, x) == 0);
+        CHECK(ss_nnls(A, b, 4, xp) == 0);
+        CHECK_MSG(x[3] <= cap * x[0] + 1e-12 && x[0] >= 0.0 && x[1] >= 0.0 && x[2] >= 0.0,
+                  "target %d: x = %g %g %g %g breaks a bound", t, x[0], x[1], x[2], x[3]);
+        if (t == 0) { /* the bound holds at the optimum: plain NNLS, the target itself */
+            for (int i = 0; i < 4; i++)
+                CHECK_NEAR(x[i], xp[i], 1e-12);
+            continue;
+        }
+        /* the constrained optimum on the bound, independently: x = T y with x_3 = cap y_0, 3 x 3 normal equations */
+        double T[12] = { 1, 0, 0, 0, 1, 0, 0, 0, 1, cap, 0, 0 }, R[9] = { 0 }, r[3] = { 0 };
+        for (int p = 0; p < 3; p++) {
+            for (int q = 0; q < 3; q++)
+                for (int i = 0; i < 4; i++)
+                    for (int j = 0; j < 4; j++)
+                        R[p * 3 + q] += T[i * 3 + p] * A[i * 4 + j] * T[j * 3 + q];
+            for (int i = 0; i < 4; i++)
+                r[p] += T[i * 3 + p] * b[i];
+        }
+        CHECK(ss_cholesky_solve(R, r, 3) == 0);
+        if (t == 1) { /* every y positive here: the reduced optimum is the constrained one */
+            double want[4] = { r[0], r[1], r[2], cap * r[0] };
+            for (int i = 0; i < 4; i++)
+                CHECK_NEAR(x[i], want[i], 1e-9);
+            CHECK(normal_cost(A, b, x) >= normal_cost(A, b, xp) - 1e-12); /* the bound costs, never gains */
+            double clamp[4] = { xp[0], xp[1], xp[2], cap * xp[0] };
+            CHECK(normal_cost(A, b, x) <= normal_cost(A, b, clamp) + 1e-12); /* better than clamping alone */
+        }
+    }
+    /* two bounded unknowns both broken: both held, finite */
+    double b[4] = { 0 }, A2[16], x[4];
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++)
+            b[i] += A[i * 4 + j] * targets[1][j];
+    memcpy(A2, A, sizeof(A));
+    CHECK(ss_nnls_capped(A2, b, 4, 2, 2, cap, x) == 0);
+    CHECK(isfinite(x[0]) && x[0] > 0.0);
+    CHECK_NEAR(x[2], cap * x[0], 1e-12);
+    CHECK_NEAR(x[3], cap * x[0], 1e-12);
+    /* the bounds may not include unknown 0, nor run past n; a NaN cap is refused */
+    CHECK(ss_nnls_capped(A2, b, 4, 0, 1, cap, x) == -EINVAL);
+    CHECK(ss_nnls_capped(A2, b, 4, 3, 2, cap, x) == -EINVAL);
+    CHECK(ss_nnls_capped(A2, b, 4, 3, 1, NAN, x) == -EINVAL);
+}
+
 static void test_tonemap_inverse(void)
 {
     double xs[] = { 0.0, 1e-9, 1e-4, 0.05, 0.5, 1.0, 3.0, 20.0 };
@@ -659,6 +734,7 @@ int main(int argc, char **argv)
 {
     sp_log_set_level(getenv("SP_LOG") ? SP_LOG_INFO : SP_LOG_WARN);
     test_cholesky_nnls();
+    test_nnls_capped();
     test_tonemap_inverse();
     test_clock_north();
     test_exposure_product();
