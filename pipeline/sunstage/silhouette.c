@@ -11,6 +11,7 @@
  * projection's Jacobian with respect to the face parameters.
  */
 #include "pipeline/sunstage/sunstage_internal.h"
+#include "pipeline/sunstage/landmarks.h"
 
 #include <errno.h>
 #include <math.h>
@@ -21,6 +22,7 @@
 #define SIL_REACH 2.2  /* the skin mask may reach this far beyond the landmark outline (neck, ears, a bald crown)... */
 #define SIL_LEAK 0.15  /* ...with at most this fraction of its pixels, else it leaked into the background */
 #define SIL_GRAZING 0.35 /* |cos| between vertex normal and view ray below this: on the contour */
+#define SIL_THIN 0.15    /* eye widths (outer corners): skin joined by a band under twice this is not the head */
 
 /* Felzenszwalb-Huttenlocher 1-D squared distance transform of f (n) into d; v, z work arrays. */
 static void dt1d(const float *f, int n, float *d, int *v, float *z)
@@ -285,28 +287,71 @@ static void fill_holes(uint8_t *mask, int w, int h, int *stack)
         mask[i] = mask[i] != 3;
 }
 
+/*
+ * Cuts off what the skin mask reaches only through a band thinner than 2 r (r = SIL_THIN eye widths): a warm
+ * horizon behind the head joining a skin-coloured wall, and the whole frame's mask leaked. The mask opened by
+ * a disc of radius r (eroded, grown back by r), its parts reaching into the landmark outline kept. Thin parts
+ * of the head go too (the ears' rims); only frames that leaked come here. Grown back by r once more and cut
+ * to the mask, the ears stayed but so did a stub of the band at each side of the head, which moved the sun more.
+ */
+static int cut_thin_joins(uint8_t *mask, int w, int h, const double lm[136], int *stack)
+{
+    double r = SIL_THIN * ss_lm_interocular(lm);
+    if (!(r >= 1.0))
+        return 0; /* a face this small has no band thinner than a pixel to cut */
+    size_t n = (size_t)w * (size_t)h;
+    float *d = malloc(sizeof(float) * n);
+    uint8_t *core = malloc(n);
+    int ret = d && core ? 0 : -ENOMEM;
+    for (size_t i = 0; !ret && i < n; i++) /* erosion: farther than r from every non-skin pixel */
+        d[i] = mask[i] ? SIL_FAR : 0.0f;
+    if (!ret && !(ret = edt(d, w, h)))
+        for (size_t i = 0; i < n; i++)
+            d[i] = d[i] > (float)r ? 0.0f : SIL_FAR;
+    if (!ret && !(ret = edt(d, w, h))) { /* dilation: within r of the eroded mask */
+        for (size_t i = 0; i < n; i++)
+            core[i] = d[i] <= (float)r;
+        keep_face_components(core, w, h, lm, stack);
+    }
+    for (size_t i = 0; !ret && i < n; i++)
+        mask[i] = mask[i] && core[i];
+    free(d);
+    free(core);
+    return ret;
+}
+
+/* The face's part of a skin mask, holes filled; SP_ENODATA when it leaks far beyond the face (no usable outline). */
+static int face_part(uint8_t *mask, int w, int h, const double lm[136], int *stack)
+{
+    keep_face_components(mask, w, h, lm, stack);
+    fill_holes(mask, w, h, stack);
+    int in = 0, out = 0;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++)
+            if (mask[y * w + x]) {
+                if (inside_scaled(lm, SIL_REACH, x, y))
+                    in++;
+                else
+                    out++;
+            }
+    return out > SIL_LEAK * (in + out) ? SP_ENODATA : 0;
+}
+
 int ss_silhouette_target(const float *rgb, int w, int h, const double lm[136], float *dist)
 {
     if (!rgb || !lm || !dist || w < 4 || h < 4)
         return -EINVAL;
-    uint8_t *mask = malloc((size_t)w * (size_t)h);
-    int *stack = malloc(sizeof(int) * (size_t)w * (size_t)h);
-    int ret = mask && stack ? skin_mask(rgb, w, h, lm, mask) : -ENOMEM;
+    size_t n = (size_t)w * (size_t)h;
+    uint8_t *mask = malloc(2 * n), *raw = mask ? mask + n : NULL;
+    int *stack = malloc(sizeof(int) * n);
+    int ret = mask && stack ? skin_mask(rgb, w, h, lm, raw) : -ENOMEM;
     if (!ret) {
-        keep_face_components(mask, w, h, lm, stack);
-        fill_holes(mask, w, h, stack);
-        /* a mask that leaks far beyond the face (skin-coloured background) has no usable outline */
-        int in = 0, out = 0;
-        for (int y = 0; y < h; y++)
-            for (int x = 0; x < w; x++)
-                if (mask[y * w + x]) {
-                    if (inside_scaled(lm, SIL_REACH, x, y))
-                        in++;
-                    else
-                        out++;
-                }
-        if (out > SIL_LEAK * (in + out))
-            ret = SP_ENODATA;
+        memcpy(mask, raw, n);
+        if (face_part(mask, w, h, lm, stack)) { /* leaked: again without what joins the face by a thin band */
+            memcpy(mask, raw, n);
+            ret = cut_thin_joins(mask, w, h, lm, stack);
+            ret = ret ? ret : face_part(mask, w, h, lm, stack);
+        }
     }
     if (!ret) {
         int nb = 0;

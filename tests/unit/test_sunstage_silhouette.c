@@ -2,7 +2,7 @@
 /*
  * SunStage silhouette loss: the signed distance to a skin-mask boundary (a
  * skin-coloured disk on a sky-blue background, and on a grey ground as a
- * path-traced capture's horizon has it), the choice of outline vertices on the
+ * path-traced capture's horizon has it; joined by a thin band to a skin-coloured wall), the choice of outline vertices on the
  * generic head (face, and face with the scalp), the one-sided residuals,
  * residuals against the face model's own evaluation, and the analytic Jacobian
  * against central finite differences for every face parameter (identity,
@@ -83,6 +83,52 @@ static void test_distance_map(void)
     memset(rgb, 0, sizeof(float) * W * H * 3);
     CHECK(ss_silhouette_target(rgb, W, H, lm, dist) == SP_ENODATA);
     CHECK(ss_silhouette_target(NULL, W, H, lm, dist) < 0);
+    free(rgb);
+    free(dist);
+}
+
+/*
+ * A skin-coloured block at the image's left edge (a sunlit wall), joined to the face by a band four pixels
+ * high (a warm horizon): the mask leaks, and the outline is kept without what only the band joins.
+ */
+static void test_thin_join(void)
+{
+    float *rgb = malloc(sizeof(float) * W * H * 3), *dist = malloc(sizeof(float) * W * H);
+    CHECK(rgb && dist);
+    if (!rgb || !dist)
+        return;
+    const double cx = 48.0, cy = 40.0, rad = 25.0;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            int skin = hypot(x - cx, y - cy) <= rad || x < 12 || (y >= 38 && y < 42);
+            float *p = rgb + ((size_t)y * W + (size_t)x) * 3;
+            p[0] = skin ? 0.62f : 0.35f;
+            p[1] = skin ? 0.43f : 0.55f;
+            p[2] = skin ? 0.35f : 0.85f;
+        }
+    double lm[136];
+    for (int k = 0; k < 68; k++) { /* as test_distance_map's, the outer eye corners 0.7 radii apart */
+        double a = k <= 16 ? M_PI + M_PI * k / 16.0 : M_PI - M_PI * (k - 17) / 9.0;
+        int on = k <= 26;
+        lm[2 * k] = on ? cx + 0.7 * rad * cos(a) : k == 36 ? cx - 0.35 * rad : k == 45 ? cx + 0.35 * rad : cx;
+        lm[2 * k + 1] = on ? cy - 0.7 * rad * sin(a) : k == 36 || k == 45 ? cy - 0.2 * rad : cy;
+    }
+    int nb = ss_silhouette_target(rgb, W, H, lm, dist);
+    CHECK_MSG(nb > 100, "boundary pixels with a band to a skin-coloured wall %d", nb);
+    if (nb > 0) {
+        CHECK_NEAR(dist[40 * W + 48], -(rad - 0.5), 1.5); /* the disk as without the wall */
+        CHECK_NEAR(dist[20 * W + 48], -5.5, 1.5);
+        CHECK_MSG(dist[60 * W + 5] > 20.0f, "the wall: %g", (double)dist[60 * W + 5]);
+        CHECK_MSG(dist[39 * W + 14] > 5.0f, "the band: %g", (double)dist[39 * W + 14]);
+        CHECK(dist[39 * W + 30] < 0.0f); /* inside the disk on the band's rows */
+    }
+    /* the same band twice as high as the cut allows (2 x 0.15 eye widths, 5 px here) stays joined: no outline */
+    for (int y = 34; y < 46; y++)
+        for (int x = 0; x < W; x++) {
+            float *p = rgb + ((size_t)y * W + (size_t)x) * 3;
+            p[0] = 0.62f, p[1] = 0.43f, p[2] = 0.35f;
+        }
+    CHECK(ss_silhouette_target(rgb, W, H, lm, dist) == SP_ENODATA);
     free(rgb);
     free(dist);
 }
@@ -279,6 +325,7 @@ out:
 int main(void)
 {
     test_distance_map();
+    test_thin_join();
     test_outline_and_gradient();
     return check_exit();
 }
