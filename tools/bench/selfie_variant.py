@@ -1,16 +1,22 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: MIT
-"""Makes a variant of a path-traced selfie capture (the layout of ../shared/captures): its even or odd
-frames alone, renumbered from 0, so a fit can be measured on more than one sequence of a head.
+"""Makes a variant of a path-traced selfie capture (the layout of ../shared/captures), so a fit can be measured
+on more than one sequence of a head and on frames as a phone would deliver them:
+  even, odd   its even or odd frames alone, renumbered from 0;
+  half        every frame at half the width and height (2 x 2 box filter), the intrinsics and the true
+              landmarks moved with them (pixel centres at integers, as meta.json says);
+  jpegQ       every frame re-encoded as JPEG at quality Q (1-95; Pillow, 4:2:0 chroma), e.g. jpeg50.
+Variants chain: a variant's directory is a capture directory (jpeg50 of the even frames: make `even`, then
+`jpeg50` from it).
 
-Usage: selfie_variant.py CAPTURE_DIR OUT_DIR even|odd
+Usage: selfie_variant.py CAPTURE_DIR OUT_DIR even|odd|half|jpegQ
 
-OUT_DIR must not exist or be empty. It gets symbolic links to the capture's files (frames, imu.csv, gt/'s
-files: nothing large is copied) and, written anew and renumbered the same way, frames.csv (the kept frames
-with their own timestamps), gt/landmarks.csv and meta.json, whose "frames" list is what `sunprobe evaluate`
-reads to pair the fit's keyframes with the true cameras. The IMU log is the whole capture's. Import and fit
-the variant as tests/integration/test_shared_selfie.sh does with the capture itself."""
-import csv, json, os, sys
+OUT_DIR must not exist or be empty. It gets symbolic links to the capture's files that stay as they are
+(imu.csv, gt/'s files, and the frames for even and odd: nothing large is copied), frames written anew for half
+and jpegQ, and, written anew, frames.csv, gt/landmarks.csv and meta.json, whose "frames" list is what
+`sunprobe evaluate` reads to pair the fit's keyframes with the true cameras. The IMU log is the whole
+capture's. Import and fit the variant as tests/integration/test_shared_selfie.sh does with the capture itself."""
+import csv, json, os, re, sys
 
 
 def link_all(src, dst, skip):
@@ -19,10 +25,20 @@ def link_all(src, dst, skip):
             os.symlink(os.path.join(src, name), os.path.join(dst, name))
 
 
+def parse_mode(mode):
+    m = re.fullmatch(r"jpeg(\d+)", mode)
+    if m and 1 <= int(m.group(1)) <= 95:
+        return "jpeg", int(m.group(1))
+    if mode in ("even", "odd", "half"):
+        return mode, None
+    sys.exit(__doc__)
+
+
 def main():
-    if len(sys.argv) != 4 or sys.argv[3] not in ("even", "odd"):
+    if len(sys.argv) != 4:
         sys.exit(__doc__)
-    src, dst, parity = os.path.abspath(sys.argv[1]), sys.argv[2], 0 if sys.argv[3] == "even" else 1
+    src, dst = os.path.abspath(sys.argv[1]), sys.argv[2]
+    mode, quality = parse_mode(sys.argv[3])
     if os.path.exists(dst) and (not os.path.isdir(dst) or os.listdir(dst)):
         sys.exit(f"selfie_variant.py: {dst}: exists and is not an empty directory")
     with open(os.path.join(src, "frames.csv")) as f:
@@ -31,7 +47,11 @@ def main():
         meta = json.load(f)
     with open(os.path.join(src, "gt", "landmarks.csv")) as f:
         marks = list(csv.DictReader(f))
-    kept = [i for i in range(len(rows)) if i % 2 == parity]
+    if mode in ("even", "odd"):
+        kept = [i for i in range(len(rows)) if i % 2 == (mode == "odd")]
+    else:
+        kept = list(range(len(rows)))
+        from PIL import Image  # only the variants that write frames need Pillow (python3-pil)
     new_index = {i: k for k, i in enumerate(kept)}
     os.makedirs(os.path.join(dst, "frames"))
     os.makedirs(os.path.join(dst, "gt"))
@@ -42,17 +62,35 @@ def main():
     with open(os.path.join(dst, "frames.csv"), "w") as out:
         out.write("t_ns,file\n")
         for k, i in enumerate(kept):
-            name = "frames/%05d%s" % (k, os.path.splitext(rows[i]["file"])[1])
-            os.symlink(os.path.join(src, rows[i]["file"]), os.path.join(dst, name))
+            ext = ".jpg" if mode == "jpeg" else os.path.splitext(rows[i]["file"])[1]
+            name = "frames/%05d%s" % (k, ext)
+            if mode in ("even", "odd"):
+                os.symlink(os.path.join(src, rows[i]["file"]), os.path.join(dst, name))
+            else:
+                im = Image.open(os.path.join(src, rows[i]["file"])).convert("RGB")
+                if mode == "half":
+                    im.resize((im.width // 2, im.height // 2), Image.BOX).save(os.path.join(dst, name))
+                else:
+                    im.save(os.path.join(dst, name), quality=quality)
             out.write("%s,%s\n" % (rows[i]["t_ns"], name))
             meta["frames"].append(dict(by_index[i], index=k, file=name))
     meta["image"]["n_frames"] = len(kept)
+    half = lambda v: (float(v) + 0.5) / 2 - 0.5  # a pixel centre at integers, in the half-size image
+    if mode == "half":
+        cam = meta["camera"]
+        cam["fx"], cam["fy"], cam["cx"], cam["cy"] = cam["fx"] / 2, cam["fy"] / 2, half(cam["cx"]), half(cam["cy"])
+        cam["K"] = [[cam["fx"], 0, cam["cx"]], [0, cam["fy"], cam["cy"]], [0, 0, 1]]
+        meta["image"]["width"] //= 2
+        meta["image"]["height"] //= 2
     with open(os.path.join(dst, "gt", "landmarks.csv"), "w", newline="") as out:
         w = csv.DictWriter(out, fieldnames=list(marks[0].keys()))
         w.writeheader()
         for r in marks:
             if int(r["frame"]) in new_index:
-                w.writerow(dict(r, frame=new_index[int(r["frame"])]))
+                r = dict(r, frame=new_index[int(r["frame"])])
+                if mode == "half":
+                    r["u"], r["v"] = "%.4f" % half(r["u"]), "%.4f" % half(r["v"])
+                w.writerow(r)
     with open(os.path.join(dst, "meta.json"), "w") as out:
         json.dump(meta, out)
 
