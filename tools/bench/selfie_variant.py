@@ -5,18 +5,21 @@ on more than one sequence of a head and on frames as a phone would deliver them:
   even, odd   its even or odd frames alone, renumbered from 0;
   half        every frame at half the width and height (2 x 2 box filter), the intrinsics and the true
               landmarks moved with them (pixel centres at integers, as meta.json says);
-  jpegQ       every frame re-encoded as JPEG at quality Q (1-95; Pillow, 4:2:0 chroma), e.g. jpeg50.
+  jpegQ       every frame re-encoded as JPEG at quality Q (1-95; Pillow, 4:2:0 chroma), e.g. jpeg50;
+  aeA         every frame's light scaled by 2^(A sin(2 pi k / 60)) at frame k (an auto-exposure drift of
+              +-A stops, 0 < A <= 2, e.g. ae0.5; sRGB decoded and encoded, clipped at 1, PNG) and no exposure
+              written anywhere, as a phone's video without metadata.
 Variants chain: a variant's directory is a capture directory (jpeg50 of the even frames: make `even`, then
 `jpeg50` from it).
 
-Usage: selfie_variant.py CAPTURE_DIR OUT_DIR even|odd|half|jpegQ
+Usage: selfie_variant.py CAPTURE_DIR OUT_DIR even|odd|half|jpegQ|aeA
 
 OUT_DIR must not exist or be empty. It gets symbolic links to the capture's files that stay as they are
-(imu.csv, gt/'s files, and the frames for even and odd: nothing large is copied), frames written anew for half
-and jpegQ, and, written anew, frames.csv, gt/landmarks.csv and meta.json, whose "frames" list is what
+(imu.csv, gt/'s files, and the frames for even and odd: nothing large is copied), frames written anew for half,
+jpegQ and aeA, and, written anew, frames.csv, gt/landmarks.csv and meta.json, whose "frames" list is what
 `sunprobe evaluate` reads to pair the fit's keyframes with the true cameras. The IMU log is the whole
 capture's. Import and fit the variant as tests/integration/test_shared_selfie.sh does with the capture itself."""
-import csv, json, os, re, sys
+import csv, json, math, os, re, sys
 
 
 def link_all(src, dst, skip):
@@ -29,16 +32,29 @@ def parse_mode(mode):
     m = re.fullmatch(r"jpeg(\d+)", mode)
     if m and 1 <= int(m.group(1)) <= 95:
         return "jpeg", int(m.group(1))
+    m = re.fullmatch(r"ae(\d*\.?\d+)", mode)
+    if m and 0 < float(m.group(1)) <= 2:
+        return "ae", float(m.group(1))
     if mode in ("even", "odd", "half"):
         return mode, None
     sys.exit(__doc__)
+
+
+def reexpose(im, stops):
+    """An sRGB image (Pillow) with its linear light scaled by 2^stops, clipped, 8 bits again."""
+    import numpy as np
+    v = np.asarray(im, dtype=np.float64) / 255.0
+    lin = np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4) * 2.0 ** stops
+    lin = np.clip(lin, 0.0, 1.0)
+    out = np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * lin ** (1 / 2.4) - 0.055)
+    return Image.fromarray((out * 255.0 + 0.5).astype(np.uint8))
 
 
 def main():
     if len(sys.argv) != 4:
         sys.exit(__doc__)
     src, dst = os.path.abspath(sys.argv[1]), sys.argv[2]
-    mode, quality = parse_mode(sys.argv[3])
+    mode, arg = parse_mode(sys.argv[3])  # arg: the JPEG quality or the drift in stops
     if os.path.exists(dst) and (not os.path.isdir(dst) or os.listdir(dst)):
         sys.exit(f"selfie_variant.py: {dst}: exists and is not an empty directory")
     with open(os.path.join(src, "frames.csv")) as f:
@@ -51,7 +67,8 @@ def main():
         kept = [i for i in range(len(rows)) if i % 2 == (mode == "odd")]
     else:
         kept = list(range(len(rows)))
-        from PIL import Image  # only the variants that write frames need Pillow (python3-pil)
+        global Image
+        from PIL import Image  # only the variants that write frames need Pillow (python3-pil), ae NumPy too
     new_index = {i: k for k, i in enumerate(kept)}
     os.makedirs(os.path.join(dst, "frames"))
     os.makedirs(os.path.join(dst, "gt"))
@@ -62,7 +79,7 @@ def main():
     with open(os.path.join(dst, "frames.csv"), "w") as out:
         out.write("t_ns,file\n")
         for k, i in enumerate(kept):
-            ext = ".jpg" if mode == "jpeg" else os.path.splitext(rows[i]["file"])[1]
+            ext = ".jpg" if mode == "jpeg" else ".png" if mode == "ae" else os.path.splitext(rows[i]["file"])[1]
             name = "frames/%05d%s" % (k, ext)
             if mode in ("even", "odd"):
                 os.symlink(os.path.join(src, rows[i]["file"]), os.path.join(dst, name))
@@ -70,8 +87,10 @@ def main():
                 im = Image.open(os.path.join(src, rows[i]["file"])).convert("RGB")
                 if mode == "half":
                     im.resize((im.width // 2, im.height // 2), Image.BOX).save(os.path.join(dst, name))
+                elif mode == "ae":
+                    reexpose(im, arg * math.sin(2 * math.pi * k / 60)).save(os.path.join(dst, name))
                 else:
-                    im.save(os.path.join(dst, name), quality=quality)
+                    im.save(os.path.join(dst, name), quality=arg)
             out.write("%s,%s\n" % (rows[i]["t_ns"], name))
             meta["frames"].append(dict(by_index[i], index=k, file=name))
     meta["image"]["n_frames"] = len(kept)
