@@ -61,6 +61,9 @@ static void fit_usage(FILE *out)
             "                         displacement, kept if the held-out PSNR rises (default 20; 0 = off)\n"
             "  --threads N            solver threads (default 0 = the online CPUs; the result does not\n"
             "                         depend on it)\n"
+            "  --fixed-exposure       frames without their exposure in the capture are all at one exposure\n"
+            "                         (it was locked); by default, when no frame gives it, each keyframe's\n"
+            "                         is estimated from the fit\n"
             "  --no-dlib              never run the dlib detector\n"
             "  --dlib-model PATH      shape_predictor_68_face_landmarks.dat location\n"
             "  --report PREFIX        error against run time: PREFIX.csv and PREFIX.svg (when the fit succeeds)\n"
@@ -93,6 +96,7 @@ static int parse_fit(int argc, char **argv, fit_args *a)
         { "refine", required_argument, NULL, 'F' },
         { "face-crop", no_argument, NULL, 'C' },
         { "threads", required_argument, NULL, 'T' },
+        { "fixed-exposure", no_argument, NULL, 'E' },
         { "orientation", required_argument, NULL, 'O' },
         { 0 },
     };
@@ -123,6 +127,9 @@ static int parse_fit(int argc, char **argv, fit_args *a)
         case 'r': bad = sp_opt_double("fit", on, optarg, 0, 360, &a->set.min_rotation_deg); break;
         case 'n': a->set.use_dlib = 0; break;
         case 'C': a->set.face_crop = 1; break;
+        case 'E':
+            a->set.fixed_exposure = 1;
+            break;
         case 'S': bad = sp_opt_double("fit", on, optarg, 0, 100, &a->set.silhouette_weight); break;
         case 'F': bad = sp_opt_int("fit", on, optarg, 0, 10000, &a->set.refine_steps); break;
         case 'T': bad = sp_opt_int("fit", on, optarg, 0, 64, &a->set.threads); break;

@@ -961,7 +961,158 @@ static int choose_texture(fast_ctx *c)
     return ret;
 }
 
+#define EXPOSURE_STEPS 6      /* exposure steps, each followed by albedo and lighting given them */
+#define EXPOSURE_EXPLAINS 0.2 /* kept when they explain this share of a one-exposure fit's residual (the sun's rule) */
+#define EXPOSURE_MAX 8.0      /* an estimated exposure stays within 3 stops of the keyframes' geometric mean */
+
+static double clamp_gain(double g)
+{
+    return g > EXPOSURE_MAX ? EXPOSURE_MAX : (g < 1.0 / EXPOSURE_MAX ? 1.0 / EXPOSURE_MAX : g);
+}
+
+/* Training keyframe fi's exposure multiplied by k, its observations rescaled as gather() would have made them. */
+static void scale_exposure(fast_ctx *c, int fi, double k)
+{
+    c->ss->res.slots[c->idx[fi]].expo *= k;
+    for (size_t i = c->frame_start[fi]; i < c->frame_start[fi + 1]; i++) {
+        for (int ch = 0; ch < 3; ch++)
+            c->o[i].L[ch] /= k;
+        c->o[i].w *= k * k;
+    }
+}
+
+/*
+ * One step of each training keyframe's exposure: times the gain that best fits the model to its observations
+ * (weighted least squares in linear light, clipped channels and eyes left out), the gains' geometric mean
+ * made 1 (the common scale is the albedo's and the light's).
+ */
+static void exposure_step(fast_ctx *c)
+{
+    sp_sunstage *ss = c->ss;
+    double g[64], lsum = 0.0;
+    for (int fi = 0; fi < c->nf; fi++) {
+        double num = 0.0, den = 0.0;
+        for (size_t i = c->frame_start[fi]; i < c->frame_start[fi + 1]; i++) {
+            const obs *o = &c->o[i];
+            double sp = spec_of(c, o);
+            for (int ch = 0; !o->eye && ch < 3; ch++) {
+                double m = albedo_at(ss, o, ch) * shading(c, o, ch) + sp;
+                num += (o->clip >> ch & 1) ? 0.0 : o->w * o->L[ch] * m;
+                den += (o->clip >> ch & 1) ? 0.0 : o->w * m * m;
+            }
+        }
+        g[fi] = clamp_gain(den > 0.0 && num > 0.0 ? num / den : 1.0);
+        lsum += log(g[fi]);
+    }
+    double norm = exp(lsum / (c->nf > 0 ? c->nf : 1));
+    for (int fi = 0; fi < c->nf; fi++) {
+        double e = ss->res.slots[c->idx[fi]].expo;
+        scale_exposure(c, fi, clamp_gain(e * g[fi] / norm) / e);
+    }
+}
+
+/* Each held-out frame's exposure times the gain that best fits its render, in linear light (display slope weights). */
+static int heldout_exposures(fast_ctx *c)
+{
+    sp_sunstage *ss = c->ss;
+    int idx[64], n = ss_list_frames(ss, 1, idx, 64), npx = ss->W * ss->H, ret = 0;
+    float *mask = malloc(sizeof(float) * (size_t)npx);
+    if (!mask)
+        return -ENOMEM;
+    for (int k = 0; k < n && !ret; k++) {
+        ss_frame *f = &ss->res.slots[idx[k]];
+        sp_render_scene scene;
+        sp_render_outputs o;
+        if ((ret = ss_scene_setup(&c->sc, ss, f, &scene)) || (ret = sp_render(c->sc.r, &scene, &o)))
+            break;
+        ss_scene_mask(&c->sc, &o, f->rgb, mask);
+        double num = 0.0, den = 0.0;
+        for (int p = 0; p < npx; p++)
+            for (int ch = 0; mask[p] > 0.0f && ch < 3; ch++) {
+                size_t q = (size_t)p * 3 + (size_t)ch;
+                if (f->rgb[q] >= 0.99f) /* clipped: a lower bound, no measure of the gain */
+                    continue;
+                double sl, sm, seen = ss_tonemap_inverse((double)f->rgb[q], &sl);
+                double model = ss_tonemap_inverse((double)o.image[q], &sm);
+                num += sl * sl * seen * model;
+                den += sl * sl * model * model;
+            }
+        f->expo = clamp_gain(f->expo * (den > 0.0 && num > 0.0 ? num / den : 1.0));
+    }
+    free(mask);
+    return ret;
+}
+
+/*
+ * When no frame gives its exposure: each keyframe's estimated (EXPOSURE_STEPS steps alternating with albedo
+ * and lighting), kept only when that explains EXPOSURE_EXPLAINS of the residual of as many alternations at
+ * one exposure; then the held-out frames'. Returns 1 when kept (the caller solves again), 0 when left out
+ * (the solve's state as it was), or a negative error.
+ */
+static int estimate_exposures(fast_ctx *c)
+{
+    sp_sunstage *ss = c->ss;
+    size_t na = (size_t)ss->fit.tw * (size_t)ss->fit.th * 3;
+    float *albedo = malloc(sizeof(float) * na);
+    double *lw = malloc(sizeof(double) * 4 * c->n), x[NL], expo[64], e_fixed, e_free, lo = INFINITY, hi = 0.0;
+    if (!albedo || !lw) {
+        free(albedo), free(lw);
+        return -ENOMEM;
+    }
+    memcpy(albedo, ss->fit.albedo, sizeof(float) * na);
+    memcpy(x, c->x, sizeof(x));
+    for (size_t i = 0; i < c->n; i++) /* the observations at the exposures they were gathered with */
+        memcpy(lw + 4 * i, c->o[i].L, sizeof(double) * 3), lw[4 * i + 3] = c->o[i].w;
+    for (int fi = 0; fi < c->nf; fi++)
+        expo[fi] = ss->res.slots[c->idx[fi]].expo;
+    for (int k = 0; k < EXPOSURE_STEPS; k++)
+        alternate(c, 2, 2);
+    e_fixed = cost(c);
+    for (int k = 0; k < EXPOSURE_STEPS; k++) {
+        exposure_step(c);
+        alternate(c, 2, 2);
+    }
+    e_free = cost(c);
+    for (int fi = 0; fi < c->nf; fi++) {
+        lo = fmin(lo, ss->res.slots[c->idx[fi]].expo);
+        hi = fmax(hi, ss->res.slots[c->idx[fi]].expo);
+    }
+    int keep = e_free < (1.0 - EXPOSURE_EXPLAINS) * e_fixed;
+    sp_log(SP_LOG_INFO, MOD,
+           "exposure: none in the capture; estimated per keyframe, %.3f..%.3f of their geometric "
+           "mean, they explain %.0f%% of the residual at one exposure (need %.0f%%): %s",
+           lo, hi, 100.0 * (1.0 - e_free / e_fixed), 100.0 * EXPOSURE_EXPLAINS, keep ? "kept" : "left out");
+    int ret = 0;
+    if (keep) {
+        commit(c); /* the held-out frames are rendered with this light */
+        ret = heldout_exposures(c);
+    } else { /* back to one exposure and the solve's own state, exactly */
+        for (int fi = 0; fi < c->nf; fi++)
+            ss->res.slots[c->idx[fi]].expo = expo[fi];
+        for (size_t i = 0; i < c->n; i++)
+            memcpy(c->o[i].L, lw + 4 * i, sizeof(double) * 3), c->o[i].w = lw[4 * i + 3];
+        memcpy(ss->fit.albedo, albedo, sizeof(float) * na);
+        memcpy(c->x, x, sizeof(x));
+    }
+    free(albedo), free(lw);
+    return ret ? ret : keep;
+}
+
+static int fast_run_once(fast_ctx *c, sp_sunstage_callback cb, void *user);
+
+/* The solve; when the capture gives no frame's exposure (a phone's video) and estimating them pays, again with them. */
 static int fast_run(fast_ctx *c, sp_sunstage_callback cb, void *user)
+{
+    int ret = fast_run_once(c, cb, user);
+    if (ret || c->decide_only || c->ss->fe.expo_ref > 0.0 || c->ss->set.fixed_exposure)
+        return ret;
+    if ((ret = estimate_exposures(c)) <= 0)
+        return ret;
+    c->n = 0;
+    return fast_run_once(c, cb, user);
+}
+
+static int fast_run_once(fast_ctx *c, sp_sunstage_callback cb, void *user)
 {
     sp_sunstage *ss = c->ss;
     c->sun[0] = c->sun[1] = 0.0;

@@ -45,7 +45,7 @@ static int check_settings(const sp_sunstage_settings *s)
         !(s->silhouette_weight >= 0.0 && s->silhouette_weight <= 100.0) || s->refine_steps < 0 ||
         s->refine_steps > 10000)
         return -EINVAL;
-    if (s->face_crop != 0 && s->face_crop != 1)
+    if ((s->face_crop != 0 && s->face_crop != 1) || (s->fixed_exposure != 0 && s->fixed_exposure != 1))
         return -EINVAL;
     if (s->threads < 0 || s->threads > 64)
         return -EINVAL;
