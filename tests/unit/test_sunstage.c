@@ -336,23 +336,36 @@ static void fixed_settings(sp_sunstage_settings *set)
     set->fixed_exposure = 1;
 }
 
+/* fixed_settings for open_turn's 8 + 2 frames, a 64-row map. */
+static void turn_settings(sp_sunstage_settings *set)
+{
+    fixed_settings(set);
+    set->keyframes = 8;
+    set->heldout = 2;
+    set->texture_size = 64;
+}
+
+/* open_turn, the fit and its result. */
+static void fit_turn(sp_sunstage **ss, const sp_sunstage_settings *set, sp_renderer *r, const sp_face_model *m,
+                     const truth *t, sp_sunstage_result *res)
+{
+    open_turn(ss, set, r, m, t);
+    CHECK(sp_sunstage_fit(*ss, NULL, NULL) == 0);
+    CHECK(sp_sunstage_get_result(*ss, res) == 0);
+}
+
 static void test_end_to_end(const sp_face_model *m, enum sp_sunstage_solver solver)
 {
     truth *t = calloc(1, sizeof(*t));
     make_truth(t, m);
     sp_renderer *r = open_renderer();
     sp_sunstage_settings set;
-    fixed_settings(&set);
+    turn_settings(&set);
     set.solver = solver;
-    set.keyframes = 8;
-    set.heldout = 2;
-    set.texture_size = 64;
     set.adam_iterations = 40;
     sp_sunstage *ss = NULL;
-    open_turn(&ss, &set, r, m, t);
-    CHECK(sp_sunstage_fit(ss, NULL, NULL) == 0);
     sp_sunstage_result res;
-    CHECK(sp_sunstage_get_result(ss, &res) == 0);
+    fit_turn(&ss, &set, r, m, t, &res);
     /* GN alignment recovered the poses: identity close to truth */
     CHECK_NEAR(res.scale, 1.0, 0.05);
     double err = angle_deg(res.sun_dir, t->sun);
@@ -382,16 +395,11 @@ static void fit_exposures(const sp_face_model *m, sp_renderer *r, const truth *t
                           double *spread, float **albedo, size_t *n_albedo)
 {
     sp_sunstage_settings set;
-    sp_sunstage_default_settings(&set);
+    turn_settings(&set);
     set.fixed_exposure = fixed;
-    set.keyframes = 8;
-    set.heldout = 2;
-    set.texture_size = 64;
     sp_sunstage *ss = NULL;
-    open_turn(&ss, &set, r, m, t);
-    CHECK(sp_sunstage_fit(ss, NULL, NULL) == 0);
     sp_sunstage_result res;
-    CHECK(sp_sunstage_get_result(ss, &res) == 0);
+    fit_turn(&ss, &set, r, m, t, &res);
     double lo = INFINITY, hi = 0.0;
     for (int i = 0; i < ss->res.n_slots; i++) {
         const ss_frame *f = &ss->res.slots[i];
