@@ -48,8 +48,8 @@ typedef struct sp_sunstage_settings {
     int threads;            /* worker threads of the solvers, the caller included; 0 = the online CPUs (default 0).
                                The result does not depend on it. */
     int fixed_exposure;     /* 0 (default): when no frame gives its exposure (a phone's video, its auto-exposure
-                               unrecorded), the fast solver estimates each keyframe's and solves again; 1: such
-                               frames are all at exposure 1 (the exposure was locked) */
+                               unrecorded), the fast solver estimates each keyframe's and, when that pays, solves
+                               again (the Adam solver never estimates); 1: such frames are all at exposure 1 */
 } sp_sunstage_settings;
 
 /* What the front end kept and skipped. */

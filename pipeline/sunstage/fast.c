@@ -1065,7 +1065,7 @@ static int estimate_exposures(fast_ctx *c)
         memcpy(lw + 4 * i, c->o[i].L, sizeof(double) * 3), lw[4 * i + 3] = c->o[i].w;
     for (int fi = 0; fi < c->nf; fi++)
         expo[fi] = ss->res.slots[c->idx[fi]].expo;
-    for (int k = 0; k < EXPOSURE_STEPS; k++)
+    for (int k = 0; k < 2 * EXPOSURE_STEPS; k++) /* as many rounds as the estimate gets, and its start */
         alternate(c, 2, 2);
     e_fixed = cost(c);
     for (int k = 0; k < EXPOSURE_STEPS; k++) {
@@ -1077,11 +1077,12 @@ static int estimate_exposures(fast_ctx *c)
         lo = fmin(lo, ss->res.slots[c->idx[fi]].expo);
         hi = fmax(hi, ss->res.slots[c->idx[fi]].expo);
     }
-    int keep = e_free < (1.0 - EXPOSURE_EXPLAINS) * e_fixed;
+    double explained = e_fixed > 0.0 ? 1.0 - e_free / e_fixed : 0.0;
+    int keep = explained >= EXPOSURE_EXPLAINS;
     sp_log(SP_LOG_INFO, MOD,
            "exposure: none in the capture; estimated per keyframe, %.3f..%.3f of their geometric "
            "mean, they explain %.0f%% of the residual at one exposure (need %.0f%%): %s",
-           lo, hi, 100.0 * (1.0 - e_free / e_fixed), 100.0 * EXPOSURE_EXPLAINS, keep ? "kept" : "left out");
+           lo, hi, 100.0 * explained, 100.0 * EXPOSURE_EXPLAINS, keep ? "kept" : "left out");
     int ret = 0;
     if (keep) {
         commit(c); /* the held-out frames are rendered with this light */
@@ -1103,11 +1104,23 @@ static int fast_run_once(fast_ctx *c, sp_sunstage_callback cb, void *user);
 /* The solve; when the capture gives no frame's exposure (a phone's video) and estimating them pays, again with them. */
 static int fast_run(fast_ctx *c, sp_sunstage_callback cb, void *user)
 {
-    int ret = fast_run_once(c, cb, user);
-    if (ret || c->decide_only || c->ss->fe.expo_ref > 0.0 || c->ss->set.fixed_exposure)
+    sp_sunstage *ss = c->ss;
+    int fine_rows = ss->fit.th, ret = fast_run_once(c, cb, user);
+    if (ret || c->decide_only || ss->fe.expo_ref > 0.0 || ss->set.fixed_exposure)
         return ret;
     if ((ret = estimate_exposures(c)) <= 0)
         return ret;
+    /* from the start again: the sun and its overcast decision, the specular, the map's rows */
+    if (!ss->fit.unobservable) {
+        ss->fit.sun_dropped = 0;
+        ss->fit.notes[0] = '\0';
+    }
+    c->use_sun = c->use_spec = 0;
+    ss->fit.texture_coarse = 0;
+    ss->fit.texture_note[0] = '\0';
+    if (ss->fit.th != fine_rows && (ret = ss_fit_alloc_maps(ss, fine_rows)))
+        return ret;
+    c->nt = (size_t)ss->fit.tw * (size_t)ss->fit.th;
     c->n = 0;
     return fast_run_once(c, cb, user);
 }

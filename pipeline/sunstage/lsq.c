@@ -98,6 +98,7 @@ int ss_nnls(const double *A, const double *b, int n, double *x)
 /* Substitutes x_s = k x_0 into the normal equations (A, b): the congruence, then s's row and column cleared. */
 static void tie_to_first(double *A, double *b, int n, int s, double k)
 {
+    double diag = A[s * n + s] > 0.0 ? A[s * n + s] : 1.0; /* kept for s's own row: the ridge scales with the trace */
     for (int j = 0; j < n; j++)
         A[j] += k * A[s * n + j];
     for (int i = 0; i < n; i++)
@@ -105,7 +106,7 @@ static void tie_to_first(double *A, double *b, int n, int s, double k)
     b[0] += k * b[s];
     for (int j = 0; j < n; j++)
         A[s * n + j] = A[j * n + s] = 0.0;
-    A[s * n + s] = 1.0;
+    A[s * n + s] = diag;
     b[s] = 0.0;
 }
 

@@ -86,7 +86,7 @@ typedef struct ss_reservoir {
 /*
  * Upper bound of a cluster's specular ks (the normalised Blinn-Phong lobe's albedo): a dielectric of
  * refractive index 1.5 reflects 9.2 % of light averaged over incidence (cosine-weighted Fresnel), skin
- * (1.4) 7.7 %. Above it the chin's ks reached 0.5-0.7 on path-traced selfies, a sheen painted over shading.
+ * (1.4) 7.7 %. Unbounded, the chin's ks reached 0.13-0.71 on path-traced selfies: a sheen painted over shading.
  */
 #define SS_KS_MAX 0.1
 
@@ -298,8 +298,9 @@ int ss_nnls(const double *A, const double *b, int n, double *x);
 /*
  * NNLS with x[s] <= cap * x[0] for s in [first, first + count) (a cluster's ks against the sun's intensity).
  * A bound the solution breaks is held (x[s] = cap x[0] substituted into A and b, which change) and the rest
- * solved again until none breaks. With one bounded unknown holding it loses nothing (a convex problem whose
- * relaxed optimum breaks one constraint has it active at the optimum); with more, a feasible point. -EINVAL.
+ * solved again until none breaks. With one bounded unknown that is as exact as ss_nnls (a convex problem whose
+ * relaxed optimum breaks one constraint has it active at the optimum); with more, a feasible point. -EINVAL,
+ * -ENOMEM, or ss_nnls's error.
  */
 int ss_nnls_capped(double *A, double *b, int n, int first, int count, double cap, double *x);
 

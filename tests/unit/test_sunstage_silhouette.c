@@ -1,8 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * SunStage silhouette loss: the signed distance to a skin-mask boundary (a
- * skin-coloured disk on a sky-blue background, and on a grey ground as a
- * path-traced capture's horizon has it; joined by a thin band to a skin-coloured wall), the choice of outline vertices on the
+ * skin-coloured disk on a sky-blue background, on a grey ground as a
+ * path-traced capture's horizon has it, and joined by a thin band to a
+ * skin-coloured wall), the choice of outline vertices on the
  * generic head (face, and face with the scalp), the one-sided residuals,
  * residuals against the face model's own evaluation, and the analytic Jacobian
  * against central finite differences for every face parameter (identity,
@@ -62,7 +63,7 @@ static void check_thin_join(float *rgb, float *dist, double cx, double cy, doubl
         CHECK_MSG(dist[39 * W + 14] > 5.0f, "the band: %g", (double)dist[39 * W + 14]);
         CHECK(dist[39 * W + 30] < 0.0f); /* inside the disk on the band's rows */
     }
-    /* the same band twice as high as the cut allows (2 x 0.15 eye widths, 5 px here) stays joined: no outline */
+    /* a band 12 px high, over twice what the cut opens (2 x 0.15 eye widths = 5.25 px here), stays joined */
     for (int y = 34; y < 46; y++)
         for (int x = 0; x < W; x++) {
             float *p = rgb + ((size_t)y * W + (size_t)x) * 3;

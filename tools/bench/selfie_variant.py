@@ -40,8 +40,8 @@ def parse_mode(mode):
     sys.exit(__doc__)
 
 
-def reexpose(im, stops):
-    """An sRGB image (Pillow) with its linear light scaled by 2^stops, clipped, 8 bits again."""
+def reexpose(Image, im, stops):
+    """im (Pillow; Image its module), sRGB, with its linear light scaled by 2^stops, clipped, 8 bits again."""
     import numpy as np
     v = np.asarray(im, dtype=np.float64) / 255.0
     lin = np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4) * 2.0 ** stops
@@ -67,7 +67,6 @@ def main():
         kept = [i for i in range(len(rows)) if i % 2 == (mode == "odd")]
     else:
         kept = list(range(len(rows)))
-        global Image
         from PIL import Image  # only the variants that write frames need Pillow (python3-pil), ae NumPy too
     new_index = {i: k for k, i in enumerate(kept)}
     os.makedirs(os.path.join(dst, "frames"))
@@ -88,19 +87,26 @@ def main():
                 if mode == "half":
                     im.resize((im.width // 2, im.height // 2), Image.BOX).save(os.path.join(dst, name))
                 elif mode == "ae":
-                    reexpose(im, arg * math.sin(2 * math.pi * k / 60)).save(os.path.join(dst, name))
+                    reexpose(Image, im, arg * math.sin(2 * math.pi * k / 60)).save(os.path.join(dst, name))
                 else:
                     im.save(os.path.join(dst, name), quality=arg)
             out.write("%s,%s\n" % (rows[i]["t_ns"], name))
             meta["frames"].append(dict(by_index[i], index=k, file=name))
     meta["image"]["n_frames"] = len(kept)
-    half = lambda v: (float(v) + 0.5) / 2 - 0.5  # a pixel centre at integers, in the half-size image
+    img = meta["image"]
+    sx, sy = (img["width"] // 2) / img["width"], (img["height"] // 2) / img["height"]  # the box resize's scales
+    half = lambda v, s: (float(v) + 0.5) * s - 0.5  # pixel centres at integers, in the half-size image
     if mode == "half":
         cam = meta["camera"]
-        cam["fx"], cam["fy"], cam["cx"], cam["cy"] = cam["fx"] / 2, cam["fy"] / 2, half(cam["cx"]), half(cam["cy"])
+        cam["fx"], cam["fy"] = cam["fx"] * sx, cam["fy"] * sy
+        cam["cx"], cam["cy"] = half(cam["cx"], sx), half(cam["cy"], sy)
         cam["K"] = [[cam["fx"], 0, cam["cx"]], [0, cam["fy"], cam["cy"]], [0, 0, 1]]
-        meta["image"]["width"] //= 2
-        meta["image"]["height"] //= 2
+        img["width"] //= 2
+        img["height"] //= 2
+    if mode == "jpeg":
+        img["files"], img["encoding"] = "frames/%05d.jpg", "8-bit sRGB JPEG, quality %d (Pillow, 4:2:0)" % arg
+    if mode == "ae":
+        img["encoding"] = "8-bit sRGB PNG, light scaled by 2^(%g sin(2 pi k / 60)) at frame k" % arg
     with open(os.path.join(dst, "gt", "landmarks.csv"), "w", newline="") as out:
         w = csv.DictWriter(out, fieldnames=list(marks[0].keys()))
         w.writeheader()
@@ -108,7 +114,7 @@ def main():
             if int(r["frame"]) in new_index:
                 r = dict(r, frame=new_index[int(r["frame"])])
                 if mode == "half":
-                    r["u"], r["v"] = "%.4f" % half(r["u"]), "%.4f" % half(r["v"])
+                    r["u"], r["v"] = "%.4f" % half(r["u"], sx), "%.4f" % half(r["v"], sy)
                 w.writerow(r)
     with open(os.path.join(dst, "meta.json"), "w") as out:
         json.dump(meta, out)
