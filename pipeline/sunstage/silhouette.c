@@ -288,35 +288,31 @@ static void fill_holes(uint8_t *mask, int w, int h, int *stack)
 }
 
 /*
- * Cuts off what the skin mask reaches only through a band thinner than 2 r (r = SIL_THIN eye widths): a warm
- * horizon behind the head joining a skin-coloured wall, and the whole frame's mask leaked. The mask opened by
- * a disc of radius r (eroded, grown back by r), its parts reaching into the landmark outline kept. Thin parts
- * of the head go too (the ears' rims); only frames that leaked come here. Grown back by r once more and cut
- * to the mask, the ears stayed but so did a stub of the band at each side of the head, which moved the sun more.
+ * Cuts what the skin mask reaches only through a band thinner than 2 r (r = SIL_THIN eye widths) from the face:
+ * a warm horizon behind the head joining a skin-coloured wall, and the whole frame's mask leaked. The mask
+ * opened by a disc of radius r (eroded, grown back by r; the opening lies inside the mask), so face_part then
+ * keeps the face without the band. Thin parts of the head go too (the ears' rims); only frames that leaked
+ * come here. Grown back by r once more and cut to the mask, the ears stayed but so did a stub of the band at
+ * each side of the head, which moved the sun more.
  */
-static int cut_thin_joins(uint8_t *mask, int w, int h, const double lm[136], int *stack)
+static int cut_thin_joins(uint8_t *mask, int w, int h, const double lm[136])
 {
     double r = SIL_THIN * ss_lm_interocular(lm);
     if (!(r >= 1.0))
         return 0; /* a face this small has no band thinner than a pixel to cut */
     size_t n = (size_t)w * (size_t)h;
     float *d = malloc(sizeof(float) * n);
-    uint8_t *core = malloc(n);
-    int ret = d && core ? 0 : -ENOMEM;
-    for (size_t i = 0; !ret && i < n; i++) /* erosion: farther than r from every non-skin pixel */
+    if (!d)
+        return -ENOMEM;
+    for (size_t i = 0; i < n; i++) /* erosion: farther than r from every non-skin pixel */
         d[i] = mask[i] ? SIL_FAR : 0.0f;
-    if (!ret && !(ret = edt(d, w, h)))
-        for (size_t i = 0; i < n; i++)
-            d[i] = d[i] > (float)r ? 0.0f : SIL_FAR;
-    if (!ret && !(ret = edt(d, w, h))) { /* dilation: within r of the eroded mask */
-        for (size_t i = 0; i < n; i++)
-            core[i] = d[i] <= (float)r;
-        keep_face_components(core, w, h, lm, stack);
-    }
+    int ret = edt(d, w, h);
     for (size_t i = 0; !ret && i < n; i++)
-        mask[i] = mask[i] && core[i];
+        d[i] = d[i] > (float)r ? 0.0f : SIL_FAR;
+    if (!ret && !(ret = edt(d, w, h))) /* dilation: within r of the eroded mask */
+        for (size_t i = 0; i < n; i++)
+            mask[i] = d[i] <= (float)r;
     free(d);
-    free(core);
     return ret;
 }
 
@@ -349,7 +345,7 @@ int ss_silhouette_target(const float *rgb, int w, int h, const double lm[136], f
         memcpy(mask, raw, n);
         if (face_part(mask, w, h, lm, stack)) { /* leaked: again without what joins the face by a thin band */
             memcpy(mask, raw, n);
-            ret = cut_thin_joins(mask, w, h, lm, stack);
+            ret = cut_thin_joins(mask, w, h, lm);
             ret = ret ? ret : face_part(mask, w, h, lm, stack);
         }
     }

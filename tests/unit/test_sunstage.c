@@ -588,10 +588,7 @@ static void test_clip_bounds(const sp_face_model *m)
     t->I = 5.0; /* a hard sun: the sunlit side clips */
     sp_renderer *r = open_renderer();
     sp_sunstage_settings set;
-    fixed_settings(&set);
-    set.keyframes = 8;
-    set.heldout = 2;
-    set.texture_size = 64;
+    turn_settings(&set);
     set.refine_steps = 0; /* not what is tested here; it halves the test's time under qemu-aarch64 */
     sp_sunstage *ss[2] = { NULL, NULL };
     double reached[2], sun_I[2] = { NAN, NAN };
