@@ -58,9 +58,12 @@ int maps_open(probe_maps *m, uint32_t width, uint32_t height, unsigned min_event
     m->span_hidden = malloc(height);
     m->slant_cap = (int32_t)(width + height / 4 + 8); /* a box's width plus the lean over its height, both sides */
     m->slant_hit = malloc((size_t)SLANTS * (size_t)m->slant_cap * sizeof(int32_t));
-    if (!m->hid || !m->vis || !m->hid_n || !m->vis_n || !m->light || !m->light_n || !m->bg ||
-        !m->bg_n || !m->clean || !m->occlusion || !m->lighting || !m->prev_occ || !m->prev_light || !m->span_l || !m->span_r ||
-        !m->col_top || !m->span_hidden || !m->slant_hit) {
+    m->occ_grouped = malloc(n);
+    m->occ_order = malloc(n * sizeof(int32_t));
+    m->occ_hist = malloc((size_t)height * sizeof(uint32_t));
+    if (!m->hid || !m->vis || !m->hid_n || !m->vis_n || !m->light || !m->light_n || !m->bg || !m->bg_n || !m->clean ||
+        !m->occlusion || !m->lighting || !m->prev_occ || !m->prev_light || !m->span_l || !m->span_r || !m->col_top ||
+        !m->span_hidden || !m->slant_hit || !m->occ_grouped || !m->occ_order || !m->occ_hist) {
         maps_close(m);
         return -ENOMEM;
     }
@@ -90,6 +93,9 @@ void maps_close(probe_maps *m)
     free(m->col_top);
     free(m->span_hidden);
     free(m->slant_hit);
+    free(m->occ_grouped);
+    free(m->occ_order);
+    free(m->occ_hist);
     memset(m, 0, sizeof(*m));
 }
 
@@ -488,7 +494,7 @@ static void reference_colour(const probe_maps *m, double ref[3])
     }
 }
 
-void maps_finalise(probe_maps *m, const uint8_t *fallback_plate)
+void maps_finalise(probe_maps *m, const uint8_t *fallback_plate, const sp_probe_plane *plane, probe_occluder_stats *st)
 {
     size_t n = (size_t)m->width * m->height;
     double ref[3];
@@ -501,6 +507,7 @@ void maps_finalise(probe_maps *m, const uint8_t *fallback_plate)
         }
         m->occlusion[i] = maps_occlusion_at(m, i);
     }
+    occluders_settle(m, plane, st);
 }
 
 static float relative_luma(const probe_maps *m, size_t i, const double ref[3])

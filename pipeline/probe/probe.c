@@ -112,12 +112,12 @@ static int check_settings(const sp_probe_settings *s, uint32_t width, uint32_t h
 static size_t memory_bound(uint32_t w, uint32_t h, const sp_probe_settings *s)
 {
     size_t px = (size_t)w * h, cells = ((size_t)w / s->block + 1) * ((size_t)h / s->block + 1);
-    size_t per_px = 3 * (size_t)s->window_samples + 3 /* plate */ + 2 /* held */ + 3 /* frame */ +
-                    3 /* denoised */ + 1 /* classes */ + 4 * PROBE_EVIDENCE * 2 /* occlusion slots */ + 16 /* lighting */ + 16 /* long-term plate */ +
-                    3 + 4 + 12 /* final maps */ + 5 /* checkpoint */;
+    size_t per_px = 3 * (size_t)s->window_samples + 3 /* plate */ + 2 /* held */ + 3 /* frame */ + 3 /* denoised */ +
+        1 /* classes */ + 4 * PROBE_EVIDENCE * 2 /* occlusion slots */ + 16 /* lighting */ + 16 /* long-term plate */ +
+        3 + 4 + 12 /* final maps */ + 5 /* checkpoint */ + 5 /* occluder groups */;
     return px * per_px + px / 8 /* motion thumbnails */ + cells * 32 + PROBE_MAX_TRACKS * sizeof(probe_track) +
         (size_t)s->max_observations * 4 * (3 * PERSON_REC + 4) + RECENT_MAX * PERSON_REC * 4 +
-        sizeof(probe_shadows) /* its ratio and contact histograms */;
+        sizeof(probe_shadows) /* its ratio and contact histograms */ + (size_t)h * 4 /* a group's depths */;
 }
 
 static int open_report(sp_probe *p)
@@ -627,7 +627,11 @@ int sp_probe_finish(sp_probe *p)
     shadows_fit(&p->shadows, p->width, p->height, &p->shadow);
     if (!p->shadow.present)
         sp_log(SP_LOG_INFO, "probe", "shadow model %s", p->shadow.note);
-    maps_finalise(&p->maps, p->plate.median);
+    probe_occluder_stats occ;
+    maps_finalise(&p->maps, p->plate.median, &p->plane, &occ);
+    sp_log(SP_LOG_INFO, "probe",
+           "occluders: %zu groups; %zu specks dropped (%zu pixels), %zu pixels raised to their group's depth",
+           occ.groups, occ.specks, occ.speck_pixels, occ.raised);
     if (p->report)
         ret = sp_report_close(&p->report);
     p->finished = 1;
@@ -672,7 +676,8 @@ int sp_probe_get_stats(const sp_probe *p, sp_probe_stats *out)
     size_t n = (size_t)p->width * p->height, covered = 0, occluding = 0;
     for (size_t i = 0; i < n; i++) {
         covered += p->maps.light_n[i] > 0;
-        occluding += maps_occlusion_at(&p->maps, i) >= 0;
+        /* once finished, the map as written (occluders settled) */
+        occluding += (p->finished ? p->maps.occlusion[i] : maps_occlusion_at(&p->maps, i)) >= 0;
     }
     out->covered_fraction = (double)covered / (double)n;
     out->occluder_fraction = (double)occluding / (double)n;

@@ -230,7 +230,15 @@ typedef struct probe_maps {
     uint8_t *span_hidden;    /* height: the row had no M' pixel, its span was interpolated (scratch) */
     int32_t *slant_hit;      /* 4 slopes x slant_cap: first M' row along each leaning line from the top (scratch) */
     int32_t slant_cap, slant_n, slant_c0; /* lines per slope: room, this object's, the column of its first */
+    uint8_t *occ_grouped;                 /* pixels: already in an occluder group (scratch) */
+    int32_t *occ_order;                   /* pixels listed group by group (scratch) */
+    uint32_t *occ_hist;                   /* height: one group's depths (scratch) */
 } probe_maps;
+
+/* What occluders_settle did to the per-pixel occlusion map. */
+typedef struct probe_occluder_stats {
+    size_t groups, specks, speck_pixels, raised;
+} probe_occluder_stats;
 
 int maps_open(probe_maps *m, uint32_t width, uint32_t height, unsigned min_events);
 void maps_close(probe_maps *m);
@@ -242,8 +250,11 @@ void maps_add_template(probe_maps *m, const probe_segment *sg, const probe_objec
 void maps_add_background(probe_maps *m, const uint8_t *plate, const uint8_t *cls);
 /* Final occlusion value of pixel i from the evidence (-1: never occluding). */
 float maps_occlusion_at(const probe_maps *m, size_t i);
-/* Fills clean, occlusion and lighting; `fallback_plate` where no background was seen. */
-void maps_finalise(probe_maps *m, const uint8_t *fallback_plate);
+/* Fills clean, occlusion and lighting; `fallback_plate` where no background was seen; the scale model (may be
+ * NULL) sizes the occluders (occluders_settle). */
+void maps_finalise(probe_maps *m, const uint8_t *fallback_plate, const sp_probe_plane *plane, probe_occluder_stats *st);
+/* Per-pixel occlusion values to occluders: specks dropped, one depth per connected group (occluders.c). */
+void occluders_settle(probe_maps *m, const sp_probe_plane *plane, probe_occluder_stats *st);
 /* Convergence metrics since the last call: occlusion change, lighting change, coverage, occluders. */
 void maps_checkpoint(probe_maps *m, double out[4]);
 

@@ -3,7 +3,8 @@
  * Scene-probe numerics: the median sorting network against a sort, the
  * clean plate in bounded memory, the robust scale-model fit (outliers,
  * degenerate inputs that must say what cannot be estimated, extremes), the
- * reservoir, and the plane/shadow JSON round trip with its error cases.
+ * reservoir, the plane/shadow JSON round trip with its error cases, and the
+ * occlusion map settled as objects (specks dropped, one depth per occluder).
  */
 #include <errno.h>
 #include <math.h>
@@ -257,6 +258,68 @@ static void test_params_json(void)
     CHECK(sp_probe_params_to_json(NULL, &sh, NULL, 1, 1, &json) == -EINVAL);
 }
 
+/*
+ * A post (one column, rows 20-90, people passed behind it with their feet at row 90) carries a sign (rows 20-30,
+ * passed behind at row 50 only): one object, one depth. One sign pixel saw a body standing at row 60 in front
+ * of it: it keeps its own value. A 3x3 speck at row 70 (a person there is 35 px tall) is dropped; a kerb one
+ * row thick but 20 px long is kept. Without a scale model nothing is dropped.
+ */
+static void test_occluders(void)
+{
+    enum { W = 80, H = 100 };
+    probe_maps m;
+    CHECK(maps_open(&m, W, H, 1) == 0);
+    sp_probe_plane pl = { .status = SP_PROBE_PLANE_OK, .a = 0, .b = 0.5, .c = 0 };
+    for (int pass = 0; pass < 2; pass++) {
+        for (size_t i = 0; i < (size_t)W * H; i++)
+            m.occlusion[i] = -1;
+        for (int y = 20; y <= 90; y++)
+            m.occlusion[y * W + 40] = 90;
+        for (int y = 20; y <= 30; y++)
+            for (int x = 30; x <= 50; x++)
+                m.occlusion[y * W + x] = x == 40 ? 90 : 50;
+        size_t seen_px = 25 * W + 33;
+        m.vis[seen_px * PROBE_EVIDENCE] = 60;
+        m.vis_n[seen_px * PROBE_EVIDENCE] = 1;
+        for (int y = 69; y <= 71; y++)
+            for (int x = 9; x <= 11; x++)
+                m.occlusion[y * W + x] = 70;
+        for (int x = 55; x < 75; x++)
+            m.occlusion[60 * W + x] = 60;
+        probe_occluder_stats st;
+        sp_probe_plane none = { .status = SP_PROBE_PLANE_NONE };
+        occluders_settle(&m, pass == 0 ? &pl : &none, &st);
+        CHECK_MSG(st.groups == 3, "%zu groups", st.groups);
+        CHECK(m.occlusion[25 * W + 45] == 90 && m.occlusion[20 * W + 30] == 90 && m.occlusion[50 * W + 40] == 90);
+        CHECK_MSG(m.occlusion[seen_px] == 50, "the pixel a body at row 60 was seen over: %g",
+                  (double)m.occlusion[seen_px]);
+        CHECK(m.occlusion[60 * W + 55] == 60 && m.occlusion[60 * W + 74] == 60);
+        if (pass == 0) {
+            CHECK(st.specks == 1 && st.speck_pixels == 9 && m.occlusion[70 * W + 10] == -1);
+            CHECK_MSG(st.raised == 21 * 11 - 11 - 1, "%zu raised", st.raised);
+        } else {
+            CHECK(st.specks == 0 && m.occlusion[70 * W + 10] == 70);
+        }
+    }
+    /* extremes: nothing occluding; everything occluding at one depth, and at the last row */
+    probe_occluder_stats st;
+    for (size_t i = 0; i < (size_t)W * H; i++)
+        m.occlusion[i] = -1;
+    occluders_settle(&m, &pl, &st);
+    CHECK(st.groups == 0 && st.raised == 0);
+    for (size_t i = 0; i < (size_t)W * H; i++)
+        m.occlusion[i] = i % 2 ? 99 : 5000;
+    occluders_settle(&m, &pl, &st);
+    CHECK(st.groups == 1 && st.specks == 0 && m.occlusion[1] == 99 && m.occlusion[0] == 5000);
+    maps_close(&m);
+    probe_maps one;
+    CHECK(maps_open(&one, 1, 1, 1) == 0);
+    one.occlusion[0] = 0;
+    occluders_settle(&one, &pl, &st);
+    CHECK(st.groups == 1 && st.specks == 0 && one.occlusion[0] == 0); /* a person at row 0 is 0 px tall */
+    maps_close(&one);
+}
+
 int main(void)
 {
     test_median_network();
@@ -266,5 +329,6 @@ int main(void)
     test_plane_extremes();
     test_reservoir();
     test_params_json();
+    test_occluders();
     return check_exit();
 }
