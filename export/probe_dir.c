@@ -122,6 +122,20 @@ static void occlusion_preview(const sp_probe_maps *m, uint8_t *rgb)
     }
 }
 
+/* Confidence from 0 black (nothing seen there) to 1 white. */
+static void confidence_colour(double c, uint8_t rgb[3], const void *ctx)
+{
+    (void)ctx;
+    c = c < 0 ? 0 : c > 1 ? 1 : c;
+    rgb[0] = rgb[1] = rgb[2] = (uint8_t)lrint(255 * c);
+}
+
+static void confidence_preview(const sp_probe_maps *m, uint8_t *rgb)
+{
+    for (size_t i = 0; i < (size_t)m->width * m->height; i++)
+        confidence_colour((double)m->occlusion_confidence[i], rgb + 3 * i, NULL);
+}
+
 /* Relative lighting 1.0 at 128 gray. */
 static uint8_t lighting_level(double v)
 {
@@ -200,11 +214,13 @@ int sp_probe_dir_write(const char *dir, const sp_probe *p)
     int ret = sp_probe_get_maps(p, &m);
     if (ret)
         return ret;
-    static const char *const names[5] = { "clean_plate.png", "occlusion.pfm", "occlusion.png", "lighting.pfm",
-                                          "lighting.png" };
-    char *path[5] = { 0 };
+    static const char *const names[7] = {
+        "clean_plate.png",          "occlusion.pfm",           "occlusion.png", "lighting.pfm", "lighting.png",
+        "occlusion_confidence.pfm", "occlusion_confidence.png"
+    };
+    char *path[7] = { 0 };
     uint8_t *rgb = malloc((size_t)m.width * m.height * 3);
-    for (int i = 0; i < 5; i++)
+    for (int i = 0; i < 7; i++)
         if (!(path[i] = sp_path_join_alloc(dir, names[i])))
             ret = -ENOMEM;
     if (!rgb)
@@ -229,10 +245,22 @@ int sp_probe_dir_write(const char *dir, const sp_probe *p)
         ret = write_preview(path[4], rgb, &m, &lg);
     }
     if (!ret)
+        ret = sp_pfm_write(path[5], m.occlusion_confidence, m.width, m.height, 1);
+    if (!ret) {
+        confidence_preview(&m, rgb);
+        sp_legend lg = { .title = "EVIDENCE FOR THE OCCLUSION VALUE: SHARE OF EVENTS THAT AGREE",
+                         .v0 = 0,
+                         .v1 = 1,
+                         .ticks = 5,
+                         .decimals = 2,
+                         .colour = confidence_colour };
+        ret = write_preview(path[6], rgb, &m, &lg);
+    }
+    if (!ret)
         ret = write_exr_maps(dir, &m);
     if (!ret) /* last: a directory with probe.json is complete */
         ret = write_params(dir, p, &m);
-    for (int i = 0; i < 5; i++)
+    for (int i = 0; i < 7; i++)
         free(path[i]);
     free(rgb);
     return ret;
@@ -265,6 +293,13 @@ static int load_map(const char *dir, const char *name, int want_ch, const sp_pro
         ret = SP_ECORRUPT;
     }
     return ret;
+}
+
+/* A map older directories lack: absent leaves *out NULL; present, it must be whole. */
+static int load_optional_map(const char *dir, const char *name, const sp_probe_dir *d, float **out)
+{
+    int ret = load_map(dir, name, 1, d, out);
+    return ret == -ENOENT ? 0 : ret;
 }
 
 static int load_plate(const char *dir, sp_probe_dir *d)
@@ -301,6 +336,8 @@ int sp_probe_dir_load(const char *dir, sp_probe_dir *d)
     if (!ret)
         ret = load_map(dir, "lighting.pfm", 3, d, &d->lighting);
     if (!ret)
+        ret = load_optional_map(dir, "occlusion_confidence.pfm", d, &d->occlusion_confidence);
+    if (!ret)
         ret = load_plate(dir, d);
     if (ret)
         sp_probe_dir_free(d);
@@ -314,10 +351,11 @@ void sp_probe_dir_free(sp_probe_dir *d)
     free(d->clean_plate);
     free(d->occlusion);
     free(d->lighting);
+    free(d->occlusion_confidence);
     memset(d, 0, sizeof(*d));
 }
 
 sp_probe_maps sp_probe_dir_maps(const sp_probe_dir *d)
 {
-    return (sp_probe_maps){ d->width, d->height, d->clean_plate, d->occlusion, d->lighting };
+    return (sp_probe_maps){ d->width, d->height, d->clean_plate, d->occlusion, d->lighting, d->occlusion_confidence };
 }

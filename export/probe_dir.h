@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * A probe directory: what `sunprobe probe` writes and `sunprobe composite`
- * reads. clean_plate.png; occlusion.pfm (1 channel) and lighting.pfm (RGB), the
- * exact float maps, also as .exr where OpenImageIO is built, with .png
+ * reads. clean_plate.png; occlusion.pfm and occlusion_confidence.pfm (1 channel) and
+ * lighting.pfm (RGB), the exact float maps, also as .exr where OpenImageIO is built, with .png
  * previews; probe.json, the plane and shadow models.
  * PFM is the portable float map: "Pf" (gray) or "PF" (RGB), width height, -1
  * (little-endian), rows bottom to top.
@@ -22,6 +22,7 @@ typedef struct sp_probe_dir {
     uint32_t width, height;
     uint8_t *clean_plate; /* RGB24 */
     float *occlusion, *lighting;
+    float *occlusion_confidence; /* NULL: the directory has none (written before it existed) */
     sp_probe_plane plane;
     sp_probe_shadow shadow;
 } sp_probe_dir;

@@ -66,8 +66,9 @@ static void usage(FILE *out)
             "  -f, --force           replace PROBE_DIR if it exists\n"
             "  -q, --quiet           no progress bar or summary\n"
             "  -h, --help            this text\n\n"
-            "Writes clean_plate.png, occlusion.pfm/.png, lighting.pfm/.png, probe.json and\n"
-            "convergence.csv/.svg (error against run time).\n");
+            "Writes clean_plate.png, occlusion.pfm/.png, occlusion_confidence.pfm/.png (how far\n"
+            "each pixel's own events back its occlusion value, 0..1), lighting.pfm/.png, probe.json\n"
+            "and convergence.csv/.svg (error against run time).\n");
 }
 
 #define CMD "probe"

@@ -139,6 +139,12 @@ typedef struct sp_probe_maps {
     const float *occlusion;
     /* Lighting (eq. 3.3): mean colour of the objects that covered a pixel over the mean of all, RGB; 0: none did. */
     const float *lighting;
+    /*
+     * How far the pixel's own events back its occlusion value, 0..1: the events that agree over all of them,
+     * with one contrary event as the prior (0: nothing seen there; one hidden event alone 0.5). NULL where
+     * unknown (a probe directory written before it existed).
+     */
+    const float *occlusion_confidence;
 } sp_probe_maps;
 
 typedef struct sp_probe sp_probe;

@@ -49,6 +49,7 @@ int maps_open(probe_maps *m, uint32_t width, uint32_t height, unsigned min_event
     m->bg_n = calloc(n, sizeof(uint32_t));
     m->clean = calloc(n * 3, 1);
     m->occlusion = malloc(n * sizeof(float));
+    m->occlusion_confidence = calloc(n, sizeof(float));
     m->lighting = calloc(n * 3, sizeof(float));
     m->prev_occ = calloc(n, 1);
     m->prev_light = calloc(n, sizeof(float));
@@ -85,6 +86,7 @@ void maps_close(probe_maps *m)
     free(m->bg_n);
     free(m->clean);
     free(m->occlusion);
+    free(m->occlusion_confidence);
     free(m->lighting);
     free(m->prev_occ);
     free(m->prev_light);
@@ -440,6 +442,41 @@ void maps_add_background(probe_maps *m, const uint8_t *plate, const uint8_t *cls
     }
 }
 
+/* Per hidden slot: sightings right there (bodies standing as far or farther) outweigh it. */
+static void refuted_slots(const probe_maps *m, size_t i, uint8_t refuted[PROBE_EVIDENCE])
+{
+    const int16_t *hv = m->hid + i * PROBE_EVIDENCE, *vv = m->vis + i * PROBE_EVIDENCE;
+    const uint16_t *hn = m->hid_n + i * PROBE_EVIDENCE, *vn = m->vis_n + i * PROBE_EVIDENCE;
+    for (int k = 0; k < PROBE_EVIDENCE; k++) {
+        unsigned seen_nearer = 0; /* bodies seen right there standing as far as or farther than the hidden one */
+        for (int j = 0; j < PROBE_EVIDENCE; j++)
+            seen_nearer += vn[j] && vv[j] <= hv[k] ? vn[j] : 0;
+        refuted[k] = hn[k] && VISIBLE_WEIGHT * seen_nearer >= hn[k];
+    }
+}
+
+/*
+ * The events at pixel i against the value z (>= 0): unrefuted hidden events nearer than z and the weighted
+ * sightings z would hide; *agree gets the hidden events at or farther than z.
+ */
+static unsigned evidence_against(const probe_maps *m, size_t i, int z, const uint8_t refuted[PROBE_EVIDENCE],
+                                 unsigned *agree)
+{
+    const int16_t *hv = m->hid + i * PROBE_EVIDENCE, *vv = m->vis + i * PROBE_EVIDENCE;
+    const uint16_t *hn = m->hid_n + i * PROBE_EVIDENCE, *vn = m->vis_n + i * PROBE_EVIDENCE;
+    unsigned cost = 0;
+    *agree = 0;
+    for (int k = 0; k < PROBE_EVIDENCE; k++) {
+        if (hn[k] && hv[k] > z)
+            cost += refuted[k] ? 0 : hn[k];
+        else
+            *agree += hn[k];
+        if (vn[k] && vv[k] <= z)
+            cost += VISIBLE_WEIGHT * vn[k];
+    }
+    return cost;
+}
+
 /*
  * Candidates are -1 and the hidden slot values. Z contradicts the hidden
  * events nearer than it and the visible events at or nearer than it; the
@@ -452,38 +489,47 @@ void maps_add_background(probe_maps *m, const uint8_t *plate, const uint8_t *cls
  */
 float maps_occlusion_at(const probe_maps *m, size_t i)
 {
-    const int16_t *hv = m->hid + i * PROBE_EVIDENCE, *vv = m->vis + i * PROBE_EVIDENCE;
-    const uint16_t *hn = m->hid_n + i * PROBE_EVIDENCE, *vn = m->vis_n + i * PROBE_EVIDENCE;
+    const int16_t *hv = m->hid + i * PROBE_EVIDENCE;
+    const uint16_t *hn = m->hid_n + i * PROBE_EVIDENCE;
     unsigned total = 0, best_cost;
     for (int k = 0; k < PROBE_EVIDENCE; k++)
         total += hn[k];
     best_cost = total;
     int best = -1;
     uint8_t refuted[PROBE_EVIDENCE];
-    for (int k = 0; k < PROBE_EVIDENCE; k++) {
-        unsigned seen_nearer = 0; /* bodies seen right there standing as far as or farther than the hidden one */
-        for (int j = 0; j < PROBE_EVIDENCE; j++)
-            seen_nearer += vn[j] && vv[j] <= hv[k] ? vn[j] : 0;
-        refuted[k] = hn[k] && VISIBLE_WEIGHT * seen_nearer >= hn[k];
-    }
+    refuted_slots(m, i, refuted);
     for (int c = 0; c < PROBE_EVIDENCE; c++) {
         if (!hn[c])
             continue;
-        unsigned cost = 0, agree = 0;
-        for (int k = 0; k < PROBE_EVIDENCE; k++) {
-            if (hn[k] && hv[k] > hv[c])
-                cost += refuted[k] ? 0 : hn[k];
-            else
-                agree += hn[k];
-            if (vn[k] && vv[k] <= hv[c])
-                cost += VISIBLE_WEIGHT * vn[k];
-        }
+        unsigned agree, cost = evidence_against(m, i, hv[c], refuted, &agree);
         if (agree >= m->min_events && cost < best_cost) {
             best_cost = cost;
             best = hv[c];
         }
     }
     return (float)best;
+}
+
+/*
+ * How far pixel i's own events back the value z: those that agree over all of them, with one contrary event
+ * as the prior (one hidden event alone: 0.5; a sighting, weighted as in the vote, 0.8). Never occluding
+ * agrees with every sighting and disagrees with every unrefuted hidden event. 0: nothing was seen there.
+ */
+float maps_confidence_at(const probe_maps *m, size_t i, float z)
+{
+    uint8_t refuted[PROBE_EVIDENCE];
+    refuted_slots(m, i, refuted);
+    unsigned agree = 0, against = 0;
+    if (z >= 0) {
+        against = evidence_against(m, i, (int)z, refuted, &agree);
+    } else {
+        const uint16_t *hn = m->hid_n + i * PROBE_EVIDENCE, *vn = m->vis_n + i * PROBE_EVIDENCE;
+        for (int k = 0; k < PROBE_EVIDENCE; k++) {
+            agree += VISIBLE_WEIGHT * vn[k];
+            against += refuted[k] ? 0 : hn[k];
+        }
+    }
+    return agree ? (float)agree / (float)(agree + against + 1) : 0.0f;
 }
 
 static void reference_colour(const probe_maps *m, double ref[3])
@@ -508,6 +554,8 @@ void maps_finalise(probe_maps *m, const uint8_t *fallback_plate, const sp_probe_
         m->occlusion[i] = maps_occlusion_at(m, i);
     }
     occluders_settle(m, plane, st);
+    for (size_t i = 0; i < n; i++)
+        m->occlusion_confidence[i] = maps_confidence_at(m, i, m->occlusion[i]);
 }
 
 static float relative_luma(const probe_maps *m, size_t i, const double ref[3])

@@ -114,7 +114,7 @@ static size_t memory_bound(uint32_t w, uint32_t h, const sp_probe_settings *s)
     size_t px = (size_t)w * h, cells = ((size_t)w / s->block + 1) * ((size_t)h / s->block + 1);
     size_t per_px = 3 * (size_t)s->window_samples + 3 /* plate */ + 2 /* held */ + 3 /* frame */ + 3 /* denoised */ +
         1 /* classes */ + 4 * PROBE_EVIDENCE * 2 /* occlusion slots */ + 16 /* lighting */ + 16 /* long-term plate */ +
-        3 + 4 + 12 /* final maps */ + 5 /* checkpoint */ + 5 /* occluder groups */;
+        3 + 4 + 4 + 12 /* final maps */ + 5 /* checkpoint */ + 5 /* occluder groups */;
     return px * per_px + px / 8 /* motion thumbnails */ + cells * 32 + PROBE_MAX_TRACKS * sizeof(probe_track) +
         (size_t)s->max_observations * 4 * (3 * PERSON_REC + 4) + RECENT_MAX * PERSON_REC * 4 +
         sizeof(probe_shadows) /* its ratio and contact histograms */ + (size_t)h * 4 /* a group's depths */;
@@ -710,7 +710,8 @@ int sp_probe_get_maps(const sp_probe *p, sp_probe_maps *out)
         return -EINVAL;
     if (!p->finished)
         return -EAGAIN;
-    *out = (sp_probe_maps){ p->width, p->height, p->maps.clean, p->maps.occlusion, p->maps.lighting };
+    *out = (sp_probe_maps){ p->width,          p->height,        p->maps.clean,
+                            p->maps.occlusion, p->maps.lighting, p->maps.occlusion_confidence };
     return 0;
 }
 

@@ -223,6 +223,7 @@ typedef struct probe_maps {
     /* finalised (maps_finalise) */
     uint8_t *clean;
     float *occlusion, *lighting;
+    float *occlusion_confidence; /* maps_confidence_at of the final value */
     uint8_t *prev_occ;       /* occluding bit at the previous checkpoint */
     float *prev_light;       /* relative luminance at the previous checkpoint */
     int32_t *span_l, *span_r; /* height: an object's hull per row (scratch) */
@@ -250,6 +251,8 @@ void maps_add_template(probe_maps *m, const probe_segment *sg, const probe_objec
 void maps_add_background(probe_maps *m, const uint8_t *plate, const uint8_t *cls);
 /* Final occlusion value of pixel i from the evidence (-1: never occluding). */
 float maps_occlusion_at(const probe_maps *m, size_t i);
+/* How far pixel i's own events back the occlusion value z, 0..1 (0: no events). */
+float maps_confidence_at(const probe_maps *m, size_t i, float z);
 /* Fills clean, occlusion and lighting; `fallback_plate` where no background was seen; the scale model (may be
  * NULL) sizes the occluders (occluders_settle). */
 void maps_finalise(probe_maps *m, const uint8_t *fallback_plate, const sp_probe_plane *plane, probe_occluder_stats *st);

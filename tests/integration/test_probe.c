@@ -327,6 +327,37 @@ static void check_composite(const sp_probe_dir *d)
               NULL) == 3);
 }
 
+/*
+ * occlusion_confidence.pfm: 0..1, above 0 wherever the map occludes (a value needs an agreeing event); a directory
+ * without it (written before it existed) still loads, one with a damaged one does not.
+ */
+static void check_confidence(const sp_probe_dir *d)
+{
+    CHECK(d->occlusion_confidence != NULL);
+    if (!d->occlusion_confidence)
+        return;
+    size_t bad = 0, occluding = 0;
+    double sum = 0;
+    for (size_t i = 0; i < (size_t)d->width * d->height; i++) {
+        float c = d->occlusion_confidence[i];
+        bad += !(c >= 0 && c <= 1) || (d->occlusion[i] >= 0 && c <= 0);
+        if (d->occlusion[i] >= 0)
+            occluding++, sum += (double)c;
+    }
+    printf("occlusion confidence: mean %.3f over %zu occluding pixels\n", sum / (double)(occluding ? occluding : 1),
+           occluding);
+    CHECK_MSG(bad == 0, "%zu confidence values out of range or 0 where the map occludes", bad);
+    CHECK(exists("stp/occlusion_confidence.png"));
+    CHECK(run("probe", path_in("st.spcap"), "-o", path_in("stp2"), "-q", "--max-frames", "200", NULL) == 0);
+    CHECK(unlink(path_in("stp2/occlusion_confidence.pfm")) == 0);
+    sp_probe_dir old;
+    CHECK(sp_probe_dir_load(path_in("stp2"), &old) == 0 && old.occlusion_confidence == NULL);
+    sp_probe_dir_free(&old);
+    FILE *f = fopen(path_in("stp2/occlusion_confidence.pfm"), "wb");
+    CHECK(f && fputs("Pf\n3 3\n-1.0\n", f) >= 0 && fclose(f) == 0);
+    CHECK(sp_probe_dir_load(path_in("stp2"), &old) == SP_ETRUNCATED);
+}
+
 static void test_sunny(void)
 {
     CHECK(run("synth", "street", "-o", path_in("st.spcap"), NULL) == 0);
@@ -365,6 +396,7 @@ static void test_sunny(void)
     } else {
         CHECK(!exists("stp/occlusion.exr"));
     }
+    check_confidence(&d);
     check_occlusion(&d, "st");
     check_plane_and_shadow(&d, 1);
     /* removal: the emptied frame is the empty street; the frame itself is not */

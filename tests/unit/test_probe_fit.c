@@ -320,6 +320,28 @@ static void test_occluders(void)
     maps_close(&one);
 }
 
+/* The confidence of a value from a pixel's own events (maps.c): agreeing over all, one contrary event as prior. */
+static void test_confidence(void)
+{
+    probe_maps m;
+    CHECK(maps_open(&m, 4, 1, 1) == 0);
+    /* pixel 0: nothing seen; 1: one hidden event at row 50; 2: three at 50 and a body seen at row 60 (nearer);
+       3: a hidden event at 50 refuted by a body seen at row 40 (farther) */
+    m.hid[1 * PROBE_EVIDENCE] = 50, m.hid_n[1 * PROBE_EVIDENCE] = 1;
+    m.hid[2 * PROBE_EVIDENCE] = 50, m.hid_n[2 * PROBE_EVIDENCE] = 3;
+    m.vis[2 * PROBE_EVIDENCE] = 60, m.vis_n[2 * PROBE_EVIDENCE] = 1;
+    m.hid[3 * PROBE_EVIDENCE] = 50, m.hid_n[3 * PROBE_EVIDENCE] = 1;
+    m.vis[3 * PROBE_EVIDENCE] = 40, m.vis_n[3 * PROBE_EVIDENCE] = 1;
+    CHECK(maps_confidence_at(&m, 0, -1) == 0 && maps_confidence_at(&m, 0, 30) == 0);
+    CHECK(maps_occlusion_at(&m, 1) == 50 && fabsf(maps_confidence_at(&m, 1, 50) - 0.5f) < 1e-6f);
+    CHECK(fabsf(maps_confidence_at(&m, 1, -1) - 0.0f) < 1e-6f); /* never occluding: nothing agrees */
+    CHECK(maps_occlusion_at(&m, 2) == 50 && fabsf(maps_confidence_at(&m, 2, 50) - 3.0f / 4.0f) < 1e-6f);
+    /* raising pixel 2 to row 60 would hide the body seen there: 3 agree, 4 against */
+    CHECK(fabsf(maps_confidence_at(&m, 2, 60) - 3.0f / 8.0f) < 1e-6f);
+    CHECK(maps_occlusion_at(&m, 3) == -1 && fabsf(maps_confidence_at(&m, 3, -1) - 4.0f / 5.0f) < 1e-6f);
+    maps_close(&m);
+}
+
 int main(void)
 {
     test_median_network();
@@ -330,5 +352,6 @@ int main(void)
     test_reservoir();
     test_params_json();
     test_occluders();
+    test_confidence();
     return check_exit();
 }
