@@ -27,20 +27,29 @@ static void usage(FILE *out)
             "  --pan DEG_PER_S        turn the camera (a moving camera, for bad-input tests)\n"
             "  --linger S             every other figure stops once, for 5 s up to S s (default 0: none)\n"
             "  --noise SIGMA          sensor noise, standard deviation in 8-bit levels (default 0)\n"
+            "  --cars N               cars driving past behind the walkers, 0..%d (default 0)\n"
             "  --seed N               (default 1)\n",
-            SP_SYNTH_STREET_MAX_FIGURES);
+            SP_SYNTH_STREET_MAX_FIGURES, SP_SYNTH_STREET_MAX_CARS);
 }
 
 static int parse_args(int argc, char **argv, sp_synth_street_settings *a, const char **out)
 {
     static const struct option opts[] = {
-        { "help", no_argument, NULL, 'h' },           { "output", required_argument, NULL, 'o' },
-        { "width", required_argument, NULL, 'W' },    { "height", required_argument, NULL, 'H' },
-        { "fps", required_argument, NULL, 'f' },      { "seconds", required_argument, NULL, 's' },
-        { "figures", required_argument, NULL, 'n' },  { "overcast", no_argument, NULL, 'c' },
-        { "sun-azimuth", required_argument, NULL, 'a' }, { "sun-elevation", required_argument, NULL, 'e' },
-        { "pan", required_argument, NULL, 'p' },      { "seed", required_argument, NULL, 'S' },
-        { "linger", required_argument, NULL, 'L' },   { "noise", required_argument, NULL, 'N' },
+        { "help", no_argument, NULL, 'h' },
+        { "output", required_argument, NULL, 'o' },
+        { "width", required_argument, NULL, 'W' },
+        { "height", required_argument, NULL, 'H' },
+        { "fps", required_argument, NULL, 'f' },
+        { "seconds", required_argument, NULL, 's' },
+        { "figures", required_argument, NULL, 'n' },
+        { "overcast", no_argument, NULL, 'c' },
+        { "sun-azimuth", required_argument, NULL, 'a' },
+        { "sun-elevation", required_argument, NULL, 'e' },
+        { "pan", required_argument, NULL, 'p' },
+        { "seed", required_argument, NULL, 'S' },
+        { "linger", required_argument, NULL, 'L' },
+        { "noise", required_argument, NULL, 'N' },
+        { "cars", required_argument, NULL, 'C' },
         { 0 },
     };
     double v = 0;
@@ -64,6 +73,10 @@ static int parse_args(int argc, char **argv, sp_synth_street_settings *a, const 
         case 'S': bad = sp_opt_double("synth street", on, optarg, 0, 4e9, &v); a->seed = (uint64_t)v; break;
         case 'L': bad = sp_opt_double("synth street", on, optarg, 0, 3600, &a->linger_s); break;
         case 'N': bad = sp_opt_double("synth street", on, optarg, 0, 64, &a->noise); break;
+        case 'C':
+            bad = sp_opt_double("synth street", on, optarg, 0, SP_SYNTH_STREET_MAX_CARS, &v);
+            a->cars = (unsigned)v;
+            break;
         default: bad = 1;
         }
     }
@@ -97,7 +110,7 @@ int sp_cmd_synth_street(int argc, char **argv)
     sp_cmd_restore_signals(&sig);
     if (ret)
         return sp_cmd_fail("synth street", ret, out);
-    printf("%s: synthetic street, %.1f s, %ux%u rgb24 at %.0f fps, %u figures, %s\n", out, s.seconds, s.width,
-           s.height, s.fps, rep.figures, s.overcast ? "overcast" : "sunny");
+    printf("%s: synthetic street, %.1f s, %ux%u rgb24 at %.0f fps, %u figures, %u cars, %s\n", out, s.seconds, s.width,
+           s.height, s.fps, rep.figures, rep.cars, s.overcast ? "overcast" : "sunny");
     return SP_EXIT_OK;
 }

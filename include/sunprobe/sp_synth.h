@@ -205,10 +205,12 @@ SP_API int sp_synth_selfie_contact_sheet(sp_synth_selfie *g, const char *capture
 /* ---- street: a static camera watching people walk past occluders (`sunprobe synth street`) ---- */
 
 #define SP_SYNTH_STREET_MAX_FIGURES 64
+#define SP_SYNTH_STREET_MAX_CARS 16
 
 /*
  * A pinhole camera above a ground plane, static occluders at known depths, an unseen wall whose shadow is
- * pre-existing shadow, walking figures of known height, a sun casting shadows (or an overcast sky).
+ * pre-existing shadow, walking figures of known height, cars on the road behind them, a sun casting shadows
+ * (or an overcast sky).
  * Ground truth beside the capture (PREFIX = the capture path without ".spcap"): PREFIX.truth.json,
  * PREFIX.background.png (.ppm without an image writer) and 16-bit PGMs PREFIX.hidden-far / hidden-near /
  * seen-far / hidden-count.pgm (pipeline/synth/SYNTH.md). Deterministic for the settings (seed included).
@@ -228,6 +230,7 @@ typedef struct sp_synth_street_settings {
     double hfov_deg;          /* horizontal field of view; default 45 (10..120) */
     double linger_s;          /* every other figure stops once for 5 s up to this long; default 0: nobody */
     double noise;             /* sensor noise, standard deviation in 8-bit levels; default 0 (0..64) */
+    unsigned cars;            /* cars driving past behind the walkers, one at a time; default 0 (0..MAX_CARS) */
     sp_synth_image_writer write_image; /* the background PNG (tools pass sp_png_write); NULL: binary PPM */
     int progress;             /* progress bar on stderr: 1 on, 0 off (default), -1 when a terminal */
     /* Polled between frames: non-zero stops sp_synth_street_write with -ECANCELED, nothing left. */
@@ -236,7 +239,7 @@ typedef struct sp_synth_street_settings {
 
 typedef struct sp_synth_street_report {
     uint64_t frames;
-    unsigned figures;
+    unsigned figures, cars;
 } sp_synth_street_report;
 
 SP_API void sp_synth_street_default_settings(sp_synth_street_settings *s);

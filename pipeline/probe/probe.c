@@ -259,20 +259,26 @@ static int is_person(sp_probe *p, const probe_object *o)
 
 /*
  * A car (or another vehicle) seen from the street, judged on its core rows (segment.c: a walker merged
- * behind it adds a narrow column on top): wider than tall (a side view 0.3, a front or back view
- * about 0.8 of its width), solid (a group of people side by side leaves gaps between them: fill under
- * 0.55), and, where the scale model is known, 0.45 to 2.2 of a person's height standing there: a car is
- * 1.4-1.6 m against a person's ~1.7, a van or bus up to about 3.5 m; a group is a person's height but is
- * not that solid. Not by speed: a car crosses the view in a few frames, too fast for the person tracker.
+ * behind it adds a narrow column on top) and the span h from the core's top down to the ground. Under the
+ * core at most CAR_UNDER of h: a car's wheels and the clearance under its body are about a fifth of its
+ * height, 0.2-0.4 of h (the core of a side view is its body, below the narrower cabin), while the core of
+ * a group of people is their torsos, over legs that are 0.47 of a person's height, 0.57 of h. Wider than
+ * tall (a side view about 0.3, a front or back view 0.8 of its width) and solid (fill at least 0.55:
+ * people side by side leave gaps). Where the scale model is known it is vehicle-sized: h 0.3 to 2.2 of a
+ * person's height standing there (about 0.9 m of a 1.5 m car's side view; a van or bus up to about
+ * 3.5 m) and at least 0.8 of a person's height wide (a car is 1.7 m across from the front, over 3.5 m long
+ * from the side; a dog or a bag is not). Not by speed: a car crosses the view in a few frames, too fast
+ * for the person tracker.
  */
+#define CAR_UNDER 0.45
 static int car_shaped(const sp_probe *p, const probe_object *o)
 {
-    double w = o->x1 - o->x0 + 1, h = o->core_y1 - o->core_y0 + 1, fill = o->core_area / (w * h);
-    /* the core reaches the ground: a group's solid rows are its torsos, over legs with gaps */
-    if (o->core_y0 < 0 || o->foot_y - o->core_y1 > 0.2 * h || h < 8 || h > 0.8 * w || fill < 0.55)
+    double w = o->x1 - o->x0 + 1, core = o->core_y1 - o->core_y0 + 1, h = o->foot_y - o->core_y0 + 1;
+    double fill = o->core_area / (w * core);
+    if (o->core_y0 < 0 || o->foot_y - o->core_y1 > CAR_UNDER * h || h < 8 || h > 0.8 * w || fill < 0.55)
         return 0;
     double expect = sp_probe_plane_height(&p->plane, o->foot_x, o->foot_y);
-    return !isfinite(expect) || expect <= 0 || (h >= 0.45 * expect && h <= 2.2 * expect);
+    return !isfinite(expect) || expect <= 0 || (h >= 0.3 * expect && h <= 2.2 * expect && w >= 0.8 * expect);
 }
 
 static void observe_person(sp_probe *p, const probe_object *o)
@@ -453,8 +459,10 @@ static int probe_frame(sp_probe *p, int64_t t)
             observe_person(p, o);
         p->st.cars += p->cls[i] == SP_PROBE_CAR;
         if (p->cls[i] == SP_PROBE_CAR && !o->touches && !repeat) /* a car cut by the border has no height */
-            reservoir_add(&p->cars, (const float[PERSON_REC]){ (float)o->foot_x, (float)o->foot_y,
-                                                               (float)((o->core_y1 - o->core_y0 + 1) * PERSON_HEIGHT_M / CAR_HEIGHT_M) });
+            reservoir_add(
+                &p->cars,
+                (const float[PERSON_REC]){ (float)o->foot_x, (float)o->foot_y,
+                                           (float)((o->foot_y - o->roof_y + 1) * PERSON_HEIGHT_M / CAR_HEIGHT_M) });
     }
     if (p->st.frames_probed % p->s.checkpoint_frames == 0)
         checkpoint(p);

@@ -121,6 +121,7 @@ typedef struct probe_object {
     int person;
     int core_y0, core_y1;    /* solid rows: at least half the widest row's object pixels (a car under a merged walker) */
     uint32_t core_area;      /* object pixels in them */
+    int roof_y; /* first row with a quarter of the widest row's pixels: a car's roof, not a walker behind */
     double cut_foot;         /* lower body behind a low occluder: the foot the scale model puts there; NaN: none */
     /* its shadow, when one was found (shadow_area > 0) */
     uint32_t shadow_area;

@@ -674,14 +674,19 @@ static int person_shaped(const probe_object *o)
 /*
  * The object's solid rows: from the first to the last row with at least half the widest row's object
  * pixels (rows[] of object_extent, top..foot as it found them). A car merged with a person standing
- * behind it is the car's wide rows under a narrow column; its core is the car.
+ * behind it is the car's wide rows under a narrow column; its core is the car. Its roof is the first row
+ * with a quarter of the widest row's pixels: a car's cabin is 0.4-0.6 of its length, a walker's head and
+ * shoulders behind it much less.
  */
 static void core_rows(const probe_segment *sg, probe_object *o, int top, int foot)
 {
     int32_t widest = 0;
     for (int y = top; y <= foot; y++)
         widest = max_i32(widest, sg->rows[y]);
-    o->core_y0 = o->core_y1 = -1;
+    o->core_y0 = o->core_y1 = o->roof_y = -1;
+    for (int y = top; y <= foot && o->roof_y < 0; y++)
+        if (4 * sg->rows[y] >= widest)
+            o->roof_y = y;
     for (int y = top; y <= foot; y++)
         if (2 * sg->rows[y] >= widest)
             o->core_y0 = o->core_y0 < 0 ? y : o->core_y0, o->core_y1 = y;

@@ -4,7 +4,9 @@
  * static camera watching a street with ground truth for the scene probe. A pinhole camera above a ground plane; static occluders
  * at known depths (a lamp pole with a sign board, a second pole); an unseen wall to
  * the left whose shadow is "pre-existing shadow"; walking figures of known
- * height (billboards with a head, torso and swinging legs); a sun casting
+ * height (billboards with a head, torso and swinging legs); cars driving past
+ * on the road behind them (side-view billboards: body, cabin, windows, wheels,
+ * and the shade under them); a sun casting
  * shadows of everything onto the ground, or an overcast sky with none but the
  * soft darkening at each figure's feet.
  * Optional camera pan (a moving camera) and no figures at all, for the
@@ -16,7 +18,10 @@
  * PREFIX.hidden-far.pgm / PREFIX.hidden-near.pgm (per pixel, 1 + the farthest /
  * nearest foot row of the figures a static occluder hid there, 0 none) and
  * PREFIX.seen-far.pgm (1 + the farthest foot row of the figures seen there) and
- * PREFIX.hidden-count.pgm (figure-frames a static occluder hid there).
+ * PREFIX.hidden-count.pgm (figure-frames a static occluder hid there). The
+ * truth's "car_views" lists every frame's view of every car (its box, whether
+ * the image border cuts it), for scoring object classes; cars are not figures
+ * in the occlusion truth.
  * Coordinates follow the probe: pixel centres at integers.
  */
 #include "sunprobe/sp_synth.h"
@@ -35,6 +40,7 @@
 #include "sunprobe/sp_math.h"
 
 #define MAX_FIGURES SP_SYNTH_STREET_MAX_FIGURES
+#define MAX_CARS SP_SYNTH_STREET_MAX_CARS
 #define N_STATIC 3
 #define N_TRUTH 6 /* ground-truth files beside the capture */
 
@@ -58,6 +64,12 @@ typedef struct figure {
     uint8_t shirt[3], pants[3];
 } figure;
 
+/* A car: a side-view billboard at depth y, driving along x from x0 to x1. */
+typedef struct car {
+    double length, height, y, x0, x1, speed, t0;
+    uint8_t body[3];
+} car;
+
 typedef struct scene {
     street_args a;
     const char *out;      /* the capture's path; the truth files are named after it */
@@ -68,6 +80,9 @@ typedef struct scene {
     double wall_x, wall_y0, wall_y1, wall_h; /* shadow-only wall (off to the left) */
     figure fig[MAX_FIGURES];
     unsigned n_fig;
+    car cars[MAX_CARS];
+    unsigned n_car;
+    sp_strbuf car_views; /* truth: "[frame,car,x0,y0,x1,y1,cut]" per car and frame it is in view */
     /* the static image */
     uint8_t *bg, *ground_dark, *kind, *static_shadow;
     float *depth, *gx, *gy;
@@ -77,7 +92,7 @@ typedef struct scene {
 } scene;
 
 enum { KIND_SKY = 0, KIND_GROUND = 1, KIND_OCCLUDER = 2 };
-enum { PART_NONE = 0, PART_PANTS = 1, PART_SHIRT = 2, PART_SKIN = 3 };
+enum { PART_NONE = 0, PART_PANTS = 1, PART_SHIRT = 2, PART_SKIN = 3, PART_BODY = 4, PART_GLASS = 5, PART_WHEEL = 6 };
 
 /* ---- camera ---- */
 
@@ -253,6 +268,66 @@ static void make_figures(scene *s)
     }
 }
 
+/*
+ * A car's side profile, s along it from its centre, z up from the ground: a body from the sills to the
+ * waist, a cabin narrowing to the roof with windows in it, wheels under the sills (the ground shows
+ * between them). Proportions of a hatchback or saloon.
+ */
+static int car_part(const car *c, double s, double z)
+{
+    double L = c->length, H = c->height, half = 0.5 * L, wheel_r = 0.16 * H + 0.1;
+    for (int k = -1; k <= 1; k += 2) {
+        double ds = s - k * 0.31 * L, dz = z - wheel_r;
+        if (ds * ds + dz * dz <= wheel_r * wheel_r)
+            return PART_WHEEL;
+    }
+    double waist = 0.58 * H;
+    if (z >= 0.22 * H && z < waist && fabs(s) <= half)
+        return PART_BODY;
+    if (z >= waist && z <= H) { /* the cabin: 0.62 L at the waist, 0.4 L at the roof, set back a little */
+        double u = (z - waist) / (H - waist), cs = s + 0.04 * L, hw = L * (0.31 - 0.11 * u);
+        if (fabs(cs) > hw)
+            return PART_NONE;
+        return u > 0.12 && u < 0.88 && fabs(cs) < hw - 0.08 && fabs(cs - 0.02 * L) > 0.04 ? PART_GLASS : PART_BODY;
+    }
+    return PART_NONE;
+}
+
+static int car_at(const car *c, double t, double *x)
+{
+    double d = (t - c->t0) * c->speed, len = fabs(c->x1 - c->x0);
+    if (d < 0 || d > len)
+        return 0;
+    *x = c->x0 + (c->x1 > c->x0 ? d : -d);
+    return 1;
+}
+
+/*
+ * Cars on two lanes 18.5 and 21 m out (behind every walker: they never hide one), in turn in each
+ * direction, entering and leaving the view; 7-11 m/s, 3.9-4.6 m long, 1.4-1.55 m tall.
+ */
+static void make_cars(scene *s)
+{
+    static const uint8_t paint[][3] = { { 180, 30, 35 }, { 35, 60, 140 },   { 215, 215, 210 },
+                                        { 40, 40, 45 },  { 120, 125, 130 }, { 200, 160, 40 } };
+    uint32_t seed = (uint32_t)s->a.seed;
+    s->n_car = s->a.cars;
+    for (unsigned i = 0; i < s->n_car; i++) {
+        car *c = &s->cars[i];
+        double r[5];
+        for (int k = 0; k < 5; k++)
+            r[k] = unit_hash(seed, i, (uint32_t)k + 41);
+        c->length = 3.9 + 0.7 * r[0];
+        c->height = 1.4 + 0.15 * r[1];
+        c->y = i % 2 ? 21.0 : 18.5;
+        double reach = c->y * tan(0.5 * s->a.hfov_deg * M_PI / 180.0) + c->length + 1.0;
+        c->x0 = i % 2 ? reach : -reach, c->x1 = -c->x0;
+        c->speed = 7.0 + 4.0 * r[2];
+        c->t0 = s->a.seconds * ((double)i + 0.2 + 0.6 * r[3]) / s->n_car - 2.0;
+        memcpy(c->body, paint[(i + (unsigned)(r[4] * 6)) % 6], 3);
+    }
+}
+
 /* ---- the static image ---- */
 
 static void setup_scene(scene *s)
@@ -267,6 +342,7 @@ static void setup_scene(scene *s)
     s->occ[2] = (board){ -2.0, 9.0, 0.07, 0.0, 3.4, { 160, 125, 100 } };   /* a second, brown pole */
     s->wall_x = -7.0, s->wall_y0 = 0.0, s->wall_y1 = 40.0, s->wall_h = 3.0;
     make_figures(s);
+    make_cars(s);
 }
 
 /* Nearest static board hit along a camera ray: distance t, or INFINITY. */
@@ -356,11 +432,30 @@ static box box_of(const scene *s, const sp_vec3 *pts, int n)
     return b;
 }
 
-static void draw_figure_shadow(scene *s, const figure *f, double fx, double fy, double phase)
+/* A billboard's side profile: its part at lateral offset `lateral` and height z (PART_NONE: not there). */
+typedef int (*profile_fn)(const void *obj, double lateral, double z, double phase);
+
+static int figure_profile(const void *obj, double lateral, double z, double phase)
+{
+    return silhouette(((const figure *)obj)->height, lateral, z, phase);
+}
+
+static int car_profile(const void *obj, double lateral, double z, double phase)
+{
+    (void)phase;
+    return car_part(obj, lateral, z);
+}
+
+/*
+ * The sun's shadow of a billboard standing at (fx, fy), `height` tall and reaching `w` to either side: each
+ * ground pixel is traced towards the sun to the billboard turned to face it.
+ */
+static void draw_shadow(scene *s, profile_fn profile, const void *obj, double height, double w, double fx, double fy,
+                        double phase)
 {
     if (s->a.overcast || !(s->sun.z > 0.05))
         return;
-    double k = f->height / s->sun.z, tx = fx - k * s->sun.x, ty = fy - k * s->sun.y, w = 0.4 * f->height;
+    double k = height / s->sun.z, tx = fx - k * s->sun.x, ty = fy - k * s->sun.y;
     sp_vec3 pts[4] = { { fx - w, fy - w, 0 }, { fx + w, fy + w, 0 }, { tx - w, ty - w, 0 }, { tx + w, ty + w, 0 } };
     box b = box_of(s, pts, 4);
     double nx = s->sun.x, ny = s->sun.y, len = hypot(nx, ny);
@@ -378,7 +473,7 @@ static void draw_figure_shadow(scene *s, const figure *f, double fx, double fy, 
                 continue;
             double qx = g.x + t * s->sun.x, qy = g.y + t * s->sun.y, qz = t * s->sun.z;
             double lateral = (qx - fx) * -ny + (qy - fy) * nx;
-            if (silhouette(f->height, lateral, qz, phase))
+            if (profile(obj, lateral, qz, phase))
                 memcpy(s->frame + 3 * i, s->ground_dark + 3 * i, 3);
         }
 }
@@ -453,6 +548,66 @@ static void draw_figure(scene *s, const figure *f, double fx, double fy, double 
         }
 }
 
+/* The ground under a car, shaded by it from the sun and most of the sky. */
+static void draw_car_shade(scene *s, const car *c, double cx)
+{
+    double hl = 0.5 * c->length, hw = 0.9;
+    sp_vec3 pts[4] = {
+        { cx - hl, c->y - hw, 0 }, { cx + hl, c->y - hw, 0 }, { cx - hl, c->y + hw, 0 }, { cx + hl, c->y + hw, 0 }
+    };
+    box b = box_of(s, pts, 4);
+    for (int y = b.y0; y <= b.y1; y++)
+        for (int x = b.x0; x <= b.x1; x++) {
+            size_t i = (size_t)y * s->cam.w + (size_t)x;
+            if (s->kind[i] == KIND_GROUND && fabs((double)s->gx[i] - cx) <= hl && fabs((double)s->gy[i] - c->y) <= hw)
+                for (int k = 0; k < 3; k++)
+                    s->frame[3 * i + k] = (uint8_t)lrint(s->ground_dark[3 * i + k] * 0.6);
+        }
+}
+
+/* A car at (cx, c->y); its view goes to the truth's car_views (the box of its outline, cut by the border or not). */
+static void draw_car(scene *s, const car *c, unsigned id, double cx, uint64_t frame)
+{
+    double hl = 0.5 * c->length;
+    sp_vec3 pts[4] = {
+        { cx - hl, c->y, 0 }, { cx + hl, c->y, 0 }, { cx - hl, c->y, c->height }, { cx + hl, c->y, c->height }
+    };
+    double u0 = (double)INFINITY, u1 = -(double)INFINITY, v0 = (double)INFINITY, v1 = -(double)INFINITY;
+    for (int k = 0; k < 4; k++) {
+        double u, v;
+        if (!project(&s->cam, pts[k], &u, &v))
+            return;
+        u0 = fmin(u0, u), u1 = fmax(u1, u), v0 = fmin(v0, v), v1 = fmax(v1, v);
+    }
+    if (u1 < 0 || v1 < 0 || u0 > s->cam.w || v0 > s->cam.h)
+        return;
+    int cut = u0 < 0 || v0 < 0 || u1 > s->cam.w || v1 > s->cam.h;
+    sp_strbuf_printf(&s->car_views, "%s[%llu,%u,%d,%d,%d,%d,%d]", s->car_views.len ? "," : "",
+                     (unsigned long long)frame, id, (int)fmax(floor(u0), 0), (int)fmax(floor(v0), 0),
+                     (int)fmin(ceil(u1), s->cam.w - 1), (int)fmin(ceil(v1), s->cam.h - 1), cut);
+    draw_car_shade(s, c, cx);
+    draw_shadow(s, car_profile, c, c->height, hl + 0.3, cx, c->y, 0);
+    box b = box_of(s, pts, 4);
+    for (int y = b.y0; y <= b.y1; y++)
+        for (int x = b.x0; x <= b.x1; x++) {
+            sp_vec3 d = ray_dir(&s->cam, x + 0.5, y + 0.5);
+            if (d.y <= 1e-9)
+                continue;
+            double t = (c->y - s->cam.pos.y) / d.y;
+            sp_vec3 q = sp_vec3_add(s->cam.pos, sp_vec3_scale(d, t));
+            int part = car_part(c, q.x - cx, q.z);
+            size_t i = (size_t)y * s->cam.w + (size_t)x;
+            if (!part || t > (double)s->depth[i])
+                continue;
+            static const uint8_t glass[3] = { 45, 55, 65 }, tyre[3] = { 25, 25, 28 };
+            const uint8_t *base = part == PART_GLASS ? glass : part == PART_WHEEL ? tyre : c->body;
+            double lit = s->ambient + (static_shadow_at(s, q) ? 0 : s->sun_figure), col[3];
+            for (int k = 0; k < 3; k++)
+                col[k] = base[k] * lit * 0.8;
+            put_rgb(s->frame + 3 * i, col);
+        }
+}
+
 static void render_frame(scene *s, uint64_t index, double t)
 {
     if (s->a.pan_deg_s != 0) {
@@ -460,12 +615,17 @@ static void render_frame(scene *s, uint64_t index, double t)
         render_static(s);
     }
     memcpy(s->frame, s->bg, (size_t)s->cam.w * s->cam.h * 3);
+    for (unsigned i = 0; i < s->n_car; i++) { /* behind every walker */
+        double cx;
+        if (car_at(&s->cars[i], t, &cx))
+            draw_car(s, &s->cars[i], i, cx, index);
+    }
     double fx[MAX_FIGURES], fy[MAX_FIGURES], ph[MAX_FIGURES];
     int on[MAX_FIGURES], order[MAX_FIGURES], n = 0;
     for (unsigned i = 0; i < s->n_fig; i++) {
         on[i] = figure_at(&s->fig[i], t, &fx[i], &fy[i], &ph[i]);
         if (on[i]) {
-            draw_figure_shadow(s, &s->fig[i], fx[i], fy[i], ph[i]);
+            draw_shadow(s, figure_profile, &s->fig[i], s->fig[i].height, 0.4 * s->fig[i].height, fx[i], fy[i], ph[i]);
             draw_figure_contact(s, &s->fig[i], fx[i], fy[i]);
             order[n++] = (int)i;
         }
@@ -560,7 +720,19 @@ static void truth_json(const scene *s, sp_strbuf *b)
                             "\"t0\":%.3f,\"stop_after_m\":%.3f,\"stop_s\":%.3f}", i ? "," : "", f->height, f->x0,
                          f->y0, f->x1, f->y1, f->speed, f->t0, f->stop_m, f->stop_s);
     }
-    sp_strbuf_printf(b, "],\n\"mean_height_m\":%.6f,\n\"samples\":[", s->n_fig ? mean_h : 1.75);
+    sp_strbuf_printf(b, "],\n\"cars\":[");
+    for (unsigned i = 0; i < s->n_car; i++) {
+        const car *v = &s->cars[i];
+        sp_strbuf_printf(b,
+                         "%s\n    {\"length_m\":%.3f,\"height_m\":%.3f,\"y\":%.3f,\"from_x\":%.3f,\"to_x\":%.3f,"
+                         "\"speed\":%.3f,\"t0\":%.3f}",
+                         i ? "," : "", v->length, v->height, v->y, v->x0, v->x1, v->speed, v->t0);
+    }
+    sp_strbuf_printf(b,
+                     "],\n\"car_views_fields\":[\"frame\",\"car\",\"x0\",\"y0\",\"x1\",\"y1\",\"cut_by_border\"],"
+                     "\n\"car_views\":[%s],",
+                     s->car_views.len ? s->car_views.data : "");
+    sp_strbuf_printf(b, "\n\"mean_height_m\":%.6f,\n\"samples\":[", s->n_fig ? mean_h : 1.75);
     int first = 1;
     for (double gy = 6.5; gy <= 16.01; gy += 1.0)
         for (double gx = -7; gx <= 7.01; gx += 1.0)
@@ -641,6 +813,7 @@ static void scene_free(scene *s)
     free(s->bg), free(s->ground_dark), free(s->kind), free(s->static_shadow), free(s->depth);
     free(s->gx), free(s->gy), free(s->hidden_far), free(s->hidden_near), free(s->seen_far), free(s->frame);
     free(s->hidden_count);
+    sp_strbuf_free(&s->car_views);
 }
 
 /* Gaussian sensor noise (Box-Muller on the pixel's hashes), independent per frame, pixel and channel. */
@@ -765,6 +938,8 @@ static const char *street_bad_field(const sp_synth_street_settings *s)
         return "fps (1..240) / seconds (0.01..36000)";
     if (s->figures > MAX_FIGURES)
         return "figures (0..64)";
+    if (s->cars > MAX_CARS)
+        return "cars (0..16)";
     if (!within(s->sun_azimuth_deg, -360, 360) || !within(s->sun_elevation_deg, 5, 85))
         return "sun_azimuth_deg (-360..360) / sun_elevation_deg (5..85)";
     if (!within(s->pan_deg_s, -90, 90) || !within(s->linger_s, 0, 3600) || !within(s->noise, 0, 64))
@@ -792,7 +967,8 @@ int sp_synth_street_write(const sp_synth_street_settings *settings, const char *
     int ret = run(s);
     if (!ret && report)
         *report = (sp_synth_street_report){ .frames = (uint64_t)floor(s->a.seconds * s->a.fps + 1e-9),
-                                            .figures = s->n_fig };
+                                            .figures = s->n_fig,
+                                            .cars = s->n_car };
     scene_free(s);
     free(s);
     return ret;
