@@ -28,6 +28,7 @@ static void usage(FILE *out)
             "  --linger S             every other figure stops once, for 5 s up to S s (default 0: none)\n"
             "  --noise SIGMA          sensor noise, standard deviation in 8-bit levels (default 0)\n"
             "  --cars N               cars driving past behind the walkers, 0..%d (default 0)\n"
+            "  --jpeg Q               store the frames as MJPEG at quality 1..100 (default: raw RGB24)\n"
             "  --seed N               (default 1)\n",
             SP_SYNTH_STREET_MAX_FIGURES, SP_SYNTH_STREET_MAX_CARS);
 }
@@ -50,6 +51,7 @@ static int parse_args(int argc, char **argv, sp_synth_street_settings *a, const 
         { "linger", required_argument, NULL, 'L' },
         { "noise", required_argument, NULL, 'N' },
         { "cars", required_argument, NULL, 'C' },
+        { "jpeg", required_argument, NULL, 'J' },
         { 0 },
     };
     double v = 0;
@@ -73,6 +75,10 @@ static int parse_args(int argc, char **argv, sp_synth_street_settings *a, const 
         case 'S': bad = sp_opt_double("synth street", on, optarg, 0, 4e9, &v); a->seed = (uint64_t)v; break;
         case 'L': bad = sp_opt_double("synth street", on, optarg, 0, 3600, &a->linger_s); break;
         case 'N': bad = sp_opt_double("synth street", on, optarg, 0, 64, &a->noise); break;
+        case 'J':
+            bad = sp_opt_double("synth street", on, optarg, 1, 100, &v);
+            a->jpeg_quality = (int)v;
+            break;
         case 'C':
             bad = sp_opt_double("synth street", on, optarg, 0, SP_SYNTH_STREET_MAX_CARS, &v);
             a->cars = (unsigned)v;
@@ -110,7 +116,10 @@ int sp_cmd_synth_street(int argc, char **argv)
     sp_cmd_restore_signals(&sig);
     if (ret)
         return sp_cmd_fail("synth street", ret, out);
-    printf("%s: synthetic street, %.1f s, %ux%u rgb24 at %.0f fps, %u figures, %u cars, %s\n", out, s.seconds, s.width,
-           s.height, s.fps, rep.figures, rep.cars, s.overcast ? "overcast" : "sunny");
+    char fmt[24] = "rgb24";
+    if (s.jpeg_quality > 0)
+        snprintf(fmt, sizeof(fmt), "mjpeg q%d", s.jpeg_quality);
+    printf("%s: synthetic street, %.1f s, %ux%u %s at %.0f fps, %u figures, %u cars, %s\n", out, s.seconds, s.width,
+           s.height, fmt, s.fps, rep.figures, rep.cars, s.overcast ? "overcast" : "sunny");
     return SP_EXIT_OK;
 }

@@ -34,6 +34,7 @@
 
 #include "common/atomic_file.h"
 #include "common/file_set.h"
+#include "common/jpeg.h"
 #include "common/json.h"
 #include "common/progress.h"
 #include "sunprobe/sp_capture.h"
@@ -859,6 +860,7 @@ static int write_capture(scene *s, const char *partial)
     if (!ret)
         ret = write_meta(w, s);
     uint64_t n = (uint64_t)floor(s->a.seconds * s->a.fps + 1e-9);
+    sp_jpeg_buffer jpg = { 0 };
     sp_progress bar;
     sp_progress_start(&bar, "synth street", n, s->a.progress);
     for (uint64_t i = 0; !ret && i < n; i++) {
@@ -874,10 +876,16 @@ static int write_capture(scene *s, const char *partial)
                        .data = s->frame, .capacity = (size_t)s->cam.w * s->cam.h * 3,
                        .bytes_used = (size_t)s->cam.w * s->cam.h * 3, .timestamp_ns = (int64_t)llround(t * 1e9),
                        .sequence = i, .exposure_us = NAN, .gain = NAN };
-        ret = sp_capture_write_frame(w, &f);
+        if (s->a.jpeg_quality > 0) { /* a camera's compression, after its noise */
+            ret = sp_jpeg_encode_rgb24(s->frame, s->cam.w, s->cam.h, s->cam.w * 3, s->a.jpeg_quality, &jpg);
+            f.format = SP_PIXFMT_MJPEG, f.stride = 0, f.data = jpg.data, f.capacity = jpg.cap, f.bytes_used = jpg.size;
+        }
+        if (!ret)
+            ret = sp_capture_write_frame(w, &f);
         sp_progress_update(&bar, i + 1, NULL);
     }
     sp_progress_finish(&bar);
+    sp_jpeg_buffer_free(&jpg);
     int close_ret = sp_capture_writer_close(&w);
     return ret ? ret : close_ret;
 }
@@ -944,6 +952,8 @@ static const char *street_bad_field(const sp_synth_street_settings *s)
         return "sun_azimuth_deg (-360..360) / sun_elevation_deg (5..85)";
     if (!within(s->pan_deg_s, -90, 90) || !within(s->linger_s, 0, 3600) || !within(s->noise, 0, 64))
         return "pan_deg_s (-90..90) / linger_s (0..3600) / noise (0..64)";
+    if (s->jpeg_quality < 0 || s->jpeg_quality > 100)
+        return "jpeg_quality (0: RGB24, 1..100)";
     if (!within(s->camera_height_m, 0.5, 50) || !within(s->pitch_deg, 0, 60) || !within(s->hfov_deg, 10, 120))
         return "camera_height_m (0.5..50) / pitch_deg (0..60) / hfov_deg (10..120)";
     return NULL;
@@ -958,6 +968,10 @@ int sp_synth_street_write(const sp_synth_street_settings *settings, const char *
     if (bad) {
         sp_log(SP_LOG_ERROR, "synth street", "bad setting: %s", bad);
         return -EINVAL;
+    }
+    if (settings->jpeg_quality > 0 && !sp_jpeg_available()) {
+        sp_log(SP_LOG_ERROR, "synth street", "MJPEG frames (jpeg_quality) need libjpeg: rebuild with -Djpeg=enabled");
+        return SP_EDISABLED;
     }
     scene *s = calloc(1, sizeof(*s));
     if (!s)

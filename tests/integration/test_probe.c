@@ -160,7 +160,7 @@ static uint16_t *read_truth(const char *prefix, const char *suffix, uint32_t *w,
     return read_pgm16(name, w, h);
 }
 
-static void check_occlusion_min(const sp_probe_dir *d, const char *prefix, double min_recall)
+static void check_occlusion_bounds(const sp_probe_dir *d, const char *prefix, double min_recall, double max_false)
 {
     uint32_t w, h;
     uint16_t *far = read_truth(prefix, "hidden-far", &w, &h), *cnt = read_truth(prefix, "hidden-count", &w, &h);
@@ -189,8 +189,13 @@ static void check_occlusion_min(const sp_probe_dir *d, const char *prefix, doubl
            prefix, recall, n, recall3, n3, false_rate, n_seen);
     CHECK_MSG(n > 500, "%zu occluder pixels in the truth", n);
     CHECK_MSG(recall >= min_recall, "occluder recall %.3f", recall);
-    CHECK_MSG(false_rate <= 0.01, "false occluder rate %.4f", false_rate);
+    CHECK_MSG(false_rate <= max_false, "false occluder rate %.4f", false_rate);
     free(far), free(cnt), free(seen);
+}
+
+static void check_occlusion_min(const sp_probe_dir *d, const char *prefix, double min_recall)
+{
+    check_occlusion_bounds(d, prefix, min_recall, 0.01);
 }
 
 /* the bound; seeds 1-10 give 0.908-0.994 (PROBE.md, occlusion figures) */
@@ -469,6 +474,30 @@ static void test_seeds(void)
  * shadow 7 degrees; the grainy path (denoised change test, noise-scaled shadow tests) is held to
  * recall 0.85 here (0.916 and 0.894 measured) and to the walkers' plane, shadow and false-rate bounds.
  */
+/*
+ * Frames stored as JPEG at quality 70 (synth street --jpeg): ringing around the figures and blocks inside
+ * their cast shadows made lone object pixels that widened people into "other" (207 of 664 objects called
+ * person against 568 of 661 uncompressed) and marked 7.4% of where figures were seen (recall 0.619). Lone
+ * pixels are dropped where they are many (segment.c, drop_specks): recall 0.867, false 2.1%. Held to
+ * 0.8 and 3%: the issue's 1% is not met on compressed frames (PROBE.md).
+ */
+static void test_compressed(void)
+{
+    if (!HAVE_JPEG) {
+        printf("compressed frames: skipped, this build has no libjpeg\n");
+        return;
+    }
+    CHECK(run("synth", "street", "-o", path_in("jq.spcap"), "--seed", "1", "--jpeg", "70", NULL) == 0);
+    CHECK(run("probe", path_in("jq.spcap"), "-o", path_in("jqp"), "-q", NULL) == 0);
+    sp_probe_dir d;
+    int ret = sp_probe_dir_load(path_in("jqp"), &d);
+    CHECK_MSG(ret == 0, "loading the probe directory of the compressed street: %s", sp_strerror(ret));
+    if (ret)
+        return;
+    check_occlusion_bounds(&d, "jq", 0.8, 0.03);
+    sp_probe_dir_free(&d);
+}
+
 static void test_noise(void)
 {
     static const char *const seeds[] = { "1", "4" };
@@ -489,6 +518,7 @@ static void test_noise(void)
         check_plane_and_shadow_in(&d, truth, 1);
         sp_probe_dir_free(&d);
     }
+    test_compressed();
 }
 
 /*

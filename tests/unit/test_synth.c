@@ -636,6 +636,8 @@ static void test_street(void)
     CHECK_EQ_INT(sp_synth_street_write(&bad, none, NULL), -EINVAL);
     bad = s, bad.cars = SP_SYNTH_STREET_MAX_CARS + 1;
     CHECK_EQ_INT(sp_synth_street_write(&bad, none, NULL), -EINVAL);
+    bad = s, bad.jpeg_quality = 101;
+    CHECK_EQ_INT(sp_synth_street_write(&bad, none, NULL), -EINVAL);
     bad = s, bad.sun_elevation_deg = 85.001;
     CHECK_EQ_INT(sp_synth_street_write(&bad, none, NULL), -EINVAL);
     CHECK_EQ_INT(sp_synth_street_write(NULL, none, NULL), -EINVAL);
