@@ -29,6 +29,8 @@ static void usage(FILE *out)
             "  --noise SIGMA          sensor noise, standard deviation in 8-bit levels (default 0)\n"
             "  --cars N               cars driving past behind the walkers, 0..%d (default 0)\n"
             "  --jpeg Q               store the frames as MJPEG at quality 1..100 (default: raw RGB24)\n"
+            "  --indoor               a hall: back wall, wooden floor, a counter, a cabinet and a chair as\n"
+            "                         the occluders, lamps (no sun)\n"
             "  --seed N               (default 1)\n",
             SP_SYNTH_STREET_MAX_FIGURES, SP_SYNTH_STREET_MAX_CARS);
 }
@@ -52,6 +54,7 @@ static int parse_args(int argc, char **argv, sp_synth_street_settings *a, const 
         { "noise", required_argument, NULL, 'N' },
         { "cars", required_argument, NULL, 'C' },
         { "jpeg", required_argument, NULL, 'J' },
+        { "indoor", no_argument, NULL, 'I' },
         { 0 },
     };
     double v = 0;
@@ -75,6 +78,9 @@ static int parse_args(int argc, char **argv, sp_synth_street_settings *a, const 
         case 'S': bad = sp_opt_double("synth street", on, optarg, 0, 4e9, &v); a->seed = (uint64_t)v; break;
         case 'L': bad = sp_opt_double("synth street", on, optarg, 0, 3600, &a->linger_s); break;
         case 'N': bad = sp_opt_double("synth street", on, optarg, 0, 64, &a->noise); break;
+        case 'I':
+            a->indoor = 1;
+            break;
         case 'J':
             bad = sp_opt_double("synth street", on, optarg, 1, 100, &v);
             a->jpeg_quality = (int)v;
@@ -120,6 +126,9 @@ int sp_cmd_synth_street(int argc, char **argv)
     if (s.jpeg_quality > 0)
         snprintf(fmt, sizeof(fmt), "mjpeg q%d", s.jpeg_quality);
     printf("%s: synthetic street, %.1f s, %ux%u %s at %.0f fps, %u figures, %u cars, %s\n", out, s.seconds, s.width,
-           s.height, fmt, s.fps, rep.figures, rep.cars, s.overcast ? "overcast" : "sunny");
+           s.height, fmt, s.fps, rep.figures, rep.cars,
+           s.indoor         ? "indoor"
+               : s.overcast ? "overcast"
+                            : "sunny");
     return SP_EXIT_OK;
 }

@@ -230,8 +230,9 @@ typedef struct sp_synth_street_settings {
     double hfov_deg;          /* horizontal field of view; default 45 (10..120) */
     double linger_s;          /* every other figure stops once for 5 s up to this long; default 0: nobody */
     double noise;             /* sensor noise, standard deviation in 8-bit levels; default 0 (0..64) */
-    unsigned cars;    /* cars driving past behind the walkers, spread over the capture; default 0 (0..MAX_CARS) */
-    int jpeg_quality; /* frames stored as MJPEG at this quality (1..100, needs libjpeg); default 0: RGB24 */
+    unsigned cars;            /* cars driving past behind the walkers; default 0 (0..SP_SYNTH_STREET_MAX_CARS) */
+    int jpeg_quality;         /* frames stored as MJPEG at this quality (1..100, libjpeg); default 0: RGB24 */
+    int indoor;               /* 1: a hall: back wall, wooden floor, furniture as the occluders, no sun */
     sp_synth_image_writer write_image; /* the background PNG (tools pass sp_png_write); NULL: binary PPM */
     int progress;             /* progress bar on stderr: 1 on, 0 off (default), -1 when a terminal */
     /* Polled between frames: non-zero stops sp_synth_street_write with -ECANCELED, nothing left. */

@@ -9,7 +9,9 @@
  * and the shade under them); a sun casting
  * shadows of everything onto the ground, or an overcast sky with none but the
  * soft darkening at each figure's feet.
- * Optional camera pan (a moving camera) and no figures at all, for the
+ * Indoors (`--indoor`): a hall instead, a back wall where the sky was, a
+ * wooden floor, a counter, a cabinet and a chair's back as the occluders, and
+ * no sun. Optional camera pan (a moving camera) and no figures at all, for the
  * bad-input tests.
  *
  * Beside OUT (PREFIX = OUT without ".spcap"): PREFIX.truth.json (camera, sun,
@@ -79,6 +81,7 @@ typedef struct scene {
     double ambient, sun_ground, sun_figure;
     board occ[N_STATIC];
     double wall_x, wall_y0, wall_y1, wall_h; /* shadow-only wall (off to the left) */
+    double back_y;                           /* indoors: the hall's back wall, facing the camera */
     figure fig[MAX_FIGURES];
     unsigned n_fig;
     car cars[MAX_CARS];
@@ -157,6 +160,13 @@ static double value_noise(double x, double y, uint32_t seed)
 
 static void ground_albedo(const scene *s, double x, double y, double out[3])
 {
+    if (s->a.indoor) { /* oak boards 0.15 m wide running away from the camera, each its own shade */
+        double plank = floor(x / 0.15),
+               g = 0.8 + 0.12 * unit_hash((uint32_t)(int32_t)plank, 7, (uint32_t)s->a.seed) +
+            0.08 * value_noise(x * 9, y * 0.8, (uint32_t)s->a.seed + 5);
+        out[0] = 150 * g, out[1] = 112 * g, out[2] = 76 * g;
+        return;
+    }
     double n = 0.7 * value_noise(x * 0.7, y * 0.7, (uint32_t)s->a.seed) + 0.3 * value_noise(x * 3, y * 3, 99);
     double g = 0.78 + 0.22 * n;
     out[0] = 112 * g, out[1] = 110 * g, out[2] = 104 * g;
@@ -338,9 +348,16 @@ static void setup_scene(scene *s)
     s->ambient = s->a.overcast ? 1.15 : 0.55;
     s->sun_ground = s->a.overcast ? 0 : 1.25 * s->sun.z;
     s->sun_figure = s->a.overcast ? 0 : 0.6;
-    s->occ[0] = (board){ 1.0, 11.0, 0.06, 0.0, 3.8, { 95, 105, 100 } };   /* lamp pole */
-    s->occ[1] = (board){ 1.0, 10.97, 0.45, 1.05, 1.45, { 30, 125, 140 } }; /* sign on the pole */
-    s->occ[2] = (board){ -2.0, 9.0, 0.07, 0.0, 3.4, { 160, 125, 100 } };   /* a second, brown pole */
+    if (s->a.indoor) {
+        s->occ[0] = (board){ -1.6, 10.0, 0.9, 0.0, 0.95, { 70, 90, 120 } };  /* a counter, hiding legs */
+        s->occ[1] = (board){ 2.3, 12.5, 0.45, 0.0, 1.9, { 225, 225, 215 } }; /* a tall white cabinet */
+        s->occ[2] = (board){ 0.4, 8.2, 0.22, 0.45, 0.95, { 60, 45, 35 } };   /* a chair's back, its legs unseen */
+        s->back_y = 19.0;
+    } else {
+        s->occ[0] = (board){ 1.0, 11.0, 0.06, 0.0, 3.8, { 95, 105, 100 } };    /* lamp pole */
+        s->occ[1] = (board){ 1.0, 10.97, 0.45, 1.05, 1.45, { 30, 125, 140 } }; /* sign on the pole */
+        s->occ[2] = (board){ -2.0, 9.0, 0.07, 0.0, 3.4, { 160, 125, 100 } };   /* a second, brown pole */
+    }
     s->wall_x = -7.0, s->wall_y0 = 0.0, s->wall_y1 = 40.0, s->wall_h = 3.0;
     make_figures(s);
     make_cars(s);
@@ -376,6 +393,9 @@ static void render_static_pixel(scene *s, uint32_t x, uint32_t y)
     sp_vec3 d = ray_dir(&s->cam, x + 0.5, y + 0.5);
     int which = -1;
     double tb = board_hit(s, d, &which), tg = d.z < -1e-9 ? -s->cam.pos.z / d.z : (double)INFINITY;
+    double tw = s->a.indoor && d.y > 1e-9 ? (s->back_y - s->cam.pos.y) / d.y : (double)INFINITY;
+    if (tw < tg) /* the back wall stands on the floor: beyond it the floor is not seen */
+        tg = (double)INFINITY;
     double c[3];
     s->depth[i] = (float)fmin(tb, tg);
     if (isfinite(tb) && tb < tg) {
@@ -397,6 +417,12 @@ static void render_static_pixel(scene *s, uint32_t x, uint32_t y)
         s->kind[i] = KIND_GROUND;
         s->static_shadow[i] = (uint8_t)shadowed;
         s->gx[i] = (float)g.x, s->gy[i] = (float)g.y;
+    } else if (isfinite(tw)) { /* plaster, a skirting board at its foot */
+        sp_vec3 q = sp_vec3_add(s->cam.pos, sp_vec3_scale(d, tw));
+        double g = q.z < 0.12 ? 0.45 : 0.92 + 0.05 * value_noise(q.x * 2, q.z * 2, 3);
+        c[0] = 205 * g * s->ambient, c[1] = 196 * g * s->ambient, c[2] = 178 * g * s->ambient;
+        s->depth[i] = (float)tw;
+        s->kind[i] = KIND_SKY; /* background nobody walks on or behind */
     } else {
         c[0] = 185, c[1] = 205, c[2] = 230;
         s->kind[i] = KIND_SKY;
@@ -702,13 +728,14 @@ static void truth_json(const scene *s, sp_strbuf *b)
         "{\"format\":\"sunprobe-street-truth\",\"version\":1,\"width\":%u,\"height\":%u,"
         "\"fps\":%.17g,\"frames\":%.0f,\n\"camera\":{\"height_m\":%.17g,\"pitch_deg\":%.17g,"
         "\"hfov_deg\":%.17g,\"fx\":%.17g,\"cx\":%.17g,\"cy\":%.17g,\"pan_deg_s\":%.17g},\n"
-        "\"sun\":{\"overcast\":%s,\"azimuth_deg\":%.17g,\"elevation_deg\":%.17g,"
+        "\"indoor\":%s,\"sun\":{\"overcast\":%s,\"azimuth_deg\":%.17g,\"elevation_deg\":%.17g,"
         "\"direction\":[%.17g,%.17g,%.17g]},\n\"contact\":{\"model\":\"ground x (1 - depth (1 - r / (reach h))^2) "
         "within reach h of a figure's foot, h its height; overcast only\",\"depth\":%.17g,"
         "\"reach\":%.17g},\n\"occluders\":[",
         c->w, c->h, s->a.fps, floor(s->a.seconds * s->a.fps + 1e-9), s->a.camera_height_m, s->a.pitch_deg,
-        s->a.hfov_deg, c->f, c->cx, c->cy, s->a.pan_deg_s, s->a.overcast ? "true" : "false", s->a.sun_azimuth_deg,
-        s->a.sun_elevation_deg, s->sun.x, s->sun.y, s->sun.z, s->a.overcast ? CONTACT_DEPTH : 0.0, CONTACT_REACH);
+        s->a.hfov_deg, c->f, c->cx, c->cy, s->a.pan_deg_s, s->a.indoor ? "true" : "false",
+        s->a.overcast ? "true" : "false", s->a.sun_azimuth_deg, s->a.sun_elevation_deg, s->sun.x, s->sun.y, s->sun.z,
+        s->a.overcast ? CONTACT_DEPTH : 0.0, CONTACT_REACH);
     for (int i = 0; i < N_STATIC; i++)
         sp_strbuf_printf(b, "%s{\"x\":%.3f,\"y\":%.3f,\"half_width\":%.3f,\"z0\":%.3f,\"z1\":%.3f}", i ? "," : "",
                          s->occ[i].x, s->occ[i].y, s->occ[i].half_w, s->occ[i].z0, s->occ[i].z1);
@@ -977,6 +1004,7 @@ int sp_synth_street_write(const sp_synth_street_settings *settings, const char *
     if (!s)
         return -ENOMEM;
     s->a = *settings;
+    s->a.overcast |= s->a.indoor; /* lamps all round: no cast shadows, the darkening at the feet */
     s->out = capture_path;
     int ret = run(s);
     if (!ret && report)
