@@ -2,7 +2,7 @@
 /*
  * A probe directory: what `sunprobe probe` writes and `sunprobe composite`
  * reads. clean_plate.png; occlusion.pfm and occlusion_confidence.pfm (1 channel) and
- * lighting.pfm (RGB), the exact float maps, also as .exr where OpenImageIO is built, with .png
+ * lighting.pfm (RGB), the exact float maps (occlusion and lighting also as .exr where OpenImageIO is built), with .png
  * previews; probe.json, the plane and shadow models.
  * PFM is the portable float map: "Pf" (gray) or "PF" (RGB), width height, -1
  * (little-endian), rows bottom to top.

@@ -14,10 +14,11 @@
  *   Thin poles stay: they are long. Without a scale model nothing is dropped.
  * - One depth: the group's depth is its pixels' SETTLE_QUANTILE (the top
  *   share is left to wrong inferences: a near figure whose head has the
- *   sign's colour seems hidden by it). A pixel nearer than that by more than
- *   two foot rows' slack is raised to it, unless a body standing that far or
- *   farther was seen over that pixel: then the pixel belongs to something
- *   nearer that touches the group. Pixels farther keep their own value.
+ *   sign's colour seems hidden by it). A pixel whose value is farther (a
+ *   smaller row) by more than two foot rows' slack is raised to it, unless a
+ *   body standing that far or farther was seen over that pixel: then the
+ *   pixel belongs to something farther that touches the group. Pixels whose
+ *   value is nearer keep it.
  */
 #include "probe_internal.h"
 

@@ -261,11 +261,11 @@ static int is_person(sp_probe *p, const probe_object *o)
  * A car (or another vehicle) seen from the street, judged on its core rows (segment.c: a walker merged
  * behind it adds a narrow column on top) and the span h from the core's top down to the ground. Under the
  * core at most CAR_UNDER of h: a car's wheels and the clearance under its body are about a fifth of its
- * height, 0.2-0.4 of h (the core of a side view is its body, below the narrower cabin), while the core of
+ * height, 0.2-0.4 of h (the core of a side view is its body and the cabin's lower half), while the core of
  * a group of people is their torsos, over legs that are 0.47 of a person's height, 0.57 of h. Wider than
  * tall (a side view about 0.3, a front or back view 0.8 of its width) and solid (fill at least 0.55:
  * people side by side leave gaps). Where the scale model is known it is vehicle-sized: h 0.3 to 2.2 of a
- * person's height standing there (about 0.9 m of a 1.5 m car's side view; a van or bus up to about
+ * person's height standing there (about 1.2 m of a 1.5 m car's side view; a van or bus up to about
  * 3.5 m) and at least 0.8 of a person's height wide (a car is 1.7 m across from the front, over 3.5 m long
  * from the side; a dog or a bag is not). Not by speed: a car crosses the view in a few frames, too fast
  * for the person tracker.

@@ -93,6 +93,7 @@ typedef struct scene {
     /* truth accumulators */
     uint16_t *hidden_far, *hidden_near, *seen_far, *hidden_count;
     uint8_t *frame;
+    uint8_t *car_px; /* this frame: pixels a car was drawn on (the shadows and shades on the ground skip them) */
 } scene;
 
 enum { KIND_SKY = 0, KIND_GROUND = 1, KIND_OCCLUDER = 2 };
@@ -317,6 +318,8 @@ static int car_at(const car *c, double t, double *x)
  * Cars on two lanes 18.5 and 21 m out (behind every walker: they never hide one), in turn in each
  * direction, entering and leaving the view; 7-11 m/s, 3.9-4.6 m long, 1.4-1.55 m tall.
  */
+static const double car_lanes[2] = { 21.0, 18.5 }; /* far, near: drawn in this order */
+
 static void make_cars(scene *s)
 {
     static const uint8_t paint[][3] = { { 180, 30, 35 }, { 35, 60, 140 },   { 215, 215, 210 },
@@ -330,7 +333,7 @@ static void make_cars(scene *s)
             r[k] = unit_hash(seed, i, (uint32_t)k + 41);
         c->length = 3.9 + 0.7 * r[0];
         c->height = 1.4 + 0.15 * r[1];
-        c->y = i % 2 ? 21.0 : 18.5;
+        c->y = car_lanes[i % 2 ? 0 : 1];
         double reach = c->y * tan(0.5 * s->a.hfov_deg * M_PI / 180.0) + c->length + 1.0;
         c->x0 = i % 2 ? reach : -reach, c->x1 = -c->x0;
         c->speed = 7.0 + 4.0 * r[2];
@@ -492,7 +495,7 @@ static void draw_shadow(scene *s, profile_fn profile, const void *obj, double he
     for (int y = b.y0; y <= b.y1; y++)
         for (int x = b.x0; x <= b.x1; x++) {
             size_t i = (size_t)y * s->cam.w + (size_t)x;
-            if (s->kind[i] != KIND_GROUND || s->static_shadow[i])
+            if (s->kind[i] != KIND_GROUND || s->static_shadow[i] || s->car_px[i])
                 continue;
             sp_vec3 g = { s->gx[i], s->gy[i], 0 };
             double t = ((fx - g.x) * nx + (fy - g.y) * ny) / (s->sun.x * nx + s->sun.y * ny);
@@ -523,7 +526,7 @@ static void draw_figure_contact(scene *s, const figure *f, double fx, double fy)
         for (int x = b.x0; x <= b.x1; x++) {
             size_t i = (size_t)y * s->cam.w + (size_t)x;
             double r = hypot((double)s->gx[i] - fx, (double)s->gy[i] - fy);
-            if (s->kind[i] != KIND_GROUND || !(r < R))
+            if (s->kind[i] != KIND_GROUND || s->car_px[i] || !(r < R))
                 continue;
             double k = 1 - CONTACT_DEPTH * (1 - r / R) * (1 - r / R);
             for (int c = 0; c < 3; c++)
@@ -586,7 +589,8 @@ static void draw_car_shade(scene *s, const car *c, double cx)
     for (int y = b.y0; y <= b.y1; y++)
         for (int x = b.x0; x <= b.x1; x++) {
             size_t i = (size_t)y * s->cam.w + (size_t)x;
-            if (s->kind[i] == KIND_GROUND && fabs((double)s->gx[i] - cx) <= hl && fabs((double)s->gy[i] - c->y) <= hw)
+            if (s->kind[i] == KIND_GROUND && !s->car_px[i] && fabs((double)s->gx[i] - cx) <= hl &&
+                fabs((double)s->gy[i] - c->y) <= hw)
                 for (int k = 0; k < 3; k++)
                     s->frame[3 * i + k] = (uint8_t)lrint(s->ground_dark[3 * i + k] * 0.6);
         }
@@ -626,6 +630,7 @@ static void draw_car(scene *s, const car *c, unsigned id, double cx, uint64_t fr
             size_t i = (size_t)y * s->cam.w + (size_t)x;
             if (!part || t > (double)s->depth[i])
                 continue;
+            s->car_px[i] = 1;
             static const uint8_t glass[3] = { 45, 55, 65 }, tyre[3] = { 25, 25, 28 };
             const uint8_t *base = part == PART_GLASS ? glass : part == PART_WHEEL ? tyre : c->body;
             double lit = s->ambient + (static_shadow_at(s, q) ? 0 : s->sun_figure), col[3];
@@ -642,11 +647,13 @@ static void render_frame(scene *s, uint64_t index, double t)
         render_static(s);
     }
     memcpy(s->frame, s->bg, (size_t)s->cam.w * s->cam.h * 3);
-    for (unsigned i = 0; i < s->n_car; i++) { /* behind every walker */
-        double cx;
-        if (car_at(&s->cars[i], t, &cx))
-            draw_car(s, &s->cars[i], i, cx, index);
-    }
+    memset(s->car_px, 0, (size_t)s->cam.w * s->cam.h);
+    for (int lane = 0; lane < 2; lane++) /* behind every walker; the far lane first */
+        for (unsigned i = 0; i < s->n_car; i++) {
+            double cx;
+            if (s->cars[i].y == car_lanes[lane] && car_at(&s->cars[i], t, &cx))
+                draw_car(s, &s->cars[i], i, cx, index);
+        }
     double fx[MAX_FIGURES], fy[MAX_FIGURES], ph[MAX_FIGURES];
     int on[MAX_FIGURES], order[MAX_FIGURES], n = 0;
     for (unsigned i = 0; i < s->n_fig; i++) {
@@ -802,7 +809,7 @@ static int write_truth(const scene *s, const char *const p[N_TRUTH])
     sp_strbuf b = { 0 };
     if (!ret) {
         truth_json(s, &b);
-        ret = b.failed ? -ENOMEM : write_file(p[0], b.data, b.len);
+        ret = b.failed || s->car_views.failed ? -ENOMEM : write_file(p[0], b.data, b.len);
     }
     if (!ret)
         ret = s->a.write_image ? s->a.write_image(p[1], s->bg, s->cam.w, s->cam.h, s->cam.w * 3, 3)
@@ -830,17 +837,18 @@ static int scene_alloc(scene *s)
     s->hidden_far = calloc(n, 2), s->hidden_near = calloc(n, 2), s->seen_far = calloc(n, 2);
     s->hidden_count = calloc(n, 2);
     s->frame = malloc(n * 3);
+    s->car_px = calloc(n, 1);
     return s->bg && s->ground_dark && s->kind && s->static_shadow && s->depth && s->gx && s->gy && s->hidden_far &&
-                   s->hidden_near && s->seen_far && s->hidden_count && s->frame
-               ? 0
-               : -ENOMEM;
+            s->hidden_near && s->seen_far && s->hidden_count && s->frame && s->car_px
+        ? 0
+        : -ENOMEM;
 }
 
 static void scene_free(scene *s)
 {
     free(s->bg), free(s->ground_dark), free(s->kind), free(s->static_shadow), free(s->depth);
     free(s->gx), free(s->gy), free(s->hidden_far), free(s->hidden_near), free(s->seen_far), free(s->frame);
-    free(s->hidden_count);
+    free(s->hidden_count), free(s->car_px);
     sp_strbuf_free(&s->car_views);
 }
 
@@ -973,8 +981,8 @@ static const char *street_bad_field(const sp_synth_street_settings *s)
         return "fps (1..240) / seconds (0.01..36000)";
     if (s->figures > MAX_FIGURES)
         return "figures (0..64)";
-    if (s->cars > MAX_CARS)
-        return "cars (0..16)";
+    if (s->cars > MAX_CARS || (s->cars && s->indoor))
+        return "cars (0..16; none indoors)";
     if (!within(s->sun_azimuth_deg, -360, 360) || !within(s->sun_elevation_deg, 5, 85))
         return "sun_azimuth_deg (-360..360) / sun_elevation_deg (5..85)";
     if (!within(s->pan_deg_s, -90, 90) || !within(s->linger_s, 0, 3600) || !within(s->noise, 0, 64))
