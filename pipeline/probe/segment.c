@@ -176,15 +176,15 @@ static int bytes_near(const uint8_t *a, const uint8_t *b, size_t n, uint8_t lim)
 #define SPECK_MARK 0x80
 #define SPECK_SHARE_MIN 0.02 /* of a frame's object pixels (clean: under 0.01; JPEG quality 70: 0.04-0.09) */
 
-/* Object pixels among the 8 neighbours of pixel (x, y), marked specks included. */
-static int object_neighbours(const probe_segment *sg, uint32_t x, uint32_t y)
+/* Pixels of class `cls` among the 8 neighbours of pixel (x, y), marked specks counted as objects. */
+static int class_neighbours(const probe_segment *sg, uint32_t x, uint32_t y, uint8_t cls)
 {
     int n = 0;
     for (int dy = -1; dy <= 1; dy++)
         for (int dx = -1; dx <= 1; dx++) {
             int64_t xx = (int64_t)x + dx, yy = (int64_t)y + dy;
             if ((dx || dy) && xx >= 0 && yy >= 0 && xx < sg->width && yy < sg->height)
-                n += (sg->cls[(size_t)yy * sg->width + (size_t)xx] & ~SPECK_MARK) == PROBE_CLS_OBJECT;
+                n += (sg->cls[(size_t)yy * sg->width + (size_t)xx] & ~SPECK_MARK) == cls;
         }
     return n;
 }
@@ -201,17 +201,10 @@ static void cell_span(const probe_segment *sg, uint32_t gx, uint32_t gy, uint32_
 /* A marked speck becomes shadow beside shadow, else background; the counts follow. */
 static void settle_speck(probe_segment *sg, uint32_t x, uint32_t y, uint64_t *fg, uint64_t *sh)
 {
-    uint32_t w = sg->width, h = sg->height;
-    int beside_shadow = 0;
-    for (int dy = -1; dy <= 1 && !beside_shadow; dy++)
-        for (int dx = -1; dx <= 1; dx++) {
-            int64_t xx = (int64_t)x + dx, yy = (int64_t)y + dy;
-            if (xx >= 0 && yy >= 0 && xx < w && yy < h && sg->cls[(size_t)yy * w + (size_t)xx] == PROBE_CLS_SHADOW)
-                beside_shadow = 1;
-        }
+    int beside_shadow = class_neighbours(sg, x, y, PROBE_CLS_SHADOW) > 0;
     size_t cell = (size_t)(y / sg->block) * sg->gw + x / sg->block;
     sg->cell_obj[cell]--, (*fg)--;
-    sg->cls[(size_t)y * w + x] = beside_shadow ? PROBE_CLS_SHADOW : PROBE_CLS_BG;
+    sg->cls[(size_t)y * sg->width + x] = beside_shadow ? PROBE_CLS_SHADOW : PROBE_CLS_BG;
     if (beside_shadow)
         sg->cell_sh[cell]++, (*sh)++;
 }
@@ -226,7 +219,10 @@ static void settle_speck(probe_segment *sg, uint32_t x, uint32_t y, uint64_t *fg
 static void drop_specks(probe_segment *sg, uint64_t *fg, uint64_t *sh)
 {
     size_t specks = 0, objects = 0;
-    for (int pass = 0; pass < 2; pass++)
+    int drop = 0;
+    for (int pass = 0; pass < 2 && (pass == 0 || specks); pass++) { /* no specks marked: nothing to undo */
+        if (pass == 1)
+            drop = specks >= SPECK_SHARE_MIN * (double)objects;
         for (uint32_t gy = 0; gy < sg->gh; gy++)
             for (uint32_t gx = 0; gx < sg->gw; gx++) {
                 if (!sg->cell_obj[(size_t)gy * sg->gw + gx])
@@ -238,16 +234,17 @@ static void drop_specks(probe_segment *sg, uint64_t *fg, uint64_t *sh)
                         uint8_t *c = sg->cls + (size_t)y * sg->width + x;
                         if (pass == 0 && *c == PROBE_CLS_OBJECT) {
                             objects++;
-                            if (object_neighbours(sg, x, y) < 2)
+                            if (class_neighbours(sg, x, y, PROBE_CLS_OBJECT) < 2)
                                 *c |= SPECK_MARK, specks++;
                         } else if (pass == 1 && (*c & SPECK_MARK)) {
-                            if (specks < SPECK_SHARE_MIN * (double)objects)
-                                *c &= (uint8_t)~SPECK_MARK;
-                            else
+                            if (drop)
                                 settle_speck(sg, x, y, fg, sh);
+                            else
+                                *c &= (uint8_t)~SPECK_MARK;
                         }
                     }
             }
+    }
 }
 
 static void classify(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate)

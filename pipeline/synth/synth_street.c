@@ -540,6 +540,17 @@ static void truth_min(uint16_t *m, size_t i, uint16_t v)
         m[i] = v;
 }
 
+/* Where pixel (x, y)'s ray meets a billboard standing at depth `board_y`: distance t and point q; 0: it does not. */
+static int billboard_point(const scene *s, int x, int y, double board_y, double *t, sp_vec3 *q)
+{
+    sp_vec3 d = ray_dir(&s->cam, x + 0.5, y + 0.5);
+    if (d.y <= 1e-9)
+        return 0;
+    *t = (board_y - s->cam.pos.y) / d.y;
+    *q = sp_vec3_add(s->cam.pos, sp_vec3_scale(d, *t));
+    return 1;
+}
+
 static void draw_figure(scene *s, const figure *f, double fx, double fy, double phase)
 {
     double w = 0.3 * f->height;
@@ -551,11 +562,10 @@ static void draw_figure(scene *s, const figure *f, double fx, double fy, double 
     uint16_t foot = (uint16_t)(vf - 1.0 < 0 ? 1 : lrint(vf - 1.0) + 1); /* 1 + the probe's foot row */
     for (int y = b.y0; y <= b.y1; y++)
         for (int x = b.x0; x <= b.x1; x++) {
-            sp_vec3 d = ray_dir(&s->cam, x + 0.5, y + 0.5);
-            if (d.y <= 1e-9)
+            double t;
+            sp_vec3 q;
+            if (!billboard_point(s, x, y, fy, &t, &q))
                 continue;
-            double t = (fy - s->cam.pos.y) / d.y;
-            sp_vec3 q = sp_vec3_add(s->cam.pos, sp_vec3_scale(d, t));
             int part = silhouette(f->height, q.x - fx, q.z, phase);
             size_t i = (size_t)y * s->cam.w + (size_t)x;
             if (!part)
@@ -621,11 +631,10 @@ static void draw_car(scene *s, const car *c, unsigned id, double cx, uint64_t fr
     box b = box_of(s, pts, 4);
     for (int y = b.y0; y <= b.y1; y++)
         for (int x = b.x0; x <= b.x1; x++) {
-            sp_vec3 d = ray_dir(&s->cam, x + 0.5, y + 0.5);
-            if (d.y <= 1e-9)
+            double t;
+            sp_vec3 q;
+            if (!billboard_point(s, x, y, c->y, &t, &q))
                 continue;
-            double t = (c->y - s->cam.pos.y) / d.y;
-            sp_vec3 q = sp_vec3_add(s->cam.pos, sp_vec3_scale(d, t));
             int part = car_part(c, q.x - cx, q.z);
             size_t i = (size_t)y * s->cam.w + (size_t)x;
             if (!part || t > (double)s->depth[i])
