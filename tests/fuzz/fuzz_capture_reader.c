@@ -93,7 +93,9 @@ static void read_through(const char *path, int skip)
         touch_payload(&c);
     }
     /* seeks must land somewhere readable or at a reported error, never crash */
-    const int64_t targets[] = { INT64_MIN, first_ts, first_ts + 1000000, INT64_MAX };
+    /* a chunk may carry any timestamp, INT64_MAX too: the step past the first saturates */
+    const int64_t after_first = first_ts > INT64_MAX - 1000000 ? INT64_MAX : first_ts + 1000000;
+    const int64_t targets[] = { INT64_MIN, first_ts, after_first, INT64_MAX };
     for (size_t i = 0; i < sizeof(targets) / sizeof(targets[0]); i++) {
         if (sp_capture_reader_seek(r, targets[i]) != 0)
             abort();

@@ -71,8 +71,8 @@ static int write_frames(sp_capture_writer *w)
     return err;
 }
 
-/* A small valid capture with every chunk type. */
-static uint8_t *make_valid(uint32_t index_interval, size_t *len)
+/* A small valid capture with every chunk type; its META stamped meta_ns (any int64 is valid). */
+static uint8_t *make_valid(uint32_t index_interval, int64_t meta_ns, size_t *len)
 {
     char path[4096];
     snprintf(path, sizeof(path), "%s/.tmp-valid", outdir);
@@ -85,7 +85,7 @@ static uint8_t *make_valid(uint32_t index_interval, size_t *len)
     const char meta[] = "{\"kind\":\"static\",\"source\":\"seed\",\"camera\":{\"width\":6,\"height\":4}}";
     int err = sp_capture_writer_open(&w, path, &s);
     if (err == 0)
-        err = sp_capture_write_meta(w, 0, meta, strlen(meta));
+        err = sp_capture_write_meta(w, meta_ns, meta, strlen(meta));
     if (err == 0)
         err = write_frames(w);
     int cerr = sp_capture_writer_close(&w);
@@ -181,18 +181,21 @@ int main(int argc, char **argv)
         fprintf(stderr, "%s: %s\n", outdir, strerror(errno));
         return 1;
     }
-    size_t len = 0, len2 = 0;
-    uint8_t *valid = make_valid(3, &len);
-    uint8_t *plain = make_valid(0, &len2);
-    if (!valid || !plain) {
+    size_t len = 0, len2 = 0, len3 = 0;
+    uint8_t *valid = make_valid(3, 0, &len);
+    uint8_t *plain = make_valid(0, 0, &len2);
+    uint8_t *latest = make_valid(3, INT64_MAX, &len3); /* seeks step past the first timestamp */
+    if (!valid || !plain || !latest) {
         fprintf(stderr, "cannot write a capture in %s\n", outdir);
         return 1;
     }
     int err = put("valid_indexed.spcap", valid, len);
     err |= put("valid_no_index.spcap", plain, len2);
+    err |= put("valid_latest_time.spcap", latest, len3);
     err |= broken_variants(valid, len);
     err |= future_minor();
     free(valid);
     free(plain);
+    free(latest);
     return err ? 1 : 0;
 }
