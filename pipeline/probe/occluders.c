@@ -12,6 +12,11 @@
  *   SPECK_SHARE of a person's height standing at its depth (the scale model)
  *   is a stray inference (grain on a leg, a gap in a stride), not an object.
  *   Thin poles stay: they are long. Without a scale model nothing is dropped.
+ * - Torn: a thing standing on the ground hides each body behind it over a
+ *   vertical span, so most of its pixels lie in tall columns. A group whose
+ *   median pixel lies in a vertical run under TORN_RUN of a person's height
+ *   is wrong inferences strung along strides, kerbs and crossing stripes
+ *   (one to five rows tall), however wide it spreads; it is dropped too.
  * - One depth: the group's depth is its pixels' SETTLE_QUANTILE (the top
  *   share is left to wrong inferences: a near figure whose head has the
  *   sign's colour seems hidden by it). A pixel whose value is farther (a
@@ -29,6 +34,8 @@
 
 /* a quarter of a person (about 0.4 m): street furniture that can hide part of a body (bins, bollards) is larger */
 #define SPECK_SHARE 0.25
+/* a tenth of a person (about 17 cm): the vertical span of a body the least occluder hides (a kerb hides a foot) */
+#define TORN_RUN 0.1
 #define SETTLE_QUANTILE 0.85 /* of the group's pixels, by depth */
 #define FOOT_SLACK 2         /* rows: a foot row is no better (the evidence slots merge values this close) */
 
@@ -78,6 +85,24 @@ static int hist_rank(const uint32_t *hist, int lo, int hi, size_t rank)
     return hi;
 }
 
+/* Pixels of the group (order[start..end)) lying in vertical runs of occluding pixels at least min_run long. */
+static size_t in_tall_runs(const float *z, uint32_t w, uint32_t h, const int32_t *order, size_t start, size_t end,
+                           double min_run)
+{
+    size_t tall = 0;
+    for (size_t k = start; k < end; k++) {
+        size_t i = (size_t)order[k];
+        if (i >= w && z[i - w] >= 0)
+            continue;     /* not the top of its run */
+        uint32_t run = 1; /* the pixels below are in the group: vertical neighbours are 8-connected */
+        for (size_t j = i + w; j < (size_t)w * h && z[j] >= 0; j += w)
+            run++;
+        if (run >= min_run)
+            tall += run;
+    }
+    return tall;
+}
+
 static inline int clamp_row(int v, uint32_t h)
 {
     return v < 0 ? 0 : v >= (int)h ? (int)h - 1 : v;
@@ -115,11 +140,14 @@ void occluders_settle(probe_maps *m, const sp_probe_plane *plane, probe_occluder
         double person = sp_probe_plane_height(plane, sx / (double)count, depth);
         int side = (x1 - x0 > y1 - y0 ? x1 - x0 : y1 - y0) + 1;
         st->groups++;
-        if (isfinite(person) && person > 0 && side < SPECK_SHARE * person) {
+        int sized = isfinite(person) && person > 0;
+        int speck = sized && side < SPECK_SHARE * person;
+        int torn = sized && !speck && 2 * in_tall_runs(z, w, h, m->occ_order, start, end, TORN_RUN * person) < count;
+        if (speck || torn) {
             for (size_t k = start; k < end; k++)
                 z[m->occ_order[k]] = -1.0f;
-            st->specks++;
-            st->speck_pixels += count;
+            st->specks += (size_t)speck, st->torn += (size_t)torn;
+            st->dropped_pixels += count;
             continue;
         }
         for (size_t k = start; k < end; k++) {

@@ -239,7 +239,7 @@ typedef struct probe_maps {
 
 /* What occluders_settle did to the per-pixel occlusion map. */
 typedef struct probe_occluder_stats {
-    size_t groups, specks, speck_pixels, raised;
+    size_t groups, specks, torn, dropped_pixels, raised; /* dropped: the specks' and torn groups' pixels */
 } probe_occluder_stats;
 
 int maps_open(probe_maps *m, uint32_t width, uint32_t height, unsigned min_events);
@@ -257,7 +257,8 @@ float maps_confidence_at(const probe_maps *m, size_t i, float z);
 /* Fills clean, occlusion and lighting; `fallback_plate` where no background was seen; the scale model (may be
  * NULL) sizes the occluders (occluders_settle). */
 void maps_finalise(probe_maps *m, const uint8_t *fallback_plate, const sp_probe_plane *plane, probe_occluder_stats *st);
-/* Per-pixel occlusion values to occluders: specks dropped, one depth per connected group (occluders.c). */
+/* Per-pixel occlusion values to occluders: specks and torn groups dropped, one depth per connected group
+ * (occluders.c). */
 void occluders_settle(probe_maps *m, const sp_probe_plane *plane, probe_occluder_stats *st);
 /* Convergence metrics since the last call: occlusion change, lighting change, coverage, occluders. */
 void maps_checkpoint(probe_maps *m, double out[4]);

@@ -261,10 +261,10 @@ static void test_params_json(void)
 /*
  * A post (one column, rows 20-90, people passed behind it with their feet at row 90) carries a sign (rows 20-30,
  * passed behind at row 50 only): one object, one depth. One sign pixel saw a body standing at row 60 in front
- * of it: it keeps its own value. A 3x3 speck at row 70 (a person there is 35 px tall) is dropped; a kerb one
- * row thick but 20 px long is kept. A column grouped after the post (17 pixels at row 55, 3 at 95) takes 95, its
- * own 85th percentile: the post's depths must not linger in the histogram. Without a scale model nothing is
- * dropped.
+ * of it: it keeps its own value. A 3x3 speck at row 70 (a person there is 35 px tall) is dropped; a kerb four
+ * rows thick and 20 px long is kept, a line one row thick and as long (inferences strung along a stride) is
+ * dropped as torn. A column grouped after the post (17 pixels at row 55, 3 at 95) takes 95, its own 85th
+ * percentile: the post's depths must not linger in the histogram. Without a scale model nothing is dropped.
  */
 static void test_occluders(void)
 {
@@ -286,24 +286,28 @@ static void test_occluders(void)
         for (int y = 69; y <= 71; y++)
             for (int x = 9; x <= 11; x++)
                 m.occlusion[y * W + x] = 70;
+        for (int y = 59; y <= 62; y++) /* a person at row 60 is 30 px tall: the kerb's runs are over 0.1 of it */
+            for (int x = 55; x < 75; x++)
+                m.occlusion[y * W + x] = 60;
         for (int x = 55; x < 75; x++)
-            m.occlusion[60 * W + x] = 60;
+            m.occlusion[80 * W + x] = 80;
         for (int y = 30; y < 50; y++)
             m.occlusion[y * W + 77] = y < 47 ? 55 : 95;
         probe_occluder_stats st;
         sp_probe_plane none = { .status = SP_PROBE_PLANE_NONE };
         occluders_settle(&m, pass == 0 ? &pl : &none, &st);
-        CHECK_MSG(st.groups == 4, "%zu groups", st.groups);
+        CHECK_MSG(st.groups == 5, "%zu groups", st.groups);
         CHECK_MSG(m.occlusion[30 * W + 77] == 95, "the column after the post: %g", (double)m.occlusion[30 * W + 77]);
         CHECK(m.occlusion[25 * W + 45] == 90 && m.occlusion[20 * W + 30] == 90 && m.occlusion[50 * W + 40] == 90);
         CHECK_MSG(m.occlusion[seen_px] == 50, "the pixel a body at row 60 was seen over: %g",
                   (double)m.occlusion[seen_px]);
         CHECK(m.occlusion[60 * W + 55] == 60 && m.occlusion[60 * W + 74] == 60);
         if (pass == 0) {
-            CHECK(st.specks == 1 && st.speck_pixels == 9 && m.occlusion[70 * W + 10] == -1);
+            CHECK(st.specks == 1 && st.torn == 1 && st.dropped_pixels == 9 + 20 && m.occlusion[70 * W + 10] == -1);
+            CHECK(m.occlusion[80 * W + 55] == -1 && m.occlusion[80 * W + 74] == -1);
             CHECK_MSG(st.raised == 21 * 11 - 11 - 1 + 17, "%zu raised", st.raised);
         } else {
-            CHECK(st.specks == 0 && m.occlusion[70 * W + 10] == 70);
+            CHECK(st.specks == 0 && st.torn == 0 && m.occlusion[70 * W + 10] == 70 && m.occlusion[80 * W + 60] == 80);
         }
     }
     /* extremes: nothing occluding; everything occluding at one depth, and at the last row */
