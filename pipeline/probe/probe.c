@@ -117,7 +117,8 @@ static size_t memory_bound(uint32_t w, uint32_t h, const sp_probe_settings *s)
         3 + 4 + 4 + 12 /* final maps */ + 5 /* checkpoint */ + 5 /* occluder groups */;
     return px * per_px + px / 8 /* motion thumbnails */ + cells * 32 + PROBE_MAX_TRACKS * sizeof(probe_track) +
         (size_t)s->max_observations * 4 * (3 * PERSON_REC + 4) + RECENT_MAX * PERSON_REC * 4 +
-        sizeof(probe_shadows) /* its ratio and contact histograms */ + (size_t)h * 4 /* a group's depths */;
+        sizeof(probe_shadows) /* its ratio and contact histograms */ + (size_t)h * 4 /* a group's depths */ +
+        (size_t)h * 8 + (size_t)w * 12 /* segmentation's row and column scratch */;
 }
 
 static int open_report(sp_probe *p)
@@ -263,19 +264,25 @@ static int is_person(sp_probe *p, const probe_object *o)
  * core at most CAR_UNDER of h: a car's wheels and the clearance under its body are about a fifth of its
  * height, 0.2-0.4 of h (the core of a side view is its body and the cabin's lower half), while the core of
  * a group of people is their torsos, over legs that are 0.47 of a person's height, 0.57 of h. Wider than
- * tall (a side view about 0.3, a front or back view 0.8 of its width) and solid (fill at least 0.55:
- * people side by side leave gaps). Where the scale model is known it is vehicle-sized: h 0.3 to 2.2 of a
+ * tall (a side view about 0.3, a front or back view 0.8 of its width) and solid: its core, holes closed
+ * (segment.c), fills CAR_FILL of the core's box (people side by side leave gaps no column closes). The
+ * roof (the first row a quarter as wide as the widest) lies within CAR_ROOF times h of the ground: a cabin
+ * sits on the body, while a walker with a wide stride or shadow under the torso has the head far above
+ * that core. Where the scale model is known it is vehicle-sized: h 0.3 to 2.2 of a
  * person's height standing there (about 1.2 m of a 1.5 m car's side view; a van or bus up to about
  * 3.5 m) and at least 0.8 of a person's height wide (a car is 1.7 m across from the front, over 3.5 m long
  * from the side; a dog or a bag is not). Not by speed: a car crosses the view in a few frames, too fast
  * for the person tracker.
  */
 #define CAR_UNDER 0.45
+#define CAR_FILL 0.65
+#define CAR_ROOF 2.0
 static int car_shaped(const sp_probe *p, const probe_object *o)
 {
     double w = o->x1 - o->x0 + 1, core = o->core_y1 - o->core_y0 + 1, h = o->foot_y - o->core_y0 + 1;
     double fill = o->core_area / (w * core);
-    if (o->core_y0 < 0 || o->foot_y - o->core_y1 > CAR_UNDER * h || h < 8 || h > 0.8 * w || fill < 0.55)
+    if (o->core_y0 < 0 || o->foot_y - o->core_y1 > CAR_UNDER * h || h < 8 || h > 0.8 * w || fill < CAR_FILL ||
+        o->foot_y - o->roof_y + 1 > CAR_ROOF * h)
         return 0;
     double expect = sp_probe_plane_height(&p->plane, o->foot_x, o->foot_y);
     return !isfinite(expect) || expect <= 0 || (h >= 0.3 * expect && h <= 2.2 * expect && w >= 0.8 * expect);

@@ -138,9 +138,10 @@ typedef struct probe_segment {
     uint8_t *grid, *tmp;               /* gw * gh: changed cells, morphology scratch */
     uint8_t *morph_rows;               /* 3 * gw: morphology's row scratch */
     int32_t *lab_obj;                  /* gw * gh component labels of changed cells, 0 = none */
-    int32_t *rows;                     /* height: per-row counts scratch */
+    int32_t *rows;                     /* height: per-row counts scratch (core_rows: each row's span) */
+    int32_t *row_x0;                   /* height: core_rows' first object pixel of each row */
     uint8_t *denoised;                 /* width * height * 3: the grainy frame denoised (classify) */
-    int32_t *colsum;                   /* 3 * width: denoising scratch */
+    int32_t *colsum;                   /* 3 * width: denoising scratch, then core_rows' column ends */
     double noise;                      /* the last frame's noise against the plate, 8-bit levels */
     int32_t noise_allow;               /* the noise the shadow tests allow for, levels */
     int32_t *parent;                   /* union-find scratch, gw * gh + 1 */

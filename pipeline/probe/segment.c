@@ -50,10 +50,12 @@ int segment_open(probe_segment *sg, uint32_t width, uint32_t height, const sp_pr
     sg->objbox = malloc((cells + 1) * 5 * sizeof(int32_t));
     sg->order = malloc((cells + 1) * sizeof(int32_t));
     sg->rows = malloc((size_t)height * sizeof(int32_t));
+    sg->row_x0 = malloc((size_t)height * sizeof(int32_t));
     sg->denoised = malloc((size_t)width * height * 3);
     sg->colsum = malloc((size_t)width * 3 * sizeof(int32_t));
-    if (!sg->cls || !sg->cell_obj || !sg->cell_sh || !sg->grid || !sg->tmp || !sg->morph_rows || !sg->lab_obj || !sg->parent ||
-        !sg->comp || !sg->objbox || !sg->order || !sg->rows || !sg->denoised || !sg->colsum) {
+    if (!sg->cls || !sg->cell_obj || !sg->cell_sh || !sg->grid || !sg->tmp || !sg->morph_rows || !sg->lab_obj ||
+        !sg->parent || !sg->comp || !sg->objbox || !sg->order || !sg->rows || !sg->row_x0 || !sg->denoised ||
+        !sg->colsum) {
         segment_close(sg);
         return -ENOMEM;
     }
@@ -76,6 +78,7 @@ void segment_close(probe_segment *sg)
     free(sg->objbox);
     free(sg->order);
     free(sg->rows);
+    free(sg->row_x0);
     free(sg->denoised);
     free(sg->colsum);
     memset(sg, 0, sizeof(*sg));
@@ -747,28 +750,58 @@ static int person_shaped(const probe_object *o)
     return !o->touches && o->height >= 16 && aspect >= 1.4 && aspect <= 5.5 && fill >= 0.25 && fill <= 0.95;
 }
 
-/*
- * The object's solid rows: from the first to the last row with at least half the widest row's object
- * pixels (rows[] of object_extent, top..foot as it found them). A car merged with a person standing
- * behind it is the car's wide rows under a narrow column; its core is the car. Its roof is the first row
- * with a quarter of the widest row's pixels: a car's cabin is 0.4-0.6 of its length, a walker's head and
- * shoulders behind it much less.
- */
-static void core_rows(const probe_segment *sg, probe_object *o, int top, int foot)
+static inline int object_px(const probe_segment *sg, int32_t label, int x, int y)
 {
-    int32_t widest = 0;
-    for (int y = top; y <= foot; y++)
-        widest = max_i32(widest, sg->rows[y]);
+    return sg->cls[(size_t)y * sg->width + (size_t)x] == PROBE_CLS_OBJECT &&
+        in_component(sg, label, (uint32_t)x, (uint32_t)y);
+}
+
+/*
+ * The object's solid rows, judged on each row's span (its first to last object pixel: a car body the
+ * colour of the road behind it is a mask full of holes, yet as wide as the car): from the first to the
+ * last row at least half as wide as the widest. A car merged with a person standing behind it is the
+ * car's wide rows under a narrow column; its core is the car. Its roof is the first row a quarter as wide
+ * as the widest: a car's cabin is 0.4-0.6 of its length, a walker's head and shoulders behind it much
+ * less. core_area counts the core's pixels with its holes closed: a pixel counts when object pixels lie
+ * on both sides of it in its row and above and below it in its column (within the core); the gap between
+ * two walkers side by side has none above or below and stays open. Each row and column is searched from
+ * both ends, so a solid object costs little more than its outline.
+ */
+static void core_rows(probe_segment *sg, probe_object *o, int top, int foot)
+{
+    int32_t widest = 0, *span = sg->rows, *x0 = sg->row_x0;
+    for (int y = top; y <= foot; y++) {
+        int xa = o->x0, xb = o->x1;
+        while (xa <= o->x1 && !object_px(sg, o->label, xa, y))
+            xa++;
+        while (xb > xa && !object_px(sg, o->label, xb, y))
+            xb--;
+        span[y] = xa <= o->x1 ? xb - xa + 1 : 0;
+        x0[y] = xa;
+        widest = max_i32(widest, span[y]);
+    }
     o->core_y0 = o->core_y1 = o->roof_y = -1;
+    o->core_area = 0;
     for (int y = top; y <= foot && o->roof_y < 0; y++)
-        if (4 * sg->rows[y] >= widest)
+        if (4 * span[y] >= widest)
             o->roof_y = y;
     for (int y = top; y <= foot; y++)
-        if (2 * sg->rows[y] >= widest)
+        if (2 * span[y] >= widest)
             o->core_y0 = o->core_y0 < 0 ? y : o->core_y0, o->core_y1 = y;
-    o->core_area = 0;
+    if (o->core_y0 < 0)
+        return;
+    int32_t *first = sg->colsum, *last = sg->colsum + sg->width; /* free: the difference pass is done */
+    for (int x = o->x0; x <= o->x1; x++) {
+        int ya = o->core_y0, yb = o->core_y1;
+        while (ya <= o->core_y1 && !object_px(sg, o->label, x, ya))
+            ya++;
+        while (yb > ya && !object_px(sg, o->label, x, yb))
+            yb--;
+        first[x] = ya, last[x] = ya <= o->core_y1 ? yb : -1;
+    }
     for (int y = o->core_y0; y <= o->core_y1; y++)
-        o->core_area += (uint32_t)sg->rows[y];
+        for (int x = x0[y]; x < x0[y] + span[y]; x++)
+            o->core_area += (uint32_t)(first[x] <= y && y <= last[x]);
 }
 
 static int extract_object(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate, const sp_probe_plane *plane,

@@ -829,7 +829,8 @@ static void score_cars(const char *truth, const char *objects, size_t *matched, 
  * Cars driving past behind the walkers (synth street --cars): called car, never person, with the walkers'
  * occlusion map as good as without them; a street of cars alone gives the scale from them (a car taken as
  * 1.5 m against a person's 1.7 m; the synthetic cars are 1.4-1.55 m).
- * Seeds 1-5 with six cars: 33/46, 46/53, 39/43, 25/31, 33/36 matched views called car (PROBE.md).
+ * Seeds 1-5 with six cars: 46/46, 52/53, 43/43, 27/31, 36/36 matched views called car (PROBE.md); the street of
+ * cars alone (seed 4) 94/98. Held to the issue's 95% on seed 2 and to 90% on the cars alone.
  */
 static void test_cars(void)
 {
@@ -839,7 +840,7 @@ static void test_cars(void)
     score_cars("cs.truth.json", "csp/objects.csv", &matched, &cars, &people, &phantom);
     printf("cars: %zu of %zu matched car views called car, %zu person; %zu cars where none was\n", cars, matched,
            people, phantom);
-    CHECK_MSG(matched >= 30 && cars >= 0.8 * (double)matched, "%zu of %zu called car", cars, matched);
+    CHECK_MSG(matched >= 30 && cars >= 0.95 * (double)matched, "%zu of %zu called car", cars, matched);
     CHECK(people == 0 && phantom == 0);
     sp_probe_dir d;
     int ret = sp_probe_dir_load(path_in("csp"), &d);
@@ -849,7 +850,12 @@ static void test_cars(void)
         sp_probe_dir_free(&d);
     }
     CHECK(run("synth", "street", "-o", path_in("co.spcap"), "--seed", "4", "--cars", "8", "--figures", "0", NULL) == 0);
-    CHECK(run("probe", path_in("co.spcap"), "-o", path_in("cop"), "-q", NULL) == 0);
+    CHECK(run("probe", path_in("co.spcap"), "-o", path_in("cop"), "-q", "--objects", NULL) == 0);
+    score_cars("co.truth.json", "cop/objects.csv", &matched, &cars, &people, &phantom);
+    printf("cars alone: %zu of %zu matched car views called car, %zu person; %zu cars where none was\n", cars, matched,
+           people, phantom);
+    CHECK_MSG(matched >= 60 && cars >= 0.9 * (double)matched, "%zu of %zu called car", cars, matched);
+    CHECK(people == 0 && phantom == 0);
     ret = sp_probe_dir_load(path_in("cop"), &d);
     CHECK_MSG(ret == 0, "loading the probe directory: %s", sp_strerror(ret));
     if (ret)

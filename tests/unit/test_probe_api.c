@@ -224,6 +224,62 @@ static void test_cars_only(void)
     sp_probe_close(&p);
 }
 
+/*
+ * Two shapes on row 96 (a person there is 48 px tall), in turn: a car 64 x 28 whose side shows the road
+ * through it (an outline 3 px thick and 2 px bars every 6 px: under half its box is object pixels, the old
+ * raw fill test missed it) is a car; a walker over a 60 px wide skirt 16 rows deep (a stride or a shadow
+ * taken for the body: the wide rows are a low core with the head far above) is not, while the pole does
+ * not cut the body (cut, the body is narrower than a quarter of the skirt and the roof is not seen: the
+ * limit of the roof test).
+ */
+static void test_car_shapes(void)
+{
+    sp_probe_settings s;
+    base_settings(&s);
+    sp_probe *p = NULL;
+    CHECK(sp_probe_open(&p, W, H, &s) == 0);
+    static uint8_t img[W * H * 3];
+    static const uint8_t paint[3] = { 20, 40, 160 }, coat[3] = { 200, 150, 40 };
+    int car_seen = 0, car_called = 0, skirt_seen = 0, skirt_called = 0;
+    for (int f = 0; f < 400; f++) {
+        memcpy(img, background, sizeof(background));
+        int x0 = (int)fmod(f * 3.0, 200) - 20, car = f / 200 == 0;
+        if (car) {
+            for (int y = 96 - 27; y <= 96; y++)
+                for (int x = x0; x < x0 + 64; x++) {
+                    int rim = y < 96 - 24 || y > 96 - 3 || x < x0 + 3 || x >= x0 + 61, bar = (x - x0) % 6 < 2;
+                    if (x >= 0 && x < W && (rim || bar))
+                        memcpy(img + (y * W + x) * 3, paint, 3);
+                }
+        } else {
+            draw_walker(img, x0 + 30, 96, coat);
+            for (int y = 96 - 15; y <= 96; y++)
+                for (int x = x0; x < x0 + 60; x++)
+                    if (x >= 0 && x < W)
+                        memcpy(img + (y * W + x) * 3, coat, 3);
+        }
+        CHECK(sp_probe_push_rgb(p, img, W * 3, (int64_t)f * 100000000) == 0);
+        sp_probe_object o[16];
+        unsigned n = sp_probe_frame_objects(p, o, 16);
+        for (unsigned i = 0; i < n && i < 16; i++) {
+            if (o[i].touches_border || o[i].y1 != 96 || abs(o[i].x0 - x0) > 1)
+                continue;
+            if (car)
+                car_seen++, car_called += o[i].cls == SP_PROBE_CAR;
+            else if (x0 + 30 + 9 < POLE_X0 || x0 + 30 - 9 > POLE_X1) /* the body clear of the pole */
+                skirt_seen++, skirt_called += o[i].cls == SP_PROBE_CAR;
+        }
+    }
+    CHECK(sp_probe_finish(p) == 0);
+    printf("a car the road shows through: called car in %d of %d frames; a walker over a wide skirt: %d of %d\n",
+           car_called, car_seen, skirt_called, skirt_seen);
+    CHECK_MSG(car_seen > 20 && car_called == car_seen, "car with holes called car in %d of %d frames", car_called,
+              car_seen);
+    CHECK_MSG(skirt_seen > 20 && skirt_called == 0, "walker over a skirt called car in %d of %d frames", skirt_called,
+              skirt_seen);
+    sp_probe_close(&p);
+}
+
 /* A car (64 x 28, wheels on row 96) with a walker behind it whose body shows above its roof: one object, a car. */
 static void test_car_merged(void)
 {
@@ -411,6 +467,7 @@ int main(void)
     test_classes();
     test_cars_only();
     test_car_merged();
+    test_car_shapes();
     test_grainy_shadow();
     test_bad_input();
     test_misuse();
