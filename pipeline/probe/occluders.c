@@ -17,6 +17,13 @@
  *   median pixel lies in a vertical run under TORN_RUN of a person's height
  *   is wrong inferences strung along strides, kerbs and crossing stripes
  *   (one to five rows tall), however wide it spreads; it is dropped too.
+ * - Plain: an occluder is a thing the clean plate shows, so where it ends the
+ *   plate changes. A group whose outline lies on edges of the plate for less
+ *   than EDGE_SHARE of its length and for less than EDGE_SPAN of a person's
+ *   height is wrong inferences on plain ground (legs that blur into the road
+ *   under compression, stripes of feet) and is dropped. The second clause
+ *   keeps a real occluder whose group has false strips attached: its own
+ *   outline is still long on edges. Sized groups only, like the rules above.
  * - One depth: the group's depth is its pixels' SETTLE_QUANTILE (the top
  *   share is left to wrong inferences: a near figure whose head has the
  *   sign's colour seems hidden by it). A pixel whose value is farther (a
@@ -36,6 +43,11 @@
 #define SPECK_SHARE 0.25
 /* a tenth of a person (about 17 cm): the vertical span of a body the least occluder hides (a kerb hides a foot) */
 #define TORN_RUN 0.1
+/* a plate edge: R+G+B change by half the default change test (fg_threshold 50) across two pixels */
+#define EDGE_LEVELS 25
+/* a thing in the plate: this share of the group's outline on its edges, or edges over EDGE_SPAN of a person */
+#define EDGE_SHARE 0.3
+#define EDGE_SPAN 0.5
 #define SETTLE_QUANTILE 0.85 /* of the group's pixels, by depth */
 #define FOOT_SLACK 2         /* rows: a foot row is no better (the evidence slots merge values this close) */
 
@@ -103,6 +115,40 @@ static size_t in_tall_runs(const float *z, uint32_t w, uint32_t h, const int32_t
     return tall;
 }
 
+/* The clean plate's change across pixel i (not on the image's edge): R+G+B, the larger central difference. */
+static int plate_step(const uint8_t *rgb, uint32_t w, size_t i)
+{
+    const uint8_t *l = rgb + 3 * (i - 1), *r = rgb + 3 * (i + 1), *u = rgb + 3 * (i - w), *d = rgb + 3 * (i + w);
+    int dx = abs(r[0] + r[1] + r[2] - l[0] - l[1] - l[2]), dy = abs(d[0] + d[1] + d[2] - u[0] - u[1] - u[2]);
+    return dx > dy ? dx : dy;
+}
+
+/*
+ * The group's outline pixels (a 4-neighbour outside the group; the image's two outer rows and columns are
+ * left out: no plate edge is measured there) into *outline; returns those within a pixel of an edge of the
+ * clean plate (a step of EDGE_LEVELS or more).
+ */
+static size_t on_plate_edges(const float *z, const uint8_t *plate, uint32_t w, uint32_t h, const int32_t *order,
+                             size_t start, size_t end, size_t *outline)
+{
+    size_t on = 0;
+    *outline = 0;
+    for (size_t k = start; k < end; k++) {
+        size_t i = (size_t)order[k];
+        uint32_t x = (uint32_t)(i % w), y = (uint32_t)(i / w);
+        if (x < 2 || y < 2 || x + 2 >= w || y + 2 >= h ||
+            (z[i - 1] >= 0 && z[i + 1] >= 0 && z[i - w] >= 0 && z[i + w] >= 0))
+            continue;
+        (*outline)++;
+        int edge = 0;
+        for (size_t j = i - w - 1; j <= i + w - 1 && !edge; j += w)
+            edge = plate_step(plate, w, j) >= EDGE_LEVELS || plate_step(plate, w, j + 1) >= EDGE_LEVELS ||
+                plate_step(plate, w, j + 2) >= EDGE_LEVELS;
+        on += (size_t)edge;
+    }
+    return on;
+}
+
 static inline int clamp_row(int v, uint32_t h)
 {
     return v < 0 ? 0 : v >= (int)h ? (int)h - 1 : v;
@@ -143,10 +189,15 @@ void occluders_settle(probe_maps *m, const sp_probe_plane *plane, probe_occluder
         int sized = isfinite(person) && person > 0;
         int speck = sized && side < SPECK_SHARE * person;
         int torn = sized && !speck && 2 * in_tall_runs(z, w, h, m->occ_order, start, end, TORN_RUN * person) < count;
-        if (speck || torn) {
+        int plain = 0;
+        if (sized && !speck && !torn) {
+            size_t outline, on = on_plate_edges(z, m->clean, w, h, m->occ_order, start, end, &outline);
+            plain = (double)on < EDGE_SHARE * (double)outline && (double)on < EDGE_SPAN * person;
+        }
+        if (speck || torn || plain) {
             for (size_t k = start; k < end; k++)
                 z[m->occ_order[k]] = -1.0f;
-            st->specks += (size_t)speck, st->torn += (size_t)torn;
+            st->specks += (size_t)speck, st->torn += (size_t)torn, st->plain += (size_t)plain;
             st->dropped_pixels += count;
             continue;
         }

@@ -645,9 +645,9 @@ int sp_probe_finish(sp_probe *p)
     probe_occluder_stats occ;
     maps_finalise(&p->maps, p->plate.median, &p->plane, &occ);
     sp_log(SP_LOG_INFO, "probe",
-           "occluders: %zu groups; %zu specks and %zu torn groups dropped (%zu pixels), %zu pixels raised to their "
-           "group's depth",
-           occ.groups, occ.specks, occ.torn, occ.dropped_pixels, occ.raised);
+           "occluders: %zu groups; %zu specks, %zu torn and %zu plain groups dropped (%zu pixels), %zu pixels raised "
+           "to their group's depth",
+           occ.groups, occ.specks, occ.torn, occ.plain, occ.dropped_pixels, occ.raised);
     if (p->report)
         ret = sp_report_close(&p->report);
     p->finished = 1;

@@ -240,7 +240,7 @@ typedef struct probe_maps {
 
 /* What occluders_settle did to the per-pixel occlusion map. */
 typedef struct probe_occluder_stats {
-    size_t groups, specks, torn, dropped_pixels, raised; /* dropped: the specks' and torn groups' pixels */
+    size_t groups, specks, torn, plain, dropped_pixels, raised; /* dropped: the pixels of those three */
 } probe_occluder_stats;
 
 int maps_open(probe_maps *m, uint32_t width, uint32_t height, unsigned min_events);

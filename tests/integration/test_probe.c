@@ -481,8 +481,8 @@ static void test_seeds(void)
  * Frames stored as JPEG at quality 70 (synth street --jpeg): ringing around the figures and blocks inside
  * their cast shadows made lone object pixels that widened people into "other" (207 of 664 objects called
  * person against 568 of 661 uncompressed) and marked 7.4% of where figures were seen (recall 0.619). Lone
- * pixels are dropped where they are many (segment.c, drop_specks): recall 0.867, false 2.1%. Held to
- * 0.8 and 3%: the issue's 1% is not met on compressed frames (PROBE.md).
+ * pixels are dropped where they are many (segment.c, drop_specks): recall 0.867, false 2.1%; occluder groups
+ * on plain plate are dropped (occluders.c): false 0.75%. Held to 0.8 and the issue's 1%.
  */
 static void test_compressed(void)
 {
@@ -497,7 +497,7 @@ static void test_compressed(void)
     CHECK_MSG(ret == 0, "loading the probe directory of the compressed street: %s", sp_strerror(ret));
     if (ret)
         return;
-    check_occlusion_bounds(&d, "jq", 0.8, 0.03);
+    check_occlusion_bounds(&d, "jq", 0.8, 0.01);
     sp_probe_dir_free(&d);
 }
 
