@@ -43,9 +43,9 @@
 #define SPECK_SHARE 0.25
 /* a tenth of a person (about 17 cm): the vertical span of a body the least occluder hides (a kerb hides a foot) */
 #define TORN_RUN 0.1
-/* a plate edge: R+G+B change by half the default change test (fg_threshold 50) across two pixels */
+/* a plate edge: |dR| + |dG| + |dB| across two pixels of half the default change test (fg_threshold 50) */
 #define EDGE_LEVELS 25
-/* a thing in the plate: this share of the group's outline on its edges, or edges over EDGE_SPAN of a person */
+/* a thing in the plate: this share of the group's outline on its edges, or edges along EDGE_SPAN of a person */
 #define EDGE_SHARE 0.3
 #define EDGE_SPAN 0.5
 #define SETTLE_QUANTILE 0.85 /* of the group's pixels, by depth */
@@ -115,11 +115,14 @@ static size_t in_tall_runs(const float *z, uint32_t w, uint32_t h, const int32_t
     return tall;
 }
 
-/* The clean plate's change across pixel i (not on the image's edge): R+G+B, the larger central difference. */
+/* The clean plate's change across pixel i (not on the image's edge), measured as the change test measures:
+ * |dR| + |dG| + |dB| of the central differences, the larger of across and down. */
 static int plate_step(const uint8_t *rgb, uint32_t w, size_t i)
 {
     const uint8_t *l = rgb + 3 * (i - 1), *r = rgb + 3 * (i + 1), *u = rgb + 3 * (i - w), *d = rgb + 3 * (i + w);
-    int dx = abs(r[0] + r[1] + r[2] - l[0] - l[1] - l[2]), dy = abs(d[0] + d[1] + d[2] - u[0] - u[1] - u[2]);
+    int dx = 0, dy = 0;
+    for (int c = 0; c < 3; c++)
+        dx += abs(r[c] - l[c]), dy += abs(d[c] - u[c]);
     return dx > dy ? dx : dy;
 }
 
@@ -128,8 +131,8 @@ static int plate_step(const uint8_t *rgb, uint32_t w, size_t i)
  * left out: no plate edge is measured there) into *outline; returns those within a pixel of an edge of the
  * clean plate (a step of EDGE_LEVELS or more).
  */
-static size_t on_plate_edges(const float *z, const uint8_t *plate, uint32_t w, uint32_t h, const int32_t *order,
-                             size_t start, size_t end, size_t *outline)
+static size_t outline_on_plate_edges(const float *z, const uint8_t *plate, uint32_t w, uint32_t h, const int32_t *order,
+                                     size_t start, size_t end, size_t *outline)
 {
     size_t on = 0;
     *outline = 0;
@@ -191,7 +194,7 @@ void occluders_settle(probe_maps *m, const sp_probe_plane *plane, probe_occluder
         int torn = sized && !speck && 2 * in_tall_runs(z, w, h, m->occ_order, start, end, TORN_RUN * person) < count;
         int plain = 0;
         if (sized && !speck && !torn) {
-            size_t outline, on = on_plate_edges(z, m->clean, w, h, m->occ_order, start, end, &outline);
+            size_t outline, on = outline_on_plate_edges(z, m->clean, w, h, m->occ_order, start, end, &outline);
             plain = (double)on < EDGE_SHARE * (double)outline && (double)on < EDGE_SPAN * person;
         }
         if (speck || torn || plain) {

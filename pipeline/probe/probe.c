@@ -118,7 +118,7 @@ static size_t memory_bound(uint32_t w, uint32_t h, const sp_probe_settings *s)
     return px * per_px + px / 8 /* motion thumbnails */ + cells * 32 + PROBE_MAX_TRACKS * sizeof(probe_track) +
         (size_t)s->max_observations * 4 * (3 * PERSON_REC + 4) + RECENT_MAX * PERSON_REC * 4 +
         sizeof(probe_shadows) /* its ratio and contact histograms */ + (size_t)h * 4 /* a group's depths */ +
-        (size_t)h * 8 + (size_t)w * 12 /* segmentation's row and column scratch */;
+        (size_t)h * 8 + (size_t)w * 20 /* segmentation's row and column scratch */;
 }
 
 static int open_report(sp_probe *p)

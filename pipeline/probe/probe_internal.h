@@ -119,9 +119,9 @@ typedef struct probe_object {
     double cx;               /* mean x of the refined mask */
     double tbar;             /* mean height fraction (0 foot .. 1 top) of the refined mask */
     int person;
-    int core_y0, core_y1;    /* solid rows: at least half the widest row's object pixels (a car under a merged walker) */
-    uint32_t core_area;      /* object pixels in them */
-    int roof_y; /* first row with a quarter of the widest row's pixels: a car's roof, not a walker behind */
+    int core_y0, core_y1;    /* solid rows: spans at least half the widest's (a car under a merged walker) */
+    uint32_t core_area;      /* their pixels with the holes closed (a car's body may match the road) */
+    int roof_y;              /* first row a quarter as wide as the widest: a car's roof, not a walker behind */
     double cut_foot;         /* lower body behind a low occluder: the foot the scale model puts there; NaN: none */
     /* its shadow, when one was found (shadow_area > 0) */
     uint32_t shadow_area;
@@ -138,10 +138,10 @@ typedef struct probe_segment {
     uint8_t *grid, *tmp;               /* gw * gh: changed cells, morphology scratch */
     uint8_t *morph_rows;               /* 3 * gw: morphology's row scratch */
     int32_t *lab_obj;                  /* gw * gh component labels of changed cells, 0 = none */
-    int32_t *rows;                     /* height: per-row counts scratch (core_rows: each row's span) */
-    int32_t *row_x0;                   /* height: core_rows' first object pixel of each row */
+    int32_t *row_span, *row_first;     /* height: an object's rows, first to last object pixel (core_rows) */
+    int32_t *col_first, *col_last;     /* width: its core's columns, first and last object row (core_rows) */
     uint8_t *denoised;                 /* width * height * 3: the grainy frame denoised (classify) */
-    int32_t *colsum;                   /* 3 * width: denoising scratch, then core_rows' column ends */
+    int32_t *colsum;                   /* 3 * width: denoising scratch */
     double noise;                      /* the last frame's noise against the plate, 8-bit levels */
     int32_t noise_allow;               /* the noise the shadow tests allow for, levels */
     int32_t *parent;                   /* union-find scratch, gw * gh + 1 */
@@ -258,7 +258,7 @@ float maps_confidence_at(const probe_maps *m, size_t i, float z);
 /* Fills clean, occlusion and lighting; `fallback_plate` where no background was seen; the scale model (may be
  * NULL) sizes the occluders (occluders_settle). */
 void maps_finalise(probe_maps *m, const uint8_t *fallback_plate, const sp_probe_plane *plane, probe_occluder_stats *st);
-/* Per-pixel occlusion values to occluders: specks and torn groups dropped, one depth per connected group
+/* Per-pixel occlusion values to occluders: specks, torn and plain groups dropped, one depth per connected group
  * (occluders.c). */
 void occluders_settle(probe_maps *m, const sp_probe_plane *plane, probe_occluder_stats *st);
 /* Convergence metrics since the last call: occlusion change, lighting change, coverage, occluders. */

@@ -49,13 +49,15 @@ int segment_open(probe_segment *sg, uint32_t width, uint32_t height, const sp_pr
     sg->comp = malloc((cells + 1) * 5 * sizeof(int32_t));
     sg->objbox = malloc((cells + 1) * 5 * sizeof(int32_t));
     sg->order = malloc((cells + 1) * sizeof(int32_t));
-    sg->rows = malloc((size_t)height * sizeof(int32_t));
-    sg->row_x0 = malloc((size_t)height * sizeof(int32_t));
+    sg->row_span = malloc((size_t)height * sizeof(int32_t));
+    sg->row_first = malloc((size_t)height * sizeof(int32_t));
+    sg->col_first = malloc((size_t)width * sizeof(int32_t));
+    sg->col_last = malloc((size_t)width * sizeof(int32_t));
     sg->denoised = malloc((size_t)width * height * 3);
     sg->colsum = malloc((size_t)width * 3 * sizeof(int32_t));
     if (!sg->cls || !sg->cell_obj || !sg->cell_sh || !sg->grid || !sg->tmp || !sg->morph_rows || !sg->lab_obj ||
-        !sg->parent || !sg->comp || !sg->objbox || !sg->order || !sg->rows || !sg->row_x0 || !sg->denoised ||
-        !sg->colsum) {
+        !sg->parent || !sg->comp || !sg->objbox || !sg->order || !sg->row_span || !sg->row_first || !sg->col_first ||
+        !sg->col_last || !sg->denoised || !sg->colsum) {
         segment_close(sg);
         return -ENOMEM;
     }
@@ -77,8 +79,10 @@ void segment_close(probe_segment *sg)
     free(sg->comp);
     free(sg->objbox);
     free(sg->order);
-    free(sg->rows);
-    free(sg->row_x0);
+    free(sg->row_span);
+    free(sg->row_first);
+    free(sg->col_first);
+    free(sg->col_last);
     free(sg->denoised);
     free(sg->colsum);
     memset(sg, 0, sizeof(*sg));
@@ -512,7 +516,6 @@ static int object_extent(probe_segment *sg, int32_t label, rect r, int *top, int
                 *xa = *xa < 0 || (int)x < *xa ? (int)x : *xa;
                 *xb = (int)x > *xb ? (int)x : *xb;
             }
-        sg->rows[y] = n;
         run = n >= 2 ? run + 1 : 0;
         if (n >= 2 && *top < 0)
             *top = (int)y;
@@ -756,41 +759,31 @@ static inline int object_px(const probe_segment *sg, int32_t label, int x, int y
         in_component(sg, label, (uint32_t)x, (uint32_t)y);
 }
 
-/*
- * The object's solid rows, judged on each row's span (its first to last object pixel: a car body the
- * colour of the road behind it is a mask full of holes, yet as wide as the car): from the first to the
- * last row at least half as wide as the widest. A car merged with a person standing behind it is the
- * car's wide rows under a narrow column; its core is the car. Its roof is the first row a quarter as wide
- * as the widest: a car's cabin is 0.4-0.6 of its length, a walker's head and shoulders behind it much
- * less. core_area counts the core's pixels with its holes closed: a pixel counts when object pixels lie
- * on both sides of it in its row and above and below it in its column (within the core); the gap between
- * two walkers side by side has none above or below and stays open. Each row and column is searched from
- * both ends, so a solid object costs little more than its outline.
- */
-static void core_rows(probe_segment *sg, probe_object *o, int top, int foot)
+/* Each row's span, its first to last object pixel, into row_span and row_first (searched from both ends). */
+static int32_t row_spans(probe_segment *sg, const probe_object *o, int top, int foot)
 {
-    int32_t widest = 0, *span = sg->rows, *x0 = sg->row_x0;
+    int32_t widest = 0;
     for (int y = top; y <= foot; y++) {
         int xa = o->x0, xb = o->x1;
         while (xa <= o->x1 && !object_px(sg, o->label, xa, y))
             xa++;
         while (xb > xa && !object_px(sg, o->label, xb, y))
             xb--;
-        span[y] = xa <= o->x1 ? xb - xa + 1 : 0;
-        x0[y] = xa;
-        widest = max_i32(widest, span[y]);
+        sg->row_span[y] = xa <= o->x1 ? xb - xa + 1 : 0;
+        sg->row_first[y] = xa;
+        widest = max_i32(widest, sg->row_span[y]);
     }
-    o->core_y0 = o->core_y1 = o->roof_y = -1;
-    o->core_area = 0;
-    for (int y = top; y <= foot && o->roof_y < 0; y++)
-        if (4 * span[y] >= widest)
-            o->roof_y = y;
-    for (int y = top; y <= foot; y++)
-        if (2 * span[y] >= widest)
-            o->core_y0 = o->core_y0 < 0 ? y : o->core_y0, o->core_y1 = y;
-    if (o->core_y0 < 0)
-        return;
-    int32_t *first = sg->colsum, *last = sg->colsum + sg->width; /* free: the difference pass is done */
+    return widest;
+}
+
+/*
+ * The core's pixels with its holes closed: a pixel counts when object pixels lie on both sides of it in its
+ * row and above and below it in its column (within the core). The gap between two walkers side by side has
+ * none above or below and stays open.
+ */
+static uint32_t closed_core_area(probe_segment *sg, const probe_object *o)
+{
+    int32_t *first = sg->col_first, *last = sg->col_last;
     for (int x = o->x0; x <= o->x1; x++) {
         int ya = o->core_y0, yb = o->core_y1;
         while (ya <= o->core_y1 && !object_px(sg, o->label, x, ya))
@@ -799,9 +792,33 @@ static void core_rows(probe_segment *sg, probe_object *o, int top, int foot)
             yb--;
         first[x] = ya, last[x] = ya <= o->core_y1 ? yb : -1;
     }
+    uint32_t area = 0;
     for (int y = o->core_y0; y <= o->core_y1; y++)
-        for (int x = x0[y]; x < x0[y] + span[y]; x++)
-            o->core_area += (uint32_t)(first[x] <= y && y <= last[x]);
+        for (int x = sg->row_first[y]; x < sg->row_first[y] + sg->row_span[y]; x++)
+            area += (uint32_t)(first[x] <= y && y <= last[x]);
+    return area;
+}
+
+/*
+ * The object's solid rows, judged on each row's span (a car body the colour of the road behind it is a
+ * mask full of holes, yet as wide as the car): from the first to the last row at least half as wide as the
+ * widest. A car merged with a person standing behind it is the car's wide rows under a narrow column; its
+ * core is the car. Its roof is the first row a quarter as wide as the widest: a car's cabin is 0.4-0.6 of
+ * its length, a walker's head and shoulders behind it much less.
+ */
+static void core_rows(probe_segment *sg, probe_object *o, int top, int foot)
+{
+    int32_t widest = row_spans(sg, o, top, foot);
+    o->core_y0 = o->core_y1 = o->roof_y = -1;
+    o->core_area = 0;
+    for (int y = top; y <= foot && o->roof_y < 0; y++)
+        if (4 * sg->row_span[y] >= widest)
+            o->roof_y = y;
+    for (int y = top; y <= foot; y++)
+        if (2 * sg->row_span[y] >= widest)
+            o->core_y0 = o->core_y0 < 0 ? y : o->core_y0, o->core_y1 = y;
+    if (o->core_y0 >= 0)
+        o->core_area = closed_core_area(sg, o);
 }
 
 static int extract_object(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate, const sp_probe_plane *plane,

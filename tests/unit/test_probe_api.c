@@ -226,11 +226,11 @@ static void test_cars_only(void)
 
 /*
  * Two shapes on row 96 (a person there is 48 px tall), in turn: a car 64 x 28 whose side shows the road
- * through it (an outline 3 px thick and 2 px bars every 6 px: under half its box is object pixels, the old
- * raw fill test missed it) is a car; a walker over a 60 px wide skirt 16 rows deep (a stride or a shadow
- * taken for the body: the wide rows are a low core with the head far above) is not, while the pole does
- * not cut the body (cut, the body is narrower than a quarter of the skirt and the roof is not seen: the
- * limit of the roof test).
+ * through it (an outline 3 px thick and 2 px bars every 6 px: 0.52 of its box is object pixels, under the old
+ * raw fill test's 0.55) is a car; a walker over a 60 px wide skirt 16 rows deep (a stride or a shadow
+ * taken for the body: the wide rows are a low core with the head far above) is not, while the body is clear
+ * of the pole (where the pole hides the body's edge, the body's rows are under a quarter of the skirt's width
+ * and the roof is not seen: the limit of the roof test).
  */
 static void test_car_shapes(void)
 {

@@ -343,6 +343,42 @@ static void test_occluders(void)
     maps_close(&one);
 }
 
+/*
+ * The plain rule's two clauses (occluders.c), a person at row 90 being 45 px tall: a box 4 x 50 that stands out
+ * of the plate, joined by a strip 140 x 5 of wrong inferences on plain plate, has 0.27 of its outline on plate
+ * edges but 104 edge pixels, over half a person: kept. The same strip joined to a box 2 x 7 (17 edge pixels, 0.06):
+ * dropped.
+ */
+static void test_occluders_plain(void)
+{
+    enum { W = 200, H = 100 };
+    probe_maps m;
+    CHECK(maps_open(&m, W, H, 1) == 0);
+    sp_probe_plane pl = { .status = SP_PROBE_PLANE_OK, .a = 0, .b = 0.5, .c = 0 };
+    for (size_t i = 0; i < (size_t)W * H; i++)
+        m.occlusion[i] = -1, memset(m.clean + 3 * i, 100, 3);
+    static const int parts[4][4] = { /* x0, x1, y0, y1: the tall box and its strip, the small box and its strip */
+                                     { 150, 153, 40, 89 },
+                                     { 10, 149, 85, 89 },
+                                     { 150, 151, 20, 26 },
+                                     { 10, 149, 27, 31 }
+    };
+    for (int k = 0; k < 4; k++)
+        for (int y = parts[k][2]; y <= parts[k][3]; y++)
+            for (int x = parts[k][0]; x <= parts[k][1]; x++) {
+                m.occlusion[y * W + x] = 90;
+                if (k % 2 == 0) /* the boxes stand out of the plate */
+                    memset(m.clean + 3 * ((size_t)y * W + x), 200, 3);
+            }
+    probe_occluder_stats st;
+    occluders_settle(&m, &pl, &st);
+    CHECK_MSG(st.groups == 2 && st.plain == 1 && st.torn == 0 && st.specks == 0, "%zu groups, %zu plain", st.groups,
+              st.plain);
+    CHECK(m.occlusion[45 * W + 151] == 90 && m.occlusion[87 * W + 60] == 90);
+    CHECK(m.occlusion[22 * W + 150] == -1 && m.occlusion[29 * W + 60] == -1);
+    maps_close(&m);
+}
+
 /* The confidence of a value from a pixel's own events (maps.c): agreeing over all, one contrary event as prior. */
 static void test_confidence(void)
 {
@@ -375,6 +411,7 @@ int main(void)
     test_reservoir();
     test_params_json();
     test_occluders();
+    test_occluders_plain();
     test_confidence();
     return check_exit();
 }
