@@ -52,6 +52,14 @@ static void draw_walker(uint8_t *img, double xc, int foot, const uint8_t rgb[3])
         }
 }
 
+/* Paints rows y0..y1 of columns x0 .. x0 + w - 1 (those inside the image) in one colour. */
+static void paint_box(uint8_t *img, int x0, int w, int y0, int y1, const uint8_t rgb[3])
+{
+    for (int y = y0; y <= y1; y++)
+        for (int x = x0 > 0 ? x0 : 0; x < x0 + w && x < W; x++)
+            memcpy(img + (y * W + x) * 3, rgb, 3);
+}
+
 static void make_frame(uint8_t *img, int f)
 {
     static const uint8_t red[3] = { 200, 30, 40 }, blue[3] = { 30, 60, 200 }, yellow[3] = { 230, 210, 20 };
@@ -158,10 +166,7 @@ static void test_classes(void)
         double wx = fmod(f * 1.5, 200) - 20;
         draw_walker(img, wx, 60, green);
         int cx0 = (int)fmod(f * 4.0, 400) - 100;
-        for (int y = 96 - 27; y <= 96; y++)
-            for (int x = cx0; x < cx0 + 64; x++)
-                if (x >= 0 && x < W)
-                    memcpy(img + (y * W + x) * 3, paint, 3);
+        paint_box(img, cx0, 64, 96 - 27, 96, paint);
         CHECK(sp_probe_push_rgb(p, img, W * 3, (int64_t)f * 100000000) == 0);
         sp_probe_object o[16];
         unsigned n = sp_probe_frame_objects(p, o, 16);
@@ -203,10 +208,7 @@ static void test_cars_only(void)
         memcpy(img, background, sizeof(background));
         int c = f / 100 % 3, wheels = 60 + 20 * c, h = (int)lrint(wheels / 2.0 * 1.5 / 1.7), len = wheels;
         int x0 = (int)((f % 100) * (W + len) / 100.0) - len;
-        for (int y = wheels - h + 1; y <= wheels; y++)
-            for (int x = x0; x < x0 + len; x++)
-                if (x >= 0 && x < W)
-                    memcpy(img + (y * W + x) * 3, paint[c], 3);
+        paint_box(img, x0, len, wheels - h + 1, wheels, paint[c]);
         CHECK(sp_probe_push_rgb(p, img, W * 3, (int64_t)f * 100000000) == 0);
     }
     CHECK(sp_probe_finish(p) == 0);
@@ -253,10 +255,7 @@ static void test_car_shapes(void)
                 }
         } else {
             draw_walker(img, x0 + 30, 96, coat);
-            for (int y = 96 - 15; y <= 96; y++)
-                for (int x = x0; x < x0 + 60; x++)
-                    if (x >= 0 && x < W)
-                        memcpy(img + (y * W + x) * 3, coat, 3);
+            paint_box(img, x0, 60, 96 - 15, 96, coat);
         }
         CHECK(sp_probe_push_rgb(p, img, W * 3, (int64_t)f * 100000000) == 0);
         sp_probe_object o[16];
