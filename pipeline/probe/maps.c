@@ -418,6 +418,31 @@ void maps_add_template(probe_maps *m, const probe_segment *sg, const probe_objec
     (void)o;
 }
 
+/*
+ * A body wholly behind something for a few frames, between a view cut on the way in and one cut on the
+ * way out: every template pixel laid along the line between the two (the body moves steadily over so
+ * few frames) that shows the plate now was hidden at that frame's foot row. The inside of an occluder
+ * wider than a person (a cabinet, a van) is learned only so: nobody is cut there.
+ */
+void maps_add_passage(probe_maps *m, const probe_segment *sg, const probe_completion *c)
+{
+    const probe_track *k = c->track;
+    if (!k || !k->has_template || c->pass_frames < 2)
+        return;
+    for (unsigned j = 1; j < c->pass_frames; j++) {
+        if (!((c->pass_hidden >> (j - 1)) & 1u))
+            continue;
+        double t = (double)j / c->pass_frames;
+        int fx = (int)lrint(c->pass_x0 + t * (c->pass_x1 - c->pass_x0));
+        int fy = (int)lrint(c->pass_y0 + t * (c->pass_y1 - c->pass_y0));
+        int x0 = fx - k->ax, y0 = fy - k->th + 1;
+        for (int ty = 0; ty < k->th; ty++)
+            for (int tx = 0; tx < k->tw; tx++)
+                if (template_missing(m, sg, k, x0, y0, tx, ty) == 1)
+                    seen_hidden(m, (size_t)(y0 + ty) * m->width + (size_t)(x0 + tx), (int16_t)fy);
+    }
+}
+
 void maps_add_background(probe_maps *m, const uint8_t *plate, const uint8_t *cls)
 {
     size_t n = (size_t)m->width * m->height;

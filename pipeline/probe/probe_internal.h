@@ -184,6 +184,8 @@ typedef struct probe_track {
     int evidenced;
     uint64_t still_since, fed; /* frame it last moved at, frame its view last fed the maps */
     uint32_t area;           /* template pixels */
+    int last_partial;        /* the last view was incomplete: part of the body behind something */
+    uint16_t unseen_hidden;  /* bit d-1: d frames after last_frame, no object showed where the template lay */
     int tw, th, ax;          /* template size, column of the foot point */
     uint8_t mask[PROBE_TMPL_H * PROBE_TMPL_W]; /* last, see start_track */
 } probe_track;
@@ -197,6 +199,11 @@ typedef struct probe_completion {
     const probe_track *track;
     int x, y;
     probe_track *owner;      /* the track the object was matched to or started, NULL: none */
+    /* A passage wholly behind something that this view ends: the foot went from (pass_x0, pass_y0) to
+     * (pass_x1, pass_y1) over pass_frames frames (0: none); bit j-1 of pass_hidden: frame j hid the body. */
+    double pass_x0, pass_y0, pass_x1, pass_y1;
+    unsigned pass_frames;
+    uint16_t pass_hidden;
 } probe_completion;
 
 int tracks_open(probe_tracks *t);
@@ -249,6 +256,8 @@ void maps_close(probe_maps *m);
 void maps_add_object(probe_maps *m, const probe_segment *sg, const probe_object *o, const sp_probe_plane *plane);
 /* After maps_add_object(o): the hidden part of a partly hidden person, from its track's template. */
 void maps_add_template(probe_maps *m, const probe_segment *sg, const probe_object *o, const probe_completion *c);
+/* After maps_add_template(c): the template laid along a passage wholly behind something (c->pass_frames). */
+void maps_add_passage(probe_maps *m, const probe_segment *sg, const probe_completion *c);
 /* Adds the local plate at background pixels to the long-term plate. */
 void maps_add_background(probe_maps *m, const uint8_t *plate, const uint8_t *cls);
 /* Final occlusion value of pixel i from the evidence (-1: never occluding). */

@@ -7,7 +7,10 @@
  * is behind something) is completed by laying the template at the predicted
  * position. Template pixels that now show the plate were hidden by something
  * static: occlusion evidence the hull alone cannot give (a head behind a pole,
- * the end of a sign). Bounded: PROBE_MAX_TRACKS templates of fixed size.
+ * the end of a sign). A body cut on the way in, then not seen where the
+ * template lies, then cut on the way out went wholly behind something wider
+ * than itself (maps_add_passage). Bounded: PROBE_MAX_TRACKS templates of
+ * fixed size.
  */
 #include "probe_internal.h"
 
@@ -22,6 +25,7 @@
 #define MATCH_Y 0.12
 #define COMPLETE_H 0.08    /* a complete view: height within this of the template's, and ... */
 #define COMPLETE_AREA 0.85 /* ... at least this much of its area */
+#define HIDDEN_SHOWING 0.02 /* an unseen frame hid the body when at most this share of the template shows an object */
 
 int tracks_open(probe_tracks *t)
 {
@@ -124,7 +128,18 @@ static void follow(probe_track *k, const probe_segment *sg, const probe_object *
         ny = by_top ? o->y0 + k->height - 1 : o->foot_y;
         c->track = k;
         c->x = (int)lrint(nx), c->y = (int)lrint(ny);
+        /*
+         * Cut on entering, gone, cut on leaving: the body went wholly behind something on the way
+         * (a cabinet, a van). A lost segmentation does not cut the view on both sides of the gap.
+         */
+        if (dt > 1 && k->last_partial && k->unseen_hidden) {
+            c->pass_x0 = k->fx, c->pass_y0 = k->fy, c->pass_x1 = nx, c->pass_y1 = ny;
+            c->pass_frames = (unsigned)dt;
+            c->pass_hidden = k->unseen_hidden;
+        }
     }
+    k->unseen_hidden = 0;
+    k->last_partial = !complete;
     k->travel += hypot(nx - k->fx, ny - k->fy);
     k->vx = 0.6 * k->vx + 0.4 * (nx - k->fx) / dt;
     k->vy = 0.6 * k->vy + 0.4 * (ny - k->fy) / dt;
@@ -138,6 +153,21 @@ static void follow(probe_track *k, const probe_segment *sg, const probe_object *
     }
 }
 
+/* No object pixel shows where track k's template lies at its predicted foot point in this frame. */
+static int wholly_hidden(const probe_track *k, const probe_segment *sg, uint64_t frame)
+{
+    double dt = (double)(frame - k->last_frame);
+    int x0 = (int)lrint(k->fx + k->vx * dt) - k->ax, y0 = (int)lrint(k->fy + k->vy * dt) - k->th + 1;
+    if (x0 < 0 || y0 < 0 || x0 + k->tw > (int)sg->width || y0 + k->th > (int)sg->height)
+        return 0; /* leaving the view is not hiding */
+    uint32_t showing = 0;
+    for (int ty = 0; ty < k->th; ty++)
+        for (int tx = 0; tx < k->tw; tx++)
+            showing += k->mask[ty * PROBE_TMPL_W + tx] &&
+                sg->cls[(size_t)(y0 + ty) * sg->width + (size_t)(x0 + tx)] == PROBE_CLS_OBJECT;
+    return showing <= HIDDEN_SHOWING * k->area;
+}
+
 void tracks_update(probe_tracks *t, const probe_segment *sg, uint64_t frame, const sp_probe_plane *plane,
                    probe_completion *out)
 {
@@ -145,6 +175,7 @@ void tracks_update(probe_tracks *t, const probe_segment *sg, uint64_t frame, con
     for (unsigned i = 0; i < sg->n_obj; i++) {
         const probe_object *o = &sg->obj[i];
         out[i].track = out[i].owner = NULL;
+        out[i].pass_frames = 0;
         if (o->touches & PROBE_TOUCH_BOTTOM)
             continue;
         double best = (double)INFINITY;
@@ -166,5 +197,11 @@ void tracks_update(probe_tracks *t, const probe_segment *sg, uint64_t frame, con
         taken[best_k] = 1;
         follow(&t->track[best_k], sg, o, frame, best_top, plane, &out[i]);
         out[i].owner = &t->track[best_k];
+    }
+    for (unsigned k = 0; k < PROBE_MAX_TRACKS; k++) {
+        probe_track *tk = &t->track[k];
+        if (tk->alive && tk->has_template && tk->last_partial && tk->last_frame < frame &&
+            frame - tk->last_frame <= MAX_MISSING && wholly_hidden(tk, sg, frame))
+            tk->unseen_hidden |= (uint16_t)(1u << (frame - tk->last_frame - 1));
     }
 }
