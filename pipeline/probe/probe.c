@@ -455,7 +455,7 @@ static int probe_frame(sp_probe *p, int64_t t)
         int to_maps = !k || !repeat || now - k->still_since < STILL_FRAMES || now - k->fed >= STILL_FRAMES;
         if (to_maps) {
             maps_add_object(&p->maps, &p->seg, o, &p->plane);
-            maps_add_template(&p->maps, &p->seg, o, &p->completion[i]);
+            maps_add_template(&p->maps, &p->seg, p->plate.median, o, &p->completion[i]);
             maps_add_passage(&p->maps, &p->seg, &p->completion[i]);
             if (k)
                 k->fed = now;

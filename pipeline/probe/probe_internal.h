@@ -161,6 +161,8 @@ void segment_close(probe_segment *sg);
  * occluder cut in two and find legs whose colour is close to the plate's.
  */
 void segment_frame(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate, const sp_probe_plane *plane);
+/* Column x (0..width-1) of the plate has a horizontal edge, not a shadow's, within 3 rows of `row`. */
+int segment_plate_edge_at(const probe_segment *sg, const uint8_t *plate, int row, int x, int level);
 /* 1 when pixel (x, y) belongs to object o's refined mask M'. */
 static inline int segment_in_mask(const probe_segment *sg, const probe_object *o, uint32_t x, uint32_t y)
 {
@@ -254,8 +256,10 @@ int maps_open(probe_maps *m, uint32_t width, uint32_t height, unsigned min_event
 void maps_close(probe_maps *m);
 /* Adds one object's visibility, occlusion and lighting evidence; the scale model (may be NULL) says how tall it should be. */
 void maps_add_object(probe_maps *m, const probe_segment *sg, const probe_object *o, const sp_probe_plane *plane);
-/* After maps_add_object(o): the hidden part of a partly hidden person, from its track's template. */
-void maps_add_template(probe_maps *m, const probe_segment *sg, const probe_object *o, const probe_completion *c);
+/* After maps_add_object(o): the hidden part of a partly hidden person, from its track's template; the plate
+ * says where an edge in front of the body runs. */
+void maps_add_template(probe_maps *m, const probe_segment *sg, const uint8_t *plate, const probe_object *o,
+                       const probe_completion *c);
 /* After maps_add_template(c): the template laid along a passage wholly behind something (c->pass_frames). */
 void maps_add_passage(probe_maps *m, const probe_segment *sg, const probe_completion *c);
 /* Adds the local plate at background pixels to the long-term plate. */

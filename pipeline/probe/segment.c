@@ -665,26 +665,33 @@ static void extend_legs(probe_segment *sg, const uint8_t *rgb, const uint8_t *pl
 }
 
 /*
- * Row `row` of the body (its top or foot) lies, within 3 rows, on a horizontal edge of the plate across
- * 3/5 of the columns xa..xb: the plate changes across two rows by half the object threshold, and the
- * darker side fails the shadow test against the brighter one (a shadow's edge on the ground is no
- * occluder's). There the body meets something static in front of it: a sign's lower edge, a planter.
+ * Column x of the plate has a horizontal edge within 3 rows of `row`: the plate changes across two rows by
+ * half the object threshold, and the darker side fails the shadow test against the brighter one (a shadow's
+ * edge on the ground is no occluder's).
+ */
+int segment_plate_edge_at(const probe_segment *sg, const uint8_t *plate, int row, int x, int level)
+{
+    int best = 0, y0 = row - 3 < 1 ? 1 : row - 3, y1 = row + 3 < (int)sg->height - 2 ? row + 3 : (int)sg->height - 2;
+    for (int y = y0; y <= y1; y++) {
+        const uint8_t *a = plate + ((size_t)(y - 1) * sg->width + (size_t)x) * 3;
+        const uint8_t *b = plate + ((size_t)(y + 1) * sg->width + (size_t)x) * 3;
+        int g = abs(a[0] - b[0]) + abs(a[1] - b[1]) + abs(a[2] - b[2]);
+        int dark_a = a[0] + a[1] + a[2] < b[0] + b[1] + b[2];
+        if (g > best && classify_pixel(sg, dark_a ? a : b, NULL, dark_a ? b : a) != PROBE_CLS_SHADOW)
+            best = g;
+    }
+    return best >= level;
+}
+
+/*
+ * Row `row` of the body (its top or foot) lies on a horizontal edge of the plate across 3/5 of the columns
+ * xa..xb. There the body meets something static in front of it: a sign's lower edge, a planter.
  */
 static int on_plate_edge(const probe_segment *sg, const uint8_t *plate, int row, int xa, int xb)
 {
-    int edge = 0, y0 = row - 3 < 1 ? 1 : row - 3, y1 = row + 3 < (int)sg->height - 2 ? row + 3 : (int)sg->height - 2;
-    for (int x = xa; x <= xb; x++) {
-        int best = 0;
-        for (int y = y0; y <= y1; y++) {
-            const uint8_t *a = plate + ((size_t)(y - 1) * sg->width + (size_t)x) * 3;
-            const uint8_t *b = plate + ((size_t)(y + 1) * sg->width + (size_t)x) * 3;
-            int g = abs(a[0] - b[0]) + abs(a[1] - b[1]) + abs(a[2] - b[2]);
-            int dark_a = a[0] + a[1] + a[2] < b[0] + b[1] + b[2];
-            if (g > best && classify_pixel(sg, dark_a ? a : b, NULL, dark_a ? b : a) != PROBE_CLS_SHADOW)
-                best = g;
-        }
-        edge += 2 * best >= (int)sg->fg_threshold;
-    }
+    int edge = 0;
+    for (int x = xa; x <= xb; x++)
+        edge += segment_plate_edge_at(sg, plate, row, x, ((int)sg->fg_threshold + 1) / 2);
     return 5 * edge >= 3 * (xb - xa + 1);
 }
 

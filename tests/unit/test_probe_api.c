@@ -363,6 +363,42 @@ static void test_wide_occluder(void)
     sp_probe_close(&p);
 }
 
+/*
+ * A wall 44 px wide whose top hides all but the head and shoulders of a walker behind it (feet on row 80,
+ * 40 px tall, 12 rows showing): the track follows the head, and below the wall's top edge, down to the
+ * feet, the body's rows are missing. Nothing cuts the body at its sides, so only that edge says the wall
+ * hides it there.
+ */
+static void test_wall_below_head(void)
+{
+    enum { WALL_X0 = 96, WALL_W = 44, WALL_Y0 = 53, WALL_Y1 = 90 };
+    static const uint8_t wall[3] = { 60, 90, 160 }, red[3] = { 200, 30, 40 }, yellow[3] = { 230, 210, 20 },
+                         blue[3] = { 30, 60, 200 };
+    sp_probe_settings s;
+    base_settings(&s);
+    sp_probe *p = NULL;
+    CHECK(sp_probe_open(&p, W, H, &s) == 0);
+    static uint8_t img[W * H * 3];
+    for (int f = 0; f < 600; f++) {
+        memcpy(img, background, sizeof(background));
+        draw_walker(img, fmod(f * 2.0, 200) - 20, 80, red);
+        draw_walker(img, 180 - fmod(f * 1.2 + 60, 200), 60, yellow);
+        paint_box(img, WALL_X0, WALL_W, WALL_Y0, WALL_Y1, wall);
+        draw_walker(img, fmod(f * 1.7 + 100, 220) - 30, 110, blue); /* in front of the wall: the scale model */
+        CHECK(sp_probe_push_rgb(p, img, W * 3, (int64_t)f * 100000000) == 0);
+    }
+    CHECK(sp_probe_finish(p) == 0);
+    sp_probe_maps m;
+    CHECK(sp_probe_get_maps(p, &m) == 0);
+    int inside = 0, hides = 0;
+    for (int y = WALL_Y0 + 2; y <= 78; y++)
+        for (int x = WALL_X0 + 8; x < WALL_X0 + WALL_W - 8; x++, inside++)
+            hides += m.occlusion[y * W + x] >= 78;
+    printf("wall below the head: %d of %d pixels hide the walker\n", hides, inside);
+    CHECK_MSG(hides >= inside * 8 / 10, "the wall hides the walker at %d of %d pixels", hides, inside);
+    sp_probe_close(&p);
+}
+
 static void test_grainy_shadow(void)
 {
     sp_probe_settings s;
@@ -511,6 +547,7 @@ int main(void)
     test_car_merged();
     test_car_shapes();
     test_wide_occluder();
+    test_wall_below_head();
     test_grainy_shadow();
     test_bad_input();
     test_misuse();
