@@ -277,15 +277,32 @@ static int is_person(sp_probe *p, const probe_object *o)
 #define CAR_UNDER 0.45
 #define CAR_FILL 0.65
 #define CAR_ROOF 2.0
+static int car_shaped_at(const sp_probe *p, const probe_object *o, double foot)
+{
+    double w = o->x1 - o->x0 + 1, core = o->core_y1 - o->core_y0 + 1, h = foot - o->core_y0 + 1;
+    double fill = o->core_area / (w * core);
+    if (o->core_y0 < 0 || foot - o->core_y1 > CAR_UNDER * h || h < 8 || h > 0.8 * w || fill < CAR_FILL ||
+        foot - o->roof_y + 1 > CAR_ROOF * h)
+        return 0;
+    double expect = sp_probe_plane_height(&p->plane, o->foot_x, foot);
+    return !isfinite(expect) || expect <= 0 || (h >= 0.3 * expect && h <= 2.2 * expect && w >= 0.8 * expect);
+}
+
 static int car_shaped(const sp_probe *p, const probe_object *o)
 {
-    double w = o->x1 - o->x0 + 1, core = o->core_y1 - o->core_y0 + 1, h = o->foot_y - o->core_y0 + 1;
-    double fill = o->core_area / (w * core);
-    if (o->core_y0 < 0 || o->foot_y - o->core_y1 > CAR_UNDER * h || h < 8 || h > 0.8 * w || fill < CAR_FILL ||
-        o->foot_y - o->roof_y + 1 > CAR_ROOF * h)
-        return 0;
-    double expect = sp_probe_plane_height(&p->plane, o->foot_x, o->foot_y);
-    return !isfinite(expect) || expect <= 0 || (h >= 0.3 * expect && h <= 2.2 * expect && w >= 0.8 * expect);
+    return car_shaped_at(p, o, o->foot_y);
+}
+
+/*
+ * A car with a walker in front of it: the walker's legs hang below the car's core, further than a car's
+ * wheels do. Judged standing on its core's last row, where the scale model is known (it is what tells a
+ * car's width from a person's).
+ */
+static int car_behind_walker(const sp_probe *p, const probe_object *o)
+{
+    double expect = sp_probe_plane_height(&p->plane, o->foot_x, o->core_y1);
+    return o->core_y0 >= 0 && o->core_y1 < o->foot_y && isfinite(expect) && expect > 0 &&
+        car_shaped_at(p, o, o->core_y1);
 }
 
 static void observe_person(sp_probe *p, const probe_object *o)
@@ -460,13 +477,16 @@ static int probe_frame(sp_probe *p, int64_t t)
             if (k)
                 k->fed = now;
         }
-        p->cls[i] = is_person(p, o) ? SP_PROBE_PERSON : car_shaped(p, o) ? SP_PROBE_CAR : SP_PROBE_OTHER;
+        int own_foot = car_shaped(p, o);
+        p->cls[i] = is_person(p, o)               ? SP_PROBE_PERSON
+            : own_foot || car_behind_walker(p, o) ? SP_PROBE_CAR
+                                                  : SP_PROBE_OTHER;
         if (p->cls[i] == SP_PROBE_PERSON && repeat)
             p->st.repeats++;
         else if (p->cls[i] == SP_PROBE_PERSON)
             observe_person(p, o);
         p->st.cars += p->cls[i] == SP_PROBE_CAR;
-        if (p->cls[i] == SP_PROBE_CAR && !o->touches && !repeat) /* a car cut by the border has no height */
+        if (own_foot && p->cls[i] == SP_PROBE_CAR && !o->touches && !repeat) /* cut by the border: no height */
             reservoir_add(
                 &p->cars,
                 (const float[PERSON_REC]){ (float)o->foot_x, (float)o->foot_y,
