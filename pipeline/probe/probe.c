@@ -610,6 +610,7 @@ static void checkpoint(sp_probe *p)
     /* prequential: observations since the last checkpoint against the fit made before them */
     v[4] = p->n_recent ? plane_median_error(&p->plane, p->recent, p->n_recent, PERSON_REC) : (double)NAN;
     p->n_recent = 0;
+    p->seg.no_cast_shadows = shadows_absent(&p->shadows);
     sp_probe_plane next = p->plane;
     fit_scale(p, &next);
     v[5] = plane_change(&next, &p->plane, p->width, p->height);

@@ -143,6 +143,7 @@ typedef struct probe_segment {
     uint8_t *denoised;                 /* width * height * 3: the grainy frame denoised (classify) */
     int32_t *colsum;                   /* 3 * width: denoising scratch */
     double noise;                      /* the last frame's noise against the plate, 8-bit levels */
+    int no_cast_shadows;               /* people cast no hard shadows here: no plate edge is a shadow's */
     int32_t noise_allow;               /* the noise the shadow tests allow for, levels */
     int32_t *parent;                   /* union-find scratch, gw * gh + 1 */
     int32_t *comp;                     /* per label: x0, y0, x1, y1, cells (5 each), gw * gh + 1 labels */
@@ -325,6 +326,8 @@ void shadows_close(probe_shadows *sh);
 /* Examines a person's shadow; records it when hard (returns 1). */
 int shadows_add(probe_shadows *sh, const probe_segment *sg, const probe_object *o, const uint8_t *rgb,
                 const uint8_t *plate);
+/* So far, people cast no hard shadows (overcast, indoors): the fit's own verdict, on enough observations. */
+int shadows_absent(const probe_shadows *sh);
 /* Fits the model or leaves it out with the reason. */
 void shadows_fit(const probe_shadows *sh, uint32_t width, uint32_t height, sp_probe_shadow *out);
 

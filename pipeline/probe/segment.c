@@ -677,7 +677,8 @@ int segment_plate_edge_at(const probe_segment *sg, const uint8_t *plate, int row
         const uint8_t *b = plate + ((size_t)(y + 1) * sg->width + (size_t)x) * 3;
         int g = abs(a[0] - b[0]) + abs(a[1] - b[1]) + abs(a[2] - b[2]);
         int dark_a = a[0] + a[1] + a[2] < b[0] + b[1] + b[2];
-        if (g > best && classify_pixel(sg, dark_a ? a : b, NULL, dark_a ? b : a) != PROBE_CLS_SHADOW)
+        if (g > best &&
+            (sg->no_cast_shadows || classify_pixel(sg, dark_a ? a : b, NULL, dark_a ? b : a) != PROBE_CLS_SHADOW))
             best = g;
     }
     return best >= level;

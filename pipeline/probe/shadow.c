@@ -26,6 +26,7 @@
 #define MAX_RATIO 0.7         /* a hard shadow keeps at most this much of the light (soft ones, overcast: more) */
 #define MIN_HARD_FRACTION 0.25
 #define MIN_HARD 8
+#define ABSENT_CANDIDATES 100 /* person observations before "no hard shadows" is trusted while probing */
 #define MIN_RESULTANT 0.7     /* mean resultant length of the directions: about 48 degrees of spread */
 
 int shadows_open(probe_shadows *sh, unsigned cap, uint64_t seed)
@@ -267,6 +268,11 @@ static void contact_fit(const probe_shadows *sh, sp_probe_shadow *out)
     out->contact_present = 1;
     snprintf(out->contact_note, sizeof(out->contact_note),
              "learned from %u person observations: %.3f of the ground around at the feet", out->n_contact, inner);
+}
+
+int shadows_absent(const probe_shadows *sh)
+{
+    return sh->candidates >= ABSENT_CANDIDATES && (double)sh->hard < MIN_HARD_FRACTION * (double)sh->candidates;
 }
 
 void shadows_fit(const probe_shadows *sh, uint32_t width, uint32_t height, sp_probe_shadow *out)
