@@ -868,20 +868,32 @@ static void test_cars(void)
 /*
  * Indoors (synth street --indoor: a hall, a counter, a cabinet and a chair's back as the occluders, lamps): the
  * map and the plane where a counter hides legs and a cabinet whole bodies, and a plate without the people who
- * stop. Seeds 1-5 recall 0.276, 0.855, 0.561, 0.426, 0.358 (PROBE.md: who passes wholly behind the cabinet
- * teaches only its edges); seed 2 is held to 0.8 here, as a guard, not the issue's 0.9.
+ * stop. Seeds 1-5 recall 0.617, 0.889, 0.591, 0.570, 0.358 (session 30; PROBE.md). Seed 2 is held to 0.85 and
+ * seed 1, whose cabinet is learned only from walkers who pass wholly behind it (0.276 without that rule), to
+ * 0.55: guards, not the issue's 0.9.
  */
 static void test_indoor(void)
 {
-    CHECK(run("synth", "street", "-o", path_in("in.spcap"), "--indoor", "--seed", "2", NULL) == 0);
-    CHECK(run("probe", path_in("in.spcap"), "-o", path_in("inp"), "-q", NULL) == 0);
-    sp_probe_dir d;
-    int ret = sp_probe_dir_load(path_in("inp"), &d);
-    CHECK_MSG(ret == 0, "loading the probe directory of the hall: %s", sp_strerror(ret));
-    if (!ret) {
-        check_occlusion_min(&d, "in", 0.8);
-        check_plane_and_shadow_in(&d, "in.truth.json", 0);
-        sp_probe_dir_free(&d);
+    static const struct {
+        const char *seed, *name;
+        double min_recall;
+    } halls[] = { { "2", "in", 0.85 }, { "1", "in1", 0.55 } };
+    for (size_t i = 0; i < sizeof(halls) / sizeof(halls[0]); i++) {
+        char cap[32], dir[32];
+        snprintf(cap, sizeof(cap), "%s.spcap", halls[i].name);
+        snprintf(dir, sizeof(dir), "%sp", halls[i].name);
+        CHECK(run("synth", "street", "-o", path_in(cap), "--indoor", "--seed", halls[i].seed, NULL) == 0);
+        CHECK(run("probe", path_in(cap), "-o", path_in(dir), "-q", NULL) == 0);
+        sp_probe_dir d;
+        int ret = sp_probe_dir_load(path_in(dir), &d);
+        CHECK_MSG(ret == 0, "loading the probe directory of hall seed %s: %s", halls[i].seed, sp_strerror(ret));
+        if (!ret) {
+            char truth[32];
+            snprintf(truth, sizeof(truth), "%s.truth.json", halls[i].name);
+            check_occlusion_min(&d, halls[i].name, halls[i].min_recall);
+            check_plane_and_shadow_in(&d, truth, 0);
+            sp_probe_dir_free(&d);
+        }
     }
     CHECK(run("synth", "street", "-o", path_in("il.spcap"), "--indoor", "--seed", "5", "--linger", "30", NULL) == 0);
     CHECK(run("probe", path_in("il.spcap"), "-o", path_in("ilp"), "-q", NULL) == 0);
