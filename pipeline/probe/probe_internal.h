@@ -143,7 +143,9 @@ typedef struct probe_segment {
     uint8_t *denoised;                 /* width * height * 3: the grainy frame denoised (classify) */
     int32_t *colsum;                   /* 3 * width: denoising scratch */
     double noise;                      /* the last frame's noise against the plate, 8-bit levels */
-    int no_cast_shadows;               /* people cast no hard shadows here: no plate edge is a shadow's */
+    int no_cast_shadows;               /* people cast no hard shadows here: no plate edge is a shadow's (set at
+                                          each checkpoint; every plate-edge test: top and foot cuts, foot room,
+                                          the template below an edge) */
     int32_t noise_allow;               /* the noise the shadow tests allow for, levels */
     int32_t *parent;                   /* union-find scratch, gw * gh + 1 */
     int32_t *comp;                     /* per label: x0, y0, x1, y1, cells (5 each), gw * gh + 1 labels */
@@ -162,7 +164,8 @@ void segment_close(probe_segment *sg);
  * occluder cut in two and find legs whose colour is close to the plate's.
  */
 void segment_frame(probe_segment *sg, const uint8_t *rgb, const uint8_t *plate, const sp_probe_plane *plane);
-/* Column x (0..width-1) of the plate has a horizontal edge, not a shadow's, within 3 rows of `row`. */
+/* Column x (0..width-1) of the plate has a horizontal edge of `level` (|dR|+|dG|+|dB| across two rows)
+ * within 3 rows of `row`, not a cast shadow's (unless sg->no_cast_shadows). */
 int segment_plate_edge_at(const probe_segment *sg, const uint8_t *plate, int row, int x, int level);
 /* 1 when pixel (x, y) belongs to object o's refined mask M'. */
 static inline int segment_in_mask(const probe_segment *sg, const probe_object *o, uint32_t x, uint32_t y)

@@ -666,8 +666,8 @@ static void extend_legs(probe_segment *sg, const uint8_t *rgb, const uint8_t *pl
 
 /*
  * Column x of the plate has a horizontal edge within 3 rows of `row`: the plate changes across two rows by
- * half the object threshold, and the darker side fails the shadow test against the brighter one (a shadow's
- * edge on the ground is no occluder's).
+ * `level` (|dR|+|dG|+|dB|), and the darker side fails the shadow test against the brighter one (a shadow's
+ * edge on the ground is no occluder's), unless people here cast no hard shadows (no_cast_shadows).
  */
 int segment_plate_edge_at(const probe_segment *sg, const uint8_t *plate, int row, int x, int level)
 {
@@ -685,8 +685,9 @@ int segment_plate_edge_at(const probe_segment *sg, const uint8_t *plate, int row
 }
 
 /*
- * Row `row` of the body (its top or foot) lies on a horizontal edge of the plate across 3/5 of the columns
- * xa..xb. There the body meets something static in front of it: a sign's lower edge, a planter.
+ * Row `row` of the body (its top or foot) lies on a horizontal edge of the plate, half the object threshold
+ * strong, across 3/5 of the columns xa..xb. There the body meets something static in front of it: a sign's
+ * lower edge, a planter.
  */
 static int on_plate_edge(const probe_segment *sg, const uint8_t *plate, int row, int xa, int xb)
 {
