@@ -4,8 +4,9 @@
 # blue shadows, a car, seven occluders), imported as a user would and probed with the defaults, then
 # scored against its ground truth by check_street_truth.py. Issue 17's targets (recall 0.90, false
 # rate 1%) are far off on this capture; the limits here guard what is reached (PROBE.md, "The
-# path-traced street"; recall 0.640 measured, 0.62 asked; false rate 0.0015 and open ground 1.3% measured,
-# 0.005 and 2% asked), so a change that loses ground fails.
+# path-traced street"; session 30: recall 0.654 measured, 0.64 asked; 18 of 23 car views called car, 0.7
+# asked; false rate 0.0002 and open ground 0.47% measured, 0.005 and 1% asked), so a change that loses
+# ground fails.
 # usage: test_shared_street.sh SUNPROBE CAPTURES_DIR
 set -uo pipefail
 sp=$1
@@ -31,9 +32,9 @@ rc=$?
 [ $rc = 0 ] || { cat "$tmp/probe.log"; exit 1; }
 cat "$tmp/probe.log"
 fail=0
-"$py" "$here/check_street_truth.py" "$tmp/p" "$cap" --json "$tmp/score.json" --min-recall 0.62 \
+"$py" "$here/check_street_truth.py" "$tmp/p" "$cap" --json "$tmp/score.json" --min-recall 0.64 \
     --max-false-rate 0.005 --max-ground-false 0.01 --max-plane-error 0.05 --min-plate-psnr 42 \
-    --max-relight-changed 0.38 --min-car-recall 0.55 || fail=1
+    --max-relight-changed 0.38 --min-car-recall 0.7 || fail=1
 # people's blue, skylit shadows are shadows (5 of 281 observations cast one before the skylight test,
 # 59 with it, 16 once grainy frames get noise-scaled shadow tests)
 "$py" - "$tmp/p/probe.json" <<'PY' || fail=1
