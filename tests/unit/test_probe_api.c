@@ -355,6 +355,23 @@ static void test_car_walker_in_front(void)
     sp_probe_close(&p);
 }
 
+/* Probes `frames` frames that draw() paints over the background, one every 100 ms; the probe, finished. */
+static sp_probe *probe_painted(void (*draw)(uint8_t *img, int f, const void *ctx), const void *ctx, int frames)
+{
+    sp_probe_settings s;
+    base_settings(&s);
+    sp_probe *p = NULL;
+    CHECK(sp_probe_open(&p, W, H, &s) == 0);
+    static uint8_t img[W * H * 3];
+    for (int f = 0; p && f < frames; f++) {
+        memcpy(img, background, sizeof(background));
+        draw(img, f, ctx);
+        CHECK(sp_probe_push_rgb(p, img, W * 3, (int64_t)f * 100000000) == 0);
+    }
+    CHECK(p && sp_probe_finish(p) == 0);
+    return p;
+}
+
 /*
  * A cabinet 24 px wide, wider than a walker (11 px): a walker behind it (feet on row 60) is cut on the way
  * in, wholly hidden for about five frames, cut on the way out. Nobody is cut inside the cabinet, so only the
@@ -363,26 +380,23 @@ static void test_car_walker_in_front(void)
  * comes back without its legs for a frame (a lost segmentation, not an occluder: its view before the gap was
  * whole): no marks where it vanished (797 of 3,825 open pixels when a cut view after the gap is enough).
  */
+enum { CAB_X0 = 112, CAB_W = 24, CAB_Y0 = 15, CAB_Y1 = 75 };
+
+static void draw_cabinet_scene(uint8_t *img, int f, const void *ctx)
+{
+    static const uint8_t cabinet[3] = { 200, 200, 190 }, red[3] = { 200, 30, 40 }, blue[3] = { 30, 60, 200 };
+    (void)ctx;
+    draw_walker(img, fmod(f * 2.5, 200) - 20, 60, red);
+    paint_box(img, CAB_X0, CAB_W, CAB_Y0, CAB_Y1, cabinet);
+    if (f % 60 < 20 || f % 60 >= 26) /* 5 px a frame: 30 px unseen, more than its 17 px width */
+        draw_walker(img, fmod(f * 5.0, 300) - 50, 100, blue);
+    if (f % 60 == 26) /* it comes back legs first: a cut view after the gap, none before it */
+        memcpy(img + 76 * W * 3, background + 76 * W * 3, (size_t)W * 3 * 25);
+}
+
 static void test_wide_occluder(void)
 {
-    enum { CAB_X0 = 112, CAB_W = 24, CAB_Y0 = 15, CAB_Y1 = 75 };
-    static const uint8_t cabinet[3] = { 200, 200, 190 }, red[3] = { 200, 30, 40 }, blue[3] = { 30, 60, 200 };
-    sp_probe_settings s;
-    base_settings(&s);
-    sp_probe *p = NULL;
-    CHECK(sp_probe_open(&p, W, H, &s) == 0);
-    static uint8_t img[W * H * 3];
-    for (int f = 0; f < 600; f++) {
-        memcpy(img, background, sizeof(background));
-        draw_walker(img, fmod(f * 2.5, 200) - 20, 60, red);
-        paint_box(img, CAB_X0, CAB_W, CAB_Y0, CAB_Y1, cabinet);
-        if (f % 60 < 20 || f % 60 >= 26) /* 5 px a frame: 30 px unseen, more than its 17 px width */
-            draw_walker(img, fmod(f * 5.0, 300) - 50, 100, blue);
-        if (f % 60 == 26) /* it comes back legs first: a cut view after the gap, none before it */
-            memcpy(img + 76 * W * 3, background + 76 * W * 3, (size_t)W * 3 * 25);
-        CHECK(sp_probe_push_rgb(p, img, W * 3, (int64_t)f * 100000000) == 0);
-    }
-    CHECK(sp_probe_finish(p) == 0);
+    sp_probe *p = probe_painted(draw_cabinet_scene, NULL, 600);
     sp_probe_maps m;
     CHECK(sp_probe_get_maps(p, &m) == 0);
     int inside = 0, hides = 0, open = 0, wrong = 0;
@@ -406,24 +420,20 @@ static void test_wide_occluder(void)
  * hides it there. Run with a blue wall, and with a grey one whose edge could be a cast shadow's (the
  * ground beside it is 0.6 as bright, the same hue): nobody here casts a hard shadow, so it is not one.
  */
+enum { WALL_X0 = 96, WALL_W = 44, WALL_Y0 = 53, WALL_Y1 = 90 };
+
+static void draw_wall_scene(uint8_t *img, int f, const void *wall)
+{
+    static const uint8_t red[3] = { 200, 30, 40 }, yellow[3] = { 230, 210, 20 }, blue[3] = { 30, 60, 200 };
+    draw_walker(img, fmod(f * 2.0, 200) - 20, 80, red);
+    draw_walker(img, 180 - fmod(f * 1.2 + 60, 200), 60, yellow);
+    paint_box(img, WALL_X0, WALL_W, WALL_Y0, WALL_Y1, wall);
+    draw_walker(img, fmod(f * 1.7 + 100, 220) - 30, 110, blue); /* in front of the wall: the scale model */
+}
+
 static void test_wall_below_head(const uint8_t wall[3], const char *what)
 {
-    enum { WALL_X0 = 96, WALL_W = 44, WALL_Y0 = 53, WALL_Y1 = 90 };
-    static const uint8_t red[3] = { 200, 30, 40 }, yellow[3] = { 230, 210, 20 }, blue[3] = { 30, 60, 200 };
-    sp_probe_settings s;
-    base_settings(&s);
-    sp_probe *p = NULL;
-    CHECK(sp_probe_open(&p, W, H, &s) == 0);
-    static uint8_t img[W * H * 3];
-    for (int f = 0; f < 600; f++) {
-        memcpy(img, background, sizeof(background));
-        draw_walker(img, fmod(f * 2.0, 200) - 20, 80, red);
-        draw_walker(img, 180 - fmod(f * 1.2 + 60, 200), 60, yellow);
-        paint_box(img, WALL_X0, WALL_W, WALL_Y0, WALL_Y1, wall);
-        draw_walker(img, fmod(f * 1.7 + 100, 220) - 30, 110, blue); /* in front of the wall: the scale model */
-        CHECK(sp_probe_push_rgb(p, img, W * 3, (int64_t)f * 100000000) == 0);
-    }
-    CHECK(sp_probe_finish(p) == 0);
+    sp_probe *p = probe_painted(draw_wall_scene, wall, 600);
     sp_probe_maps m;
     CHECK(sp_probe_get_maps(p, &m) == 0);
     int inside = 0, hides = 0;
