@@ -278,8 +278,8 @@ static int is_person(sp_probe *p, const probe_object *o)
 #define CAR_FILL 0.65
 #define CAR_ROOF 2.0
 /* The shape and size tests with the object standing on row `foot` at column x (its foot point's, or for a car
- * behind a walker the middle of its box: the walker's feet are not the car's). */
-static int car_shaped_at(const sp_probe *p, const probe_object *o, double x, double foot)
+ * behind a walker the middle of its box: the walker's feet are not the car's); need_scale: no scale model, no car. */
+static int car_shaped_at(const sp_probe *p, const probe_object *o, double x, double foot, int need_scale)
 {
     double w = o->x1 - o->x0 + 1, core = o->core_y1 - o->core_y0 + 1, h = foot - o->core_y0 + 1;
     double fill = o->core_area / (w * core);
@@ -287,12 +287,14 @@ static int car_shaped_at(const sp_probe *p, const probe_object *o, double x, dou
         foot - o->roof_y + 1 > CAR_ROOF * h)
         return 0;
     double expect = sp_probe_plane_height(&p->plane, x, foot);
-    return !isfinite(expect) || expect <= 0 || (h >= 0.3 * expect && h <= 2.2 * expect && w >= 0.8 * expect);
+    if (!isfinite(expect) || expect <= 0)
+        return !need_scale;
+    return h >= 0.3 * expect && h <= 2.2 * expect && w >= 0.8 * expect;
 }
 
 static int car_shaped(const sp_probe *p, const probe_object *o)
 {
-    return car_shaped_at(p, o, o->foot_x, o->foot_y);
+    return car_shaped_at(p, o, o->foot_x, o->foot_y, 0);
 }
 
 /*
@@ -302,9 +304,7 @@ static int car_shaped(const sp_probe *p, const probe_object *o)
  */
 static int car_behind_walker(const sp_probe *p, const probe_object *o)
 {
-    double expect = sp_probe_plane_height(&p->plane, 0.5 * (o->x0 + o->x1), o->core_y1);
-    return o->core_y0 >= 0 && o->core_y1 < o->foot_y && isfinite(expect) && expect > 0 &&
-        car_shaped_at(p, o, 0.5 * (o->x0 + o->x1), o->core_y1);
+    return o->core_y1 < o->foot_y && car_shaped_at(p, o, 0.5 * (o->x0 + o->x1), o->core_y1, 1);
 }
 
 static void observe_person(sp_probe *p, const probe_object *o)
