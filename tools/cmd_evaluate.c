@@ -68,9 +68,13 @@ typedef struct eval_ctx {
     scored relight, nvs;
     sp_strbuf images; /* per-image JSON rows */
     int srgb;                /* the face directory's capture was sRGB: renders are compared as sRGB */
-    int have_landmarks;      /* the fit's landmark record was scored */
-    landmark_score landmarks;
+    int have_landmarks[2];   /* the tracker's record (landmarks.csv) and the fitted model's (landmarks_fitted.csv) */
+    landmark_score landmarks[2];
 } eval_ctx;
+
+/* The two landmark records a face directory may hold: its manifest key, and how the table names it. */
+static const char *const landmark_files[2] = { "landmarks", "landmarks_fitted" };
+static const char *const landmark_labels[2] = { "landmarks (gt/landmarks)", "landmarks, fitted model" };
 
 static void usage(FILE *out)
 {
@@ -79,7 +83,8 @@ static void usage(FILE *out)
             "Scores a fitted face against a capture with ground truth (laid out as in ../shared/captures):\n"
             "sun direction error, training and held-out PSNR, relighting (gt/relight) and novel-view\n"
             "(gt/nvs) PSNR and SSIM inside the union of the true and rendered face masks, and the\n"
-            "coverage and error of the fit's landmarks (landmarks.csv against gt/landmarks.csv).\n"
+            "coverage and error of the fit's landmarks (the tracker's landmarks.csv and the fitted model's\n"
+            "landmarks_fitted.csv against gt/landmarks.csv).\n"
             "  --json FILE     also write the figures as JSON\n"
             "  --renders DIR   write each rendered view beside its ground truth as PNG\n"
             "  --passes        with --renders: also KIND_NN.f32, the view's per-pixel render, truth, masks,\n"
@@ -560,11 +565,12 @@ static void print_table(const eval_ctx *c, const sp_json *fit)
            100.0 * mean_of(&c->nvs, 2));
     if (c->relight_note)
         printf("  %s\n", c->relight_note);
-    if (c->have_landmarks)
-        printf("  %-28s on %d of %d frames with a visible face (%d tried, the rest skipped before detection); "
-               "error over the inter-ocular distance mean %.2f%%, 90th percentile %.2f%%\n",
-               "landmarks (gt/landmarks)", c->landmarks.found, c->landmarks.faces, c->landmarks.tried,
-               100.0 * c->landmarks.mean, 100.0 * c->landmarks.p90);
+    for (int i = 0; i < 2; i++)
+        if (c->have_landmarks[i])
+            printf("  %-28s on %d of %d frames with a visible face (%d tried, the rest skipped before detection); "
+                   "error over the inter-ocular distance mean %.2f%%, 90th percentile %.2f%%\n",
+                   landmark_labels[i], c->landmarks[i].found, c->landmarks[i].faces, c->landmarks[i].tried,
+                   100.0 * c->landmarks[i].mean, 100.0 * c->landmarks[i].p90);
     printf("  %-28s %.1f s\n", "fit wall time", sp_json_number(sp_json_get(fit, "seconds"), NAN));
 }
 
@@ -607,12 +613,16 @@ static int write_json(const eval_ctx *c, const sp_json *fit)
         }
         sp_strbuf_printf(&b, "}");
     }
-    if (c->have_landmarks) {
-        sp_strbuf_printf(&b, ",\"landmarks\":{\"frames_with_face\":%d,\"tried\":%d,\"found\":%d,\"error_iod\":",
-                         c->landmarks.faces, c->landmarks.tried, c->landmarks.found);
-        sp_strbuf_json_number(&b, c->landmarks.found ? c->landmarks.mean : (double)NAN);
+    for (int i = 0; i < 2; i++) {
+        const landmark_score *l = &c->landmarks[i];
+        if (!c->have_landmarks[i])
+            continue;
+        sp_strbuf_printf(&b,
+                         ",\"%s\":{\"frames_with_face\":%d,\"tried\":%d,\"found\":%d,\"error_iod\":", landmark_files[i],
+                         l->faces, l->tried, l->found);
+        sp_strbuf_json_number(&b, l->found ? l->mean : (double)NAN);
         sp_strbuf_printf(&b, ",\"error_iod_p90\":");
-        sp_strbuf_json_number(&b, c->landmarks.found ? c->landmarks.p90 : (double)NAN);
+        sp_strbuf_json_number(&b, l->found ? l->p90 : (double)NAN);
         sp_strbuf_printf(&b, "}");
     }
     sp_strbuf_printf(&b, ",\"images\":[%s]}\n", c->images.data ? c->images.data : "");
@@ -688,12 +698,14 @@ static int run(eval_ctx *c)
         }
         return sp_cmd_fail("evaluate", ret, "scoring the held-out images");
     }
-    if (sp_json_string(sp_json_get(c->manifest, "landmarks"), NULL)) { /* the fit ran its landmark tracker */
+    for (int i = 0; i < 2; i++) { /* the fit ran its landmark tracker (and fitted the model to every frame) */
+        if (!sp_json_string(sp_json_get(c->manifest, landmark_files[i]), NULL))
+            continue;
         char fit_csv[4096], truth_csv[4096], err[512] = "";
-        snprintf(fit_csv, sizeof(fit_csv), "%s/landmarks.csv", c->a->face);
+        snprintf(fit_csv, sizeof(fit_csv), "%s/%s.csv", c->a->face, landmark_files[i]);
         snprintf(truth_csv, sizeof(truth_csv), "%s/gt/landmarks.csv", c->a->capture);
-        if (!(ret = evaluate_landmarks(fit_csv, truth_csv, &c->landmarks, err, sizeof(err))))
-            c->have_landmarks = 1;
+        if (!(ret = evaluate_landmarks(fit_csv, truth_csv, &c->landmarks[i], err, sizeof(err))))
+            c->have_landmarks[i] = 1;
         else if (ret != -ENOENT)
             return sp_cmd_fail("evaluate", ret, err[0] ? err : "scoring the landmarks");
     }

@@ -6,6 +6,7 @@
  * and translation of the face in the camera frame. Priors keep identity near the
  * mean (unit Gaussian), expressions in [0, 1] and small, and the scale near 1.
  */
+#include "pipeline/sunstage/landmarks.h"
 #include "pipeline/sunstage/sunstage_internal.h"
 
 #include <errno.h>
@@ -33,6 +34,7 @@ typedef struct align_ctx {
     int n, shared, n_id, n_exp, ns, np, P;
     double *uv, *jac, *JtJ, *Jtr, *save;
     ss_frame *one; /* a frame outside the reservoir (n = 1), or NULL */
+    double w_jaw;  /* trust in the jaw contour's points (W_JAW; 0 leaves them out) */
     int use_sil, sil_cap;
     uint32_t *sil_idx; /* n * sil_cap outline vertices, chosen at each Jacobian evaluation */
     int *sil_n;
@@ -53,16 +55,16 @@ static double frame_unit(const sp_sunstage *ss, const ss_frame *f)
 }
 
 /* How much landmark k (the 68-point scheme: jaw 0-16, brows 17-26) is trusted against the others. */
-static double lm_trust(int k)
+static double lm_trust(const align_ctx *a, int k)
 {
-    return k <= 16 ? W_JAW : k <= 26 ? W_BROW : 1.0;
+    return k <= 16 ? a->w_jaw : k <= 26 ? W_BROW : 1.0;
 }
 
 /* Landmark weight for the point residual (du, dv): Huber on its length times the point's trust. */
-static double lm_weight(int k, double du, double dv)
+static double lm_weight(const align_ctx *a, int k, double du, double dv)
 {
     double r = hypot(du, dv);
-    return lm_trust(k) * (r > HUBER_PX ? HUBER_PX / r : 1.0);
+    return lm_trust(a, k) * (r > HUBER_PX ? HUBER_PX / r : 1.0);
 }
 
 static double huber_cost(double r)
@@ -144,8 +146,8 @@ static double evaluate(align_ctx *a, int with_jac)
         const double u = frame_unit(ss, f);
         for (int k = 0; k < 68; k++) {
             double du = u * (a->uv[2 * k] - f->lm[2 * k]), dv = u * (a->uv[2 * k + 1] - f->lm[2 * k + 1]);
-            double w = lm_weight(k, du, dv), wr = w * u, wj = w * u * u; /* the Jacobian is per fit pixel */
-            cost += lm_trust(k) * huber_cost(hypot(du, dv));
+            double w = lm_weight(a, k, du, dv), wr = w * u, wj = w * u * u; /* the Jacobian is per fit pixel */
+            cost += lm_trust(a, k) * huber_cost(hypot(du, dv));
             if (!with_jac)
                 continue;
             for (int c = 0; c < 2; c++) {
@@ -318,9 +320,9 @@ static int sil_alloc(align_ctx *a)
     return a->sil_idx && a->sil_n && a->sil_r && a->sil_jac && a->sil_work;
 }
 
-static double align(sp_sunstage *ss, const int *idx, ss_frame *one, int n, int shared, int iterations)
+static double align(sp_sunstage *ss, const int *idx, ss_frame *one, int n, int shared, int iterations, double w_jaw)
 {
-    align_ctx a = { .ss = ss, .idx = idx, .n = n, .shared = shared, .one = one };
+    align_ctx a = { .ss = ss, .idx = idx, .n = n, .shared = shared, .one = one, .w_jaw = w_jaw };
     const sp_face_model *m = ss->model;
     a.n_id = (int)m->n_id;
     a.n_exp = (int)m->n_exp;
@@ -378,10 +380,79 @@ done:
 
 double ss_align_landmarks(sp_sunstage *ss, const int *idx, int n, int shared, int iterations)
 {
-    return align(ss, idx, NULL, n, shared, iterations);
+    return align(ss, idx, NULL, n, shared, iterations, W_JAW);
 }
 
 double ss_align_one(sp_sunstage *ss, ss_frame *f, int iterations)
 {
-    return align(ss, NULL, f, 1, 0, iterations);
+    return align(ss, NULL, f, 1, 0, iterations, W_JAW);
+}
+
+/*
+ * Every tracked frame, not only the keyframes: the fitted head's pose and expression from that frame's
+ * landmarks (identity and scale as fitted, warm-started from the frame before), and the model's landmark
+ * vertices projected back into the capture. The jaw's points are left out here: they mark the face's
+ * contour, which slides over the jaw as the head turns and moves to shadow edges under a low sun, while the
+ * model's jaw points are fixed vertices that the known head and the rest of the face already place
+ * (SUNSTAGE.md, "Fitted landmarks"). The keyframes' own fit keeps them at W_JAW, with the silhouette.
+ */
+int ss_fit_logged_landmarks(sp_sunstage *ss)
+{
+    const ss_frontend *fe = &ss->fe;
+    free(ss->fit.lm_fitted);
+    ss->fit.lm_fitted = NULL;
+    if (!fe->lm_n)
+        return 0;
+    float *out = malloc(sizeof(float) * 137 * fe->lm_n);
+    double *exp = calloc(ss->model->n_exp + 1, sizeof(double));
+    if (!out || !exp) {
+        free(out);
+        free(exp);
+        return -ENOMEM;
+    }
+    ss_frame f;
+    memset(&f, 0, sizeof(f));
+    f.exp = exp;
+    int warm = 0;
+    for (size_t i = 0; i < fe->lm_n; i++) {
+        const ss_lm_entry *e = &fe->lm_log[i];
+        float *o = out + 137 * i;
+        o[0] = NAN; /* RMS residual in capture pixels; NaN: no landmarks on this frame */
+        if (e->source <= SS_LM_NONE || e->source > SS_LM_SEARCHED) {
+            warm = 0;
+            continue;
+        }
+        double cap[136];
+        for (int k = 0; k < 136; k++)
+            cap[k] = (double)e->lm[k];
+        ss_window win = { 0.0, 0.0, (double)ss->W / (double)fe->cap_w };
+        if (ss->set.face_crop)
+            ss_window_around(ss, cap, &win);
+        for (int k = 0; k < 68; k++) {
+            f.lm[2 * k] = (cap[2 * k] + 0.5 - win.x0) * win.s - 0.5;
+            f.lm[2 * k + 1] = (cap[2 * k + 1] + 0.5 - win.y0) * win.s - 0.5;
+        }
+        ss_window_camera(ss, &win, &f.cam);
+        if (!warm) { /* a fresh start (align's own) after a frame without a face */
+            f.t_face[2] = 0.0;
+            memset(exp, 0, sizeof(double) * ss->model->n_exp);
+        }
+        double rms = align(ss, NULL, &f, 1, 0, 20, 0.0);
+        sp_face_params p;
+        ss_frame_params(ss, &f, &p);
+        double uv[136];
+        if (rms < 0.0 || sp_face_model_project_landmarks(ss->model, &p, &f.cam, uv, NULL, NULL) != 68) {
+            warm = 0;
+            continue;
+        }
+        o[0] = (float)(rms / win.s);
+        for (int k = 0; k < 68; k++) {
+            o[1 + 2 * k] = (float)((uv[2 * k] + 0.5) / win.s - 0.5 + win.x0);
+            o[2 + 2 * k] = (float)((uv[2 * k + 1] + 0.5) / win.s - 0.5 + win.y0);
+        }
+        warm = 1;
+    }
+    free(exp);
+    ss->fit.lm_fitted = out;
+    return 0;
 }

@@ -127,30 +127,54 @@ static int write_cameras(const sp_sunstage *ss, const char *dir)
     return ret;
 }
 
-/* landmarks.csv: what the tracker found on every frame it ran on (none when every frame came with landmarks). */
+/* A landmarks CSV: sequence, source, a figure of the placement, then x0,y0 .. x67,y67 (capture pixels). */
+static void landmarks_header(sp_strbuf *b, const char *figure)
+{
+    sp_strbuf_printf(b, "sequence,source,%s", figure);
+    for (int k = 0; k < 68; k++)
+        sp_strbuf_printf(b, ",x%d,y%d", k, k);
+    sp_strbuf_printf(b, "\n");
+}
+
+static void landmarks_row(sp_strbuf *b, uint64_t sequence, const char *source, double figure, const float *lm)
+{
+    sp_strbuf_printf(b, "%llu,%s,", (unsigned long long)sequence, lm ? source : "none");
+    if (lm)
+        sp_strbuf_printf(b, "%.5f", figure);
+    for (int k = 0; k < 136; k++)
+        if (lm)
+            sp_strbuf_printf(b, ",%.3f", (double)lm[k]);
+        else
+            sp_strbuf_printf(b, ",");
+    sp_strbuf_printf(b, "\n");
+}
+
+/*
+ * landmarks.csv: what the tracker found on every frame it ran on (none when every frame came with landmarks);
+ * landmarks_fitted.csv: the fitted model's landmark vertices on the same frames, with the fit's RMS residual.
+ */
 static int write_landmarks(const sp_sunstage *ss, const char *dir)
 {
     static const char *const source[] = { "none", "tracked", "detected", "searched" };
     sp_strbuf b = { 0 };
-    sp_strbuf_printf(&b, "sequence,source,drift");
-    for (int k = 0; k < 68; k++)
-        sp_strbuf_printf(&b, ",x%d,y%d", k, k);
-    sp_strbuf_printf(&b, "\n");
+    landmarks_header(&b, "drift");
     for (size_t i = 0; i < ss->fe.lm_n; i++) {
         const ss_lm_entry *e = &ss->fe.lm_log[i];
         int found = e->source > 0 && e->source < 4;
-        sp_strbuf_printf(&b, "%llu,%s,", (unsigned long long)e->sequence, found ? source[e->source] : "none");
-        if (found)
-            sp_strbuf_printf(&b, "%.5f", (double)e->drift);
-        for (int k = 0; k < 136; k++)
-            if (found)
-                sp_strbuf_printf(&b, ",%.3f", (double)e->lm[k]);
-            else
-                sp_strbuf_printf(&b, ",");
-        sp_strbuf_printf(&b, "\n");
+        landmarks_row(&b, e->sequence, found ? source[e->source] : "none", (double)e->drift, found ? e->lm : NULL);
     }
     int ret = write_text(dir, "landmarks.csv", &b);
     sp_strbuf_free(&b);
+    if (ret || !ss->fit.lm_fitted)
+        return ret;
+    sp_strbuf f = { 0 };
+    landmarks_header(&f, "rms_px");
+    for (size_t i = 0; i < ss->fe.lm_n; i++) {
+        const float *o = ss->fit.lm_fitted + 137 * i;
+        landmarks_row(&f, ss->fe.lm_log[i].sequence, "fitted", (double)o[0], isnan(o[0]) ? NULL : o + 1);
+    }
+    ret = write_text(dir, "landmarks_fitted.csv", &f);
+    sp_strbuf_free(&f);
     return ret;
 }
 
@@ -255,6 +279,8 @@ static int write_manifest(const sp_sunstage *ss, const char *dir)
     sp_strbuf_printf(&b, "},\n");
     if (ss->fe.lm_n) /* the landmark tracker's record: every frame it ran on (sunprobe evaluate scores it) */
         sp_strbuf_printf(&b, "\"landmarks\":\"landmarks.csv\",\n");
+    if (ss->fe.lm_n && ss->fit.lm_fitted)
+        sp_strbuf_printf(&b, "\"landmarks_fitted\":\"landmarks_fitted.csv\",\n");
     sp_strbuf_printf(&b, "\"specular\":{\"ks\":");
     sp_strbuf_json_numbers(&b, ss->fit.ks, SP_RENDER_CLUSTERS);
     sp_strbuf_printf(&b, ",\"shininess\":");

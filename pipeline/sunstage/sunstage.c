@@ -183,6 +183,7 @@ void sp_sunstage_close(sp_sunstage **pss)
     free(ss->fit.albedo);
     free(ss->fit.disp);
     free(ss->fit.observed);
+    free(ss->fit.lm_fitted);
     free(ss->scalp);
     free(ss);
     *pss = NULL;
@@ -422,6 +423,8 @@ int sp_sunstage_fit(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
         cb(user, &p);
     }
     int ret = ss->set.solver == SP_SUNSTAGE_SOLVER_ADAM ? solve_adam(ss, cb, user) : solve_fast(ss, cb, user);
+    if (!ret)
+        ret = ss_fit_logged_landmarks(ss);
     ss->fit.seconds = (double)(sp_clock_monotonic_ns() - ss->fit.t0) * 1e-9;
     ss->fit.fitted = ret == 0;
     ss_clock_sun_compare(ss);

@@ -111,6 +111,8 @@ typedef struct ss_fit_state {
     double yaw_range, train_psnr, heldout_psnr, seconds;
     double frontend_s, align_s, solve_s, refine_s; /* wall time per phase */
     int64_t t0;                 /* start of the fit, for progress times */
+    float *lm_fitted;           /* per fe.lm_log entry: RMS residual (capture px; NaN: none), then the model's 68
+                                   landmark vertices fitted to that frame, capture pixels (ss_fit_logged_landmarks) */
 } ss_fit_state;
 
 /* The sun from the clock (clock_sun.c): what the frames say about north, and the ephemeris sun. */
@@ -192,6 +194,8 @@ int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const s
 double ss_align_landmarks(sp_sunstage *ss, const int *idx, int n, int shared, int iterations);
 /* The same for one frame outside the reservoir, shared parameters fixed. */
 double ss_align_one(sp_sunstage *ss, ss_frame *f, int iterations);
+/* ss->fit.lm_fitted for every frame in the tracker's log (fitted identity and scale); 0 or -ENOMEM. */
+int ss_fit_logged_landmarks(sp_sunstage *ss);
 
 /* ---- silhouette.c: silhouette loss (stage 1 and the Adam solver) ---- */
 #define SS_SIL_HUBER 1.0 /* px: quadratic below, linear above */

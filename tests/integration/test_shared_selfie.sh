@@ -71,13 +71,19 @@ ok &= 0 <= e["nvs"]["ssim"] <= 1 and 0 < e["nvs"]["mask_overlap"] <= 1
 if "landmarks" in e:  # the fit's own landmark record, scored like the landmarks stage above
     lm = e["landmarks"]
     ok &= lm["found"] >= 0.9 * lm["frames_with_face"] and lm["error_iod"] < 0.06
+    # the model fitted to every tracked frame (SUNSTAGE.md, "Fitted landmarks"): issue-tracked target 3%, the
+    # limit guards what is reached (2.3-3.4%) and that the fitted points improve on the tracker's
+    fl = e.get("landmarks_fitted")
+    ok &= fl is not None and fl["found"] >= 0.9 * fl["frames_with_face"] and fl["error_iod"] < 0.04
+    ok &= fl is not None and fl["error_iod"] < lm["error_iod"]
 if e["relight"]["images"]:
     ok &= math.isfinite(e["relight"]["psnr"]) and 0 <= e["relight"]["ssim"] <= 1
     # a sunny capture scores the fitted sun; an overcast one is relit with the true sun's strength, no sun error
     ok &= (math.isfinite(e["sun_error_deg"]) if e["sun_error_deg"] is not None
            else "overcast" in e.get("sun_note", ""))
 print("evaluate:", "ok" if ok else "FAILED",
-      json.dumps({k: e.get(k) for k in ("camera_error_deg", "sun_error_deg", "relight", "nvs", "landmarks")}))
+      json.dumps({k: e.get(k) for k in ("camera_error_deg", "sun_error_deg", "relight", "nvs", "landmarks",
+                                        "landmarks_fitted")}))
 sys.exit(0 if ok else 1)
 PY
 exit $fail

@@ -14,6 +14,7 @@
 
 #include "check.h"
 #include "common/jpeg.h"
+#include "pipeline/sunstage/landmarks.h"
 #include "pipeline/sunstage/sunstage_internal.h"
 #include "sunprobe/sp_face_model.h"
 #include "sunprobe/sp_render.h"
@@ -580,6 +581,85 @@ static void test_brow_bias(const sp_face_model *m)
     free(t);
 }
 
+/*
+ * Fitted landmarks (align.c, ss_fit_logged_landmarks): on frames whose jaw points lie an eighth of the eye
+ * distance outside the true jaw (a contour on a shadow edge), the fitted model's 68 points land on the
+ * true ones; a frame without landmarks stays without, and the frame after it starts afresh.
+ */
+static void test_fitted_landmarks(const sp_face_model *m)
+{
+    truth *t = calloc(1, sizeof(*t));
+    make_truth(t, m);
+    sp_sunstage_settings set;
+    fixed_settings(&set);
+    sp_sunstage *ss = NULL;
+    CHECK(sp_sunstage_open(&ss, &set, m) == 0);
+    enum { N = 9, GAP = 4 };
+    double truth_lm[N][136];
+    float *grey = calloc((size_t)W * H * 3, sizeof(float));
+    sp_face_camera cam;
+    sp_face_camera_init(&cam, FX, FX, (W - 1) / 2.0, (H - 1) / 2.0);
+    for (int i = 0; i < N; i++) { /* a head turning from 35 deg one way to 35 deg the other */
+        sp_face_params p;
+        sp_face_params_init(&p);
+        p.id = t->id;
+        p.rotvec[0] = M_PI + 0.05 * sin(i);
+        p.rotvec[1] = (-35.0 + 70.0 * i / (N - 1)) * M_PI / 180.0;
+        p.t[2] = 0.45;
+        CHECK(sp_face_model_project_landmarks(m, &p, &cam, truth_lm[i], NULL, NULL) == 68);
+    }
+    CHECK(sp_sunstage_add_keyframe(ss, grey, W, H, truth_lm[0], FX, FX, (W - 1) / 2.0, (H - 1) / 2.0,
+                                   camera_at_heading(0.0), 0) == 0);
+    memcpy(ss->fit.id, t->id, sizeof(double) * m->n_id); /* the shared head as the fit found it */
+    ss->fit.scale = 1.0;
+    ss->fe.lm_log = calloc(N, sizeof(ss_lm_entry));
+    ss->fe.lm_n = ss->fe.lm_cap = N;
+    double given_jaw = 0.0;
+    for (int i = 0; i < N; i++) {
+        ss_lm_entry *e = &ss->fe.lm_log[i];
+        e->sequence = (uint64_t)i;
+        e->source = i == GAP ? SS_LM_NONE : SS_LM_TRACKED;
+        double cx = 0, cy = 0, iod = inter_ocular(truth_lm[i]);
+        for (int k = 0; k < 68; k++)
+            cx += truth_lm[i][2 * k] / 68, cy += truth_lm[i][2 * k + 1] / 68;
+        for (int k = 0; k < 68; k++) {
+            double dx = truth_lm[i][2 * k] - cx, dy = truth_lm[i][2 * k + 1] - cy, d = hypot(dx, dy);
+            double out = k <= 16 ? 0.125 * iod / d : 0.0; /* the jaw pushed outwards */
+            e->lm[2 * k] = (float)(truth_lm[i][2 * k] + out * dx);
+            e->lm[2 * k + 1] = (float)(truth_lm[i][2 * k + 1] + out * dy);
+            if (k <= 16 && i != GAP)
+                given_jaw += 0.125 / (17.0 * (N - 1));
+        }
+    }
+    CHECK(ss_fit_logged_landmarks(ss) == 0 && ss->fit.lm_fitted);
+    double worst = 0.0, worst_jaw = 0.0;
+    for (int i = 0; i < N && ss->fit.lm_fitted; i++) {
+        const float *o = ss->fit.lm_fitted + 137 * i;
+        if (i == GAP) {
+            CHECK_MSG(isnan(o[0]), "frame %d had no landmarks but got fitted ones", i);
+            continue;
+        }
+        double iod = inter_ocular(truth_lm[i]), e = 0.0, ej = 0.0;
+        for (int k = 0; k < 68; k++) {
+            double d =
+                hypot((double)o[1 + 2 * k] - truth_lm[i][2 * k], (double)o[2 + 2 * k] - truth_lm[i][2 * k + 1]) / iod;
+            e += d / 68.0;
+            ej += k <= 16 ? d / 17.0 : 0.0;
+        }
+        CHECK_MSG(isfinite(o[0]) && o[0] >= 0.0f, "frame %d: RMS residual %g", i, (double)o[0]);
+        worst = fmax(worst, e), worst_jaw = fmax(worst_jaw, ej);
+    }
+    fprintf(stderr,
+            "fitted landmarks: jaw given %.1f%% of the eye distance off; fitted jaw at most %.2f%%, "
+            "all 68 at most %.2f%%\n",
+            100.0 * given_jaw, 100.0 * worst_jaw, 100.0 * worst);
+    CHECK_MSG(worst_jaw < 0.02 && worst < 0.01, "fitted landmarks off by %.3f (jaw %.3f) of the eye distance", worst,
+              worst_jaw);
+    free(grey);
+    sp_sunstage_close(&ss);
+    free(t);
+}
+
 /* Clipped highlights are lower bounds: the fit reaches them, where dropping them let it fall below. */
 static void test_clip_bounds(const sp_face_model *m)
 {
@@ -849,6 +929,7 @@ int main(int argc, char **argv)
         test_end_to_end(&m, SP_SUNSTAGE_SOLVER_ADAM);
     test_unobservable(&m);
     test_brow_bias(&m);
+    test_fitted_landmarks(&m);
     test_clip_bounds(&m);
     test_texture_choice(&m);
     sp_face_model_free(&m);
