@@ -273,14 +273,15 @@ static int offer(sp_sunstage *ss, const sp_frame *frame, int64_t t, const sp_fra
 /* Face-crop mode: landmarks first (they place the crop), then the crop's quality checks. */
 static int crop_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const sp_frame_tags *tags)
 {
+    double lmc[136];
+    for (int k = 0; tags->has_landmarks && k < 136; k++)
+        lmc[k] = (double)tags->landmarks[k];
+    int face = tags->has_landmarks || (ss->set.use_dlib && detect(ss, frame->sequence, lmc) == 0);
     if (tags->orientation != SP_ORIENTATION_OK) {
         ss->counts.skipped_no_orientation++;
         return 0;
     }
-    double lmc[136];
-    for (int k = 0; tags->has_landmarks && k < 136; k++)
-        lmc[k] = (double)tags->landmarks[k];
-    if (!tags->has_landmarks && (!ss->set.use_dlib || detect(ss, frame->sequence, lmc) != 0)) {
+    if (!face) {
         ss->counts.skipped_no_face++;
         return 0;
     }
@@ -312,23 +313,27 @@ int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const s
         return crop_frame(ss, frame, t, tags);
     downsample(ss->fe.rgb24, ss->fe.cap_w, ss->fe.cap_h, ss->W, ss->H, ss->fe.srgb ? ss->fe.lut : NULL,
                ss->fe.work_rgb, ss->fe.work_clip);
-    double sharp;
-    if (skip_by_quality(ss, ss->fe.work_rgb, &sharp))
-        return 0;
-    double expo = frame_exposure(ss, frame);
-    if (tags->orientation != SP_ORIENTATION_OK) {
+    double sharp, expo = 1.0;
+    int skipped = skip_by_quality(ss, ss->fe.work_rgb, &sharp);
+    if (!skipped)
+        expo = frame_exposure(ss, frame);
+    if (!skipped && tags->orientation != SP_ORIENTATION_OK) {
         ss->counts.skipped_no_orientation++;
-        return 0;
+        skipped = 1;
     }
+    /* the tracker sees every frame, kept or not: it tracks from the frame before, and landmarks.csv covers them all */
     double lm[136], found[136];
-    if (tags->has_landmarks) {
-        tag_landmarks(ss, tags, lm);
-    } else if (!ss->set.use_dlib || detect(ss, frame->sequence, found) != 0) {
+    int face = tags->has_landmarks || (ss->set.use_dlib && detect(ss, frame->sequence, found) == 0);
+    if (skipped)
+        return 0;
+    if (!face) {
         ss->counts.skipped_no_face++;
         return 0;
-    } else {
-        window_landmarks(&ss->fe.win, found, lm);
     }
+    if (tags->has_landmarks)
+        tag_landmarks(ss, tags, lm);
+    else
+        window_landmarks(&ss->fe.win, found, lm);
     return offer(ss, frame, t, tags, lm, sharp, expo);
 }
 

@@ -54,6 +54,9 @@ if [ $rc != 0 ] && grep -q "no dlib" "$tmp/fit.log"; then
     exit $((fail ? 1 : 77))
 fi
 [ $rc = 0 ] || exit 1
+# the tracker sees every frame, also those the fit skips as blurred or saturated: landmarks.csv has a row for each
+rows=$(($(wc -l <"$tmp/face/landmarks.csv") - 1)) frames=$(($(wc -l <"$cap/frames.csv") - 1))
+[ "$rows" = "$frames" ] || { echo "landmarks.csv: $rows rows for $frames frames"; fail=1; }
 # the sun limit is loose: this test is about the cameras; how well the sun is found is issue-tracked fidelity
 "${check[@]}" fit "$tmp/face" "$cap/meta.json" --max-camera-deg 3 --max-up-deg 3 --max-sun-deg 20 || fail=1
 
