@@ -14,6 +14,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/clock.h"
+
 /*
  * "px" below is a reference pixel: a pixel of the frame scaled to REF_WIDTH wide (the default fit width),
  * whatever the fit resolution or crop. Image residuals are converted to it (frame_unit), so the balance of
@@ -413,7 +415,8 @@ int ss_fit_logged_landmarks(sp_sunstage *ss)
     ss_frame f;
     memset(&f, 0, sizeof(f));
     f.exp = exp;
-    int warm = 0;
+    int warm = 0, fitted = 0;
+    int64_t t0 = sp_clock_monotonic_ns();
     for (size_t i = 0; i < fe->lm_n; i++) {
         const ss_lm_entry *e = &fe->lm_log[i];
         float *o = out + 137 * i;
@@ -450,9 +453,11 @@ int ss_fit_logged_landmarks(sp_sunstage *ss)
             o[1 + 2 * k] = (float)((uv[2 * k] + 0.5) / win.s - 0.5 + win.x0);
             o[2 + 2 * k] = (float)((uv[2 * k + 1] + 0.5) / win.s - 0.5 + win.y0);
         }
-        warm = 1;
+        warm = 1, fitted++;
     }
     free(exp);
     ss->fit.lm_fitted = out;
+    sp_log(SP_LOG_INFO, "sunstage", "fitted landmarks: the model aligned to %d of %zu tracked frames in %.2f s", fitted,
+           fe->lm_n, (double)(sp_clock_monotonic_ns() - t0) * 1e-9);
     return 0;
 }
