@@ -188,7 +188,10 @@ static int on_progress(void *user, const sp_sunstage_progress *p)
         sp_report_add(c->report, p->seconds, v);
     }
     char detail[96];
-    snprintf(detail, sizeof(detail), "%s loss %.4g", p->stage, p->loss);
+    if (isfinite(p->loss))
+        snprintf(detail, sizeof(detail), "%s loss %.4g", p->stage, p->loss);
+    else
+        snprintf(detail, sizeof(detail), "%s", p->stage);
     c->bar->total = (uint64_t)(p->total > 0 ? p->total : 1);
     sp_progress_update(c->bar, (uint64_t)p->iteration, detail);
     return sp_cmd_stop_signal != 0; /* Ctrl-C: the fit ends early and nothing is written */

@@ -64,7 +64,7 @@ typedef struct sp_sunstage_counts {
 
 /* Progress of the fit, passed to the callback (borrowed for the call). */
 typedef struct sp_sunstage_progress {
-    const char *stage;  /* "align", "photometric" */
+    const char *stage; /* "align", "photometric", "landmarks" (the model fitted to every tracked frame) */
     int iteration, total;
     double seconds;     /* wall time since the fit started */
     double loss;        /* training photometric loss (display values, masked L2) or landmark RMS px */

@@ -398,7 +398,7 @@ double ss_align_one(sp_sunstage *ss, ss_frame *f, int iterations)
  * model's jaw points are fixed vertices that the known head and the rest of the face already place
  * (SUNSTAGE.md, "Fitted landmarks"). The keyframes' own fit keeps them at W_JAW, with the silhouette.
  */
-int ss_fit_logged_landmarks(sp_sunstage *ss)
+int ss_fit_logged_landmarks(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
 {
     const ss_frontend *fe = &ss->fe;
     free(ss->fit.lm_fitted);
@@ -417,10 +417,18 @@ int ss_fit_logged_landmarks(sp_sunstage *ss)
     f.exp = exp;
     int warm = 0, fitted = 0;
     int64_t t0 = sp_clock_monotonic_ns();
-    for (size_t i = 0; i < fe->lm_n; i++) {
+    for (size_t i = 0; i < fe->lm_n; i++)
+        out[137 * i] = NAN; /* RMS residual in capture pixels; NaN: no landmarks on this frame (or stopped) */
+    int stop = 0;
+    for (size_t i = 0; i < fe->lm_n && !stop; i++) {
         const ss_lm_entry *e = &fe->lm_log[i];
         float *o = out + 137 * i;
-        o[0] = NAN; /* RMS residual in capture pixels; NaN: no landmarks on this frame */
+        if (cb && i % 32 == 0) { /* a long capture takes a while: progress, and Ctrl-C stops here */
+            sp_sunstage_progress pr = { "landmarks",   (int)i,
+                                        (int)fe->lm_n, (double)(sp_clock_monotonic_ns() - ss->fit.t0) * 1e-9,
+                                        NAN,           NAN };
+            stop = cb(user, &pr) != 0;
+        }
         if (e->source <= SS_LM_NONE || e->source > SS_LM_SEARCHED) {
             warm = 0;
             continue;
@@ -436,6 +444,7 @@ int ss_fit_logged_landmarks(sp_sunstage *ss)
             f.lm[2 * k + 1] = (cap[2 * k + 1] + 0.5 - win.y0) * win.s - 0.5;
         }
         ss_window_camera(ss, &win, &f.cam);
+        f.win = win; /* frame_unit reads it in face-crop mode */
         if (!warm) { /* a fresh start (align's own) after a frame without a face */
             f.t_face[2] = 0.0;
             memset(exp, 0, sizeof(double) * ss->model->n_exp);

@@ -2,9 +2,11 @@
 /*
  * Per-frame front end: frames come from the orientation tagger with their camera
  * orientation and landmarks attached (sp_frame_tags). Convert and downsample each
- * frame once, reject dark, saturated and blurred frames and frames without an
- * orientation, detect landmarks with dlib when none came, then offer the frame
- * to the yaw-binned keyframe reservoir. Nothing waits here: one frame at a time.
+ * frame once, detect landmarks with dlib when none came (on every frame, kept or
+ * not: the tracker follows the face from frame to frame and its record covers the
+ * capture), reject dark, saturated and blurred frames, frames without an
+ * orientation and frames without a face, then offer the frame to the yaw-binned
+ * keyframe reservoir. Nothing waits here: one frame at a time.
  */
 #include "pipeline/sunstage/sunstage_internal.h"
 

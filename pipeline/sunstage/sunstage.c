@@ -385,6 +385,8 @@ int sp_sunstage_fit(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
     if (!ss)
         return -EINVAL;
     ss->fit.t0 = sp_clock_monotonic_ns();
+    free(ss->fit.lm_fitted); /* a record of this fit's frames only */
+    ss->fit.lm_fitted = NULL;
     int idx[64];
     int n = ss_list_frames(ss, 0, idx, 64);
     if (!fittable(ss, n))
@@ -423,8 +425,8 @@ int sp_sunstage_fit(sp_sunstage *ss, sp_sunstage_callback cb, void *user)
         cb(user, &p);
     }
     int ret = ss->set.solver == SP_SUNSTAGE_SOLVER_ADAM ? solve_adam(ss, cb, user) : solve_fast(ss, cb, user);
-    if (!ret)
-        ret = ss_fit_logged_landmarks(ss);
+    if (!ret && ss_fit_logged_landmarks(ss, cb, user)) /* a record beside the fit: failing costs only it */
+        sp_log(SP_LOG_WARN, MOD, "no memory for the fitted landmarks: landmarks_fitted.csv is left out");
     ss->fit.seconds = (double)(sp_clock_monotonic_ns() - ss->fit.t0) * 1e-9;
     ss->fit.fitted = ret == 0;
     ss_clock_sun_compare(ss);

@@ -194,8 +194,11 @@ int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const s
 double ss_align_landmarks(sp_sunstage *ss, const int *idx, int n, int shared, int iterations);
 /* The same for one frame outside the reservoir, shared parameters fixed. */
 double ss_align_one(sp_sunstage *ss, ss_frame *f, int iterations);
-/* ss->fit.lm_fitted for every frame in the tracker's log (fitted identity and scale); 0 or -ENOMEM. */
-int ss_fit_logged_landmarks(sp_sunstage *ss);
+/*
+ * ss->fit.lm_fitted for every frame in the tracker's log (fitted identity and scale); cb (may be NULL) gets
+ * progress and may stop it (the frames not reached stay without). 0 or -ENOMEM.
+ */
+int ss_fit_logged_landmarks(sp_sunstage *ss, sp_sunstage_callback cb, void *user);
 
 /* ---- silhouette.c: silhouette loss (stage 1 and the Adam solver) ---- */
 #define SS_SIL_HUBER 1.0 /* px: quadratic below, linear above */

@@ -36,6 +36,7 @@ int sp_sunstage_render_view(sp_sunstage *ss, const sp_sunstage_view *v, float *r
     /* the view's own intrinsics, in its window, drive its alignment and rendering */
     sp_face_camera_init(&f.cam, v->fx * win.s, v->fy * win.s, (v->cx + 0.5 - win.x0) * win.s - 0.5,
                         (v->cy + 0.5 - win.y0) * win.s - 0.5);
+    f.win = win; /* the alignment's pixel unit reads it in face-crop mode */
     ss_scene sc;
     int ret = ss_align_one(ss, &f, 20) < 0 ? -EINVAL : ss_scene_open(&sc, ss);
     if (!ret) {
