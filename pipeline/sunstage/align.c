@@ -405,7 +405,7 @@ int ss_fit_logged_landmarks(sp_sunstage *ss, sp_sunstage_callback cb, void *user
     ss->fit.lm_fitted = NULL;
     if (!fe->lm_n)
         return 0;
-    float *out = malloc(sizeof(float) * 137 * fe->lm_n);
+    float *out = malloc(sizeof(float) * SS_LM_FITTED_FLOATS * fe->lm_n);
     double *exp = calloc(ss->model->n_exp + 1, sizeof(double));
     if (!out || !exp) {
         free(out);
@@ -418,11 +418,12 @@ int ss_fit_logged_landmarks(sp_sunstage *ss, sp_sunstage_callback cb, void *user
     int warm = 0, fitted = 0;
     int64_t t0 = sp_clock_monotonic_ns();
     for (size_t i = 0; i < fe->lm_n; i++)
-        out[137 * i] = NAN; /* RMS residual in capture pixels; NaN: no landmarks on this frame (or stopped) */
+        out[SS_LM_FITTED_FLOATS * i] =
+            NAN; /* RMS residual in capture pixels; NaN: no landmarks on this frame (or stopped) */
     int stop = 0;
     for (size_t i = 0; i < fe->lm_n && !stop; i++) {
         const ss_lm_entry *e = &fe->lm_log[i];
-        float *o = out + 137 * i;
+        float *o = out + SS_LM_FITTED_FLOATS * i;
         if (cb && i % 32 == 0) { /* a long capture takes a while: progress, and Ctrl-C stops here */
             sp_sunstage_progress pr = { "landmarks",   (int)i,
                                         (int)fe->lm_n, (double)(sp_clock_monotonic_ns() - ss->fit.t0) * 1e-9,
@@ -436,13 +437,9 @@ int ss_fit_logged_landmarks(sp_sunstage *ss, sp_sunstage_callback cb, void *user
         double cap[136];
         for (int k = 0; k < 136; k++)
             cap[k] = (double)e->lm[k];
-        ss_window win = { 0.0, 0.0, (double)ss->W / (double)fe->cap_w };
-        if (ss->set.face_crop)
-            ss_window_around(ss, cap, &win);
-        for (int k = 0; k < 68; k++) {
-            f.lm[2 * k] = (cap[2 * k] + 0.5 - win.x0) * win.s - 0.5;
-            f.lm[2 * k + 1] = (cap[2 * k + 1] + 0.5 - win.y0) * win.s - 0.5;
-        }
+        ss_window win;
+        ss_window_of(ss, cap, &win);
+        ss_window_landmarks(&win, cap, f.lm);
         ss_window_camera(ss, &win, &f.cam);
         f.win = win; /* frame_unit reads it in face-crop mode */
         if (!warm) { /* a fresh start (align's own) after a frame without a face */

@@ -170,7 +170,7 @@ static int write_landmarks(const sp_sunstage *ss, const char *dir)
     sp_strbuf f = { 0 };
     landmarks_header(&f, "rms_px");
     for (size_t i = 0; i < ss->fe.lm_n; i++) {
-        const float *o = ss->fit.lm_fitted + 137 * i;
+        const float *o = ss->fit.lm_fitted + SS_LM_FITTED_FLOATS * i;
         landmarks_row(&f, ss->fe.lm_log[i].sequence, "fitted", (double)o[0], isnan(o[0]) ? NULL : o + 1);
     }
     ret = write_text(dir, "landmarks_fitted.csv", &f);

@@ -175,8 +175,15 @@ void ss_window_around(const sp_sunstage *ss, const double *lm, ss_window *w)
     w->s = (double)ss->W / side;
 }
 
+void ss_window_of(const sp_sunstage *ss, const double *lm, ss_window *w)
+{
+    *w = (ss_window){ 0.0, 0.0, (double)ss->W / (double)ss->fe.cap_w };
+    if (ss->set.face_crop)
+        ss_window_around(ss, lm, w);
+}
+
 /* Capture pixels (x, y) into the window's fit pixels. */
-static void window_landmarks(const ss_window *w, const double *src, double lm[136])
+void ss_window_landmarks(const ss_window *w, const double *src, double lm[136])
 {
     for (int k = 0; k < 68; k++) {
         lm[2 * k] = ((double)src[2 * k] + 0.5 - w->x0) * w->s - 0.5;
@@ -190,7 +197,7 @@ static void tag_landmarks(const sp_sunstage *ss, const sp_frame_tags *tags, doub
     double cap[136];
     for (int k = 0; k < 136; k++)
         cap[k] = (double)tags->landmarks[k];
-    window_landmarks(&ss->fe.win, cap, lm);
+    ss_window_landmarks(&ss->fe.win, cap, lm);
 }
 
 /*
@@ -294,7 +301,7 @@ static int crop_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const s
     if (skip_by_quality(ss, ss->fe.work_rgb, &sharp))
         return 0;
     double lm[136];
-    window_landmarks(&ss->fe.win, lmc, lm);
+    ss_window_landmarks(&ss->fe.win, lmc, lm);
     return offer(ss, frame, t, tags, lm, sharp, frame_exposure(ss, frame));
 }
 
@@ -335,7 +342,7 @@ int ss_frontend_frame(sp_sunstage *ss, const sp_frame *frame, int64_t t, const s
     if (tags->has_landmarks)
         tag_landmarks(ss, tags, lm);
     else
-        window_landmarks(&ss->fe.win, found, lm);
+        ss_window_landmarks(&ss->fe.win, found, lm);
     return offer(ss, frame, t, tags, lm, sharp, expo);
 }
 

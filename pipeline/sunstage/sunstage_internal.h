@@ -91,6 +91,8 @@ typedef struct ss_reservoir {
 #define SS_KS_MAX 0.1
 
 /* The shared fitted state: what stage 1 and the solvers write, the result and the face directory read. */
+#define SS_LM_FITTED_FLOATS 137 /* ss_fit_state.lm_fitted per frame: the RMS residual, then x0, y0 .. x67, y67 */
+
 typedef struct ss_fit_state {
     double *id;                 /* n_id identity coefficients */
     double scale;
@@ -111,8 +113,9 @@ typedef struct ss_fit_state {
     double yaw_range, train_psnr, heldout_psnr, seconds;
     double frontend_s, align_s, solve_s, refine_s; /* wall time per phase */
     int64_t t0;                 /* start of the fit, for progress times */
-    float *lm_fitted;           /* per fe.lm_log entry: RMS residual (capture px; NaN: none), then the model's 68
-                                   landmark vertices fitted to that frame, capture pixels (ss_fit_logged_landmarks) */
+    float *lm_fitted;           /* SS_LM_FITTED_FLOATS per fe.lm_log entry: RMS residual (capture px; NaN: none),
+                                   then the model's 68 landmark vertices fitted to that frame, capture pixels
+                                   (ss_fit_logged_landmarks) */
 } ss_fit_state;
 
 /* The sun from the clock (clock_sun.c): what the frames say about north, and the ephemeris sun. */
@@ -177,6 +180,10 @@ void ss_window_camera(const sp_sunstage *ss, const ss_window *w, sp_face_camera 
 double ss_exposure_product(double exposure_us, double gain);
 /* The face-crop window around 68 landmarks in capture pixels (W x W fit pixels). */
 void ss_window_around(const sp_sunstage *ss, const double *lm_capture, ss_window *w);
+/* The window of a frame whose landmarks (capture pixels) are lm: the whole frame, or in face-crop mode its crop. */
+void ss_window_of(const sp_sunstage *ss, const double *lm_capture, ss_window *w);
+/* Landmarks in capture pixels (src) into window w's fit pixels (lm). */
+void ss_window_landmarks(const ss_window *w, const double *src, double lm[136]);
 /* Fitted frames in slot order: fills idx with the used training (heldout = 0) or held-out slots. */
 int ss_list_frames(const sp_sunstage *ss, int heldout, int *idx, int cap);
 /* The i-th used slot, training and held-out alike; NULL past the end. */

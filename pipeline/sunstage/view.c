@@ -17,9 +17,8 @@ int sp_sunstage_render_view(sp_sunstage *ss, const sp_sunstage_view *v, float *r
     if (!ss || !v || !v->landmarks || !rgb || !ss->res.slots || !(v->fx > 0.0) || !(v->fy > 0.0))
         return -EINVAL;
     /* the view's window: its face crop (face-crop mode) or the whole frame, like the keyframes' */
-    ss_window win = { 0.0, 0.0, (double)ss->W / (double)ss->fe.cap_w };
-    if (ss->set.face_crop)
-        ss_window_around(ss, v->landmarks, &win);
+    ss_window win;
+    ss_window_of(ss, v->landmarks, &win);
     ss_frame f;
     memset(&f, 0, sizeof(f));
     double *exp = calloc(ss->model->n_exp + 1, sizeof(double));
@@ -29,10 +28,7 @@ int sp_sunstage_render_view(sp_sunstage *ss, const sp_sunstage_view *v, float *r
     f.expo = v->exposure > 0.0 ? v->exposure : 1.0;
     f.q_c2w = sp_quat_normalize(v->camera_to_world);
     sp_quat_to_matrix(f.q_c2w, f.R_c2w);
-    for (int i = 0; i < 68; i++) {
-        f.lm[2 * i] = (v->landmarks[2 * i] + 0.5 - win.x0) * win.s - 0.5;
-        f.lm[2 * i + 1] = (v->landmarks[2 * i + 1] + 0.5 - win.y0) * win.s - 0.5;
-    }
+    ss_window_landmarks(&win, v->landmarks, f.lm);
     /* the view's own intrinsics, in its window, drive its alignment and rendering */
     sp_face_camera_init(&f.cam, v->fx * win.s, v->fy * win.s, (v->cx + 0.5 - win.x0) * win.s - 0.5,
                         (v->cy + 0.5 - win.y0) * win.s - 0.5);

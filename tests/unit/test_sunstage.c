@@ -634,7 +634,7 @@ static void test_fitted_landmarks(const sp_face_model *m)
     CHECK(ss_fit_logged_landmarks(ss, NULL, NULL) == 0 && ss->fit.lm_fitted);
     double worst = 0.0, worst_jaw = 0.0;
     for (int i = 0; i < N && ss->fit.lm_fitted; i++) {
-        const float *o = ss->fit.lm_fitted + 137 * i;
+        const float *o = ss->fit.lm_fitted + SS_LM_FITTED_FLOATS * i;
         if (i == GAP) {
             CHECK_MSG(isnan(o[0]), "frame %d had no landmarks but got fitted ones", i);
             continue;
