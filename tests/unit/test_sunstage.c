@@ -447,8 +447,7 @@ static void test_estimated_exposure(const sp_face_model *m, int constant)
         /* the truth's own spread over these frames is 149 %; the fit leaves a little of it to the lighting */
         CHECK_MSG(spread[0] < 0.12, "estimated exposures off the truth's ratios by %.1f %%", 100 * spread[0]);
         CHECK_MSG(spread[1] > 1.0, "fixed: spread %.1f %%", 100 * spread[1]);
-        CHECK_MSG(heldout[0] > heldout[1] + 3.0, "held-out %.2f dB estimated, %.2f fixed", heldout[0],
-                  heldout[1]);
+        CHECK_MSG(heldout[0] > heldout[1] + 3.0, "held-out %.2f dB estimated, %.2f fixed", heldout[0], heldout[1]);
     } else {
         CHECK(albedo[0] && albedo[1] && n_albedo[0] == n_albedo[1] &&
               memcmp(albedo[0], albedo[1], sizeof(float) * n_albedo[0]) == 0);
