@@ -21,6 +21,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "cmd.h"
 #include "common/atomic_file.h"
@@ -74,7 +75,7 @@ typedef struct eval_ctx {
 
 /* The two landmark records a face directory may hold: its manifest key, and how the table names it. */
 static const char *const landmark_files[2] = { "landmarks", "landmarks_fitted" };
-static const char *const landmark_labels[2] = { "landmarks (gt/landmarks)", "landmarks, fitted model" };
+static const char *const landmark_labels[2] = { "landmarks, tracker", "landmarks, fitted model" };
 
 static void usage(FILE *out)
 {
@@ -566,7 +567,10 @@ static void print_table(const eval_ctx *c, const sp_json *fit)
     if (c->relight_note)
         printf("  %s\n", c->relight_note);
     for (int i = 0; i < 2; i++)
-        if (c->have_landmarks[i])
+        if (c->have_landmarks[i] && !c->landmarks[i].found)
+            printf("  %-28s not scored: on none of the %d frames with a visible face (%d tried)\n", landmark_labels[i],
+                   c->landmarks[i].faces, c->landmarks[i].tried);
+        else if (c->have_landmarks[i])
             printf("  %-28s on %d of %d frames with a visible face (%d tried, the rest skipped before detection); "
                    "error over the inter-ocular distance mean %.2f%%, 90th percentile %.2f%%\n",
                    landmark_labels[i], c->landmarks[i].found, c->landmarks[i].faces, c->landmarks[i].tried,
@@ -665,6 +669,36 @@ static int parse_args(int argc, char **argv, eval_args *a)
     return 0;
 }
 
+/*
+ * The landmark records the manifest names, against the capture's gt/landmarks.csv; before the images are
+ * rendered, so that a damaged record fails in a second, not after them. A record the manifest names must be
+ * there; a capture without landmark truth is said and skipped.
+ */
+static int score_landmarks(eval_ctx *c)
+{
+    char truth_csv[4096];
+    snprintf(truth_csv, sizeof(truth_csv), "%s/gt/landmarks.csv", c->a->capture);
+    int have_truth = access(truth_csv, F_OK) == 0, ret;
+    for (int i = 0; i < 2; i++) { /* the fit ran its landmark tracker (and fitted the model to every frame) */
+        const char *name = sp_json_string(sp_json_get(c->manifest, landmark_files[i]), NULL);
+        if (!name)
+            continue;
+        char fit_csv[4096], err[512] = "";
+        snprintf(fit_csv, sizeof(fit_csv), "%s/%s.csv", c->a->face, landmark_files[i]);
+        if (access(fit_csv, F_OK) != 0) {
+            return sp_cmd_failf("evaluate", SP_EFORMAT, "%s is missing, though manifest.json names it", fit_csv);
+        }
+        if (!have_truth) {
+            fprintf(stderr, "sunprobe evaluate: %s: absent, %s not scored\n", truth_csv, fit_csv);
+            continue;
+        }
+        if ((ret = evaluate_landmarks(fit_csv, truth_csv, &c->landmarks[i], err, sizeof(err))))
+            return sp_cmd_fail("evaluate", ret, err[0] ? err : "scoring the landmarks");
+        c->have_landmarks[i] = 1;
+    }
+    return 0;
+}
+
 static int run(eval_ctx *c)
 {
     int ret = sp_face_dir_read(&c->asset, c->a->face);
@@ -686,6 +720,8 @@ static int run(eval_ctx *c)
     else
         fprintf(stderr, "sunprobe evaluate: the face model does not match the asset's mesh: the rendered mask is "
                         "the whole mesh\n");
+    if ((ret = score_landmarks(c)))
+        return ret;
     if (c->a->renders && (ret = sp_mkdir_p(c->a->renders, 0755)))
         return sp_cmd_fail("evaluate", ret, c->a->renders);
     sun_error(c);
@@ -697,17 +733,6 @@ static int run(eval_ctx *c)
             return sp_exit_for_error(ret);
         }
         return sp_cmd_fail("evaluate", ret, "scoring the held-out images");
-    }
-    for (int i = 0; i < 2; i++) { /* the fit ran its landmark tracker (and fitted the model to every frame) */
-        if (!sp_json_string(sp_json_get(c->manifest, landmark_files[i]), NULL))
-            continue;
-        char fit_csv[4096], truth_csv[4096], err[512] = "";
-        snprintf(fit_csv, sizeof(fit_csv), "%s/%s.csv", c->a->face, landmark_files[i]);
-        snprintf(truth_csv, sizeof(truth_csv), "%s/gt/landmarks.csv", c->a->capture);
-        if (!(ret = evaluate_landmarks(fit_csv, truth_csv, &c->landmarks[i], err, sizeof(err))))
-            c->have_landmarks[i] = 1;
-        else if (ret != -ENOENT)
-            return sp_cmd_fail("evaluate", ret, err[0] ? err : "scoring the landmarks");
     }
     const sp_json *fit = sp_json_get(c->manifest, "fit");
     print_table(c, fit);

@@ -18,10 +18,12 @@
 #include "sunprobe/sp_common.h"
 
 #define MAX_FRAMES 1000000
+#define MAX_COORD 1e6 /* pixels: farther out than any frame is a corrupt coordinate, not a landmark */
 
 typedef struct truth_frame {
     float uv[136];
     uint8_t visible[68];
+    uint8_t given[68]; /* the row for this point was read (each must be, once) */
     int n_points;
 } truth_frame;
 
@@ -36,11 +38,11 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* Grows a zeroed array of records to hold index i. */
-static int reserve(void **arr, size_t *cap, size_t size, int64_t i)
+/* Grows a zeroed array of records to hold index i (the column named in messages). */
+static int reserve(sp_csv *c, const char *column, void **arr, size_t *cap, size_t size, int64_t i)
 {
     if (i < 0 || i >= MAX_FRAMES)
-        return SP_ECORRUPT;
+        return sp_csv_fail(c, SP_ECORRUPT, "%s %lld is out of range (0 to %d)", column, (long long)i, MAX_FRAMES - 1);
     if ((size_t)i < *cap)
         return 0;
     size_t n = *cap ? *cap : 256;
@@ -52,6 +54,19 @@ static int reserve(void **arr, size_t *cap, size_t size, int64_t i)
     memset((char *)p + *cap * size, 0, (n - *cap) * size);
     *arr = p, *cap = n;
     return 0;
+}
+
+/* A pixel coordinate from field col: finite (sp_csv_double) and within MAX_COORD. */
+static int coordinate(sp_csv *c, int col, float *out)
+{
+    double v;
+    int ret = sp_csv_double(c, col, &v);
+    if (!ret && !(fabs(v) <= MAX_COORD))
+        ret = sp_csv_fail(c, SP_ECORRUPT, "column '%s': %g is no pixel coordinate (beyond %g)", c->names[col], v,
+                          MAX_COORD);
+    if (!ret)
+        *out = (float)v;
+    return ret;
 }
 
 static int read_truth(const char *path, truth_frame **out, size_t *n, char *err, size_t err_size)
@@ -66,21 +81,34 @@ static int read_truth(const char *path, truth_frame **out, size_t *n, char *err,
         ret = sp_csv_fail(&c, SP_ECORRUPT, "needs the columns frame, landmark, u, v, visible");
     while (!ret && !(ret = sp_csv_next(&c))) {
         int64_t f, k, vis;
-        double u, v;
-        if ((ret = sp_csv_int64(&c, cf, &f)) || (ret = sp_csv_int64(&c, ck, &k)) || (ret = sp_csv_double(&c, cu, &u)) ||
-            (ret = sp_csv_double(&c, cv, &v)) || (ret = sp_csv_int64(&c, cvis, &vis)))
+        float u, v;
+        if ((ret = sp_csv_int64(&c, cf, &f)) || (ret = sp_csv_int64(&c, ck, &k)) || (ret = coordinate(&c, cu, &u)) ||
+            (ret = coordinate(&c, cv, &v)) || (ret = sp_csv_int64(&c, cvis, &vis)))
             break;
         if (k < 0 || k >= 68) {
             ret = sp_csv_fail(&c, SP_ECORRUPT, "landmark %lld is not one of the 68", (long long)k);
             break;
         }
-        if ((ret = reserve((void **)out, n, sizeof(truth_frame), f)))
+        if (vis != 0 && vis != 1) {
+            ret = sp_csv_fail(&c, SP_ECORRUPT, "column 'visible': %lld is neither 0 nor 1", (long long)vis);
+            break;
+        }
+        if ((ret = reserve(&c, "frame", (void **)out, n, sizeof(truth_frame), f)))
             break;
         truth_frame *t = &(*out)[f];
-        t->uv[2 * k] = (float)u, t->uv[2 * k + 1] = (float)v;
-        t->visible[k] = vis != 0;
+        if (t->given[k]) {
+            ret = sp_csv_fail(&c, SP_ECORRUPT, "frame %lld, landmark %lld appears twice", (long long)f, (long long)k);
+            break;
+        }
+        t->uv[2 * k] = u, t->uv[2 * k + 1] = v;
+        t->visible[k] = (uint8_t)vis;
+        t->given[k] = 1;
         t->n_points++;
     }
+    if (ret == SP_EOS) /* every frame named must have all 68 points: a missing one would drop the frame unseen */
+        for (size_t f = 0; f < *n && ret == SP_EOS; f++)
+            if ((*out)[f].n_points > 0 && (*out)[f].n_points < 68)
+                ret = sp_csv_fail(&c, SP_ECORRUPT, "frame %zu has %d of the 68 landmarks", f, (*out)[f].n_points);
     sp_csv_close(&c);
     return ret == SP_EOS ? 0 : ret;
 }
@@ -91,21 +119,28 @@ static int read_fit(const char *path, fit_frame **out, size_t *n, char *err, siz
     int ret = sp_csv_open(&c, path, err, err_size);
     if (ret)
         return ret;
-    int cs = sp_csv_column(&c, "sequence"), csrc = sp_csv_column(&c, "source"), cx = sp_csv_column(&c, "x0");
-    if (cs < 0 || csrc < 0 || cx < 0 || (size_t)cx + 136 > c.nnames)
+    int cs = sp_csv_column(&c, "sequence"), csrc = sp_csv_column(&c, "source"), col[136];
+    if (cs < 0 || csrc < 0)
         ret = sp_csv_fail(&c, SP_ECORRUPT, "needs the columns sequence, source and x0, y0 .. x67, y67");
+    for (int k = 0; k < 136 && !ret; k++) { /* by name: a file written in another column order reads the same */
+        char name[8];
+        snprintf(name, sizeof(name), "%c%d", k % 2 ? 'y' : 'x', k / 2);
+        if ((col[k] = sp_csv_column(&c, name)) < 0)
+            ret = sp_csv_fail(&c, SP_ECORRUPT, "has no column '%s' (needs x0, y0 .. x67, y67)", name);
+    }
     while (!ret && !(ret = sp_csv_next(&c))) {
         int64_t s;
-        if ((ret = sp_csv_int64(&c, cs, &s)) || (ret = reserve((void **)out, n, sizeof(fit_frame), s)))
+        if ((ret = sp_csv_int64(&c, cs, &s)) || (ret = reserve(&c, "sequence", (void **)out, n, sizeof(fit_frame), s)))
             break;
         fit_frame *f = &(*out)[s];
+        if (f->tried) {
+            ret = sp_csv_fail(&c, SP_ECORRUPT, "sequence %lld appears twice", (long long)s);
+            break;
+        }
         f->tried = 1;
         f->found = strcmp(c.fields[csrc], "none") != 0;
-        for (int k = 0; f->found && k < 136 && !ret; k++) {
-            double v;
-            ret = sp_csv_double(&c, cx + k, &v);
-            f->lm[k] = (float)v;
-        }
+        for (int k = 0; f->found && k < 136 && !ret; k++)
+            ret = coordinate(&c, col[k], &f->lm[k]);
     }
     sp_csv_close(&c);
     return ret == SP_EOS ? 0 : ret;
