@@ -16,11 +16,13 @@
  */
 #include <errno.h>
 #include <getopt.h>
+#include <libgen.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "cmd.h"
@@ -699,8 +701,27 @@ static int score_landmarks(eval_ctx *c)
     return 0;
 }
 
+/* The report's directory must exist: said before the work, not after it (the report itself is written atomically). */
+static int check_report_dir(const char *json)
+{
+    char *copy = strdup(json);
+    if (!copy)
+        return sp_cmd_fail("evaluate", -ENOMEM, json);
+    struct stat st;
+    const char *dir = dirname(copy);
+    int found = stat(dir, &st) == 0, err = found ? ENOTDIR : errno;
+    int code = found && S_ISDIR(st.st_mode) ? 0 : sp_cmd_failf("evaluate", -err, "--json %s: directory %s", json, dir);
+    free(copy);
+    return code;
+}
+
 static int run(eval_ctx *c)
 {
+    if (c->a->json) {
+        int code = check_report_dir(c->a->json);
+        if (code)
+            return code;
+    }
     int ret = sp_face_dir_read(&c->asset, c->a->face);
     if (ret) {
         fprintf(stderr, "sunprobe evaluate: %s is not a readable face directory: %s\n", c->a->face, sp_strerror(ret));

@@ -47,6 +47,7 @@ expect 1 "version with a bad option" "$SP" --version --bogus
 expect 1 "evaluate without capture dir" "$SP" evaluate "$dir"
 expect 2 "evaluate a non-face directory" "$SP" evaluate "$dir" "$dir"
 expect 1 "evaluate --passes without --renders" "$SP" evaluate "$dir" "$dir" --passes
+expect 3 "evaluate --json into a directory that does not exist" "$SP" evaluate "$dir" "$dir" --json "$dir/no-such-dir/report.json"
 expect 1 "info without file" "$SP" info
 expect 1 "replay bad speed" "$SP" replay "$cap" --speed -1
 expect 1 "replay unknown stage" "$SP" replay "$cap" --stage nope
