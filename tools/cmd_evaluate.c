@@ -680,7 +680,10 @@ static int score_landmarks(eval_ctx *c)
 {
     char truth_csv[4096];
     snprintf(truth_csv, sizeof(truth_csv), "%s/gt/landmarks.csv", c->a->capture);
-    int have_truth = access(truth_csv, F_OK) == 0, ret;
+    int have_truth = access(truth_csv, F_OK) == 0, ret, n_frames = 0;
+    const sp_json *frames = sp_json_get(c->meta, "frames"), *f;
+    for (size_t i = 0; (f = sp_json_at(frames, i)); i++) /* the capture's indices bound the records' */
+        n_frames = (int)fmax(n_frames, sp_json_number(sp_json_get(f, "index"), -1) + 1);
     for (int i = 0; i < 2; i++) { /* the fit ran its landmark tracker (and fitted the model to every frame) */
         const char *name = sp_json_string(sp_json_get(c->manifest, landmark_files[i]), NULL);
         if (!name)
@@ -694,7 +697,7 @@ static int score_landmarks(eval_ctx *c)
             fprintf(stderr, "sunprobe evaluate: %s: absent, %s not scored\n", truth_csv, fit_csv);
             continue;
         }
-        if ((ret = evaluate_landmarks(fit_csv, truth_csv, &c->landmarks[i], err, sizeof(err))))
+        if ((ret = evaluate_landmarks(fit_csv, truth_csv, n_frames, &c->landmarks[i], err, sizeof(err))))
             return sp_cmd_fail("evaluate", ret, err[0] ? err : "scoring the landmarks");
         c->have_landmarks[i] = 1;
     }

@@ -38,11 +38,11 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* Grows a zeroed array of records to hold index i (the column named in messages). */
-static int reserve(sp_csv *c, const char *column, void **arr, size_t *cap, size_t size, int64_t i)
+/* Grows a zeroed array of records to hold index i, below limit (the column named in messages). */
+static int reserve(sp_csv *c, const char *column, int limit, void **arr, size_t *cap, size_t size, int64_t i)
 {
-    if (i < 0 || i >= MAX_FRAMES)
-        return sp_csv_fail(c, SP_ECORRUPT, "%s %lld is out of range (0 to %d)", column, (long long)i, MAX_FRAMES - 1);
+    if (i < 0 || i >= limit)
+        return sp_csv_fail(c, SP_ECORRUPT, "%s %lld is out of range (0 to %d)", column, (long long)i, limit - 1);
     if ((size_t)i < *cap)
         return 0;
     size_t n = *cap ? *cap : 256;
@@ -69,7 +69,7 @@ static int coordinate(sp_csv *c, int col, float *out)
     return ret;
 }
 
-static int read_truth(const char *path, truth_frame **out, size_t *n, char *err, size_t err_size)
+static int read_truth(const char *path, int limit, truth_frame **out, size_t *n, char *err, size_t err_size)
 {
     sp_csv c;
     int ret = sp_csv_open(&c, path, err, err_size);
@@ -93,7 +93,7 @@ static int read_truth(const char *path, truth_frame **out, size_t *n, char *err,
             ret = sp_csv_fail(&c, SP_ECORRUPT, "column 'visible': %lld is neither 0 nor 1", (long long)vis);
             break;
         }
-        if ((ret = reserve(&c, "frame", (void **)out, n, sizeof(truth_frame), f)))
+        if ((ret = reserve(&c, "frame", limit, (void **)out, n, sizeof(truth_frame), f)))
             break;
         truth_frame *t = &(*out)[f];
         if (t->given[k]) {
@@ -113,7 +113,7 @@ static int read_truth(const char *path, truth_frame **out, size_t *n, char *err,
     return ret == SP_EOS ? 0 : ret;
 }
 
-static int read_fit(const char *path, fit_frame **out, size_t *n, char *err, size_t err_size)
+static int read_fit(const char *path, int limit, fit_frame **out, size_t *n, char *err, size_t err_size)
 {
     sp_csv c;
     int ret = sp_csv_open(&c, path, err, err_size);
@@ -130,7 +130,8 @@ static int read_fit(const char *path, fit_frame **out, size_t *n, char *err, siz
     }
     while (!ret && !(ret = sp_csv_next(&c))) {
         int64_t s;
-        if ((ret = sp_csv_int64(&c, cs, &s)) || (ret = reserve(&c, "sequence", (void **)out, n, sizeof(fit_frame), s)))
+        if ((ret = sp_csv_int64(&c, cs, &s)) ||
+            (ret = reserve(&c, "sequence", limit, (void **)out, n, sizeof(fit_frame), s)))
             break;
         fit_frame *f = &(*out)[s];
         if (f->tried) {
@@ -146,16 +147,18 @@ static int read_fit(const char *path, fit_frame **out, size_t *n, char *err, siz
     return ret == SP_EOS ? 0 : ret;
 }
 
-int evaluate_landmarks(const char *fit_csv, const char *truth_csv, landmark_score *out, char *err, size_t err_size)
+int evaluate_landmarks(const char *fit_csv, const char *truth_csv, int n_frames, landmark_score *out, char *err,
+                       size_t err_size)
 {
+    int limit = n_frames > 0 && n_frames < MAX_FRAMES ? n_frames : MAX_FRAMES;
     truth_frame *truth = NULL;
     fit_frame *fit = NULL;
     size_t nt = 0, nf = 0;
     double *errs = NULL;
     memset(out, 0, sizeof(*out));
-    int ret = read_truth(truth_csv, &truth, &nt, err, err_size);
+    int ret = read_truth(truth_csv, limit, &truth, &nt, err, err_size);
     if (!ret)
-        ret = read_fit(fit_csv, &fit, &nf, err, err_size);
+        ret = read_fit(fit_csv, limit, &fit, &nf, err, err_size);
     if (!ret && !(errs = malloc(sizeof(double) * (nt ? nt : 1))))
         ret = -ENOMEM;
     for (size_t f = 0; !ret && f < nt; f++) {

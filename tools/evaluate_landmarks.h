@@ -12,7 +12,11 @@ typedef struct landmark_score {
     double mean, p90, max; /* per-frame mean error over the visible points, over the true inter-ocular distance */
 } landmark_score;
 
-/* 0, or a negative error with a message naming the file and line in err. */
-int evaluate_landmarks(const char *fit_csv, const char *truth_csv, landmark_score *out, char *err, size_t err_size);
+/*
+ * 0, or a negative error with a message naming the file and line in err. n_frames: the capture's frame count
+ * (indices 0 .. n_frames - 1; a row beyond is refused); 0 for no count (up to a million).
+ */
+int evaluate_landmarks(const char *fit_csv, const char *truth_csv, int n_frames, landmark_score *out, char *err,
+                       size_t err_size);
 
 #endif

@@ -71,7 +71,7 @@ static void fit_row(char *row, size_t size, long seq)
 static int score(const char *fit, const char *truth, landmark_score *s, char *err, size_t n)
 {
     err[0] = 0;
-    return evaluate_landmarks(fit, truth, s, err, n);
+    return evaluate_landmarks(fit, truth, 0, s, err, n);
 }
 
 int main(void)
@@ -107,6 +107,11 @@ int main(void)
     CHECK_MSG(score(fit, truth, &s, err, sizeof(err)) == SP_ECORRUPT && strstr(err, "out of range") &&
                   strstr(err, "fit.csv"),
               "%s", err);
+    fit_row(row, sizeof(row), 2); /* a frame the capture (of 2 frames) does not have */
+    write_fit(fit, 0, NULL, row);
+    CHECK(evaluate_landmarks(fit, truth, 3, &s, err, sizeof(err)) == 0 && s.found == 1);
+    CHECK_MSG(evaluate_landmarks(fit, truth, 2, &s, err, sizeof(err)) == SP_ECORRUPT && strstr(err, "0 to 1"), "%s",
+              err);
 
     write_fit(fit, 0, NULL, NULL);
     write_truth(truth, "0,36,0,5,1\n"); /* a point given twice */
