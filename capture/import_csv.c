@@ -44,8 +44,10 @@ static int read_row(sp_csv *c)
     for (;;) {
         errno = 0;
         ssize_t n = getline(&c->buf, &c->buf_cap, c->file);
-        if (n < 0)
-            return errno == ENOMEM ? -ENOMEM : ferror(c->file) ? sp_csv_fail(c, -EIO, "read error") : SP_EOS;
+        if (n < 0) { /* the read's own reason (EISDIR for a directory), not a bare EIO */
+            int rc = errno ? -errno : -EIO;
+            return rc == -ENOMEM ? rc : ferror(c->file) ? sp_csv_fail(c, rc, "read error") : SP_EOS;
+        }
         c->line++;
         if ((size_t)n != strlen(c->buf))
             return sp_csv_fail(c, SP_ECORRUPT, "NUL byte in line (not a text file?)");
@@ -78,7 +80,7 @@ static int read_header(sp_csv *c)
 {
     int rc = read_row(c);
     if (rc == SP_EOS)
-        return sp_csv_fail(c, SP_ENODATA, "no header row (expected column names such as t,gx,gy,gz)");
+        return sp_csv_fail(c, SP_ENODATA, "no header row (the file holds no line of column names)");
     if (rc)
         return rc;
     c->names = calloc(c->nfields, sizeof(*c->names));
