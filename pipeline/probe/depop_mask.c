@@ -22,6 +22,8 @@
 #include "probe_internal.h"
 
 enum { M_NONE = 0, M_OBJECT = 1, M_SHADOW = 2 };
+/* of the object's height: the longest run of foreign pixels (a pole, a marking) its cast shadow is followed across */
+#define BRIDGE 0.25
 
 void sp_depop_default_settings(sp_depop_settings *s)
 {
@@ -48,6 +50,12 @@ static int clampi(int v, int lo, int hi) { return v < lo ? lo : v > hi ? hi : v;
 static int shadow_at(const grow *g, int x, int y, const uint8_t ref[3])
 {
     return probe_shadow_of(g->rgb + (size_t)y * g->stride + 3 * (size_t)x, ref, g->lo, g->hi, g->tol, 3);
+}
+
+/* Whether pixel (x, y) is lit ground: the reference's colour at about its brightness (ratio in [hi, 1 / hi]). */
+static int lit_at(const grow *g, int x, int y, const uint8_t ref[3])
+{
+    return probe_shadow_of(g->rgb + (size_t)y * g->stride + 3 * (size_t)x, ref, g->hi, 1024 * 1024 / g->hi, g->tol, 3);
 }
 
 /* Where a flood of o starts: the object's lower quarter and its contact shadow, k pixels around (x0, y0, x1, y1). */
@@ -117,6 +125,7 @@ typedef struct cone {
     double reach;    /* farthest distance from the foot */
     double half_w;   /* farthest distance across the direction */
     double free_r;   /* within this of the foot, any direction (the contact area) */
+    int bridge;      /* with a direction: a run of foreign pixels up to this long is crossed along it (0: none) */
 } cone;
 
 static int in_cone(const cone *c, int x, int y)
@@ -172,6 +181,25 @@ static size_t flood(grow *g, const sp_depop_object *o, const uint8_t ref[3], con
                 else if (dark && head > seeds)
                     out++, past |= hypot(u - c->fx, v - c->fy) > c->reach;
             }
+        /*
+         * Across what is neither shadow nor lit ground: a pole or a road marking on a long shadow ends the flood
+         * there, and the shadow, found short and closed, puts the sun too high. Along the search's direction,
+         * inside its cone, a run of such pixels up to c->bridge long is crossed where shadow goes on past it;
+         * lit ground or an object in the run ends it (a real end, or someone else's shadow beyond).
+         */
+        for (int k = 1; c->bridge > 0 && k <= c->bridge + 1; k++) {
+            int u = (int)lrint(x + k * c->dx), v = (int)lrint(y + k * c->dy);
+            if (u < 0 || v < 0 || u >= g->w || v >= g->h || !in_cone(c, u, v))
+                break;
+            size_t j = (size_t)v * g->w + u;
+            if (g->mask[j] != M_NONE || lit_at(g, u, v, ref))
+                break;
+            if (shadow_at(g, u, v, ref)) {
+                if (k > 1 && !g->seen[j])
+                    g->seen[j] = 1, g->queue[n++] = (int32_t)j;
+                break;
+            }
+        }
     }
     if (spill)
         *spill = out, *cut = past;
@@ -241,7 +269,7 @@ static void cast_along(grow *g, sp_depop_object *o, const uint8_t ref[3], double
     o->shadow_px = 0, o->shadow_leak = 0, o->shadow_spill = 0, o->shadow_cut = 0; /* a second pass starts afresh */
     o->shadow_dx = o->shadow_dy = o->shadow_len = 0;
     cone c = object_cone(g, o);
-    c.dx = dx, c.dy = dy;
+    c.dx = dx, c.dy = dy, c.bridge = (int)ceil(BRIDGE * (o->y1 - o->y0 + 1)); /* the cast alone: not the search's */
     uint32_t spill;
     int cut;
     size_t n = flood(g, o, ref, &c, &spill, &cut);

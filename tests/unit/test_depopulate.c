@@ -244,6 +244,51 @@ static void test_shadow_masks(void)
 }
 
 /*
+ * shadow_scene's shadow crossed at x 68..70 by a pole (a green stripe the height of the image, in front of it):
+ * the shadow goes on past the pole to its end at x 85, closed there, and the pole is not taken. The same
+ * three columns as lit ground instead: the shadow ends at them, and the dark strip beyond (someone else's,
+ * as far as the flood can tell) is left.
+ */
+static void test_shadow_across_pole(void)
+{
+    static uint8_t rgb[W * H * 3], tsh[W * H], patch[W * H], mask[W * H];
+    for (int lit = 0; lit <= 1; lit++) {
+        shadow_scene(rgb, tsh, patch);
+        for (int y = 0; y < H; y++)
+            for (int x = 68; x <= 70; x++) {
+                uint8_t *p = rgb + 3 * (y * W + x);
+                if (lit)
+                    p[0] = 150, p[1] = 140, p[2] = 130;
+                else
+                    p[0] = 60, p[1] = 110, p[2] = 50;
+                tsh[y * W + x] = 0;
+            }
+        sp_depop_object o = { .x0 = 50, .y0 = 20, .x1 = 57, .y1 = 59 };
+        sp_depop_settings s;
+        sp_depop_default_settings(&s);
+        CHECK_EQ_INT(sp_depop_mask(rgb, W, H, W * 3, &o, 1, &s, mask), 0);
+        int hit = 0, n = 0, pole = 0, beyond = 0, n_beyond = 0;
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                int i = y * W + x;
+                pole += x >= 68 && x <= 70 && mask[i] == 2;
+                if (tsh[i])
+                    n++, hit += mask[i] == 2;
+                if (tsh[i] && x > 70)
+                    n_beyond++, beyond += mask[i] == 2;
+            }
+        if (!lit) {
+            CHECK_MSG(hit >= 0.9 * n && pole == 0, "across a pole: %d of %d shadow pixels, %d pole pixels", hit, n,
+                      pole);
+            CHECK_MSG(o.tip_x > 80 && sp_depop_closed_shadow(&o), "across a pole: tip at x %.1f, closed %d", o.tip_x,
+                      sp_depop_closed_shadow(&o));
+        } else
+            CHECK_MSG(beyond < 0.1 * n_beyond && o.tip_x < 70, "across lit ground: %d of %d taken beyond, tip %.1f",
+                      beyond, n_beyond, o.tip_x);
+    }
+}
+
+/*
  * A far walker's shadow under a low sun: a line one pixel wide at half the light, leaving the figure of
  * shadow_scene's ground one lit pixel past its contact area (so no flood from the foot reaches it) and broken
  * every fifth pixel by grain, up and to the right from x = from to 100. line[] marks its dark pixels.
@@ -756,6 +801,7 @@ int main(void)
     test_edge_continues();
     test_inpaint_extremes();
     test_shadow_masks();
+    test_shadow_across_pole();
     test_thin_shadow();
     test_from_plate();
     test_sun();
