@@ -680,16 +680,25 @@ static int score_landmarks(eval_ctx *c)
 {
     char truth_csv[4096];
     snprintf(truth_csv, sizeof(truth_csv), "%s/gt/landmarks.csv", c->a->capture);
-    int have_truth = access(truth_csv, F_OK) == 0, ret, n_frames = 0;
+    int have_truth = access(truth_csv, F_OK) == 0, ret;
+    double last = -1; /* the capture's last frame index bounds the records' (none listed: no bound) */
     const sp_json *frames = sp_json_get(c->meta, "frames"), *f;
-    for (size_t i = 0; (f = sp_json_at(frames, i)); i++) /* the capture's indices bound the records' */
-        n_frames = (int)fmax(n_frames, sp_json_number(sp_json_get(f, "index"), -1) + 1);
+    for (size_t i = 0; (f = sp_json_at(frames, i)); i++) {
+        double index = sp_json_number(sp_json_get(f, "index"), -1);
+        if (isfinite(index) && index > last)
+            last = index;
+    }
+    int n_frames = last >= 0 && last < 1e6 ? (int)last + 1 : 0;
     for (int i = 0; i < 2; i++) { /* the fit ran its landmark tracker (and fitted the model to every frame) */
         const char *name = sp_json_string(sp_json_get(c->manifest, landmark_files[i]), NULL);
         if (!name)
             continue;
         char fit_csv[4096], err[512] = "";
-        snprintf(fit_csv, sizeof(fit_csv), "%s/%s.csv", c->a->face, landmark_files[i]);
+        if (strchr(name, '/') || !strcmp(name, "..") || !*name)
+            return sp_cmd_failf("evaluate", SP_EFORMAT,
+                                "%s/manifest.json: %s names \"%s\", not a file of the directory", c->a->face,
+                                landmark_files[i], name);
+        snprintf(fit_csv, sizeof(fit_csv), "%s/%s", c->a->face, name);
         if (access(fit_csv, F_OK) != 0) {
             return sp_cmd_failf("evaluate", SP_EFORMAT, "%s is missing, though manifest.json names it", fit_csv);
         }
@@ -704,7 +713,7 @@ static int score_landmarks(eval_ctx *c)
     return 0;
 }
 
-/* The report's directory must exist: said before the work, not after it (the report itself is written atomically). */
+/* The report's directory must exist and be writable: said before the work, not after it (the report is written atomically). */
 static int check_report_dir(const char *json)
 {
     char *copy = strdup(json);
@@ -713,7 +722,11 @@ static int check_report_dir(const char *json)
     struct stat st;
     const char *dir = dirname(copy);
     int found = stat(dir, &st) == 0, err = found ? ENOTDIR : errno;
-    int code = found && S_ISDIR(st.st_mode) ? 0 : sp_cmd_failf("evaluate", -err, "--json %s: directory %s", json, dir);
+    if (found && S_ISDIR(st.st_mode)) /* and one the report can be written into */
+        found = access(dir, W_OK | X_OK) == 0, err = errno;
+    else
+        found = 0;
+    int code = found ? 0 : sp_cmd_failf("evaluate", -err, "--json %s: directory %s", json, dir);
     free(copy);
     return code;
 }

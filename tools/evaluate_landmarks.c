@@ -25,6 +25,7 @@ typedef struct truth_frame {
     uint8_t visible[68];
     uint8_t given[68]; /* the row for this point was read (each must be, once) */
     int n_points;
+    unsigned long line; /* where the frame's first row is, for messages */
 } truth_frame;
 
 typedef struct fit_frame {
@@ -48,6 +49,8 @@ static int reserve(sp_csv *c, const char *column, int limit, void **arr, size_t 
     size_t n = *cap ? *cap : 256;
     while (n <= (size_t)i)
         n *= 2;
+    if (n > (size_t)limit) /* never past the bound: one stray index must not cost a doubling */
+        n = (size_t)limit;
     void *p = realloc(*arr, n * size);
     if (!p)
         return -ENOMEM;
@@ -100,6 +103,8 @@ static int read_truth(const char *path, int limit, truth_frame **out, size_t *n,
             ret = sp_csv_fail(&c, SP_ECORRUPT, "frame %lld, landmark %lld appears twice", (long long)f, (long long)k);
             break;
         }
+        if (!t->n_points)
+            t->line = c.line;
         t->uv[2 * k] = u, t->uv[2 * k + 1] = v;
         t->visible[k] = (uint8_t)vis;
         t->given[k] = 1;
@@ -108,7 +113,8 @@ static int read_truth(const char *path, int limit, truth_frame **out, size_t *n,
     if (ret == SP_EOS) /* every frame named must have all 68 points: a missing one would drop the frame unseen */
         for (size_t f = 0; f < *n && ret == SP_EOS; f++)
             if ((*out)[f].n_points > 0 && (*out)[f].n_points < 68)
-                ret = sp_csv_fail(&c, SP_ECORRUPT, "frame %zu has %d of the 68 landmarks", f, (*out)[f].n_points);
+                ret = sp_csv_fail(&c, SP_ECORRUPT, "frame %zu (from line %lu) has %d of the 68 landmarks", f,
+                                  (*out)[f].line, (*out)[f].n_points);
     sp_csv_close(&c);
     return ret == SP_EOS ? 0 : ret;
 }

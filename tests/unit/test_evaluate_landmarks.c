@@ -91,7 +91,7 @@ int main(void)
         CHECK_NEAR(s.mean, 3.0 / 90.0, 1e-9); /* the same whatever the column order */
     }
 
-    /* damaged records: refused, the message naming the file */
+    /* damaged records: refused, the message naming the column or the file */
     const char *bad_values[] = { "1e300", "1e39", "-2e6" };
     for (size_t i = 0; i < sizeof(bad_values) / sizeof(*bad_values); i++) {
         write_fit(fit, 0, bad_values[i], NULL);
