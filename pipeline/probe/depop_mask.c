@@ -55,7 +55,8 @@ static int shadow_at(const grow *g, int x, int y, const uint8_t ref[3])
 /* Whether pixel (x, y) is lit ground: the reference's colour at about its brightness (ratio in [hi, 1 / hi]). */
 static int lit_at(const grow *g, int x, int y, const uint8_t ref[3])
 {
-    return probe_shadow_of(g->rgb + (size_t)y * g->stride + 3 * (size_t)x, ref, g->hi, 1024 * 1024 / g->hi, g->tol, 3);
+    int32_t top = g->hi >= 1 ? 1024 * 1024 / g->hi : 1024 * 1024; /* ratio_hi may round to 0 (the API allows it) */
+    return probe_shadow_of(g->rgb + (size_t)y * g->stride + 3 * (size_t)x, ref, g->hi, top, g->tol, 3);
 }
 
 /* Where a flood of o starts: the object's lower quarter and its contact shadow, k pixels around (x0, y0, x1, y1). */
@@ -187,7 +188,8 @@ static size_t flood(grow *g, const sp_depop_object *o, const uint8_t ref[3], con
          * inside its cone, a run of such pixels up to c->bridge long is crossed where shadow goes on past it;
          * lit ground or an object in the run ends it (a real end, or someone else's shadow beyond).
          */
-        for (int k = 1; c->bridge > 0 && k <= c->bridge + 1; k++) {
+        for (int k = 1; c->bridge > 0 && head > seeds && k <= c->bridge + 1;
+             k++) { /* from the shadow, not the object */
             int u = (int)lrint(x + k * c->dx), v = (int)lrint(y + k * c->dy);
             if (u < 0 || v < 0 || u >= g->w || v >= g->h || !in_cone(c, u, v))
                 break;

@@ -244,18 +244,23 @@ static void test_shadow_masks(void)
 }
 
 /*
- * shadow_scene's shadow crossed at x 68..70 by a pole (a green stripe the height of the image, in front of it):
- * the shadow goes on past the pole to its end at x 85, closed there, and the pole is not taken. The same
- * three columns as lit ground instead: the shadow ends at them, and the dark strip beyond (someone else's,
- * as far as the flood can tell) is left.
+ * shadow_scene's shadow (to x 85) crossed by a pole (a green stripe the height of the image, in front of it).
+ * At x 68..70: the shadow goes on past the pole to its end, closed there, and the pole is not taken. The same
+ * three columns as lit ground instead: the shadow ends at them, and the dark strip beyond (someone else's, as
+ * far as the flood can tell) is left. A pole wider than the crossing (x 62..75, 14 px against a quarter of the
+ * figure's 40 px height): the shadow ends at it.
  */
 static void test_shadow_across_pole(void)
 {
     static uint8_t rgb[W * H * 3], tsh[W * H], patch[W * H], mask[W * H];
-    for (int lit = 0; lit <= 1; lit++) {
+    static const struct {
+        int x0, x1, lit;
+    } cases[] = { { 68, 70, 0 }, { 68, 70, 1 }, { 62, 75, 0 } };
+    for (size_t t = 0; t < sizeof(cases) / sizeof(*cases); t++) {
+        int x0 = cases[t].x0, x1 = cases[t].x1, lit = cases[t].lit;
         shadow_scene(rgb, tsh, patch);
         for (int y = 0; y < H; y++)
-            for (int x = 68; x <= 70; x++) {
+            for (int x = x0; x <= x1; x++) {
                 uint8_t *p = rgb + 3 * (y * W + x);
                 if (lit)
                     p[0] = 150, p[1] = 140, p[2] = 130;
@@ -271,20 +276,20 @@ static void test_shadow_across_pole(void)
         for (int y = 0; y < H; y++)
             for (int x = 0; x < W; x++) {
                 int i = y * W + x;
-                pole += x >= 68 && x <= 70 && mask[i] == 2;
+                pole += x >= x0 && x <= x1 && mask[i] == 2;
                 if (tsh[i])
                     n++, hit += mask[i] == 2;
-                if (tsh[i] && x > 70)
+                if (tsh[i] && x > x1)
                     n_beyond++, beyond += mask[i] == 2;
             }
-        if (!lit) {
+        if (t == 0) {
             CHECK_MSG(hit >= 0.9 * n && pole == 0, "across a pole: %d of %d shadow pixels, %d pole pixels", hit, n,
                       pole);
             CHECK_MSG(o.tip_x > 80 && sp_depop_closed_shadow(&o), "across a pole: tip at x %.1f, closed %d", o.tip_x,
                       sp_depop_closed_shadow(&o));
         } else
-            CHECK_MSG(beyond < 0.1 * n_beyond && o.tip_x < 70, "across lit ground: %d of %d taken beyond, tip %.1f",
-                      beyond, n_beyond, o.tip_x);
+            CHECK_MSG(beyond < 0.1 * n_beyond && o.tip_x < x0, "%s x %d..%d: %d of %d taken beyond, tip %.1f",
+                      lit ? "lit ground" : "a wide pole", x0, x1, beyond, n_beyond, o.tip_x);
     }
 }
 
