@@ -92,4 +92,17 @@ print("evaluate:", "ok" if ok else "FAILED",
                                         "landmarks_fitted")}))
 sys.exit(0 if ok else 1)
 PY
+# a damaged face directory is refused before any image is rendered, naming the file (exit 2; tools/evaluate_landmarks.c)
+cp -r "$tmp/face" "$tmp/damaged"
+rm "$tmp/damaged/landmarks_fitted.csv"
+"$sp" evaluate "$tmp/damaged" "$cap" >/dev/null 2>"$tmp/damaged.err"
+rc=$?
+[ $rc = 2 ] && grep -q "landmarks_fitted.csv is missing" "$tmp/damaged.err" ||
+    { echo "evaluate with the fitted landmarks missing: exit $rc, $(cat "$tmp/damaged.err"); FAILED"; fail=1; }
+awk -F, 'NR == 1 || $1 != 7' "$tmp/face/landmarks.csv" >"$tmp/damaged/landmarks_fitted.csv" # a frame left out: fine
+sed -n 2p "$tmp/face/landmarks.csv" >>"$tmp/damaged/landmarks_fitted.csv" # its first frame given twice
+"$sp" evaluate "$tmp/damaged" "$cap" >/dev/null 2>"$tmp/damaged.err"
+rc=$?
+[ $rc = 2 ] && grep -q "landmarks_fitted.csv:.*appears twice" "$tmp/damaged.err" ||
+    { echo "evaluate with a frame given twice: exit $rc, $(cat "$tmp/damaged.err"); FAILED"; fail=1; }
 exit $fail
