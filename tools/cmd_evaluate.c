@@ -699,9 +699,8 @@ static int score_landmarks(eval_ctx *c)
                                 "%s/manifest.json: %s names \"%s\", not a file of the directory", c->a->face,
                                 landmark_files[i], name);
         snprintf(fit_csv, sizeof(fit_csv), "%s/%s", c->a->face, name);
-        if (access(fit_csv, F_OK) != 0) {
+        if (access(fit_csv, F_OK) != 0)
             return sp_cmd_failf("evaluate", SP_EFORMAT, "%s is missing, though manifest.json names it", fit_csv);
-        }
         if (!have_truth) {
             fprintf(stderr, "sunprobe evaluate: %s: absent, %s not scored\n", truth_csv, fit_csv);
             continue;
@@ -721,12 +720,8 @@ static int check_report_dir(const char *json)
         return sp_cmd_fail("evaluate", -ENOMEM, json);
     struct stat st;
     const char *dir = dirname(copy);
-    int found = stat(dir, &st) == 0, err = found ? ENOTDIR : errno;
-    if (found && S_ISDIR(st.st_mode)) /* and one the report can be written into */
-        found = access(dir, W_OK | X_OK) == 0, err = errno;
-    else
-        found = 0;
-    int code = found ? 0 : sp_cmd_failf("evaluate", -err, "--json %s: directory %s", json, dir);
+    int err = stat(dir, &st) != 0 ? errno : !S_ISDIR(st.st_mode) ? ENOTDIR : access(dir, W_OK | X_OK) != 0 ? errno : 0;
+    int code = err ? sp_cmd_failf("evaluate", -err, "--json %s: directory %s", json, dir) : 0;
     free(copy);
     return code;
 }

@@ -42,6 +42,7 @@ typedef struct grow {
     uint8_t *seen;
     const sp_depop_settings *s;
     int32_t lo, hi, tol; /* the shadow test's bounds from s, in 1/1024 */
+    int32_t lit_top;     /* lit ground's upper ratio, 1 / hi, in 1/1024 (lit_at) */
 } grow;
 
 static int clampi(int v, int lo, int hi) { return v < lo ? lo : v > hi ? hi : v; }
@@ -55,8 +56,7 @@ static int shadow_at(const grow *g, int x, int y, const uint8_t ref[3])
 /* Whether pixel (x, y) is lit ground: the reference's colour at about its brightness (ratio in [hi, 1 / hi]). */
 static int lit_at(const grow *g, int x, int y, const uint8_t ref[3])
 {
-    int32_t top = g->hi >= 1 ? 1024 * 1024 / g->hi : 1024 * 1024; /* ratio_hi may round to 0 (the API allows it) */
-    return probe_shadow_of(g->rgb + (size_t)y * g->stride + 3 * (size_t)x, ref, g->hi, top, g->tol, 3);
+    return probe_shadow_of(g->rgb + (size_t)y * g->stride + 3 * (size_t)x, ref, g->hi, g->lit_top, g->tol, 3);
 }
 
 /* Where a flood of o starts: the object's lower quarter and its contact shadow, k pixels around (x0, y0, x1, y1). */
@@ -188,8 +188,8 @@ static size_t flood(grow *g, const sp_depop_object *o, const uint8_t ref[3], con
          * inside its cone, a run of such pixels up to c->bridge long is crossed where shadow goes on past it;
          * lit ground or an object in the run ends it (a real end, or someone else's shadow beyond).
          */
-        for (int k = 1; c->bridge > 0 && head > seeds && k <= c->bridge + 1;
-             k++) { /* from the shadow, not the object */
+        /* (from the shadow found, not from the object's seeds) */
+        for (int k = 1; c->bridge > 0 && head > seeds && k <= c->bridge + 1; k++) {
             int u = (int)lrint(x + k * c->dx), v = (int)lrint(y + k * c->dy);
             if (u < 0 || v < 0 || u >= g->w || v >= g->h || !in_cone(c, u, v))
                 break;
@@ -870,6 +870,7 @@ int sp_depop_mask(const uint8_t *rgb, uint32_t width, uint32_t height, uint32_t 
         free(g.queue), free(g.seen);
         return -ENOMEM;
     }
+    g.lit_top = g.hi >= 1 ? 1024 * 1024 / g.hi : 1024 * 1024; /* ratio_hi may round to 0 (the API allows it) */
     memset(mask, M_NONE, np);
     for (size_t i = 0; i < n; i++) {
         objs[i].shadow_px = objs[i].contact_px = 0, objs[i].shadow_leak = 0;
